@@ -1,0 +1,22 @@
+"""redres: redundancy resolution for robot manipulators.
+
+Quick start::
+
+    import redres as rr
+
+    robot = rr.models.panda()
+    q = robot.neutral()
+    T = robot.fk(q)                      # 4x4 pose of the tip frame
+    J = robot.jacobian(q)                # 6 x 7, rows [v; w], world-aligned axes
+    qd = rr.linalg.damped_pinv(J, 0.01) @ [0.1, 0, 0, 0, 0, 0]
+"""
+
+from __future__ import annotations
+
+from . import errors, linalg, models
+from .errors import RedresError
+from .robot import DHLink, Robot
+
+__version__ = "0.1.0.dev0"
+
+__all__ = ["DHLink", "RedresError", "Robot", "__version__", "errors", "linalg", "models"]

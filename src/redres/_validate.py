@@ -1,0 +1,73 @@
+"""Input checks shared by the public entry points (internal).
+
+Each check raises an error from :mod:`redres.errors` that names the argument, says what
+was expected and what was given. They are written to be cheap: they run on every call of
+the public API, including inside control loops.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import InvalidParameterError, NonFiniteError, ShapeError
+
+FloatArray = NDArray[np.float64]
+
+
+def as_vector(value: Any, name: str, size: int | None = None) -> FloatArray:
+    """Return ``value`` as a finite float64 vector, optionally of a given size."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{name} must be a vector of numbers; got {value!r}") from exc
+    if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
+        expected = f"({size},)" if size is not None else "a 1-D vector"
+        raise ShapeError(f"{name} must have shape {expected}; got shape {arr.shape}")
+    if not np.isfinite(arr).all():
+        raise NonFiniteError(f"{name} contains NaN or infinity: {arr}")
+    return arr
+
+
+def as_matrix(value: Any, name: str, shape: tuple[int | None, int | None] = (None, None)) -> FloatArray:
+    """Return ``value`` as a finite float64 matrix; ``None`` in ``shape`` means any size."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{name} must be a 2-D array of numbers; got {value!r}") from exc
+    if arr.ndim != 2 or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+        want = "x".join("m" if s is None else str(s) for s in shape)
+        raise ShapeError(f"{name} must be a {want} matrix; got shape {arr.shape}")
+    if not np.isfinite(arr).all():
+        raise NonFiniteError(f"{name} contains NaN or infinity")
+    return arr
+
+
+def as_transform(value: Any, name: str) -> FloatArray:
+    """Return ``value`` as a 4x4 homogeneous transform with a proper rotation block."""
+    T = as_matrix(value, name, (4, 4))
+    R = T[:3, :3]
+    if not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0], atol=1e-9):
+        raise ShapeError(f"{name} must be homogeneous: last row [0, 0, 0, 1]; got {T[3]}")
+    if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0.0:
+        raise ShapeError(f"{name}: the upper-left 3x3 block is not a rotation matrix")
+    return T
+
+
+def as_scalar(
+    value: Any, name: str, *, minimum: float | None = None, strict: bool = False
+) -> float:
+    """Return ``value`` as a finite float, optionally bounded below (``strict``: ``>``)."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError) as exc:
+        raise InvalidParameterError(f"{name} must be a number; got {value!r}") from exc
+    if not math.isfinite(x):
+        raise NonFiniteError(f"{name} must be finite; got {x}")
+    if minimum is not None and (x <= minimum if strict else x < minimum):
+        relation = ">" if strict else ">="
+        raise InvalidParameterError(f"{name} must be {relation} {minimum}; got {x}")
+    return x

@@ -1,0 +1,78 @@
+"""The redres error tree.
+
+Every error raised on purpose by redres derives from :class:`RedresError` and also from
+the builtin exception a Python user would expect (``ValueError``, ``KeyError``,
+``FileNotFoundError``), so ``except ValueError`` keeps working in code that does not
+know about redres.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "DHParameterError",
+    "FrameNotFoundError",
+    "InvalidParameterError",
+    "JointLimitError",
+    "ModelFileNotFoundError",
+    "MissingDependencyError",
+    "NonFiniteError",
+    "NotPositiveDefiniteError",
+    "RedresError",
+    "RobotNotFoundError",
+    "ShapeError",
+    "URDFError",
+]
+
+
+class RedresError(Exception):
+    """Root of every error raised on purpose by redres."""
+
+
+class ShapeError(RedresError, ValueError):
+    """An array argument has the wrong shape (message names the argument and both shapes)."""
+
+
+class NonFiniteError(RedresError, ValueError):
+    """An array argument contains NaN or infinity."""
+
+
+class InvalidParameterError(RedresError, ValueError):
+    """A scalar parameter is out of its domain (a negative damping, a non-positive dt, ...)."""
+
+
+class NotPositiveDefiniteError(RedresError, ValueError):
+    """A matrix that must be symmetric positive definite (weights, mass matrix) is not."""
+
+
+class JointLimitError(RedresError, ValueError):
+    """Joint limits are inconsistent (``q_min > q_max``) or a configuration violates them."""
+
+
+class DHParameterError(RedresError, ValueError):
+    """A Denavit–Hartenberg record is malformed (message names the record and the key)."""
+
+
+class URDFError(RedresError, ValueError):
+    """A URDF file or string cannot be turned into a robot model."""
+
+
+class ModelFileNotFoundError(RedresError, FileNotFoundError):
+    """A model file named by the user does not exist."""
+
+
+class MissingDependencyError(RedresError, ImportError):
+    """An optional dependency is needed; the message names the extra that installs it."""
+
+
+class _KeyErrorMessage(RedresError, KeyError):
+    # KeyError.__str__ quotes its argument; show a readable sentence instead.
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
+
+
+class FrameNotFoundError(_KeyErrorMessage):
+    """A frame name is unknown (message lists the valid frames)."""
+
+
+class RobotNotFoundError(_KeyErrorMessage):
+    """A built-in robot name is unknown (message lists the valid names)."""

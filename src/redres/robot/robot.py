@@ -1,0 +1,396 @@
+"""`Robot`: kinematics and dynamics of one serial chain, on Pinocchio.
+
+Conventions (docs/conventions.md): spatial vectors are ``[linear; angular]``; the default
+Jacobian reference ``"world"`` is the geometric Jacobian of the frame origin with
+world-aligned axes (Pinocchio ``LOCAL_WORLD_ALIGNED``); ``"local"`` uses the frame's own
+axes (Pinocchio ``LOCAL``). Angles in radians, lengths in metres, SI everywhere.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+import pinocchio as pin
+
+from .._validate import FloatArray, as_transform, as_vector
+from ..errors import FrameNotFoundError, InvalidParameterError, JointLimitError, ShapeError
+
+if TYPE_CHECKING:
+    from .dh import DHLink
+
+Reference = Literal["world", "local"]
+
+_REFERENCE = {"world": pin.LOCAL_WORLD_ALIGNED, "local": pin.LOCAL}
+
+
+class Robot:
+    """A serial manipulator with ``n`` one-degree-of-freedom joints.
+
+    Build one with :meth:`from_dh`, :meth:`from_urdf` or a function of
+    :mod:`redres.models`; the constructor takes a ready Pinocchio model.
+
+    Args:
+        model: Pinocchio model whose joints are all one-DOF (revolute or prismatic), with
+            position, velocity and effort limits filled in.
+        tip: name of the default frame of :meth:`fk` and :meth:`jacobian`.
+        name: a short name for tables and reports.
+        home: a comfortable configuration returned by :meth:`neutral`, shape ``(n,)``.
+            Defaults to zero clipped into the limits.
+        qdd_max: joint acceleration limits, shape ``(n,)``, rad/s² or m/s²; ``inf`` where
+            unknown.
+
+    Attributes:
+        model: the Pinocchio model (read it, do not resize it).
+        data: the Pinocchio data this robot computes into.
+    """
+
+    def __init__(
+        self,
+        model: pin.Model,
+        *,
+        tip: str,
+        name: str = "robot",
+        home: Sequence[float] | FloatArray | None = None,
+        qdd_max: Sequence[float] | FloatArray | None = None,
+    ) -> None:
+        if model.nq != model.nv:
+            raise InvalidParameterError(
+                f"Robot needs one-DOF joints (nq == nv); model {model.name!r} has "
+                f"nq={model.nq}, nv={model.nv}. Load URDFs with Robot.from_urdf, which "
+                "converts continuous joints."
+            )
+        self.model = model
+        self.data = model.createData()
+        self.name = name
+        n = model.nv
+        q_min = np.array(model.lowerPositionLimit, dtype=float)
+        q_max = np.array(model.upperPositionLimit, dtype=float)
+        bad = np.flatnonzero(~(q_min <= q_max))
+        if bad.size:
+            j = int(bad[0])
+            raise JointLimitError(
+                f"joint {self.joint_names[j]!r}: q_min = {q_min[j]} > q_max = {q_max[j]}; "
+                "swap the limits or fix the model"
+            )
+        self._q_min = q_min
+        self._q_max = q_max
+        self._qd_max = np.abs(np.array(model.upperVelocityLimit, dtype=float))
+        self._tau_max = np.abs(np.array(model.upperEffortLimit, dtype=float))
+        self._qdd_max = np.full(n, np.inf) if qdd_max is None else _limit_vector(qdd_max, n)
+        self._frame_ids: dict[str, int] = {}
+        self._refresh_frames()
+        self._tip_id = self.frame_id(tip)
+        self._tip = tip
+        if home is None:
+            home_q = np.clip(np.zeros(n), q_min, q_max)
+        else:
+            home_q = as_vector(home, "home", n).copy()
+            self._check_within_limits(home_q, "home")
+        self._home = home_q
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_dh(
+        cls,
+        links: Sequence[DHLink | Mapping[str, Any]],
+        convention: Literal["standard", "modified"] = "standard",
+        base: Any = None,
+        tool: Any = None,
+        *,
+        name: str = "dh_robot",
+        tip: str = "tool",
+        tool_name: str = "tool",
+        frames: Mapping[str, tuple[str, Any]] | None = None,
+        home: Sequence[float] | FloatArray | None = None,
+    ) -> Robot:
+        """Build a robot from Denavit–Hartenberg parameters.
+
+        Args:
+            links: one record per joint (:class:`DHLink` or a dict with the same keys:
+                ``a``, ``alpha``, ``d``, ``theta`` (offset), ``joint`` ("revolute" or
+                "prismatic"), optional ``q_min``, ``q_max``, ``qd_max``, ``qdd_max``,
+                ``tau_max``, ``mass``, ``com``, ``inertia``, ``armature``, ``name``).
+            convention: ``"standard"`` (distal: ``Rz(θ) Tz(d) Tx(a) Rx(α)``, joint ``i``
+                moves about ``z_{i-1}``) or ``"modified"`` (Craig's proximal convention:
+                ``Rx(α_{i-1}) Tx(a_{i-1}) Rz(θ_i) Tz(d_i)``, the record of joint ``i``
+                carries ``a_{i-1}`` and ``α_{i-1}``).
+            base: 4x4 pose of DH frame 0 in the world (default identity).
+            tool: 4x4 pose of the tool frame in the last DH frame (default identity).
+            name: robot name.
+            tip: default frame of :meth:`fk` and :meth:`jacobian`.
+            tool_name: name of the tool frame.
+            frames: extra frames, ``{name: (parent frame, 4x4 pose in the parent)}``, added
+                in order (a later one may hang on an earlier one).
+            home: configuration returned by :meth:`neutral`.
+
+        The frames are ``base``, ``link1`` … ``link<n>`` (the DH frames), the tool frame
+        and the extra ``frames``.
+        Inertial parameters (``com``, ``inertia`` about the centre of mass) are expressed
+        in the link's own DH frame.
+        """
+        from .dh import build_dh_model
+
+        model, qdd_max = build_dh_model(links, convention, base, tool, name, tool_name)
+        for frame_name, (parent, T) in (frames or {}).items():
+            add_frame(model, frame_name, parent, T)
+        return cls(model, tip=tip, name=name, home=home, qdd_max=qdd_max)
+
+    @classmethod
+    def from_urdf(
+        cls,
+        path: str | Path,
+        tip: str | None = None,
+        *,
+        locked: Mapping[str, float] | None = None,
+        name: str | None = None,
+        continuous_limits: tuple[float, float] = (-np.pi, np.pi),
+    ) -> Robot:
+        """Load a robot from a URDF file, keeping only the base-to-``tip`` chain.
+
+        Joints off that chain (gripper fingers, a second arm) are locked at the value given
+        in ``locked`` (joint name -> position), else at zero clipped into their limits.
+        Continuous joints become revolute joints limited to ``continuous_limits``.
+
+        Args:
+            path: URDF file.
+            tip: frame (link) name at the end of the chain; may be omitted when the URDF
+                is an unbranched chain.
+            locked: positions of the joints that are locked.
+            name: robot name (default: the URDF's robot name).
+            continuous_limits: position limits given to continuous joints, rad.
+
+        Raises:
+            ModelFileNotFoundError: the file does not exist.
+            URDFError: the file cannot be parsed, or ``tip`` is missing or ambiguous.
+        """
+        from .urdf import build_urdf_model
+
+        model, tip_name = build_urdf_model(path, tip, locked, continuous_limits)
+        return cls(model, tip=tip_name, name=name or str(model.name))
+
+    # ------------------------------------------------------------------ description
+    @property
+    def n(self) -> int:
+        """Number of joints (degrees of freedom)."""
+        return int(self.model.nv)
+
+    @property
+    def q_min(self) -> FloatArray:
+        """Lower position limits, shape ``(n,)``, rad or m."""
+        return self._q_min.copy()
+
+    @property
+    def q_max(self) -> FloatArray:
+        """Upper position limits, shape ``(n,)``, rad or m."""
+        return self._q_max.copy()
+
+    @property
+    def qd_max(self) -> FloatArray:
+        """Velocity limits (symmetric), shape ``(n,)``, rad/s or m/s; ``inf`` if unknown."""
+        return self._qd_max.copy()
+
+    @property
+    def qdd_max(self) -> FloatArray:
+        """Acceleration limits (symmetric), shape ``(n,)``, rad/s²; ``inf`` if unknown."""
+        return self._qdd_max.copy()
+
+    @property
+    def tau_max(self) -> FloatArray:
+        """Torque (force) limits (symmetric), shape ``(n,)``, N·m or N; ``inf`` if unknown."""
+        return self._tau_max.copy()
+
+    @property
+    def tip(self) -> str:
+        """Name of the default frame."""
+        return self._tip
+
+    @property
+    def joint_names(self) -> list[str]:
+        """Joint names, in configuration order."""
+        return [str(s) for s in list(self.model.names)[1:]]
+
+    def frames(self) -> list[str]:
+        """Names of all frames usable with :meth:`fk` and :meth:`jacobian`."""
+        return list(self._frame_ids)
+
+    def neutral(self) -> FloatArray:
+        """A comfortable configuration inside the limits (the model's home pose)."""
+        return self._home.copy()
+
+    def random_configuration(
+        self, rng: np.random.Generator | int | None = None, *, margin: float = 0.0
+    ) -> FloatArray:
+        """A configuration drawn uniformly within the limits.
+
+        Args:
+            rng: a NumPy generator or a seed; ``None`` draws a fresh seed.
+            margin: keep this distance (rad or m) from every limit.
+        """
+        gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        lo, hi = self._q_min + margin, self._q_max - margin
+        if np.any(lo > hi):
+            raise InvalidParameterError(f"margin={margin} is wider than a joint range")
+        return gen.uniform(lo, hi)
+
+    def joint_limit_margin(self, q: Any) -> FloatArray:
+        """Signed distance of each joint to its nearer limit, shape ``(n,)``; < 0 outside."""
+        qv = self._q(q)
+        return np.minimum(qv - self._q_min, self._q_max - qv)
+
+    def within_limits(self, q: Any, tol: float = 0.0) -> bool:
+        """Whether ``q`` is inside the position limits, up to ``tol``."""
+        return bool(np.all(self.joint_limit_margin(q) >= -tol))
+
+    def frame_id(self, frame: str | None) -> int:
+        """Pinocchio index of ``frame`` (``None``: the tip)."""
+        if frame is None:
+            return self._tip_id
+        try:
+            return self._frame_ids[frame]
+        except (KeyError, TypeError):
+            raise FrameNotFoundError(
+                f"unknown frame {frame!r} on robot {self.name!r}; valid frames: "
+                f"{', '.join(self._frame_ids)}"
+            ) from None
+
+    def add_frame(self, name: str, parent: str, T_parent_frame: Any) -> None:
+        """Add a frame rigidly attached to ``parent`` at pose ``T_parent_frame`` (4x4)."""
+        add_frame(self.model, name, parent, T_parent_frame)
+        self.data = self.model.createData()
+        self._refresh_frames()
+
+    def __repr__(self) -> str:
+        return f"Robot(name={self.name!r}, n={self.n}, tip={self._tip!r})"
+
+    # ------------------------------------------------------------------ kinematics
+    def fk(self, q: Any, frame: str | None = None) -> FloatArray:
+        """Pose of ``frame`` (default: tip) in the world, a 4x4 homogeneous transform."""
+        fid = self.frame_id(frame)
+        pin.framesForwardKinematics(self.model, self.data, self._q(q))
+        return np.array(self.data.oMf[fid].homogeneous)
+
+    def jacobian(self, q: Any, frame: str | None = None, reference: Reference = "world") -> FloatArray:
+        """Geometric Jacobian of ``frame``, shape ``(6, n)``, rows ``[v; w]``.
+
+        ``reference="world"``: velocity of the frame origin and angular velocity, in
+        world-aligned axes. ``reference="local"``: the same twist in the frame's axes.
+        """
+        rf = self._reference(reference)
+        J = pin.computeFrameJacobian(self.model, self.data, self._q(q), self.frame_id(frame), rf)
+        return np.asarray(J).reshape(6, self.n)
+
+    def kinematics(
+        self, q: Any, frame: str | None = None, reference: Reference = "world"
+    ) -> tuple[FloatArray, FloatArray]:
+        """Pose (4x4) and Jacobian (6 x n) of ``frame`` from one forward pass."""
+        fid = self.frame_id(frame)
+        rf = self._reference(reference)
+        pin.computeJointJacobians(self.model, self.data, self._q(q))
+        pin.updateFramePlacement(self.model, self.data, fid)
+        J = pin.getFrameJacobian(self.model, self.data, fid, rf)
+        return np.array(self.data.oMf[fid].homogeneous), np.asarray(J).reshape(6, self.n)
+
+    def jacobian_dot(
+        self, q: Any, qd: Any, frame: str | None = None, reference: Reference = "world"
+    ) -> FloatArray:
+        """Time derivative of :meth:`jacobian` along the joint velocity ``qd``, ``(6, n)``.
+
+        With it the classical acceleration of the frame origin is ``J qdd + J̇ qd``.
+        """
+        fid = self.frame_id(frame)
+        rf = self._reference(reference)
+        pin.computeJointJacobiansTimeVariation(self.model, self.data, self._q(q), self._qd(qd))
+        pin.updateFramePlacement(self.model, self.data, fid)
+        dJ = pin.getFrameJacobianTimeVariation(self.model, self.data, fid, rf)
+        return np.asarray(dJ).reshape(6, self.n)
+
+    # ------------------------------------------------------------------ dynamics
+    def mass_matrix(self, q: Any) -> FloatArray:
+        """Joint-space inertia matrix M(q), shape ``(n, n)``, symmetric positive definite.
+
+        Includes the rotor armature on its diagonal.
+        """
+        M = pin.crba(self.model, self.data, self._q(q))
+        M = np.triu(M)
+        return M + np.triu(M, 1).T
+
+    def bias(self, q: Any, qd: Any) -> FloatArray:
+        """Coriolis, centrifugal and gravity torques C(q, qd) qd + g(q), shape ``(n,)``."""
+        return np.array(pin.nonLinearEffects(self.model, self.data, self._q(q), self._qd(qd)))
+
+    def gravity(self, q: Any) -> FloatArray:
+        """Gravity torques g(q), shape ``(n,)``, N·m (gravity -9.81 m/s² along world z)."""
+        return np.array(pin.computeGeneralizedGravity(self.model, self.data, self._q(q)))
+
+    def inverse_dynamics(self, q: Any, qd: Any, qdd: Any) -> FloatArray:
+        """Torques ``M(q) qdd + C(q, qd) qd + g(q)`` by RNEA, shape ``(n,)``."""
+        qdd_v = as_vector(qdd, "qdd", self.n)
+        return np.array(pin.rnea(self.model, self.data, self._q(q), self._qd(qd), qdd_v))
+
+    def forward_dynamics(self, q: Any, qd: Any, tau: Any) -> FloatArray:
+        """Joint accelerations ``M⁻¹(tau - C qd - g)`` by ABA, shape ``(n,)``."""
+        tau_v = as_vector(tau, "tau", self.n)
+        return np.array(pin.aba(self.model, self.data, self._q(q), self._qd(qd), tau_v))
+
+    # ------------------------------------------------------------------ internals
+    def _q(self, q: Any) -> FloatArray:
+        return as_vector(q, "q", self.n)
+
+    def _qd(self, qd: Any) -> FloatArray:
+        return as_vector(qd, "qd", self.n)
+
+    @staticmethod
+    def _reference(reference: str) -> Any:
+        try:
+            return _REFERENCE[reference]
+        except KeyError:
+            raise InvalidParameterError(
+                f"reference must be 'world' or 'local'; got {reference!r}"
+            ) from None
+
+    def _refresh_frames(self) -> None:
+        ids: dict[str, int] = {}
+        for i, f in enumerate(self.model.frames):
+            if i == 0 or f.name in ids:  # skip 'universe'; first definition wins
+                continue
+            ids[str(f.name)] = i
+        self._frame_ids = ids
+
+    def _check_within_limits(self, q: FloatArray, name: str) -> None:
+        outside = np.flatnonzero((q < self._q_min) | (q > self._q_max))
+        if outside.size:
+            j = int(outside[0])
+            raise JointLimitError(
+                f"{name}[{j}] = {q[j]} is outside the limits of joint "
+                f"{self.joint_names[j]!r}: [{self._q_min[j]}, {self._q_max[j]}]"
+            )
+
+
+def _limit_vector(value: Any, n: int) -> FloatArray:
+    """Acceleration limits: positive numbers, ``inf`` allowed (unknown)."""
+    arr = np.array(value, dtype=float)
+    if arr.shape != (n,):
+        raise ShapeError(f"qdd_max must have shape ({n},); got shape {arr.shape}")
+    if np.isnan(arr).any() or np.any(arr <= 0):
+        raise InvalidParameterError(f"qdd_max must be positive (inf: unknown); got {arr}")
+    return arr
+
+
+def add_frame(model: pin.Model, name: str, parent: str, T_parent_frame: Any) -> int:
+    """Add an operational frame to a Pinocchio model; returns its index."""
+    if model.existFrame(name):
+        raise InvalidParameterError(f"frame {name!r} already exists on model {model.name!r}")
+    if not model.existFrame(parent):
+        names = [str(f.name) for f in model.frames][1:]
+        raise FrameNotFoundError(
+            f"unknown parent frame {parent!r}; valid frames: {', '.join(names)}"
+        )
+    T = as_transform(T_parent_frame, f"pose of frame {name!r}")
+    parent_id = model.getFrameId(parent)
+    parent_frame = model.frames[parent_id]
+    placement = parent_frame.placement * pin.SE3(T[:3, :3], T[:3, 3])
+    frame = pin.Frame(name, parent_frame.parentJoint, parent_id, placement, pin.FrameType.OP_FRAME)
+    return int(model.addFrame(frame))

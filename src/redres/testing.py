@@ -1,0 +1,116 @@
+"""Finite-difference oracles for checking Jacobians and gradients.
+
+The one shared helper of the test suite, public so that users can check their own tasks
+and objectives the same way. Central differences of order h²; configurations are perturbed
+with ``pinocchio.integrate`` so that the helpers stay right for any joint type.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from ._validate import FloatArray
+
+if TYPE_CHECKING:
+    from .robot import Reference, Robot
+
+__all__ = [
+    "assert_jacobian_close",
+    "frame_jacobian_fd",
+    "jacobian_dot_fd",
+    "numerical_gradient",
+    "numerical_jacobian",
+]
+
+
+def numerical_jacobian(
+    f: Callable[[FloatArray], Any], q: Any, eps: float = 1e-6, model: Any = None
+) -> FloatArray:
+    """Central-difference Jacobian ``∂f/∂q`` of a vector function, shape ``(m, n)``.
+
+    Args:
+        f: function of the configuration returning a vector (or scalar).
+        q: configuration, shape ``(n,)``.
+        eps: step, rad or m.
+        model: a Pinocchio model to perturb ``q`` with ``pin.integrate`` (default: plain
+            addition, right for revolute and prismatic joints).
+    """
+    q0 = np.asarray(q, dtype=float)
+    n = q0.size
+    cols = []
+    for i in range(n):
+        dq = np.zeros(n)
+        dq[i] = eps
+        if model is None:
+            qp, qm = q0 + dq, q0 - dq
+        else:
+            qp, qm = pin.integrate(model, q0, dq), pin.integrate(model, q0, -dq)
+        cols.append((np.atleast_1d(f(qp)) - np.atleast_1d(f(qm))) / (2.0 * eps))
+    return np.column_stack(cols)
+
+
+def numerical_gradient(f: Callable[[FloatArray], float], q: Any, eps: float = 1e-6) -> FloatArray:
+    """Central-difference gradient of a scalar function, shape ``(n,)``."""
+    return numerical_jacobian(lambda x: np.array([f(x)]), q, eps)[0]
+
+
+def frame_jacobian_fd(
+    robot: Robot, q: Any, frame: str | None = None, reference: Reference = "world", eps: float = 1e-6
+) -> FloatArray:
+    """Frame Jacobian by central differences of :meth:`Robot.fk`, shape ``(6, n)``.
+
+    Linear rows: derivative of the frame origin, in world axes (``"world"``) or in the
+    frame's axes (``"local"``). Angular rows: the SO(3) logarithm of the rotation between
+    the two perturbed poses, ``log(R₊ R₋ᵀ)/2h`` (world) or ``log(R₋ᵀ R₊)/2h`` (local).
+    """
+    q0 = np.asarray(q, dtype=float)
+    R0 = robot.fk(q0, frame)[:3, :3]
+    J = np.zeros((6, robot.n))
+    for i in range(robot.n):
+        dq = np.zeros(robot.n)
+        dq[i] = eps
+        Tp = robot.fk(pin.integrate(robot.model, q0, dq), frame)
+        Tm = robot.fk(pin.integrate(robot.model, q0, -dq), frame)
+        v = (Tp[:3, 3] - Tm[:3, 3]) / (2 * eps)
+        if reference == "world":
+            w = pin.log3(Tp[:3, :3] @ Tm[:3, :3].T) / (2 * eps)
+        else:
+            v = R0.T @ v
+            w = pin.log3(Tm[:3, :3].T @ Tp[:3, :3]) / (2 * eps)
+        J[:, i] = np.concatenate([v, w])
+    return J
+
+
+def jacobian_dot_fd(
+    robot: Robot,
+    q: Any,
+    qd: Any,
+    frame: str | None = None,
+    reference: Reference = "world",
+    eps: float = 1e-6,
+) -> FloatArray:
+    """``dJ/dt`` along ``qd`` by central differences of :meth:`Robot.jacobian`, ``(6, n)``."""
+    q0, v = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+    Jp = robot.jacobian(pin.integrate(robot.model, q0, eps * v), frame, reference)
+    Jm = robot.jacobian(pin.integrate(robot.model, q0, -eps * v), frame, reference)
+    return (Jp - Jm) / (2 * eps)
+
+
+def assert_jacobian_close(
+    J: Any, J_ref: Any, *, atol: float = 1e-6, rtol: float = 1e-6, name: str = "Jacobian"
+) -> None:
+    """Raise ``AssertionError`` naming the worst entry when ``J`` and ``J_ref`` differ."""
+    A, B = np.asarray(J, dtype=float), np.asarray(J_ref, dtype=float)
+    if A.shape != B.shape:
+        raise AssertionError(f"{name}: shape {A.shape} != reference shape {B.shape}")
+    err = np.abs(A - B) - (atol + rtol * np.abs(B))
+    if np.any(err > 0) or not np.isfinite(A).all():
+        idx = np.unravel_index(int(np.argmax(err)), A.shape)
+        raise AssertionError(
+            f"{name} differs from the reference at {idx}: {A[idx]!r} vs {B[idx]!r} "
+            f"(max abs error {np.max(np.abs(A - B)):.3e}, atol={atol}, rtol={rtol})"
+        )
