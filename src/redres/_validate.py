@@ -32,7 +32,9 @@ def as_vector(value: Any, name: str, size: int | None = None) -> FloatArray:
     return arr
 
 
-def as_matrix(value: Any, name: str, shape: tuple[int | None, int | None] = (None, None)) -> FloatArray:
+def as_matrix(
+    value: Any, name: str, shape: tuple[int | None, int | None] = (None, None)
+) -> FloatArray:
     """Return ``value`` as a finite float64 matrix; ``None`` in ``shape`` means any size."""
     try:
         arr = np.asarray(value, dtype=np.float64)

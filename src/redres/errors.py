@@ -13,8 +13,8 @@ __all__ = [
     "FrameNotFoundError",
     "InvalidParameterError",
     "JointLimitError",
-    "ModelFileNotFoundError",
     "MissingDependencyError",
+    "ModelFileNotFoundError",
     "NonFiniteError",
     "NotPositiveDefiniteError",
     "RedresError",
@@ -64,15 +64,15 @@ class MissingDependencyError(RedresError, ImportError):
     """An optional dependency is needed; the message names the extra that installs it."""
 
 
-class _KeyErrorMessage(RedresError, KeyError):
+class _KeyLookupError(RedresError, KeyError):
     # KeyError.__str__ quotes its argument; show a readable sentence instead.
     def __str__(self) -> str:
         return str(self.args[0]) if self.args else ""
 
 
-class FrameNotFoundError(_KeyErrorMessage):
+class FrameNotFoundError(_KeyLookupError):
     """A frame name is unknown (message lists the valid frames)."""
 
 
-class RobotNotFoundError(_KeyErrorMessage):
+class RobotNotFoundError(_KeyLookupError):
     """A built-in robot name is unknown (message lists the valid names)."""

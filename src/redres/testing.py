@@ -59,7 +59,11 @@ def numerical_gradient(f: Callable[[FloatArray], float], q: Any, eps: float = 1e
 
 
 def frame_jacobian_fd(
-    robot: Robot, q: Any, frame: str | None = None, reference: Reference = "world", eps: float = 1e-6
+    robot: Robot,
+    q: Any,
+    frame: str | None = None,
+    reference: Reference = "world",
+    eps: float = 1e-6,
 ) -> FloatArray:
     """Frame Jacobian by central differences of :meth:`Robot.fk`, shape ``(6, n)``.
 

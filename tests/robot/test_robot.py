@@ -95,8 +95,14 @@ def test_planar_two_link_dynamics_match_the_textbook_closed_form(
     Vidyasagar, Robot Modeling and Control, section 7.4)."""
     l1, l2, m1, m2, g = 0.7, 0.5, 1.3, 0.8, 9.81
     links = [
-        {"a": l, "alpha": 0.0, "d": 0.0, "mass": m, "com": (-l / 2, 0.0, 0.0),
-         "inertia": np.diag([0.0, 1.0, 1.0]) * m * l**2 / 12}
+        {
+            "a": l,
+            "alpha": 0.0,
+            "d": 0.0,
+            "mass": m,
+            "com": (-l / 2, 0.0, 0.0),
+            "inertia": np.diag([0.0, 1.0, 1.0]) * m * l**2 / 12,
+        }
         for l, m in ((l1, m1), (l2, m2))
     ]
     # Base turned +90° about x: the arm's plane is the world x-z plane, gravity in-plane.
@@ -117,8 +123,17 @@ def test_planar_two_link_dynamics_match_the_textbook_closed_form(
 
 
 def test_armature_adds_to_the_mass_matrix_diagonal(rng: np.random.Generator) -> None:
-    links = [{"a": 0.4, "alpha": 0.3, "d": 0.1, "mass": 1.0, "com": (0.1, 0, 0),
-              "inertia": np.eye(3) * 0.01} for _ in range(3)]
+    links = [
+        {
+            "a": 0.4,
+            "alpha": 0.3,
+            "d": 0.1,
+            "mass": 1.0,
+            "com": (0.1, 0, 0),
+            "inertia": np.eye(3) * 0.01,
+        }
+        for _ in range(3)
+    ]
     plain = rr.Robot.from_dh(links)
     armature = [0.5, 0.25, 0.125]
     geared = rr.Robot.from_dh([dict(rec, armature=a) for rec, a in zip(links, armature)])

@@ -16,9 +16,7 @@ def _robots_dir() -> Path:
     try:
         dist = metadata.distribution(_DIST)
     except metadata.PackageNotFoundError:
-        raise MissingDependencyError(
-            f"example-robot-data is not installed; {_HINT}"
-        ) from None
+        raise MissingDependencyError(f"example-robot-data is not installed; {_HINT}") from None
     root = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
     if not root.is_dir():
         raise MissingDependencyError(f"example-robot-data has no robots folder at {root}")

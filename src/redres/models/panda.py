@@ -42,20 +42,41 @@ TCP_D = 0.1034
 
 #: Gaz et al. 2019: (mass kg, com m, [ixx, ixy, ixz, iyy, iyz, izz] kg·m² about the com).
 INERTIALS = (
-    (4.970684, (3.875e-3, 2.081e-3, -4.762e-2),
-     (7.0337e-1, -1.39e-4, 6.772e-3, 7.0661e-1, 1.9169e-2, 9.117e-3)),
-    (0.646926, (-3.141e-3, -2.872e-2, 3.495e-3),
-     (7.962e-3, -3.925e-3, 1.0254e-2, 2.811e-2, 7.04e-4, 2.5995e-2)),
-    (3.228604, (2.7518e-2, 3.9252e-2, -6.6502e-2),
-     (3.7242e-2, -4.761e-3, -1.1396e-2, 3.6155e-2, -1.2805e-2, 1.083e-2)),
-    (3.587895, (-5.317e-2, 1.04419e-1, 2.7454e-2),
-     (2.5853e-2, 7.796e-3, -1.332e-3, 1.9552e-2, 8.641e-3, 2.8323e-2)),
-    (1.225946, (-1.1953e-2, 4.1065e-2, -3.8437e-2),
-     (3.5549e-2, -2.117e-3, -4.037e-3, 2.9474e-2, 2.29e-4, 8.627e-3)),
-    (1.666555, (6.0149e-2, -1.4117e-2, -1.0517e-2),
-     (1.964e-3, 1.09e-4, -1.158e-3, 4.354e-3, 3.41e-4, 5.433e-3)),
-    (0.735522, (1.0517e-2, -4.252e-3, 6.1597e-2),
-     (1.2516e-2, -4.28e-4, -1.196e-3, 1.0027e-2, -7.41e-4, 4.815e-3)),
+    (
+        4.970684,
+        (3.875e-3, 2.081e-3, -4.762e-2),
+        (7.0337e-1, -1.39e-4, 6.772e-3, 7.0661e-1, 1.9169e-2, 9.117e-3),
+    ),
+    (
+        0.646926,
+        (-3.141e-3, -2.872e-2, 3.495e-3),
+        (7.962e-3, -3.925e-3, 1.0254e-2, 2.811e-2, 7.04e-4, 2.5995e-2),
+    ),
+    (
+        3.228604,
+        (2.7518e-2, 3.9252e-2, -6.6502e-2),
+        (3.7242e-2, -4.761e-3, -1.1396e-2, 3.6155e-2, -1.2805e-2, 1.083e-2),
+    ),
+    (
+        3.587895,
+        (-5.317e-2, 1.04419e-1, 2.7454e-2),
+        (2.5853e-2, 7.796e-3, -1.332e-3, 1.9552e-2, 8.641e-3, 2.8323e-2),
+    ),
+    (
+        1.225946,
+        (-1.1953e-2, 4.1065e-2, -3.8437e-2),
+        (3.5549e-2, -2.117e-3, -4.037e-3, 2.9474e-2, 2.29e-4, 8.627e-3),
+    ),
+    (
+        1.666555,
+        (6.0149e-2, -1.4117e-2, -1.0517e-2),
+        (1.964e-3, 1.09e-4, -1.158e-3, 4.354e-3, 3.41e-4, 5.433e-3),
+    ),
+    (
+        0.735522,
+        (1.0517e-2, -4.252e-3, 6.1597e-2),
+        (1.2516e-2, -4.28e-4, -1.196e-3, 1.0027e-2, -7.41e-4, 4.815e-3),
+    ),
 )
 HAND_MASS = 0.73
 HAND_COM = (-0.01, 0.0, 0.03)  # in the hand frame
@@ -65,7 +86,9 @@ HAND_INERTIA = (0.001, 0.0, 0.0, 0.0025, 0.0, 0.0017)
 HOME = (0.0, -np.pi / 4, 0.0, -3 * np.pi / 4, 0.0, np.pi / 2, np.pi / 4)
 
 
-def inertia_matrix(ixx: float, ixy: float, ixz: float, iyy: float, iyz: float, izz: float) -> np.ndarray:
+def inertia_matrix(
+    ixx: float, ixy: float, ixz: float, iyy: float, iyz: float, izz: float
+) -> np.ndarray:
     """Symmetric 3x3 inertia matrix from its six URDF-style entries."""
     return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
 
@@ -92,8 +115,17 @@ def panda_links(*, hand: bool = True) -> list[DHLink]:
             m, c, I = _merge_hand(m, c, I)
         links.append(
             DHLink(
-                a=a, alpha=alpha, d=d, q_min=Q_MIN[i], q_max=Q_MAX[i], qd_max=QD_MAX[i],
-                qdd_max=QDD_MAX[i], tau_max=TAU_MAX[i], mass=m, com=tuple(c), inertia=I,
+                a=a,
+                alpha=alpha,
+                d=d,
+                q_min=Q_MIN[i],
+                q_max=Q_MAX[i],
+                qd_max=QD_MAX[i],
+                qdd_max=QDD_MAX[i],
+                tau_max=TAU_MAX[i],
+                mass=m,
+                com=tuple(c),
+                inertia=I,
                 name=f"panda_joint{i + 1}",
             )
         )

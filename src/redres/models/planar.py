@@ -24,7 +24,11 @@ def planar(lengths: Sequence[float] = (1.0, 1.0, 1.0), *, link_mass: float = 1.0
         raise InvalidParameterError(f"link_mass must be >= 0 kg; got {link_mass}")
     links = [
         DHLink(
-            a=float(length), alpha=0.0, d=0.0, mass=link_mass, com=(-length / 2, 0.0, 0.0),
+            a=float(length),
+            alpha=0.0,
+            d=0.0,
+            mass=link_mass,
+            com=(-length / 2, 0.0, 0.0),
             inertia=np.diag([0.0, 1.0, 1.0]) * link_mass * length**2 / 12.0,
         )
         for length in ls

@@ -46,14 +46,25 @@ def srs7() -> Robot:
     )
     links = [
         DHLink(
-            a=0.0, alpha=alpha, d=d, q_min=-_LIMITS[i] * _DEG, q_max=_LIMITS[i] * _DEG,
-            qd_max=_QD_MAX[i], tau_max=_TAU_MAX[i], mass=m, com=com, inertia=inertia,
+            a=0.0,
+            alpha=alpha,
+            d=d,
+            q_min=-_LIMITS[i] * _DEG,
+            q_max=_LIMITS[i] * _DEG,
+            qd_max=_QD_MAX[i],
+            tau_max=_TAU_MAX[i],
+            mass=m,
+            com=com,
+            inertia=inertia,
         )
         for i, (d, alpha, m, com, inertia) in enumerate(geometry)
     ]
     eye = np.eye(4)
     return Robot.from_dh(
-        links, "standard", name="srs7", tip="tool",
+        links,
+        "standard",
+        name="srs7",
+        tip="tool",
         frames={"shoulder": ("link1", eye), "elbow": ("link3", eye), "wrist": ("link5", eye)},
         home=HOME,
     )

@@ -125,8 +125,7 @@ class DHLink:
             raise DHParameterError(f"DH record {index}: com must be 3 finite numbers; got {com}")
         if inertia.shape != (3, 3) or not np.isfinite(inertia).all():
             raise DHParameterError(
-                f"DH record {index}: inertia must be a finite 3x3 matrix; got shape "
-                f"{inertia.shape}"
+                f"DH record {index}: inertia must be a finite 3x3 matrix; got shape {inertia.shape}"
             )
         if not np.allclose(inertia, inertia.T, atol=1e-12):
             raise NotPositiveDefiniteError(f"DH record {index}: inertia is not symmetric")
@@ -148,7 +147,9 @@ def _number(value: Any, index: int, key: str) -> float:
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise DHParameterError(f"DH record {index}: {key} must be a number; got {value!r}") from None
+        raise DHParameterError(
+            f"DH record {index}: {key} must be a number; got {value!r}"
+        ) from None
     if math.isnan(x):
         raise DHParameterError(f"DH record {index}: {key} is NaN")
     return x
@@ -180,9 +181,7 @@ def build_dh_model(
 ) -> tuple[pin.Model, FloatArray]:
     """Pinocchio model and acceleration limits for a DH chain (see module docstring)."""
     if convention not in ("standard", "modified"):
-        raise DHParameterError(
-            f"convention must be 'standard' or 'modified'; got {convention!r}"
-        )
+        raise DHParameterError(f"convention must be 'standard' or 'modified'; got {convention!r}")
     if isinstance(links, (str, bytes)) or not isinstance(links, Sequence) or len(links) == 0:
         raise DHParameterError("links must be a non-empty sequence of DH records")
     records = [DHLink.from_record(rec, i) for i, rec in enumerate(links)]

@@ -212,9 +212,16 @@ class Robot:
         """Joint names, in configuration order."""
         return [str(s) for s in list(self.model.names)[1:]]
 
-    def frames(self) -> list[str]:
-        """Names of all frames usable with :meth:`fk` and :meth:`jacobian`."""
-        return list(self._frame_ids)
+    def frames(self, *, include_joint_frames: bool = True) -> list[str]:
+        """Names of the frames usable with :meth:`fk` and :meth:`jacobian`.
+
+        Args:
+            include_joint_frames: also list the frames a URDF puts at each (fixed) joint.
+        """
+        if include_joint_frames:
+            return list(self._frame_ids)
+        joints = (pin.FrameType.JOINT, pin.FrameType.FIXED_JOINT)
+        return [f for f, i in self._frame_ids.items() if self.model.frames[i].type not in joints]
 
     def neutral(self) -> FloatArray:
         """A comfortable configuration inside the limits (the model's home pose)."""
@@ -272,7 +279,9 @@ class Robot:
         pin.framesForwardKinematics(self.model, self.data, self._q(q))
         return np.array(self.data.oMf[fid].homogeneous)
 
-    def jacobian(self, q: Any, frame: str | None = None, reference: Reference = "world") -> FloatArray:
+    def jacobian(
+        self, q: Any, frame: str | None = None, reference: Reference = "world"
+    ) -> FloatArray:
         """Geometric Jacobian of ``frame``, shape ``(6, n)``, rows ``[v; w]``.
 
         ``reference="world"``: velocity of the frame origin and angular velocity, in

@@ -78,7 +78,9 @@ def _default_tip(model: pin.Model, file: Path) -> str:
     leaf = leaves[0]
     # The deepest body attached to that joint (fixed links after it included).
     candidates = [
-        i for i, f in enumerate(model.frames) if f.parentJoint == leaf and f.type == pin.FrameType.BODY
+        i
+        for i, f in enumerate(model.frames)
+        if f.parentJoint == leaf and f.type == pin.FrameType.BODY
     ]
     return str(model.frames[candidates[-1]].name)
 
@@ -88,7 +90,9 @@ def _locked_configuration(model: pin.Model, locked: Mapping[str, float], file: P
     for name, value in locked.items():
         if not model.existJointName(name):
             names = [str(s) for s in model.names][1:]
-            raise URDFError(f"{file}: cannot lock unknown joint {name!r}; joints: {', '.join(names)}")
+            raise URDFError(
+                f"{file}: cannot lock unknown joint {name!r}; joints: {', '.join(names)}"
+            )
         joint = model.joints[model.getJointId(name)]
         if joint.nq != 1 or not math.isfinite(float(value)):
             raise URDFError(f"{file}: joint {name!r} must be locked at one finite value")

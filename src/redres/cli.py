@@ -1,0 +1,107 @@
+"""The ``redres`` command: ``redres robots``, ``redres demo``.
+
+Exit codes: 0 success, 2 bad usage or bad input (one clear message on stderr).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+
+import numpy as np
+
+from . import __version__
+from .errors import RedresError
+
+
+def _table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
+    line = "  ".join(h.ljust(w) for h, w in zip(headers, widths))
+    rule = "  ".join("-" * w for w in widths)
+    body = ["  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
+    return "\n".join(s.rstrip() for s in [line, rule, *body])
+
+
+def robots_table() -> tuple[str, list[dict[str, object]]]:
+    """Text table and records describing every built-in robot."""
+    from . import models
+
+    records: list[dict[str, object]] = []
+    rows = []
+    for name in models.names():
+        robot = models.load(name)
+        span = np.degrees(robot.q_max - robot.q_min)
+        records.append(
+            {
+                "name": name,
+                "dof": robot.n,
+                "tip": robot.tip,
+                "q_min": robot.q_min.tolist(),
+                "q_max": robot.q_max.tolist(),
+                "qd_max": [float(x) for x in robot.qd_max],
+                "tau_max": [float(x) for x in robot.tau_max],
+                "frames": robot.frames(),
+            }
+        )
+        qd = robot.qd_max
+        rows.append(
+            [
+                name,
+                str(robot.n),
+                robot.tip,
+                f"{span.min():.0f}-{span.max():.0f}",
+                "-" if np.isinf(qd).all() else f"{qd.min():.2f}-{qd.max():.2f}",
+                ", ".join(
+                    f for f in robot.frames(include_joint_frames=False) if not f.startswith("link")
+                ),
+            ]
+        )
+    headers = ["robot", "dof", "tip", "range deg", "qd_max rad/s", "named frames"]
+    return _table(headers, rows), records
+
+
+def _cmd_robots(args: argparse.Namespace) -> int:
+    text, records = robots_table()
+    print(json.dumps(records) if args.json else text)
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from .demo import run_demo
+
+    return run_demo(quiet=args.quiet, as_json=args.json)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="redres", description="Redundancy resolution for robot manipulators."
+    )
+    parser.add_argument("--version", action="version", version=f"redres {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+    robots = sub.add_parser("robots", help="list the built-in robot models")
+    robots.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    robots.set_defaults(func=_cmd_robots)
+    demo = sub.add_parser("demo", help="run the demonstration")
+    demo.add_argument("--json", action="store_true", help="print one JSON object")
+    demo.add_argument("--quiet", action="store_true", help="print only the results")
+    demo.set_defaults(func=_cmd_demo)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``redres`` command."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except RedresError as exc:
+        print(f"redres: error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:  # e.g. `redres robots | head`
+        sys.stderr.close()
+        return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
