@@ -13,10 +13,24 @@ Quick start::
 
 from __future__ import annotations
 
-from . import errors, linalg, models
+from . import control, errors, linalg, models, objectives, resolution, tasks
+from .control import run
 from .errors import RedresError
 from .robot import DHLink, Robot
 
 __version__ = "0.1.0.dev0"
 
-__all__ = ["DHLink", "RedresError", "Robot", "__version__", "errors", "linalg", "models"]
+__all__ = [
+    "DHLink",
+    "RedresError",
+    "Robot",
+    "__version__",
+    "control",
+    "errors",
+    "linalg",
+    "models",
+    "objectives",
+    "resolution",
+    "run",
+    "tasks",
+]

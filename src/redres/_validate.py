@@ -16,19 +16,26 @@ from numpy.typing import NDArray
 from .errors import InvalidParameterError, NonFiniteError, ShapeError
 
 FloatArray = NDArray[np.float64]
+_EYE3 = np.eye(3)
 
 
 def as_vector(value: Any, name: str, size: int | None = None) -> FloatArray:
     """Return ``value`` as a finite float64 vector, optionally of a given size."""
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a vector of numbers; got {value!r}") from exc
+    if type(value) is np.ndarray and value.dtype == np.float64:
+        arr = value  # the common case in control loops: no conversion
+    else:
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ShapeError(f"{name} must be a vector of numbers; got {value!r}") from exc
     if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
         expected = f"({size},)" if size is not None else "a 1-D vector"
         raise ShapeError(f"{name} must have shape {expected}; got shape {arr.shape}")
-    if not np.isfinite(arr).all():
-        raise NonFiniteError(f"{name} contains NaN or infinity: {arr}")
+    # One reduction instead of isfinite().all(): the sum is finite iff every entry is
+    # (barring overflow of entries near 1e308, which are rejected too).
+    if not math.isfinite(arr.sum()):
+        if not np.isfinite(arr).all():
+            raise NonFiniteError(f"{name} contains NaN or infinity: {arr}")
     return arr
 
 
@@ -43,7 +50,7 @@ def as_matrix(
     if arr.ndim != 2 or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
         want = "x".join("m" if s is None else str(s) for s in shape)
         raise ShapeError(f"{name} must be a {want} matrix; got shape {arr.shape}")
-    if not np.isfinite(arr).all():
+    if not math.isfinite(arr.sum()) and not np.isfinite(arr).all():
         raise NonFiniteError(f"{name} contains NaN or infinity")
     return arr
 
@@ -52,9 +59,9 @@ def as_transform(value: Any, name: str) -> FloatArray:
     """Return ``value`` as a 4x4 homogeneous transform with a proper rotation block."""
     T = as_matrix(value, name, (4, 4))
     R = T[:3, :3]
-    if not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0], atol=1e-9):
+    if abs(T[3, 0]) + abs(T[3, 1]) + abs(T[3, 2]) + abs(T[3, 3] - 1.0) > 1e-9:
         raise ShapeError(f"{name} must be homogeneous: last row [0, 0, 0, 1]; got {T[3]}")
-    if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0.0:
+    if np.abs(R @ R.T - _EYE3).max() > 1e-6 or np.linalg.det(R) < 0.0:
         raise ShapeError(f"{name}: the upper-left 3x3 block is not a rotation matrix")
     return T
 

@@ -20,13 +20,16 @@ def worked_examples() -> list[dict[str, object]]:
     out: list[dict[str, object]] = []
     rrr = models.planar([1.0, 1.0, 1.0])
     J = rrr.jacobian(np.array([60.0, -30.0, 15.0]) * DEG)[:2]
+    J_printed = np.round(J, 2)  # the seed computes with its Jacobian rounded to 2 decimals
     for weights in ([1.0, 2.0, 3.0], [3.0, 2.0, 1.0]):
-        qd = linalg.weighted_pinv(J, np.diag(weights)) @ np.array([1.0, 1.0])
+        W = np.diag(weights)
+        v = np.array([1.0, 1.0])
         out.append(
             {
                 "example": "seed 002: RRR at (60, -30, 15) deg, v = (1, 1) m/s, "
                 f"W = diag{tuple(weights)}",
-                "qd_rad_s": np.round(qd, 2).tolist(),
+                "qd_rad_s": np.round(linalg.weighted_pinv(J_printed, W) @ v, 2).tolist(),
+                "qd_exact_jacobian_rad_s": np.round(linalg.weighted_pinv(J, W) @ v, 4).tolist(),
             }
         )
     rr_arm = models.planar([1.0, 1.0])

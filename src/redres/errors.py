@@ -20,6 +20,7 @@ __all__ = [
     "RedresError",
     "RobotNotFoundError",
     "ShapeError",
+    "SimulationError",
     "URDFError",
 ]
 
@@ -62,6 +63,10 @@ class ModelFileNotFoundError(RedresError, FileNotFoundError):
 
 class MissingDependencyError(RedresError, ImportError):
     """An optional dependency is needed; the message names the extra that installs it."""
+
+
+class SimulationError(RedresError, RuntimeError):
+    """A control loop or simulation produced a non-finite value (message names the step)."""
 
 
 class _KeyLookupError(RedresError, KeyError):

@@ -12,7 +12,7 @@ from importlib import resources
 
 import numpy as np
 
-from ..robot import Robot
+from ..robot import Robot, capsule_between
 
 #: A bent-elbow pose away from singularities, rad.
 HOME = (0.0, np.pi / 6, 0.0, -np.pi / 2, 0.0, np.pi / 3, 0.0)
@@ -31,4 +31,11 @@ def iiwa14() -> Robot:
     robot.add_frame("shoulder", "link2", np.eye(4))
     robot.add_frame("elbow", "link4", np.eye(4))
     robot.add_frame("wrist", "link6", np.eye(4))
-    return Robot(robot.model, tip="flange", name="iiwa14", home=HOME)
+    robot = Robot(robot.model, tip="flange", name="iiwa14", home=HOME)
+    robot.capsules = [
+        capsule_between(robot, "link1", "link0", "shoulder", 0.09, name="base"),
+        capsule_between(robot, "link3", "shoulder", "elbow", 0.08, name="upper_arm"),
+        capsule_between(robot, "link5", "elbow", "wrist", 0.07, name="forearm"),
+        capsule_between(robot, "link7", "wrist", "flange", 0.06, name="hand"),
+    ]
+    return robot

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..robot import DHLink, Robot
+from ..robot import DHLink, Robot, capsule_between
 
 #: Joint limits (Franka "Limits for Panda").
 Q_MIN = (-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973)
@@ -159,7 +159,7 @@ def panda(*, hand: bool = True) -> Robot:
     and 6: the shoulder point where axes 1–3 meet, the elbow joint, the point where
     axes 5 and 6 meet). ``neutral()`` is Franka's ready pose.
     """
-    return Robot.from_dh(
+    robot = Robot.from_dh(
         panda_links(hand=hand),
         "modified",
         tool=_trans_z(FLANGE_D),
@@ -175,3 +175,11 @@ def panda(*, hand: bool = True) -> Robot:
         },
         home=HOME,
     )
+    robot.capsules = [
+        capsule_between(robot, "link1", "base", "shoulder", 0.09, name="base"),
+        capsule_between(robot, "link3", "shoulder", "elbow", 0.08, name="upper_arm"),
+        capsule_between(robot, "link4", "elbow", "wrist", 0.07, name="forearm"),
+        capsule_between(robot, "link6", "wrist", "link7", 0.06, name="wrist"),
+        capsule_between(robot, "link7", "link7", "tcp", 0.05, name="hand"),
+    ]
+    return robot

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..robot import DHLink, Robot
+from ..robot import DHLink, Robot, capsule_between
 
 D_BS, D_SE, D_EW, D_WF = 0.34, 0.40, 0.40, 0.126
 HOME = (0.0, np.pi / 6, 0.0, -np.pi / 2, 0.0, np.pi / 3, 0.0)
@@ -60,7 +60,7 @@ def srs7() -> Robot:
         for i, (d, alpha, m, com, inertia) in enumerate(geometry)
     ]
     eye = np.eye(4)
-    return Robot.from_dh(
+    robot = Robot.from_dh(
         links,
         "standard",
         name="srs7",
@@ -68,3 +68,10 @@ def srs7() -> Robot:
         frames={"shoulder": ("link1", eye), "elbow": ("link3", eye), "wrist": ("link5", eye)},
         home=HOME,
     )
+    robot.capsules = [
+        capsule_between(robot, "link1", "base", "shoulder", 0.08, name="base"),
+        capsule_between(robot, "link3", "shoulder", "elbow", 0.07, name="upper_arm"),
+        capsule_between(robot, "link5", "elbow", "wrist", 0.06, name="forearm"),
+        capsule_between(robot, "link7", "wrist", "tool", 0.05, name="hand"),
+    ]
+    return robot

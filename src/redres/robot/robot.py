@@ -19,6 +19,7 @@ from .._validate import FloatArray, as_transform, as_vector
 from ..errors import FrameNotFoundError, InvalidParameterError, JointLimitError, ShapeError
 
 if TYPE_CHECKING:
+    from .capsules import Capsule
     from .dh import DHLink
 
 Reference = Literal["world", "local"]
@@ -90,6 +91,8 @@ class Robot:
             home_q = as_vector(home, "home", n).copy()
             self._check_within_limits(home_q, "home")
         self._home = home_q
+        #: Capsules approximating the links, for obstacle distances (built-in arms set them).
+        self.capsules: list[Capsule] = []
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -301,6 +304,27 @@ class Robot:
         pin.updateFramePlacement(self.model, self.data, fid)
         J = pin.getFrameJacobian(self.model, self.data, fid, rf)
         return np.array(self.data.oMf[fid].homogeneous), np.asarray(J).reshape(6, self.n)
+
+    def point_jacobians(
+        self, q: Any, frames: Sequence[str]
+    ) -> tuple[FloatArray, FloatArray]:
+        """Origins of several frames and their position Jacobians from one forward pass.
+
+        Returns:
+            ``(points, jacobians)``: shapes ``(k, 3)`` (m, world) and ``(k, 3, n)``
+            (world-aligned linear rows of :meth:`jacobian`).
+        """
+        ids = [self.frame_id(f) for f in frames]
+        model, data = self.model, self.data
+        pin.computeJointJacobians(model, data, self._q(q))
+        points = np.empty((len(ids), 3))
+        jacobians = np.empty((len(ids), 3, self.n))
+        for k, fid in enumerate(ids):
+            pin.updateFramePlacement(model, data, fid)
+            points[k] = data.oMf[fid].translation
+            J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+            jacobians[k] = np.asarray(J).reshape(6, self.n)[:3]
+        return points, jacobians
 
     def jacobian_dot(
         self, q: Any, qd: Any, frame: str | None = None, reference: Reference = "world"

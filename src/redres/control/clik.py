@@ -1,0 +1,230 @@
+"""Closed-loop inverse kinematics (resolved motion rate control with feedback).
+
+Each control step, at time ``t = k·dt``:
+
+1. the trajectory gives the target pose and twist; the task gives ``e`` and ``J``;
+2. the scheme turns ``ẋ = ẋ_d + K e`` into ``q̇`` (seed 000 eq. 6 for gradient projection);
+3. if any joint would exceed its velocity limit the whole ``q̇`` is scaled down by one
+   factor, which keeps its direction (and so the task direction);
+4. ``q ← q + q̇ dt`` (seed 003's ``Δq = q̇ Δt``).
+
+``K`` (``gain``, 1/s) makes the task error decay as ``exp(−K t)`` when the scheme tracks
+exactly; ``K·dt`` must stay well below 2 for the discrete loop to be stable.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .._validate import FloatArray, as_scalar, as_vector
+from ..errors import InvalidParameterError, JointLimitError, SimulationError
+from ..objectives import Objective, ObstacleObjective
+from ..resolution import GradientProjectionScheme, Scheme, WeightedLeastNormScheme
+from ..tasks import FrameTask, Task
+from .runlog import RunLog
+from .trajectories import Trajectory
+
+if TYPE_CHECKING:
+    from ..robot import Robot
+
+
+def _progress(total: int, enabled: bool | None, desc: str) -> Any:
+    show = enabled if enabled is not None else (total >= 5000 and sys.stderr.isatty())
+    if not show:
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is a dependency
+        return None
+    return tqdm(total=total, desc=desc, unit="step", leave=False, mininterval=0.25)
+
+
+def run(
+    robot: Robot,
+    task: Task,
+    trajectory: Trajectory | None,
+    scheme: Scheme,
+    *,
+    dt: float = 1e-3,
+    duration: float | None = None,
+    q0: Any = None,
+    gain: float = 50.0,
+    limit_velocity: bool = True,
+    log_objectives: Sequence[Objective] = (),
+    label: str = "",
+    progress: bool | None = None,
+) -> RunLog:
+    """Run closed-loop rate control and record it.
+
+    Args:
+        robot: the robot.
+        task: the primary task (e.g. :class:`~redres.tasks.FrameTask`); for a frame task
+            the trajectory sets its target each step.
+        trajectory: reference for the task frame (``None``: hold the task's target).
+        scheme: the redundancy-resolution scheme.
+        dt: control period, s (> 0).
+        duration: s (default: the trajectory's duration).
+        q0: start configuration, inside the limits (default ``robot.neutral()``).
+        gain: CLIK gain ``K``, 1/s (≥ 0).
+        limit_velocity: scale commands down uniformly to the joint velocity limits.
+        log_objectives: extra costs to record each step (the scheme's own are recorded
+            anyway).
+        label: name of the run in tables.
+        progress: show a progress bar (default: for long runs on a terminal).
+
+    Returns:
+        The :class:`RunLog`.
+
+    Raises:
+        InvalidParameterError: non-positive ``dt`` or ``duration``, negative ``gain``.
+        JointLimitError: ``q0`` outside the joint limits.
+        SimulationError: a non-finite joint velocity (names the step).
+    """
+    dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
+    gain = as_scalar(gain, "gain", minimum=0.0)
+    if duration is None:
+        if trajectory is None:
+            raise InvalidParameterError("give a duration when there is no trajectory")
+        duration = trajectory.duration
+    duration = as_scalar(duration, "duration", minimum=0.0, strict=True)
+    q = robot.neutral() if q0 is None else as_vector(q0, "q0", robot.n).copy()
+    margin0 = robot.joint_limit_margin(q)
+    if np.any(margin0 < 0):
+        j = int(np.argmin(margin0))
+        raise JointLimitError(
+            f"q0[{j}] = {q[j]:.6g} is outside the limits "
+            f"[{robot.q_min[j]:.6g}, {robot.q_max[j]:.6g}] of joint {robot.joint_names[j]!r}"
+        )
+    steps = int(round(duration / dt))
+    n = robot.n
+    qd_max = robot.qd_max
+    scheme.reset()
+
+    t_log = np.arange(steps) * dt
+    q_log = np.empty((steps, n))
+    qd_log = np.empty((steps, n))
+    pos_log = np.zeros((steps, 3))
+    target_log = np.zeros((steps, 3))
+    pos_err = np.zeros(steps)
+    rot_err = np.zeros(steps)
+    inv_sigma = np.empty(steps)
+    damping = np.empty(steps)
+    rank = np.empty(steps)
+    ratio = np.empty(steps)
+    scaled = np.zeros(steps, dtype=bool)
+    step_ns = np.empty(steps)
+    algorithmic = np.zeros(steps, dtype=bool)
+
+    frame_task = task if isinstance(task, FrameTask) else None
+    bar = _progress(steps, progress, f"{robot.name} {label or scheme.name}")
+    clock = time.perf_counter_ns
+    try:
+        for k in range(steps):
+            t0 = clock()
+            if trajectory is not None and frame_task is not None:
+                sample = trajectory.sample(k * dt)
+                frame_task.set_target(sample.pose, sample.twist, validate=False)
+            state = task.compute(robot, q)
+            result = scheme.step(robot, q, state.jacobian, state.command(gain))
+            qd = result.qd
+            speed = float(np.max(np.abs(qd) / qd_max))
+            if limit_velocity and speed > 1.0:
+                qd = qd / speed
+                scaled[k] = True
+            if not np.all(np.isfinite(qd)):
+                raise SimulationError(
+                    f"step {k} (t = {k * dt:.4f} s): the {scheme.name} scheme returned a "
+                    f"non-finite joint velocity {qd}"
+                )
+            q_log[k] = q
+            q = q + qd * dt
+            step_ns[k] = clock() - t0
+            qd_log[k] = qd
+            ratio[k] = min(speed, 1.0) if limit_velocity else speed
+            inv_sigma[k] = result.info.sigma_min
+            damping[k] = result.info.damping
+            rank[k] = result.info.rank
+            algorithmic[k] = bool(result.extra.get("algorithmic_singularity", False))
+            if frame_task is not None and frame_task.last_error is not None:
+                e = frame_task.last_error
+                pos_err[k] = float(np.linalg.norm(e[:3]))
+                rot_err[k] = float(np.linalg.norm(e[3:]))
+                assert frame_task.last_pose is not None and frame_task.target is not None
+                pos_log[k] = frame_task.last_pose[:3, 3]
+                target_log[k] = frame_task.target[:3, 3]
+            else:
+                pos_err[k] = float(np.linalg.norm(state.error))
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+
+    log = RunLog(
+        robot=robot.name,
+        scheme=scheme.name,
+        dt=dt,
+        t=t_log,
+        q=q_log,
+        qd=qd_log,
+        position=pos_log,
+        target=target_log,
+        position_error=pos_err,
+        orientation_error=rot_err,
+        sigma_min=inv_sigma,
+        damping=damping,
+        rank=rank,
+        speed_ratio=ratio,
+        scaled=scaled,
+        joint_limit_margin=np.zeros(steps),
+        manipulability=np.zeros(steps),
+        step_time_ns=step_ns,
+        label=label,
+    )
+    log.extra["inverse_sigma_min"] = inv_sigma.copy()
+    log.extra["algorithmic_singularity"] = algorithmic
+    log.extra["final_q"] = q
+    _analyse(robot, task, scheme, log, log_objectives)
+    return log
+
+
+def _scheme_objectives(scheme: Scheme) -> list[Objective]:
+    if isinstance(scheme, (GradientProjectionScheme, WeightedLeastNormScheme)):
+        return [obj for obj, _ in scheme.objectives]
+    return []
+
+
+def _analyse(
+    robot: Robot, task: Task, scheme: Scheme, log: RunLog, extra: Sequence[Objective]
+) -> None:
+    """Post-run measures (not in the timed loop): margins, σ_min and manipulability of
+    the task Jacobian, objective values, obstacle distances."""
+    frame = task.frame if isinstance(task, FrameTask) else None
+    rows = task.rows if isinstance(task, FrameTask) else list(range(6))
+    objectives = {obj.name: obj for obj in [*_scheme_objectives(scheme), *extra]}
+    values: dict[str, list[float]] = {name: [] for name in objectives}
+    distances: list[float] = []
+    obstacle = next((o for o in objectives.values() if isinstance(o, ObstacleObjective)), None)
+    for k, q in enumerate(log.q):
+        log.joint_limit_margin[k] = float(np.min(robot.joint_limit_margin(q)))
+        s = np.linalg.svd(robot.jacobian(q, frame)[rows], compute_uv=False)
+        log.sigma_min[k] = float(s[-1])
+        log.manipulability[k] = float(np.prod(s))
+        for name, obj in objectives.items():
+            values[name].append(obj.cost(robot, q))
+        if obstacle is not None:
+            distances.append(obstacle.min_distance(robot, q))
+    log.objectives = {name: np.asarray(v) for name, v in values.items()}
+    if obstacle is not None:
+        log.objectives["obstacle_distance_m"] = np.asarray(distances)
+
+
+def final_configuration(log: RunLog) -> FloatArray:
+    """The configuration after the last step of a run."""
+    q: FloatArray = log.extra["final_q"]
+    return q

@@ -1,0 +1,85 @@
+"""The record of one control run and its summary metrics."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .._validate import FloatArray
+
+
+@dataclass
+class RunLog:
+    """Everything a run recorded, one row per control step.
+
+    Attributes:
+        robot, scheme: names (``scheme`` is the stable identifier, e.g. ``pinv``).
+        dt: control period, s.
+        t: times, shape ``(K,)``, s.
+        q, qd: joint positions and the velocities applied, shape ``(K, n)``.
+        position: tip position, ``(K, 3)``, m; ``target``: reference position, ``(K, 3)``.
+        position_error, orientation_error: norms of the task error, ``(K,)`` (m, rad);
+            orientation is NaN-free zero when the task has no orientation rows.
+        sigma_min, damping, rank: diagnostics of the inverse each step.
+        speed_ratio: ``max |q̇ᵢ| / q̇_max,i`` of the applied velocity, ``(K,)``.
+        scaled: steps where the command was scaled down to the velocity limits.
+        joint_limit_margin: smallest signed distance to a position limit, ``(K,)``, rad.
+        manipulability: ``√det(J Jᵀ)`` of the task Jacobian, ``(K,)``.
+        objectives: value of each logged objective, name -> ``(K,)``.
+        step_time_ns: wall time of each control step, ns.
+        extra: scheme diagnostics worth keeping (e.g. algorithmic-singularity flags).
+    """
+
+    robot: str
+    scheme: str
+    dt: float
+    t: FloatArray
+    q: FloatArray
+    qd: FloatArray
+    position: FloatArray
+    target: FloatArray
+    position_error: FloatArray
+    orientation_error: FloatArray
+    sigma_min: FloatArray
+    damping: FloatArray
+    rank: FloatArray
+    speed_ratio: FloatArray
+    scaled: FloatArray
+    joint_limit_margin: FloatArray
+    manipulability: FloatArray
+    step_time_ns: FloatArray
+    objectives: dict[str, FloatArray] = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
+    label: str = ""
+
+    @property
+    def steps(self) -> int:
+        """Number of control steps."""
+        return int(self.t.shape[0])
+
+    def summary(self) -> dict[str, Any]:
+        """Summary metrics with stable keys (used by ``redres demo --json``)."""
+        pe = self.position_error
+        path = float(np.sum(np.linalg.norm(np.diff(self.q, axis=0), axis=1))) if self.steps > 1 else 0.0
+        out: dict[str, Any] = {
+            "robot": self.robot,
+            "scheme": self.scheme,
+            "label": self.label or self.scheme,
+            "steps": self.steps,
+            "dt_s": self.dt,
+            "max_position_error_m": float(pe.max()) if pe.size else 0.0,
+            "rms_position_error_m": float(np.sqrt(np.mean(pe**2))) if pe.size else 0.0,
+            "max_orientation_error_rad": float(self.orientation_error.max()) if pe.size else 0.0,
+            "min_joint_limit_margin_rad": float(self.joint_limit_margin.min()),
+            "min_sigma": float(self.sigma_min.min()),
+            "min_manipulability": float(self.manipulability.min()),
+            "peak_speed_ratio": float(self.speed_ratio.max()),
+            "scaled_steps": int(self.scaled.sum()),
+            "path_length_rad": path,
+            "step_time_us_median": float(np.median(self.step_time_ns) / 1e3),
+        }
+        for name, values in self.objectives.items():
+            out[f"final_{name}"] = float(values[-1])
+        return out

@@ -1,0 +1,218 @@
+"""End-effector reference trajectories: pose, twist and acceleration at any time.
+
+Every trajectory returns world-aligned quantities (docs/conventions.md): the pose ``T(t)``
+(4x4), the twist ``[v; ω](t)`` and the acceleration ``[a; α](t)``. Position paths keep the
+orientation of their start pose; :class:`MinimumJerk` moves both.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from .._validate import FloatArray, as_scalar, as_transform, as_vector
+from ..errors import InvalidParameterError
+
+
+@dataclass(frozen=True)
+class Sample:
+    """A trajectory at one instant: ``pose`` (4x4), ``twist`` (6,), ``acceleration`` (6,)."""
+
+    pose: FloatArray
+    twist: FloatArray
+    acceleration: FloatArray
+
+
+def minimum_jerk(tau: float) -> tuple[float, float, float]:
+    """Minimum-jerk time scaling ``s = 10τ³ − 15τ⁴ + 6τ⁵`` and its first two derivatives
+    with respect to ``τ`` (Flash and Hogan, J. Neuroscience 5(7), 1985); ``τ`` clipped to
+    [0, 1]."""
+    t = min(max(tau, 0.0), 1.0)
+    s = t**3 * (10.0 - 15.0 * t + 6.0 * t * t)
+    ds = 30.0 * t * t * (1.0 - t) ** 2
+    dds = 60.0 * t * (1.0 - t) * (1.0 - 2.0 * t)
+    return s, ds, dds
+
+
+class Trajectory(ABC):
+    """A reference for a frame: :meth:`sample` at time ``t`` (s) from 0 to ``duration``."""
+
+    duration: float
+
+    @abstractmethod
+    def sample(self, t: float) -> Sample:
+        """Pose, twist and acceleration at time ``t``."""
+
+    def _fixed(self, position: FloatArray, velocity: FloatArray, accel: FloatArray) -> Sample:
+        T = self.start_pose.copy()  # type: ignore[attr-defined]
+        T[:3, 3] = position
+        twist = np.zeros(6)
+        twist[:3] = velocity
+        acc = np.zeros(6)
+        acc[:3] = accel
+        return Sample(T, twist, acc)
+
+
+def _plane_axes(normal: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Two orthonormal axes spanning the plane normal to ``normal``."""
+    nrm = normal / np.linalg.norm(normal)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(nrm[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(nrm, helper)
+    u /= np.linalg.norm(u)
+    return u, np.cross(nrm, u)
+
+
+class Circle(Trajectory):
+    """A circle through the start position at constant speed, orientation held.
+
+    Args:
+        start_pose: 4x4 pose where the circle starts (``robot.fk(q0)``).
+        radius: m.
+        period: time of one turn, s.
+        normal: normal of the circle's plane (world), default world z.
+        phase: direction from the start point to the centre, as an angle (rad) in the
+            plane (0: along the plane's first axis).
+        turns: number of turns (sets ``duration``).
+        ramp: seconds over which the angular speed rises smoothly from zero (minimum-jerk
+            profile of the angle), so the path starts without a velocity jump.
+    """
+
+    def __init__(
+        self,
+        start_pose: Any,
+        radius: float,
+        period: float,
+        *,
+        normal: Any = (0.0, 0.0, 1.0),
+        phase: float = 0.0,
+        turns: float = 1.0,
+        ramp: float = 0.0,
+    ) -> None:
+        self.start_pose = as_transform(start_pose, "start_pose")
+        self.radius = as_scalar(radius, "radius", minimum=0.0, strict=True)
+        self.period = as_scalar(period, "period", minimum=0.0, strict=True)
+        self.ramp = as_scalar(ramp, "ramp", minimum=0.0)
+        n = as_vector(normal, "normal", 3)
+        if np.linalg.norm(n) < 1e-12:
+            raise InvalidParameterError("normal must be a non-zero vector")
+        u, v = _plane_axes(n)
+        to_center = np.cos(phase) * u + np.sin(phase) * v
+        self.center = self.start_pose[:3, 3] + self.radius * to_center
+        self._e1 = -to_center  # centre -> start
+        self._e2 = np.cross(n / np.linalg.norm(n), self._e1)
+        self._basis = np.vstack([self._e1, self._e2])
+        self.omega = 2.0 * np.pi / self.period
+        self.duration = float(turns) * self.period + self.ramp / 2.0
+
+    def _angle(self, t: float) -> tuple[float, float, float]:
+        """Angle, angular rate and acceleration along the circle at ``t``."""
+        w, r = self.omega, self.ramp
+        if r > 0.0 and t < r:
+            # Angular rate w·s(t/r): smooth start; the angle is its integral.
+            tau = t / r
+            s, ds, _ = minimum_jerk(tau)
+            angle = w * r * (2.5 * tau**4 - 3.0 * tau**5 + tau**6)
+            return angle, w * s, w * ds / r
+        return w * (t - r / 2.0) if r > 0.0 else w * t, w, 0.0
+
+    def sample(self, t: float) -> Sample:
+        a, da, dda = self._angle(t)
+        c, s = math.cos(a), math.sin(a)
+        basis = self._basis  # rows e1, e2
+        radial = (c, s) @ basis
+        tangent = (-s, c) @ basis
+        r = self.radius
+        return self._fixed(self.center + r * radial, (r * da) * tangent,
+                           (r * dda) * tangent - (r * da * da) * radial)
+
+
+class FigureEight(Trajectory):
+    """A figure eight (Gerono lemniscate) through the start position, orientation held:
+    ``p = p₀ + a sin θ e₁ + (b/2) sin 2θ e₂``, ``θ = 2π t / period``.
+
+    Args:
+        start_pose: 4x4 start pose (the crossing point of the eight).
+        width, height: ``a`` and ``b``, m.
+        period: s per eight; ``turns`` sets the duration.
+        normal: normal of the plane (world).
+    """
+
+    def __init__(
+        self,
+        start_pose: Any,
+        width: float,
+        height: float,
+        period: float,
+        *,
+        normal: Any = (0.0, 0.0, 1.0),
+        turns: float = 1.0,
+    ) -> None:
+        self.start_pose = as_transform(start_pose, "start_pose")
+        self.width = as_scalar(width, "width", minimum=0.0)
+        self.height = as_scalar(height, "height", minimum=0.0)
+        self.period = as_scalar(period, "period", minimum=0.0, strict=True)
+        self._e1, self._e2 = _plane_axes(as_vector(normal, "normal", 3))
+        self.duration = float(turns) * self.period
+
+    def sample(self, t: float) -> Sample:
+        w = 2.0 * np.pi / self.period
+        th = w * t
+        a, b = self.width, self.height / 2.0
+        p = self.start_pose[:3, 3] + a * np.sin(th) * self._e1 + b * np.sin(2 * th) * self._e2
+        v = a * w * np.cos(th) * self._e1 + 2 * b * w * np.cos(2 * th) * self._e2
+        acc = -a * w * w * np.sin(th) * self._e1 - 4 * b * w * w * np.sin(2 * th) * self._e2
+        return self._fixed(p, v, acc)
+
+
+class MinimumJerk(Trajectory):
+    """Point to point in position and orientation with a minimum-jerk time law.
+
+    ``p(t) = p₀ + s (p₁ − p₀)``; ``R(t) = R₀ exp(s [r]×)`` with ``r = log(R₀ᵀ R₁)``; so
+    ``v = ṡ (p₁ − p₀)`` and ``ω = ṡ R₀ r`` (world), ``s = s(t / duration)``.
+    """
+
+    def __init__(self, start_pose: Any, end_pose: Any, duration: float) -> None:
+        self.start_pose = as_transform(start_pose, "start_pose")
+        self.end_pose = as_transform(end_pose, "end_pose")
+        self.duration = as_scalar(duration, "duration", minimum=0.0, strict=True)
+        R0 = self.start_pose[:3, :3]
+        self._dp = self.end_pose[:3, 3] - self.start_pose[:3, 3]
+        self._r = pin.log3(R0.T @ self.end_pose[:3, :3])
+        self._r_world = R0 @ self._r
+
+    def sample(self, t: float) -> Sample:
+        s, ds, dds = minimum_jerk(t / self.duration)
+        ds, dds = ds / self.duration, dds / self.duration**2
+        T = np.eye(4)
+        T[:3, :3] = self.start_pose[:3, :3] @ pin.exp3(s * self._r)
+        T[:3, 3] = self.start_pose[:3, 3] + s * self._dp
+        twist = np.concatenate([ds * self._dp, ds * self._r_world])
+        accel = np.concatenate([dds * self._dp, dds * self._r_world])
+        return Sample(T, twist, accel)
+
+
+class Line(MinimumJerk):
+    """A straight line from the start position to ``end`` (m, world), orientation held,
+    with a minimum-jerk time law."""
+
+    def __init__(self, start_pose: Any, end: Any, duration: float) -> None:
+        T0 = as_transform(start_pose, "start_pose")
+        T1 = T0.copy()
+        T1[:3, 3] = as_vector(end, "end", 3)
+        super().__init__(T0, T1, duration)
+
+
+class Hold(Trajectory):
+    """Stay at one pose for ``duration`` seconds."""
+
+    def __init__(self, pose: Any, duration: float) -> None:
+        self.start_pose = as_transform(pose, "pose")
+        self.duration = as_scalar(duration, "duration", minimum=0.0, strict=True)
+
+    def sample(self, t: float) -> Sample:
+        return Sample(self.start_pose.copy(), np.zeros(6), np.zeros(6))

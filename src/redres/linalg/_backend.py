@@ -1,0 +1,345 @@
+"""Routing between the compiled kernels and the NumPy reference path (internal).
+
+Every inverse of :mod:`redres.linalg` is a *filtered SVD inverse* of the weighted Jacobian
+``Jw = J W^{-1/2}`` (``W = I`` when unweighted; with ``W = L L^T``, ``Jw = J L^-T``)::
+
+    Jw = U diag(sigma) V^T,   Jw# = V diag(f) U^T,   J# = L^-T Jw#,
+    N = I - J# J = L^-T (I - V diag(sigma f) V^T) L^T
+
+with one filter ``f`` per method (seed 002 for the SVD form; damped least squares of
+Nakamura & Hanafusa 1986 and Wampler 1986 for ``f = sigma / (sigma^2 + lambda^2)``):
+
+* exact: ``f = 1/sigma`` above ``rcond * sigma_max``, ``0`` below (truncated SVD);
+* damped: ``f = sigma / (sigma^2 + lambda^2)`` (equals ``J^T (J J^T + lambda^2 I)^-1``);
+* adaptive / selective: the same with ``lambda`` from :class:`AdaptiveDamping`.
+
+For ``m <= 6`` rows and ``n <= 50`` columns the compiled kernels of
+:mod:`redres.linalg._kernels` compute the same quantities (by a Cholesky solve when the
+matrix is well conditioned); otherwise NumPy's SVD does. Set the environment variable
+``REDRES_DISABLE_JIT=1`` to always use NumPy.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._validate import as_matrix, as_scalar
+from ..errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
+from . import _codes as codes
+from ._info import AdaptiveDamping, InverseInfo
+
+FloatArray = NDArray[np.float64]
+
+FAST_MAX_ROWS = 6
+FAST_MAX_COLS = 50
+
+# Zero-size placeholders passed to the kernels for absent arguments (never written to;
+# kept writable so that they have the same numba type as user arrays).
+EMPTY_1D: FloatArray = np.zeros(0)
+EMPTY_2D: FloatArray = np.zeros((0, 0))
+
+_state: dict[str, Any] = {"enabled": os.environ.get("REDRES_DISABLE_JIT", "") in ("", "0")}
+
+loaded: ModuleType | None = None
+"""The kernel module once imported and enabled (read by the hot path without a call)."""
+
+
+def kernels() -> ModuleType | None:
+    """The compiled kernel module, imported on first use; None if disabled or unavailable."""
+    global loaded
+    if loaded is not None or not _state["enabled"] or _state.get("failed"):
+        return loaded
+    try:
+        from . import _kernels
+    except Exception as exc:  # numba missing or broken: keep working on NumPy
+        _state["failed"] = True
+        warnings.warn(
+            f"redres.linalg: compiled kernels unavailable ({exc!r}); using NumPy",
+            UserWarning,
+            stacklevel=3,
+        )
+        return None
+    loaded = _kernels
+    return loaded
+
+
+def set_jit_enabled(enabled: bool) -> bool:
+    """Enable or disable the compiled kernels (for tests and comparisons); returns the old value."""
+    global loaded
+    previous = bool(_state["enabled"])
+    _state["enabled"] = bool(enabled)
+    if not enabled:
+        loaded = None
+    return previous
+
+
+def use_fast_path(m: int, n: int) -> ModuleType | None:
+    """Kernels if ``m x n`` is small enough for them and they are available."""
+    if m <= FAST_MAX_ROWS and n <= FAST_MAX_COLS and m > 0 and n > 0:
+        return kernels()
+    return None
+
+
+def parse_damping(damping: float | AdaptiveDamping) -> tuple[int, float, float, float]:
+    """``(mode, lambda, lambda_max, eps)`` for the kernels from a ``damping`` argument."""
+    if isinstance(damping, AdaptiveDamping):
+        mode = codes.SELECTIVE if damping.selective else codes.ADAPTIVE
+        return mode, 0.0, damping.max_damping, damping.threshold
+    lam = as_scalar(damping, "damping", minimum=0.0)
+    return (codes.FIXED if lam > 0.0 else codes.EXACT), lam, 0.0, 1.0
+
+
+def method_label(mode: int, weighted: bool, exact_label: str) -> str:
+    """The ``InverseInfo.method`` string for a damping mode."""
+    if mode == codes.EXACT:
+        return "weighted" if weighted else exact_label
+    base = {codes.FIXED: "damped", codes.ADAPTIVE: "adaptive", codes.SELECTIVE: "selective"}[mode]
+    return f"weighted-{base}" if weighted else base
+
+
+def parse_weights(weights: Any, n: int, name: str) -> tuple[int, FloatArray, FloatArray]:
+    """``(mode, diagonal, full)`` from a weights argument: None, ``(n,)`` or ``(n, n)``.
+
+    Only shapes are checked here; values are checked by :func:`weight_factor` or the kernels.
+    """
+    if weights is None:
+        return codes.NO_WEIGHTS, EMPTY_1D, EMPTY_2D
+    try:
+        w = np.ascontiguousarray(weights, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"{name} must be an array of numbers; got {weights!r}") from exc
+    if w.shape == (n,):
+        return codes.DIAGONAL, w, EMPTY_2D
+    if w.shape == (n, n):
+        return codes.FULL, EMPTY_1D, w
+    raise ShapeError(
+        f"{name} must be a vector of {n} diagonal weights, shape ({n},), or a symmetric "
+        f"positive definite matrix, shape ({n}, {n}); got shape {w.shape}"
+    )
+
+
+def raise_status(status: int, names: dict[str, str]) -> None:
+    """Raise the error a kernel status code stands for, naming the argument."""
+    if status == codes.J_NONFINITE:
+        raise NonFiniteError(f"{names.get('J', 'J')} contains NaN or infinity")
+    if status == codes.XD_NONFINITE:
+        raise NonFiniteError(f"{names.get('xd', 'xd')} contains NaN or infinity")
+    if status == codes.GRAD_NONFINITE:
+        raise NonFiniteError(f"{names.get('grad', 'grad')} contains NaN or infinity")
+    w = names.get("W", "W")
+    if status == codes.W_NONFINITE:
+        raise NonFiniteError(f"{w} contains NaN or infinity")
+    if status == codes.W_NOT_SPD:
+        raise NotPositiveDefiniteError(
+            f"{w} must be positive definite: diagonal weights all > 0, or a full matrix "
+            "with a Cholesky factorisation (check for zero, negative or dependent rows)"
+        )
+    if status == codes.W_ASYMMETRIC:
+        raise NotPositiveDefiniteError(
+            f"{w} must be symmetric positive definite; it is not symmetric "
+            "(use (W + W.T) / 2 if the asymmetry is rounding)"
+        )
+    raise RuntimeError(f"unexpected kernel status {status}")  # pragma: no cover
+
+
+def weight_factor(mode: int, diag: FloatArray, full: FloatArray, name: str) -> FloatArray:
+    """Validated factor of W for the NumPy path: ``sqrt(w)`` (diagonal) or lower ``L``."""
+    if mode == codes.DIAGONAL:
+        if not np.isfinite(diag).all():
+            raise_status(codes.W_NONFINITE, {"W": name})
+        if not (diag > 0.0).all():
+            raise_status(codes.W_NOT_SPD, {"W": name})
+        return np.sqrt(diag)
+    if not np.isfinite(full).all():
+        raise_status(codes.W_NONFINITE, {"W": name})
+    if np.abs(full - full.T).max() > 1e-9 * np.abs(full).max():
+        raise_status(codes.W_ASYMMETRIC, {"W": name})
+    try:
+        L = np.linalg.cholesky(full)
+    except np.linalg.LinAlgError:
+        raise_status(codes.W_NOT_SPD, {"W": name})
+    if not np.isfinite(L).all():  # pragma: no cover - cholesky of finite SPD is finite
+        raise_status(codes.W_NOT_SPD, {"W": name})
+    return L
+
+
+def weigh(J: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
+    """``J W^{-1/2}``: ``J / sqrt(w)`` or ``J L^-T``."""
+    if mode == codes.NO_WEIGHTS:
+        return J
+    if mode == codes.DIAGONAL:
+        return J / factor
+    from scipy.linalg import solve_triangular
+
+    return np.asarray(solve_triangular(factor, J.T, lower=True).T)
+
+
+def unweigh_rows(X: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
+    """``L^-T X`` (X with n rows): map a result from weighted to joint coordinates."""
+    if mode == codes.NO_WEIGHTS:
+        return X
+    if mode == codes.DIAGONAL:
+        return X / (factor if X.ndim == 1 else factor[:, None])
+    from scipy.linalg import solve_triangular
+
+    return np.asarray(solve_triangular(factor, X, lower=True, trans="T"))
+
+
+def weigh_up(v: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
+    """``L^T v`` (diagonal: ``sqrt(w) v``): map a joint-space gradient to weighted coordinates."""
+    if mode == codes.NO_WEIGHTS:
+        return v
+    if mode == codes.DIAGONAL:
+        return factor * v
+    return np.asarray(factor.T @ v)
+
+
+def times_lt(X: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
+    """``X L^T`` (diagonal: ``X diag(sqrt(w))``)."""
+    if mode == codes.NO_WEIGHTS:
+        return X
+    if mode == codes.DIAGONAL:
+        return X * factor[None, :]
+    return np.asarray(X @ factor.T)
+
+
+Result = FloatArray | tuple[FloatArray, InverseInfo]
+
+
+def finish(
+    Jp: FloatArray,
+    shape: tuple[int, int],
+    stats: tuple[int, float, float, float],
+    method: str,
+    return_info: bool,
+) -> Result:
+    """``Jp`` alone, or ``(Jp, InverseInfo)`` built from the engine's statistics."""
+    if not return_info:
+        return Jp
+    rank, smin, smax, used = stats
+    return Jp, InverseInfo(rank, rank == min(shape), smin, smax, used, method)
+
+
+def as_jacobian(J: Any, name: str = "J") -> FloatArray:
+    """``J`` as a finite, non-empty float64 matrix (C order), or a clear error."""
+    arr = as_matrix(J, name)
+    if arr.shape[0] == 0 or arr.shape[1] == 0:
+        raise ShapeError(f"{name} must have at least one row and one column; got {arr.shape}")
+    return np.ascontiguousarray(arr)
+
+
+def as_rcond(rcond: Any) -> float:
+    """Validated relative rank tolerance (finite, >= 0)."""
+    return as_scalar(rcond, "rcond", minimum=0.0)
+
+
+def filter_factors(
+    sigma: FloatArray, mode: int, lam: float, lam_max: float, eps: float, rcond: float
+) -> tuple[FloatArray, FloatArray, int, float]:
+    """Filter of one inverse for singular values ``sigma`` (descending).
+
+    Returns ``(f, lam2, rank, damping)``: the inverse is ``V diag(f) U^T`` and ``lam2`` the
+    squared damping applied to each singular value.
+    """
+    sigma_max = float(sigma[0]) if sigma.size else 0.0
+    sigma_min = float(sigma[-1]) if sigma.size else 0.0
+    significant = sigma > rcond * sigma_max
+    if sigma_max == 0.0:
+        significant[:] = False
+    lam2 = np.zeros_like(sigma)
+    if mode == codes.FIXED:
+        lam2[:] = lam * lam
+    elif mode in (codes.ADAPTIVE, codes.SELECTIVE):
+        ref = sigma if mode == codes.SELECTIVE else np.full_like(sigma, sigma_min)
+        below = ref < eps
+        ratio = ref[below] / eps
+        lam2[below] = lam_max * lam_max * (1.0 - ratio * ratio)
+    damping = math.sqrt(float(lam2.max())) if lam2.size else 0.0
+    if sigma_max == 0.0 and mode != codes.EXACT:
+        damping = lam if mode == codes.FIXED else lam_max
+    f = np.zeros_like(sigma)
+    damped = lam2 > 0.0
+    lam_d = np.sqrt(lam2[damped])
+    s_d = sigma[damped]
+    top = np.maximum(s_d, lam_d)
+    # sigma / (sigma^2 + lambda^2), scaled so that neither square overflows
+    f[damped] = (s_d / top) / (top * ((s_d / top) ** 2 + (lam_d / top) ** 2))
+    exact = ~damped & significant
+    f[exact] = 1.0 / sigma[exact]
+    return f, lam2, int(significant.sum()), damping
+
+
+class Filtered:
+    """SVD of a (weighted) matrix and the filter of one inverse (NumPy reference path)."""
+
+    __slots__ = ("U", "Vt", "damping", "f", "p", "rank", "sigma", "sigma_max", "sigma_min")
+
+    def __init__(
+        self, Jw: FloatArray, mode: int, lam: float, lam_max: float, eps: float, rcond: float
+    ) -> None:
+        U, sigma, Vt = np.linalg.svd(Jw, full_matrices=False)
+        self.U, self.sigma, self.Vt = U, sigma, Vt
+        self.sigma_max = float(sigma[0]) if sigma.size else 0.0
+        self.sigma_min = float(sigma[-1]) if sigma.size else 0.0
+        self.f, _, self.rank, self.damping = filter_factors(sigma, mode, lam, lam_max, eps, rcond)
+        self.p = sigma * self.f  # weights of the row-space projector J# J in the V basis
+
+    def pinv(self) -> FloatArray:
+        """``V diag(f) U^T`` (n x m)."""
+        return np.asarray((self.Vt.T * self.f) @ self.U.T)
+
+    def projector(self) -> FloatArray:
+        """``I - V diag(sigma f) V^T`` (n x n)."""
+        n = self.Vt.shape[1]
+        return np.eye(n) - (self.Vt.T * self.p) @ self.Vt
+
+    def apply(self, xd: FloatArray) -> FloatArray:
+        """``J# xd``."""
+        return np.asarray(self.Vt.T @ (self.f * (self.U.T @ xd)))
+
+    def project(self, g: FloatArray) -> FloatArray:
+        """``N g``."""
+        return g - self.Vt.T @ (self.p * (self.Vt @ g))
+
+
+def invert(
+    J: FloatArray,
+    *,
+    weights: Any,
+    weights_name: str,
+    damping: float | AdaptiveDamping,
+    rcond: float,
+    want_pinv: bool,
+    want_projector: bool,
+) -> tuple[FloatArray, FloatArray, int, float, float, float, int]:
+    """Shared engine of the matrix functions: ``(J#, N, rank, smin, smax, damping, mode)``.
+
+    ``J`` must already be a validated finite float64 matrix. Outputs not wanted are 0 x 0.
+    """
+    m, n = J.shape
+    mode, lam, lam_max, eps = parse_damping(damping)
+    wmode, wdiag, wfull = parse_weights(weights, n, weights_name)
+    kern = use_fast_path(m, n)
+    if kern is not None:
+        Jp = np.empty((n, m)) if want_pinv else EMPTY_2D
+        N = np.empty((n, n)) if want_projector else EMPTY_2D
+        status, rank, smin, smax, used = kern.inverse(
+            np.ascontiguousarray(J), wdiag, wfull, Jp, N, wmode, mode, lam, lam_max, eps, rcond
+        )
+        if status:
+            raise_status(status, {"J": "J", "W": weights_name})
+        return Jp, N, rank, smin, smax, used, mode
+    factor = EMPTY_2D if wmode == codes.NO_WEIGHTS else weight_factor(wmode, wdiag, wfull, weights_name)
+    filt = Filtered(weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
+    Jp = unweigh_rows(filt.pinv(), wmode, factor) if want_pinv else EMPTY_2D
+    N = EMPTY_2D
+    if want_projector:
+        N = times_lt(unweigh_rows(filt.projector(), wmode, factor), wmode, factor)
+    return Jp, N, filt.rank, filt.sigma_min, filt.sigma_max, filt.damping, mode

@@ -1,0 +1,151 @@
+"""Diagnostics and damping specifications shared by :mod:`redres.linalg`.
+
+:class:`InverseInfo` is the one diagnostics type of the package: every function that
+inverts a Jacobian can return one next to its result (``return_info=True``), and
+:func:`redres.linalg.rate_step` always does. The numbers come from the factorisation that
+produced the result; nothing is recomputed to fill them in.
+
+:class:`AdaptiveDamping` selects damping that is zero away from singularities and grows as
+the smallest singular value falls below a threshold. Pass it wherever a ``damping``
+argument is accepted.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+from ..errors import InvalidParameterError, NonFiniteError
+
+__all__ = ["RCOND", "AdaptiveDamping", "InverseInfo", "adaptive_damping"]
+
+RCOND = 1e-10
+"""Default relative rank tolerance: singular values ``<= RCOND * sigma_max`` count as zero."""
+
+
+class InverseInfo(NamedTuple):
+    """Diagnostics of one (pseudo-)inverse, computed with it.
+
+    Singular values are those of the matrix actually inverted: ``J`` itself, or the weighted
+    Jacobian ``J W^{-1/2}`` for a weighted inverse (``J M^{-1/2}`` for the dynamically
+    consistent inverse), in the units of ``J`` (times ``W^{-1/2}``).
+
+    Attributes:
+        rank: Number of singular values above ``rcond * sigma_max`` (at most ``min(m, n)``).
+        full_rank: ``rank == min(m, n)``. For an exact inverse of a rank-deficient matrix this
+            is False and the result is the truncated SVD pseudo-inverse (``method`` says so).
+        sigma_min: Smallest of the ``min(m, n)`` singular values (0 for a zero matrix).
+        sigma_max: Largest singular value.
+        damping: Damping ``lambda`` actually applied, in the units of the singular values
+            (0 for an exact inverse; for selective damping, the largest one applied).
+        method: Which inverse was computed: ``"square"``, ``"right"``, ``"left"``,
+            ``"svd"``, ``"damped"``, ``"adaptive"``, ``"selective"``, prefixed with
+            ``"weighted-"`` when weights were used (``"dynamically-consistent"`` and
+            ``"dynamically-consistent-damped"`` for :mod:`redres.linalg.dynamics`).
+    """
+
+    rank: int
+    full_rank: bool
+    sigma_min: float
+    sigma_max: float
+    damping: float
+    method: str
+
+    @property
+    def condition(self) -> float:
+        """Condition number ``sigma_max / sigma_min`` (``inf`` if ``sigma_min == 0``)."""
+        if self.sigma_min > 0.0:
+            return self.sigma_max / self.sigma_min
+        return math.inf
+
+
+@dataclass(frozen=True)
+class AdaptiveDamping:
+    """Damping that vanishes away from singularities (pass as ``damping=``).
+
+    With ``sigma_min`` the smallest singular value, ``eps = threshold`` and
+    ``lambda_max = max_damping``::
+
+        lambda^2 = 0                                  if sigma_min >= eps
+        lambda^2 = (1 - (sigma_min / eps)^2) lambda_max^2   otherwise
+
+    This is the singular-value-based law of Maciejewski & Klein (1988) in the form of
+    Chiaverini, Siciliano & Egeland (1994), refining the damped least-squares inverse of
+    Nakamura & Hanafusa (1986) and Wampler (1986). ``lambda`` is continuous in
+    ``sigma_min``, zero in the well-conditioned region (so the inverse is exact there) and
+    equal to ``lambda_max`` at the singularity.
+
+    With ``selective=True`` each singular value ``sigma_i`` below ``eps`` gets its own
+    ``lambda_i`` from the same law and the others are inverted exactly: only the singular
+    directions are damped, as in the numerical filtering of Maciejewski & Klein (1988) and
+    the singularity-robust task-priority scheme of Chiaverini (1997). The uniform form
+    (``selective=False``) damps every direction with the ``lambda`` set by ``sigma_min``.
+
+    Attributes:
+        max_damping: ``lambda_max >= 0``, in the units of the Jacobian's entries.
+        threshold: ``eps > 0``, size of the singular region, same units.
+        selective: Damp only the singular values below ``threshold``.
+
+    References:
+        Y. Nakamura, H. Hanafusa, "Inverse kinematic solutions with singularity robustness
+        for robot manipulator control", J. Dyn. Sys. Meas. Control 108 (1986) 163-171.
+        C. W. Wampler, "Manipulator inverse kinematic solutions based on vector formulations
+        and damped least-squares methods", IEEE Trans. SMC 16 (1986) 93-101.
+        A. A. Maciejewski, C. A. Klein, "Numerical filtering for the operation of robotic
+        manipulators through kinematically singular configurations", J. Robotic Systems 5
+        (1988) 527-552.
+        S. Chiaverini, B. Siciliano, O. Egeland, "Review of the damped least-squares inverse
+        kinematics with experiments on an industrial robot manipulator", IEEE Trans. Control
+        Syst. Technol. 2 (1994) 123-134.
+        S. Chiaverini, "Singularity-robust task-priority redundancy resolution for real-time
+        kinematic control of robot manipulators", IEEE Trans. Robot. Autom. 13 (1997)
+        398-410.
+    """
+
+    max_damping: float
+    threshold: float
+    selective: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("max_damping", "threshold"):
+            value = getattr(self, name)
+            try:
+                number = float(value)
+            except (TypeError, ValueError) as exc:
+                raise InvalidParameterError(f"{name} must be a number; got {value!r}") from exc
+            if not math.isfinite(number):
+                raise NonFiniteError(f"{name} must be finite; got {number}")
+            object.__setattr__(self, name, number)
+        if self.max_damping < 0.0:
+            raise InvalidParameterError(
+                f"max_damping must be >= 0; got {self.max_damping}. "
+                "Use 0 for no damping at singularities."
+            )
+        if self.threshold <= 0.0:
+            raise InvalidParameterError(
+                f"threshold must be > 0; got {self.threshold}. "
+                "It is the smallest singular value below which damping starts."
+            )
+
+    def damping_for(self, sigma_min: float) -> float:
+        """Damping ``lambda`` this law applies at a given smallest singular value."""
+        return adaptive_damping(sigma_min, self.max_damping, self.threshold)
+
+
+def adaptive_damping(sigma_min: float, max_damping: float, threshold: float) -> float:
+    """The adaptive damping law of :class:`AdaptiveDamping`, as a function.
+
+    Args:
+        sigma_min: Smallest singular value (>= 0), units of the Jacobian.
+        max_damping: ``lambda_max`` (>= 0), same units.
+        threshold: ``eps`` (> 0), same units.
+
+    Returns:
+        ``lambda = lambda_max sqrt(1 - (sigma_min/eps)^2)`` below ``eps``, else 0
+        (Chiaverini, Siciliano & Egeland 1994).
+    """
+    if sigma_min >= threshold:
+        return 0.0
+    ratio = max(sigma_min, 0.0) / threshold
+    return max_damping * math.sqrt(1.0 - ratio * ratio)

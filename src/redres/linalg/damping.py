@@ -1,0 +1,140 @@
+"""Damped least-squares inverses: fixed damping and adaptive damping near singularities.
+
+The damped least-squares (singularity-robust) inverse of Nakamura & Hanafusa (1986) and
+Wampler (1986)::
+
+    J# = J^T (J J^T + lambda^2 I)^-1 = V diag(sigma_i / (sigma_i^2 + lambda^2)) U^T
+
+is the minimiser of ``||J qd - xd||^2 + lambda^2 ||qd||^2``: it trades tracking accuracy
+for bounded joint velocities, every gain ``sigma / (sigma^2 + lambda^2)`` being at most
+``1 / (2 lambda)``. As ``lambda -> 0`` it tends to the pseudo-inverse of a full-rank ``J``.
+
+:class:`~redres.linalg.AdaptiveDamping` makes ``lambda`` depend on the smallest singular
+value so that the inverse is exact away from singularities.
+"""
+
+from __future__ import annotations
+
+from typing import Literal, overload
+
+from numpy.typing import ArrayLike
+
+from . import _backend as be
+from ._backend import FloatArray, Result
+from ._info import RCOND, AdaptiveDamping, InverseInfo
+
+__all__ = ["adaptive_damped_pinv", "damped_pinv"]
+
+
+@overload
+def damped_pinv(
+    J: ArrayLike,
+    damping: float | AdaptiveDamping,
+    *,
+    rcond: float = ...,
+    return_info: Literal[False] = ...,
+) -> FloatArray: ...
+@overload
+def damped_pinv(
+    J: ArrayLike,
+    damping: float | AdaptiveDamping,
+    *,
+    rcond: float = ...,
+    return_info: Literal[True],
+) -> tuple[FloatArray, InverseInfo]: ...
+def damped_pinv(
+    J: ArrayLike,
+    damping: float | AdaptiveDamping,
+    *,
+    rcond: float = RCOND,
+    return_info: bool = False,
+) -> Result:
+    """Damped least-squares inverse ``J^T (J J^T + damping^2 I)^-1``.
+
+    (Nakamura & Hanafusa 1986; Wampler 1986.) Finite for every finite ``J``, including
+    singular ones; its entries are bounded by ``1 / (2 damping)``. For ``m <= 6`` and
+    ``n <= 50`` it runs in a compiled kernel.
+
+    Args:
+        J: Jacobian, shape ``(m, n)``.
+        damping: ``lambda >= 0`` in the units of ``J``'s entries (0 gives the exact
+            truncated pseudo-inverse of :func:`redres.linalg.pinv`), or an
+            :class:`AdaptiveDamping` for damping that depends on the smallest singular value.
+        rcond: Relative rank tolerance, used when no damping applies.
+        return_info: Also return the :class:`InverseInfo` (``info.damping`` is the
+            ``lambda`` applied).
+
+    Returns:
+        ``J#``, shape ``(n, m)`` (and the info).
+
+    Raises:
+        InvalidParameterError: ``damping`` is negative.
+    """
+    A = be.as_jacobian(J)
+    Jp, _, rank, smin, smax, used, mode = be.invert(
+        A,
+        weights=None,
+        weights_name="W",
+        damping=damping,
+        rcond=be.as_rcond(rcond),
+        want_pinv=True,
+        want_projector=False,
+    )
+    method = be.method_label(mode, False, "pinv")
+    return be.finish(Jp, A.shape, (rank, smin, smax, used), method, return_info)
+
+
+@overload
+def adaptive_damped_pinv(
+    J: ArrayLike,
+    max_damping: float,
+    threshold: float,
+    *,
+    selective: bool = ...,
+    rcond: float = ...,
+    return_info: Literal[False] = ...,
+) -> FloatArray: ...
+@overload
+def adaptive_damped_pinv(
+    J: ArrayLike,
+    max_damping: float,
+    threshold: float,
+    *,
+    selective: bool = ...,
+    rcond: float = ...,
+    return_info: Literal[True],
+) -> tuple[FloatArray, InverseInfo]: ...
+def adaptive_damped_pinv(
+    J: ArrayLike,
+    max_damping: float,
+    threshold: float,
+    *,
+    selective: bool = False,
+    rcond: float = RCOND,
+    return_info: bool = False,
+) -> Result:
+    """Damped inverse whose damping is zero away from singularities.
+
+    ``lambda^2 = (1 - (sigma_min / threshold)^2) max_damping^2`` when
+    ``sigma_min < threshold``, else 0 (Chiaverini, Siciliano & Egeland 1994, after
+    Maciejewski & Klein 1988); with ``selective=True`` only the singular values below the
+    threshold are damped (Chiaverini 1997). Shorthand for
+    ``damped_pinv(J, AdaptiveDamping(max_damping, threshold, selective))``; see
+    :class:`AdaptiveDamping` for the references.
+
+    Args:
+        J: Jacobian, shape ``(m, n)``.
+        max_damping: ``lambda_max >= 0``, units of ``J``'s entries.
+        threshold: ``eps > 0``, same units: damping starts when ``sigma_min < eps``.
+        selective: Damp each singular value below ``eps`` separately.
+        rcond: Relative rank tolerance, used when no damping applies.
+        return_info: Also return the :class:`InverseInfo` (``info.damping`` is the
+            ``lambda`` applied).
+
+    Returns:
+        ``J#``, shape ``(n, m)`` (and the info).
+    """
+    spec = AdaptiveDamping(max_damping, threshold, selective)
+    if return_info:
+        return damped_pinv(J, spec, rcond=rcond, return_info=True)
+    return damped_pinv(J, spec, rcond=rcond)

@@ -1,0 +1,211 @@
+"""Task-space inertia and the dynamically consistent inverse (seed 004; Khatib 1987, 1995).
+
+With ``M`` the joint-space inertia (seed 004 calls it ``A``)::
+
+    Lambda = (J M^-1 J^T)^-1        task-space (operational-space) inertia
+    J_bar  = M^-1 J^T Lambda        dynamically consistent inverse
+    tau    = J^T f + (I - J^T J_bar^T) tau_0
+
+where the null-space torque ``(I - J^T J_bar^T) tau_0`` produces no task acceleration:
+``J M^-1 (I - J^T J_bar^T) = 0`` (seed 004, appendix B). ``J_bar`` is the weighted
+pseudo-inverse with ``W = M`` (the inverse that minimises kinetic energy), and it is
+computed the same way: ``M = L L^T`` by Cholesky, ``J_bar = L^-T (J L^-T)^+`` and
+``Lambda = (J L^-T (J L^-T)^T)^+`` from the SVD of ``J L^-T`` — triangular solves only,
+never an explicit ``M^-1``.
+
+Near a singularity ``J M^-1 J^T`` loses rank and ``Lambda`` grows without bound. With
+``damping = lambda`` the functions use ``Lambda_lambda = (J M^-1 J^T + lambda^2 I)^-1``
+and ``J_bar_lambda = M^-1 J^T Lambda_lambda``; with no damping, singular values of
+``J L^-T`` at or below ``rcond * sigma_max`` are skipped (``info.full_rank`` False).
+"""
+
+from __future__ import annotations
+
+from typing import Literal, overload
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.linalg import solve_triangular
+
+from .._validate import as_matrix
+from ..errors import NotPositiveDefiniteError
+from . import _backend as be
+from . import _codes as codes
+from ._backend import FloatArray, Result
+from ._info import RCOND, AdaptiveDamping, InverseInfo
+
+__all__ = [
+    "dynamically_consistent_pinv",
+    "dynamically_consistent_projector",
+    "task_space_inertia",
+]
+
+
+def mass_matrix_factor(M: ArrayLike, n: int) -> FloatArray:
+    """Lower Cholesky factor ``L`` of a symmetric positive definite ``M`` (``M = L L^T``).
+
+    Raises:
+        ShapeError: ``M`` is not ``(n, n)``.
+        NonFiniteError: ``M`` contains NaN or infinity.
+        NotPositiveDefiniteError: ``M`` is not symmetric or not positive definite.
+    """
+    A = as_matrix(M, "M", (n, n))
+    biggest = float(np.abs(A).max())
+    if float(np.abs(A - A.T).max()) > 1e-9 * biggest:
+        raise NotPositiveDefiniteError(
+            "M must be a symmetric positive definite mass matrix; it is not symmetric "
+            "(fill both triangles, or use (M + M.T) / 2 if the asymmetry is rounding)"
+        )
+    try:
+        return np.linalg.cholesky(A)
+    except np.linalg.LinAlgError as exc:
+        raise NotPositiveDefiniteError(
+            "M must be a symmetric positive definite mass matrix; its Cholesky "
+            "factorisation failed (a zero or negative inertia, or dependent rows)"
+        ) from exc
+
+
+def _decompose(
+    J: ArrayLike, M: ArrayLike, damping: float | AdaptiveDamping, rcond: float
+) -> tuple[FloatArray, FloatArray, FloatArray, tuple[int, float, float, float], str]:
+    """``(Lambda, J_bar, J, stats, method)`` from one SVD of ``J L^-T``."""
+    A = be.as_jacobian(J)
+    m, n = A.shape
+    L = mass_matrix_factor(M, n)
+    mode, lam, lam_max, eps = be.parse_damping(damping)
+    Jw = solve_triangular(L, A.T, lower=True).T  # J L^-T
+    U, sigma, Vt = np.linalg.svd(Jw, full_matrices=True)
+    k = min(m, n)
+    f, lam2, rank, used = be.filter_factors(sigma, mode, lam, lam_max, eps, be.as_rcond(rcond))
+    # Lambda = U diag(g) U^T with g = 1 / (sigma^2 + lambda^2) (exact: 1/sigma^2 or 0);
+    # directions beyond min(m, n) have sigma = 0.
+    g = np.zeros(m)
+    damped = lam2 > 0.0
+    g[:k][damped] = 1.0 / (sigma[damped] ** 2 + lam2[damped])
+    exact = ~damped & (f > 0.0)
+    g[:k][exact] = f[exact] / sigma[exact]
+    if m > k and mode != codes.EXACT:
+        tail = lam if mode == codes.FIXED else lam_max
+        g[k:] = 1.0 / (tail * tail) if tail > 0.0 else 0.0
+    Lam = (U * g) @ U.T
+    Lam = 0.5 * (Lam + Lam.T)
+    J_bar = solve_triangular(L, (Vt[:k].T * f) @ U[:, :k].T, lower=True, trans="T")
+    smin = float(sigma[-1]) if m <= n else float(sigma[k - 1])
+    stats = (rank, smin, float(sigma[0]), used)
+    suffix = "" if mode == codes.EXACT else "-" + be.method_label(mode, False, "")
+    return Lam, np.asarray(J_bar), A, stats, "dynamically-consistent" + suffix
+
+
+@overload
+def task_space_inertia(
+    J: ArrayLike,
+    M: ArrayLike,
+    *,
+    damping: float | AdaptiveDamping = ...,
+    rcond: float = ...,
+    return_info: Literal[False] = ...,
+) -> FloatArray: ...
+@overload
+def task_space_inertia(
+    J: ArrayLike,
+    M: ArrayLike,
+    *,
+    damping: float | AdaptiveDamping = ...,
+    rcond: float = ...,
+    return_info: Literal[True],
+) -> tuple[FloatArray, InverseInfo]: ...
+def task_space_inertia(
+    J: ArrayLike,
+    M: ArrayLike,
+    *,
+    damping: float | AdaptiveDamping = 0.0,
+    rcond: float = RCOND,
+    return_info: bool = False,
+) -> Result:
+    """Task-space inertia ``Lambda = (J M^-1 J^T)^-1`` (seed 004; Khatib 1987).
+
+    Args:
+        J: Task Jacobian, shape ``(m, n)``.
+        M: Joint-space inertia, symmetric positive definite, shape ``(n, n)`` (kg m^2, kg).
+        damping: ``lambda >= 0`` (units of ``J M^{-1/2}``) or :class:`AdaptiveDamping`:
+            ``(J M^-1 J^T + lambda^2 I)^-1``.
+        rcond: Relative rank tolerance when undamped.
+        return_info: Also return the :class:`InverseInfo` (singular values of ``J L^-T``).
+
+    Returns:
+        ``Lambda``, shape ``(m, m)``, symmetric (kg for translational rows).
+    """
+    Lam, _, A, stats, method = _decompose(J, M, damping, rcond)
+    return be.finish(Lam, A.shape, stats, method, return_info)
+
+
+@overload
+def dynamically_consistent_pinv(
+    J: ArrayLike,
+    M: ArrayLike,
+    *,
+    damping: float | AdaptiveDamping = ...,
+    rcond: float = ...,
+    return_info: Literal[False] = ...,
+) -> FloatArray: ...
+@overload
+def dynamically_consistent_pinv(
+    J: ArrayLike,
+    M: ArrayLike,
+    *,
+    damping: float | AdaptiveDamping = ...,
+    rcond: float = ...,
+    return_info: Literal[True],
+) -> tuple[FloatArray, InverseInfo]: ...
+def dynamically_consistent_pinv(
+    J: ArrayLike,
+    M: ArrayLike,
+    *,
+    damping: float | AdaptiveDamping = 0.0,
+    rcond: float = RCOND,
+    return_info: bool = False,
+) -> Result:
+    """Dynamically consistent inverse ``J_bar = M^-1 J^T Lambda`` (seed 004; Khatib 1987).
+
+    The unique generalised inverse for which null-space torques produce no task
+    acceleration; ``J J_bar = I`` when ``J`` has full row rank. Used in
+    ``qdd = J_bar (xdd - Jdot qd)``.
+
+    Args:
+        J: Task Jacobian, shape ``(m, n)``.
+        M: Joint-space inertia, symmetric positive definite, shape ``(n, n)``.
+        damping: ``lambda >= 0`` or :class:`AdaptiveDamping`: ``M^-1 J^T Lambda_lambda``.
+        rcond: Relative rank tolerance when undamped.
+        return_info: Also return the :class:`InverseInfo` (singular values of ``J L^-T``).
+
+    Returns:
+        ``J_bar``, shape ``(n, m)``.
+    """
+    _, J_bar, A, stats, method = _decompose(J, M, damping, rcond)
+    return be.finish(J_bar, A.shape, stats, method, return_info)
+
+
+def dynamically_consistent_projector(
+    J: ArrayLike,
+    M: ArrayLike,
+    *,
+    damping: float | AdaptiveDamping = 0.0,
+    rcond: float = RCOND,
+) -> FloatArray:
+    """Torque null-space projector ``I - J^T J_bar^T`` (seed 004, section 4).
+
+    ``tau = J^T f + (I - J^T J_bar^T) tau_0``: the second term produces no task
+    acceleration, ``J M^-1 (I - J^T J_bar^T) = 0``. Its transpose ``I - J_bar J`` is the
+    matching joint-space (velocity/acceleration) projector.
+
+    Args:
+        J: Task Jacobian, shape ``(m, n)``.
+        M: Joint-space inertia, symmetric positive definite, shape ``(n, n)``.
+        damping: ``lambda >= 0`` or :class:`AdaptiveDamping` (then only approximate).
+        rcond: Relative rank tolerance when undamped.
+
+    Returns:
+        The projector, shape ``(n, n)``, acting on joint torques (N m, N).
+    """
+    _, J_bar, A, _, _ = _decompose(J, M, damping, rcond)
+    return np.eye(A.shape[1]) - A.T @ J_bar.T

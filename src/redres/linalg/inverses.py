@@ -1,0 +1,316 @@
+"""Exact and weighted (pseudo-)inverses of a Jacobian, and a dispatcher.
+
+All functions take ``J`` of shape ``(m, n)`` (``m`` task rows, ``n`` joints; units of the
+task velocity per joint velocity, e.g. m/rad and rad/rad for a geometric Jacobian) and
+return the ``(n, m)`` inverse as an ndarray. With ``return_info=True`` they return
+``(matrix, InverseInfo)``, the diagnostics computed with the matrix.
+
+Rank deficiency is never an error and never produces NaN: an exact inverse of a
+rank-deficient ``J`` is the truncated SVD pseudo-inverse (seed 002: singular values at or
+below ``rcond * sigma_max`` are skipped), reported as ``info.full_rank == False`` and
+``info.method == "pinv"``. For the damped inverses see :mod:`redres.linalg.damping`.
+"""
+
+from __future__ import annotations
+
+from typing import Literal, overload
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import ShapeError
+from . import _backend as be
+from ._backend import FloatArray, Result
+from ._info import RCOND, AdaptiveDamping, InverseInfo
+
+__all__ = [
+    "generalized_inverse",
+    "left_pinv",
+    "pinv",
+    "right_pinv",
+    "square_inverse",
+    "weighted_pinv",
+]
+
+def _exact(J: FloatArray, rcond: float, label: str, return_info: bool) -> Result:
+    """Exact inverse through the shared engine; ``label`` unless rank-deficient."""
+    Jp, _, rank, smin, smax, used, _ = be.invert(
+        J,
+        weights=None,
+        weights_name="W",
+        damping=0.0,
+        rcond=rcond,
+        want_pinv=True,
+        want_projector=False,
+    )
+    method = label if rank == min(J.shape) else "pinv"
+    return be.finish(Jp, J.shape, (rank, smin, smax, used), method, return_info)
+
+
+@overload
+def pinv(
+    J: ArrayLike, rcond: float = ..., *, return_info: Literal[False] = ...
+) -> FloatArray: ...
+@overload
+def pinv(
+    J: ArrayLike, rcond: float = ..., *, return_info: Literal[True]
+) -> tuple[FloatArray, InverseInfo]: ...
+def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Result:
+    """Moore–Penrose pseudo-inverse from the SVD, skipping small singular values.
+
+    ``J = U diag(sigma) V^T``, ``J^+ = V diag(sigma^+) U^T`` with ``sigma_i^+ = 1/sigma_i``
+    if ``sigma_i > rcond * sigma_max`` and 0 otherwise (seed 002, "Singular
+    Pseudo-inverse"). Defined for every shape and rank; it is the minimum-norm least-squares
+    inverse.
+
+    Args:
+        J: Jacobian, shape ``(m, n)``.
+        rcond: Relative tolerance below which singular values are treated as zero.
+        return_info: Also return the :class:`InverseInfo`.
+
+    Returns:
+        ``J^+``, shape ``(n, m)`` (and the info).
+    """
+    A = be.as_jacobian(J)
+    filt = be.Filtered(A, 0, 0.0, 0.0, 1.0, be.as_rcond(rcond))
+    stats = (filt.rank, filt.sigma_min, filt.sigma_max, 0.0)
+    return be.finish(filt.pinv(), A.shape, stats, "pinv", return_info)
+
+
+@overload
+def right_pinv(
+    J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
+) -> FloatArray: ...
+@overload
+def right_pinv(
+    J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]
+) -> tuple[FloatArray, InverseInfo]: ...
+def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
+    """Right pseudo-inverse ``J^T (J J^T)^-1`` of a wide Jacobian (``m <= n``).
+
+    The minimum-norm solution of ``J qd = xd`` (seeds 000, 001, 002), with ``J J_r^+ = I``.
+    Computed by a Cholesky solve when ``J`` is well conditioned and from the SVD otherwise
+    (the same matrix, without squaring the condition number). If ``J`` is rank-deficient
+    (``J J^T`` singular) the truncated SVD pseudo-inverse is returned instead, with
+    ``info.full_rank == False`` and ``info.method == "pinv"``.
+
+    Args:
+        J: Jacobian, shape ``(m, n)`` with ``m <= n``.
+        rcond: Relative rank tolerance (see :func:`pinv`).
+        return_info: Also return the :class:`InverseInfo`.
+
+    Returns:
+        ``J_r^+``, shape ``(n, m)`` (and the info).
+
+    Raises:
+        ShapeError: if ``m > n`` (use :func:`left_pinv` or :func:`pinv`).
+    """
+    A = be.as_jacobian(J)
+    m, n = A.shape
+    if m > n:
+        raise ShapeError(
+            f"right_pinv needs a wide J (m <= n); got shape {A.shape}. "
+            "Use left_pinv for tall J, or pinv for any shape."
+        )
+    return _exact(A, be.as_rcond(rcond), "right", return_info)
+
+
+@overload
+def left_pinv(
+    J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
+) -> FloatArray: ...
+@overload
+def left_pinv(
+    J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]
+) -> tuple[FloatArray, InverseInfo]: ...
+def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
+    """Left pseudo-inverse ``(J^T J)^-1 J^T`` of a tall Jacobian (``m >= n``).
+
+    The least-squares solution of an over-constrained ``J qd = xd``: it minimises
+    ``||xd - J qd||^2`` and ``J_l^+ J = I`` (seed 002, "Left Pseudo-inverse"). Computed as
+    the transpose of the right pseudo-inverse of ``J^T``; a rank-deficient ``J`` gives the
+    truncated SVD pseudo-inverse, reported in the info.
+
+    Args:
+        J: Jacobian, shape ``(m, n)`` with ``m >= n``.
+        rcond: Relative rank tolerance (see :func:`pinv`).
+        return_info: Also return the :class:`InverseInfo`.
+
+    Returns:
+        ``J_l^+``, shape ``(n, m)`` (and the info).
+
+    Raises:
+        ShapeError: if ``m < n`` (use :func:`right_pinv` or :func:`pinv`).
+    """
+    A = be.as_jacobian(J)
+    m, n = A.shape
+    if m < n:
+        raise ShapeError(
+            f"left_pinv needs a tall J (m >= n); got shape {A.shape}. "
+            "Use right_pinv for wide J, or pinv for any shape."
+        )
+    At = np.ascontiguousarray(A.T)
+    Jp_t, info = _exact(At, be.as_rcond(rcond), "left", True)
+    Jp = np.ascontiguousarray(Jp_t.T)
+    return (Jp, info) if return_info else Jp
+
+
+@overload
+def square_inverse(
+    J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
+) -> FloatArray: ...
+@overload
+def square_inverse(
+    J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]
+) -> tuple[FloatArray, InverseInfo]: ...
+def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
+    """Inverse ``J^-1`` of a square Jacobian (seed 002, "Square Jacobians").
+
+    A singular ``J`` gives the truncated SVD pseudo-inverse instead (finite, reported with
+    ``info.full_rank == False``), never an error or NaN.
+
+    Args:
+        J: Jacobian, shape ``(n, n)``.
+        rcond: Relative rank tolerance (see :func:`pinv`).
+        return_info: Also return the :class:`InverseInfo`.
+
+    Returns:
+        ``J^-1``, shape ``(n, n)`` (and the info).
+
+    Raises:
+        ShapeError: if ``J`` is not square.
+    """
+    A = be.as_jacobian(J)
+    if A.shape[0] != A.shape[1]:
+        raise ShapeError(f"square_inverse needs a square J; got shape {A.shape}. Use pinv.")
+    return _exact(A, be.as_rcond(rcond), "square", return_info)
+
+
+@overload
+def weighted_pinv(
+    J: ArrayLike,
+    W: ArrayLike,
+    *,
+    damping: float | AdaptiveDamping = ...,
+    rcond: float = ...,
+    return_info: Literal[False] = ...,
+) -> FloatArray: ...
+@overload
+def weighted_pinv(
+    J: ArrayLike,
+    W: ArrayLike,
+    *,
+    damping: float | AdaptiveDamping = ...,
+    rcond: float = ...,
+    return_info: Literal[True],
+) -> tuple[FloatArray, InverseInfo]: ...
+def weighted_pinv(
+    J: ArrayLike,
+    W: ArrayLike,
+    *,
+    damping: float | AdaptiveDamping = 0.0,
+    rcond: float = RCOND,
+    return_info: bool = False,
+) -> Result:
+    """Weighted least-norm inverse ``J_W^+ = W^-1 J^T (J W^-1 J^T)^-1`` (seeds 001, 002).
+
+    ``qd = J_W^+ xd`` minimises ``qd^T W qd / 2`` subject to ``J qd = xd`` (seed 001,
+    Lagrange multipliers); a larger weight slows that joint down. When ``J`` is square and
+    invertible ``J_W^+ = J^-1`` whatever ``W`` (seed 001). With ``damping`` it is the
+    weighted damped least-squares inverse ``W^-1 J^T (J W^-1 J^T + lambda^2 I)^-1``.
+
+    Computed as ``L^-T (J L^-T)^+`` with ``W = L L^T`` (``L = diag(sqrt(w))`` for
+    diagonal weights): triangular solves, never an explicit ``W^-1``. If ``J W^-1 J^T`` is
+    singular the truncated pseudo-inverse of ``J L^-T`` is used (``info.full_rank`` False).
+
+    Args:
+        J: Jacobian, shape ``(m, n)``.
+        W: Joint weights: shape ``(n,)`` diagonal weights, all > 0, or a symmetric
+            positive definite ``(n, n)`` matrix. Units: cost per (joint velocity)^2.
+        damping: ``lambda >= 0`` (units of ``J W^{-1/2}``) or an :class:`AdaptiveDamping`.
+        rcond: Relative rank tolerance for the exact case.
+        return_info: Also return the :class:`InverseInfo` (singular values of ``J L^-T``).
+
+    Returns:
+        ``J_W^+``, shape ``(n, m)`` (and the info).
+
+    Raises:
+        ShapeError: ``W`` is neither ``(n,)`` nor ``(n, n)``.
+        NotPositiveDefiniteError: ``W`` is not symmetric positive definite.
+        NonFiniteError: ``J`` or ``W`` contains NaN or infinity.
+    """
+    A = be.as_jacobian(J)
+    Jp, _, rank, smin, smax, used, mode = be.invert(
+        A,
+        weights=W,
+        weights_name="W",
+        damping=damping,
+        rcond=be.as_rcond(rcond),
+        want_pinv=True,
+        want_projector=False,
+    )
+    method = be.method_label(mode, True, "weighted")
+    return be.finish(Jp, A.shape, (rank, smin, smax, used), method, return_info)
+
+
+@overload
+def generalized_inverse(
+    J: ArrayLike,
+    *,
+    weights: ArrayLike | None = ...,
+    damping: float | AdaptiveDamping = ...,
+    rcond: float = ...,
+    return_info: Literal[False] = ...,
+) -> FloatArray: ...
+@overload
+def generalized_inverse(
+    J: ArrayLike,
+    *,
+    weights: ArrayLike | None = ...,
+    damping: float | AdaptiveDamping = ...,
+    rcond: float = ...,
+    return_info: Literal[True],
+) -> tuple[FloatArray, InverseInfo]: ...
+def generalized_inverse(
+    J: ArrayLike,
+    *,
+    weights: ArrayLike | None = None,
+    damping: float | AdaptiveDamping = 0.0,
+    rcond: float = RCOND,
+    return_info: bool = False,
+) -> Result:
+    """The inverse that fits ``J``: one entry point that picks by shape, rank and options.
+
+    * ``weights`` given: :func:`weighted_pinv` (damped if ``damping`` is set);
+    * ``damping`` set: :func:`redres.linalg.damped_pinv` / ``adaptive_damped_pinv``;
+    * otherwise square -> :func:`square_inverse`, wide -> :func:`right_pinv`,
+      tall -> :func:`left_pinv`; any of them falls back to the truncated SVD pseudo-inverse
+      (:func:`pinv`) when ``J`` is rank-deficient.
+
+    ``info.method`` (with ``return_info=True``) says which one was used.
+
+    Args:
+        J: Jacobian, shape ``(m, n)``.
+        weights: ``None``, ``(n,)`` diagonal weights or an ``(n, n)`` SPD matrix.
+        damping: ``lambda >= 0`` or an :class:`AdaptiveDamping`.
+        rcond: Relative rank tolerance.
+        return_info: Also return the :class:`InverseInfo`.
+
+    Returns:
+        The inverse, shape ``(n, m)`` (and the info).
+    """
+    A = be.as_jacobian(J)
+    m, n = A.shape
+    rc = be.as_rcond(rcond)
+    if weights is not None:
+        return weighted_pinv(A, weights, damping=damping, rcond=rc, return_info=return_info)
+    if be.parse_damping(damping)[0] != 0:
+        from .damping import damped_pinv
+
+        return damped_pinv(A, damping, rcond=rc, return_info=return_info)
+    if m == n:
+        return square_inverse(A, rcond=rc, return_info=return_info)
+    if m < n:
+        return right_pinv(A, rcond=rc, return_info=return_info)
+    return left_pinv(A, rcond=rc, return_info=return_info)
+

@@ -1,0 +1,30 @@
+"""Secondary objectives: costs D(q) with analytic gradients (docs/conventions.md)."""
+
+from .base import Objective
+from .joint_limits import JointLimitObjective
+from .manipulability import ManipulabilityObjective, manipulability_and_gradient
+from .obstacles import (
+    CapsuleObstacle,
+    Obstacle,
+    ObstacleObjective,
+    PointObstacle,
+    Proximity,
+    SphereObstacle,
+    proximities,
+)
+from .posture import PostureObjective
+
+__all__ = [
+    "CapsuleObstacle",
+    "JointLimitObjective",
+    "ManipulabilityObjective",
+    "Objective",
+    "Obstacle",
+    "ObstacleObjective",
+    "PointObstacle",
+    "PostureObjective",
+    "Proximity",
+    "SphereObstacle",
+    "manipulability_and_gradient",
+    "proximities",
+]

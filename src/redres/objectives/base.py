@@ -1,0 +1,32 @@
+"""Secondary objectives: costs D(q) to minimise, with analytic gradients.
+
+The null-space term of a scheme is ``−k N ∇D`` (docs/conventions.md). A quantity to
+maximise is wrapped as a cost.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING
+
+from .._validate import FloatArray
+
+if TYPE_CHECKING:
+    from ..robot import Robot
+
+
+class Objective(ABC):
+    """A scalar cost ``D(q)`` and its gradient ``∇D(q)`` (shape ``(n,)``)."""
+
+    name: str = "objective"
+
+    @abstractmethod
+    def cost(self, robot: Robot, q: FloatArray) -> float:
+        """``D(q)``."""
+
+    @abstractmethod
+    def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
+        """``∂D/∂q``, shape ``(n,)``."""
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r})"

@@ -1,0 +1,159 @@
+"""Obstacle avoidance by self-motion with seed 000's hat-shaped distance penalty.
+
+Seed 000 asks for a penalty ``D`` of the distance ``d`` between the arm and an object that
+is largest at ``d = 0`` and reaches zero as ``d`` grows. redres uses, per (link capsule,
+obstacle) pair, ``D(d) = (1 − d/d₀)²`` for ``d < d₀`` (the influence distance) and 0
+beyond: C¹ at ``d₀``, maximal (1) at contact, growing further if the arm penetrates.
+
+``∂d/∂q = n̂ᵀ J_p``: ``p`` is the arm's witness point (the closest point on the link's
+segment, held fixed to the link), ``J_p = J_v − [p − p_f]× J_ω`` its position Jacobian
+from the link frame's world-aligned Jacobian, and ``n̂`` the unit vector from the
+obstacle's witness point to ``p``. Where closest points are unique this is the exact
+derivative (the witness points' own motion along the surfaces does not change ``d`` to
+first order).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .._validate import FloatArray, as_scalar, as_vector
+from ..errors import InvalidParameterError
+from .base import Objective
+from .geometry import closest_point_on_segment, closest_points_segments
+
+if TYPE_CHECKING:
+    from ..robot import Capsule, Robot
+
+
+@dataclass(frozen=True)
+class SphereObstacle:
+    """A sphere (a point when ``radius = 0``) in world coordinates, m."""
+
+    center: FloatArray
+    radius: float = 0.0
+    name: str = "sphere"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "center", as_vector(self.center, "center", 3))
+        as_scalar(self.radius, "radius", minimum=0.0)
+
+
+def PointObstacle(point: Any, name: str = "point") -> SphereObstacle:  # noqa: N802
+    """A point obstacle: a sphere of radius zero."""
+    return SphereObstacle(as_vector(point, "point", 3), 0.0, name)
+
+
+@dataclass(frozen=True)
+class CapsuleObstacle:
+    """A capsule: segment ``[a, b]`` swept by a sphere of ``radius``, world coordinates."""
+
+    a: FloatArray
+    b: FloatArray
+    radius: float = 0.0
+    name: str = "capsule"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "a", as_vector(self.a, "a", 3))
+        object.__setattr__(self, "b", as_vector(self.b, "b", 3))
+        as_scalar(self.radius, "radius", minimum=0.0)
+
+
+Obstacle = SphereObstacle | CapsuleObstacle
+
+
+@dataclass(frozen=True)
+class Proximity:
+    """Distance between one link capsule and one obstacle (surfaces), with witnesses."""
+
+    capsule: str
+    obstacle: str
+    distance: float
+    point_on_link: FloatArray
+    point_on_obstacle: FloatArray
+    frame: str = field(repr=False)
+
+
+def proximities(
+    robot: Robot, q: FloatArray, obstacles: Sequence[Obstacle], capsules: Sequence[Capsule]
+) -> list[Proximity]:
+    """Surface distances of every (capsule, obstacle) pair at ``q``, m (< 0: penetration)."""
+    out = []
+    for cap in capsules:
+        T = robot.fk(q, cap.frame)
+        a = T[:3, :3] @ cap.a + T[:3, 3]
+        b = T[:3, :3] @ cap.b + T[:3, 3]
+        for obs in obstacles:
+            if isinstance(obs, SphereObstacle):
+                p_obs = obs.center
+                p_link = closest_point_on_segment(p_obs, a, b)
+            else:
+                p_link, p_obs = closest_points_segments(a, b, obs.a, obs.b)
+            d = float(np.linalg.norm(p_link - p_obs)) - cap.radius - obs.radius
+            out.append(Proximity(cap.name, obs.name, d, p_link, p_obs, cap.frame))
+    return out
+
+
+class ObstacleObjective(Objective):
+    """Sum over (link capsule, obstacle) pairs of the hat penalty ``(1 − d/d₀)²``, d < d₀.
+
+    Args:
+        obstacles: spheres, points and capsules in world coordinates.
+        influence: ``d₀``, m: pairs farther apart cost nothing.
+        capsules: link capsules (default: ``robot.capsules`` of the built-in arms).
+    """
+
+    name = "obstacles"
+
+    def __init__(
+        self,
+        obstacles: Sequence[Obstacle],
+        influence: float = 0.15,
+        capsules: Sequence[Capsule] | None = None,
+    ) -> None:
+        self.obstacles = list(obstacles)
+        self.influence = as_scalar(influence, "influence", minimum=0.0, strict=True)
+        self.capsules = None if capsules is None else list(capsules)
+
+    def _capsules(self, robot: Robot) -> list[Capsule]:
+        caps = robot.capsules if self.capsules is None else self.capsules
+        if not caps:
+            raise InvalidParameterError(
+                f"robot {robot.name!r} has no link capsules; pass capsules= "
+                "(see redres.robot.capsule_between)"
+            )
+        return list(caps)
+
+    def proximities(self, robot: Robot, q: FloatArray) -> list[Proximity]:
+        """Every (capsule, obstacle) distance at ``q``."""
+        return proximities(robot, q, self.obstacles, self._capsules(robot))
+
+    def min_distance(self, robot: Robot, q: FloatArray) -> float:
+        """Smallest surface distance between the arm and any obstacle, m."""
+        return min(p.distance for p in self.proximities(robot, q))
+
+    def cost(self, robot: Robot, q: FloatArray) -> float:
+        d0 = self.influence
+        return float(sum((1.0 - p.distance / d0) ** 2 for p in self.proximities(robot, q)
+                         if p.distance < d0))
+
+    def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
+        d0 = self.influence
+        grad = np.zeros(robot.n)
+        for p in self.proximities(robot, q):
+            if p.distance >= d0:
+                continue
+            offset = p.point_on_link - p.point_on_obstacle
+            norm = float(np.linalg.norm(offset))
+            if norm < 1e-12:  # segments touch: the direction is undefined
+                continue
+            T, J = robot.kinematics(q, p.frame)
+            r = p.point_on_link - T[:3, 3]
+            J_point = J[:3] - np.cross(r, J[3:].T).T  # v_p = v_f + ω × r
+            dd_dq = (offset / norm) @ J_point
+            grad += -2.0 / d0 * (1.0 - p.distance / d0) * dd_dq
+        return grad

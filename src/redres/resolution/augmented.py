@@ -1,0 +1,81 @@
+"""Augmented (extended) Jacobian: extra task rows until the Jacobian is square (seed 000 §2).
+
+``[ẋ; ẋ_A] = [J; J_A] q̇`` and ``q̇ = J_ext⁻¹ [ẋ; ẋ_A]``, here with ``J_A`` the arm-angle row
+of a 7-DOF arm (seed 000 §2.1, eq. 7). ``J_ext`` can be singular where ``J`` is not (an
+*algorithmic* singularity: the extra row becomes dependent on the task rows, e.g. the arm
+stretched, where the arm angle is undefined). The step detects it from the smallest
+singular values and falls back to the adaptively damped inverse there, which is exactly
+the inverse away from singularities.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .._validate import FloatArray, as_scalar
+from ..errors import ShapeError
+from ..linalg import AdaptiveDamping, rate_step, sigma_min
+from ..tasks import ArmAngleTask, Task
+from .base import Scheme, StepResult
+
+if TYPE_CHECKING:
+    from ..robot import Robot
+
+
+class AugmentedJacobianScheme(Scheme):
+    """Square the task with extra rows (default: hold the arm angle) and invert it.
+
+    Args:
+        extra_tasks: tasks whose rows complete the Jacobian (default: one
+            :class:`~redres.tasks.ArmAngleTask` holding the initial arm angle).
+        gain: CLIK gain of the extra tasks, 1/s.
+        threshold: smallest singular value of ``J_ext`` below which damping starts.
+        max_damping: damping at the singularity.
+
+    Identifier ``augmented``. ``extra["algorithmic_singularity"]`` is true on steps where
+    ``J_ext`` is near-singular while ``J`` alone is not.
+    """
+
+    name = "augmented"
+
+    def __init__(
+        self,
+        extra_tasks: Sequence[Task] | None = None,
+        gain: float = 10.0,
+        threshold: float = 0.02,
+        max_damping: float = 0.05,
+    ) -> None:
+        self.extra_tasks = list(extra_tasks) if extra_tasks is not None else [ArmAngleTask()]
+        self.gain = as_scalar(gain, "gain", minimum=0.0)
+        self.threshold = as_scalar(threshold, "threshold", minimum=0.0, strict=True)
+        self._damping = AdaptiveDamping(max_damping, self.threshold)
+        self._initial_targets = [getattr(t, "target", None) for t in self.extra_tasks]
+
+    def reset(self) -> None:
+        for task, target in zip(self.extra_tasks, self._initial_targets):
+            if isinstance(task, ArmAngleTask):
+                task.target = target
+
+    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+        states = [task.compute(robot, q) for task in self.extra_tasks]
+        rows = J.shape[0] + sum(s.jacobian.shape[0] for s in states)
+        if rows != robot.n:
+            raise ShapeError(
+                f"the augmented Jacobian must be square: {J.shape[0]} task rows + "
+                f"{rows - J.shape[0]} extra rows != {robot.n} joints"
+            )
+        J_ext = np.vstack([J, *(s.jacobian for s in states)])
+        x_ext = np.concatenate([xd, *(s.command(self.gain) for s in states)])
+        qd, info = rate_step(J_ext, x_ext, damping=self._damping)
+        # Classify only near a singularity (one extra SVD there, none elsewhere).
+        algorithmic = bool(info.sigma_min < self.threshold and sigma_min(J) >= self.threshold)
+        extra = {
+            "algorithmic_singularity": algorithmic,
+            "extra_error": np.concatenate([s.error for s in states]),
+        }
+        return StepResult(qd, info, np.zeros_like(qd), extra)
+
+

@@ -1,0 +1,88 @@
+"""Gradient projection: ``q̇ = J# ẋ − k (I − J# J) ∇D`` (seed 000 eq. 6, seed 001, seed 003).
+
+``D`` is a weighted sum of secondary costs; the projector is built from the same inverse
+as the task term (exact: ``J N = 0``, the task is untouched; damped: the secondary term
+can leak into the task by at most ``λ/2`` per unit, see :mod:`redres.linalg.rate`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .._validate import FloatArray, as_scalar
+from ..errors import InvalidParameterError, ShapeError
+from ..linalg import rate_step
+from ..objectives import Objective
+from .base import InverseChoice, Scheme, StepResult, as_inverse
+
+if TYPE_CHECKING:
+    from ..robot import Robot
+
+WeightedObjective = Objective | tuple[Objective, float]
+
+
+def weighted_objectives(objectives: Sequence[WeightedObjective]) -> list[tuple[Objective, float]]:
+    """Normalise ``[obj, (obj, weight), ...]`` to ``[(obj, weight), ...]``."""
+    out = []
+    for item in objectives:
+        obj, weight = item if isinstance(item, tuple) else (item, 1.0)
+        if not isinstance(obj, Objective):
+            raise InvalidParameterError(
+                f"objectives must be Objective instances or (objective, weight) pairs; "
+                f"got {item!r}"
+            )
+        out.append((obj, as_scalar(weight, f"weight of {obj.name}")))
+    return out
+
+
+def total_gradient(
+    robot: Robot, q: FloatArray, objectives: Sequence[tuple[Objective, float]]
+) -> FloatArray:
+    """``Σ wᵢ ∇Dᵢ(q)``, checked to have shape ``(n,)``."""
+    grad = np.zeros(robot.n)
+    for obj, weight in objectives:
+        g = obj.gradient(robot, q)
+        if g.shape != (robot.n,):
+            raise ShapeError(
+                f"gradient of {obj.name} has shape {g.shape}; expected ({robot.n},)"
+            )
+        grad += weight * g
+    return grad
+
+
+class GradientProjectionScheme(Scheme):
+    """Task by the inverse, secondary costs descended in its null space.
+
+    Args:
+        objectives: costs, each optionally with a weight: ``[JointLimitObjective(),
+            (ManipulabilityObjective(), 10.0)]``.
+        gain: ``k`` of ``−k N ∇D`` (rad²/s per unit of cost when ``D`` is dimensionless).
+        inverse: as for :class:`PseudoInverseScheme`.
+
+    Identifier ``gradient_projection``.
+    """
+
+    name = "gradient_projection"
+
+    def __init__(
+        self,
+        objectives: Sequence[WeightedObjective],
+        gain: float = 1.0,
+        inverse: InverseChoice | str = "exact",
+        **inverse_params: Any,
+    ) -> None:
+        self.objectives = weighted_objectives(objectives)
+        if not self.objectives:
+            raise InvalidParameterError("gradient projection needs at least one objective")
+        self.gain = as_scalar(gain, "gain", minimum=0.0)
+        self.inverse = as_inverse(inverse, **inverse_params)
+        self._kwargs = self.inverse.rate_kwargs()
+
+    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+        grad = total_gradient(robot, q, self.objectives)
+        qd_task, info = rate_step(J, xd, **self._kwargs)
+        null_term, _ = rate_step(J, np.zeros_like(xd), grad, k_null=self.gain, **self._kwargs)
+        return StepResult(qd_task + null_term, info, null_term, {"gradient": grad})

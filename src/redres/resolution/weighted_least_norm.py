@@ -1,0 +1,100 @@
+"""Weighted least-norm resolution with joint-limit weights (seed 001; Chan & Dubey 1995).
+
+``q̇ = W⁻¹Jᵀ(JW⁻¹Jᵀ)⁻¹ ẋ`` minimises ``q̇ᵀWq̇`` subject to ``Jq̇ = ẋ``. The diagonal weights
+grow as a joint moves toward a limit and relax when it moves away:
+
+    h(qᵢ) = (q_max,i − q_min,i)(2qᵢ − q_max,i − q_min,i) / (cᵢ (q_max,i − qᵢ)² (qᵢ − q_min,i)²)
+    wᵢ = 1 + |h(qᵢ)|   if |h(qᵢ)| grew since the previous step (moving toward a limit)
+    wᵢ = 1             otherwise
+
+``h`` is (up to the tuning constant ``cᵢ``) the gradient of Chan and Dubey's performance
+criterion ``H(q) = Σ (q_max − q_min)² / (4 (q_max − q)(q − q_min))``, which is infinite at the
+limits, so ``q̇ᵢ → 0`` as a joint approaches its limit. ``cᵢ = 4/(q_max,i − q_min,i)``
+reproduces Chan and Dubey's weights exactly. T. F. Chan, R. V. Dubey, "A weighted
+least-norm solution based scheme for avoiding joint limits for redundant joint
+manipulators", IEEE Trans. Robotics and Automation 11(2), 1995.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .._validate import FloatArray
+from ..errors import InvalidParameterError
+from ..linalg import rate_step
+from .base import InverseChoice, Scheme, StepResult, as_inverse
+from .gradient_projection import WeightedObjective, total_gradient, weighted_objectives
+
+if TYPE_CHECKING:
+    from ..robot import Robot
+
+_MAX_WEIGHT = 1e12
+
+
+def joint_limit_gradient(q: FloatArray, q_min: FloatArray, q_max: FloatArray, c: Any) -> FloatArray:
+    """Seed 001's ``h(q)`` per joint (finite: distances to the limits floored at 1e-12)."""
+    span = q_max - q_min
+    to_max = np.maximum(q_max - q, 1e-12)
+    to_min = np.maximum(q - q_min, 1e-12)
+    return span * (2.0 * q - q_max - q_min) / (c * to_max**2 * to_min**2)
+
+
+class WeightedLeastNormScheme(Scheme):
+    """Weighted least-norm rate control with seed 001's joint-limit weights.
+
+    Args:
+        c: tuning constant ``cᵢ`` (scalar or shape ``(n,)``, > 0); larger is gentler.
+        objectives: optional secondary costs projected with the weighted projector
+            ``I − J_W⁺ J``.
+        gain: ``k`` of the secondary term.
+        inverse: ``"exact"`` (default) or a damped/adaptive choice, applied to the weighted
+            Jacobian.
+
+    Identifier ``wln``. The scheme keeps ``|h|`` of the previous step; :meth:`reset`
+    forgets it (the first step of a run uses unit weights for joints not yet moving).
+    """
+
+    name = "wln"
+
+    def __init__(
+        self,
+        c: float | Sequence[float] = 1.0,
+        objectives: Sequence[WeightedObjective] = (),
+        gain: float = 1.0,
+        inverse: InverseChoice | str = "exact",
+        **inverse_params: Any,
+    ) -> None:
+        c_arr = np.asarray(c, dtype=float)
+        if not np.all(np.isfinite(c_arr)) or np.any(c_arr <= 0):
+            raise InvalidParameterError(f"c must be positive; got {c}")
+        self.c = c_arr
+        self.objectives = weighted_objectives(objectives)
+        self.gain = float(gain)
+        self.inverse = as_inverse(inverse, **inverse_params)
+        self._kwargs = self.inverse.rate_kwargs()
+        self._previous: FloatArray | None = None
+
+    def reset(self) -> None:
+        self._previous = None
+
+    def weights(self, robot: Robot, q: FloatArray) -> FloatArray:
+        """Joint weights at ``q`` (updates the remembered ``|h|``)."""
+        h = np.abs(joint_limit_gradient(q, robot.q_min, robot.q_max, self.c))
+        growing = np.zeros(h.shape, dtype=bool) if self._previous is None else h > self._previous
+        self._previous = h
+        return np.where(growing, np.minimum(1.0 + h, _MAX_WEIGHT), 1.0)
+
+    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+        w = self.weights(robot, q)
+        qd, info = rate_step(J, xd, weights=w, **self._kwargs)
+        null_term = np.zeros_like(qd)
+        if self.objectives:
+            grad = total_gradient(robot, q, self.objectives)
+            null_term, _ = rate_step(
+                J, np.zeros_like(xd), grad, k_null=self.gain, weights=w, **self._kwargs
+            )
+            qd = qd + null_term
+        return StepResult(qd, info, null_term, {"weights": w})

@@ -1,0 +1,142 @@
+"""Frame tasks: pose (6D), position (3D), orientation (3D), planar (x, y, φ), any rows.
+
+Error (docs/conventions.md): ``e = [p_d − p; log(R_d Rᵀ)]`` in world-aligned axes, so
+that with the world-aligned geometric Jacobian ``J``, ``ė ≈ ẋ_d − J q̇`` and the CLIK law
+``q̇ = J#(ẋ_d + K e)`` makes ``e`` decay as ``exp(−K t)`` near the target
+(Siciliano, Sciavicco, Villani, Oriolo, *Robotics*, 2009, §3.7.3: angle-axis error).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from .._validate import FloatArray, as_transform, as_vector
+from ..errors import InvalidParameterError
+from .base import Task, TaskState
+
+if TYPE_CHECKING:
+    from ..robot import Robot
+
+_ROW_NAMES = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
+
+
+def _parse_rows(rows: Sequence[int] | Sequence[str] | None) -> list[int]:
+    if rows is None:
+        return list(range(6))
+    out = []
+    for r in rows:
+        idx = _ROW_NAMES.get(r) if isinstance(r, str) else r
+        if not isinstance(idx, (int, np.integer)) or not 0 <= idx < 6:
+            raise InvalidParameterError(
+                f"task rows must be indices 0..5 or names {sorted(_ROW_NAMES)}; got {r!r}"
+            )
+        out.append(int(idx))
+    if len(set(out)) != len(out) or not out:
+        raise InvalidParameterError(f"task rows must be distinct and non-empty; got {rows}")
+    return out
+
+
+class FrameTask(Task):
+    """Drive a frame to a target pose, on any subset of the six rows.
+
+    Args:
+        frame: frame name (``None``: the robot's tip).
+        rows: which rows of ``[x, y, z, rx, ry, rz]`` to control, as indices or names
+            (default: all six).
+        name: name for logs.
+
+    Set the target with :meth:`set_target` (a 4x4 pose and optionally a twist
+    ``[v; ω]``, world-aligned). Until then the target is the pose at the first call.
+    """
+
+    def __init__(
+        self,
+        frame: str | None = None,
+        rows: Sequence[int] | Sequence[str] | None = None,
+        *,
+        name: str | None = None,
+    ) -> None:
+        self.frame = frame
+        self.rows = _parse_rows(rows)
+        self.dim = len(self.rows)
+        self.name = name or f"frame:{frame or 'tip'}"
+        self._T_target: FloatArray | None = None
+        self._twist = np.zeros(6)
+        self._all_rows = self.rows == list(range(6))
+        #: Pose of the frame and six-row error at the last :meth:`compute`.
+        self.last_pose: FloatArray | None = None
+        self.last_error: FloatArray | None = None
+
+    def set_target(self, T_target: Any, twist: Any = None, *, validate: bool = True) -> None:
+        """Target pose (4x4, world) and desired twist ``[v; ω]`` (6,), m/s and rad/s.
+
+        ``validate=False`` skips the checks, for loops that feed trajectory samples.
+        """
+        if validate:
+            self._T_target = as_transform(T_target, "T_target")
+            self._twist = np.zeros(6) if twist is None else as_vector(twist, "twist", 6)
+        else:
+            self._T_target, self._twist = T_target, twist
+
+    @property
+    def target(self) -> FloatArray | None:
+        """The current target pose (4x4) or ``None`` before the first target."""
+        return None if self._T_target is None else self._T_target.copy()
+
+    def full_error(self, T: FloatArray) -> FloatArray:
+        """Six-row error ``[p_d − p; log(R_d Rᵀ)]`` of pose ``T`` against the target."""
+        assert self._T_target is not None
+        Td = self._T_target
+        e = np.empty(6)
+        e[:3] = Td[:3, 3] - T[:3, 3]
+        e[3:] = pin.log3(Td[:3, :3] @ T[:3, :3].T)
+        return e
+
+    def compute(self, robot: Robot, q: FloatArray) -> TaskState:
+        T, J = robot.kinematics(q, self.frame)
+        if self._T_target is None:
+            self._T_target = T
+        e = self.full_error(T)
+        self.last_pose, self.last_error = T, e
+        if self._all_rows:
+            return TaskState(e, J, self._twist.copy())
+        return TaskState(e[self.rows], J[self.rows], self._twist[self.rows])
+
+
+class PositionTask(FrameTask):
+    """Position of a frame's origin (3 rows); orientation free."""
+
+    def __init__(self, frame: str | None = None, *, name: str | None = None) -> None:
+        super().__init__(frame, (0, 1, 2), name=name or f"position:{frame or 'tip'}")
+
+
+class OrientationTask(FrameTask):
+    """Orientation of a frame (3 rows, SO(3) logarithm); position free."""
+
+    def __init__(self, frame: str | None = None, *, name: str | None = None) -> None:
+        super().__init__(frame, (3, 4, 5), name=name or f"orientation:{frame or 'tip'}")
+
+
+class PlanarTask(FrameTask):
+    """Planar pose ``(x, y, φ)`` of a frame moving in the world x-y plane (seed 002).
+
+    Set the target with :meth:`set_planar_target`; ``φ`` is the rotation about world z.
+    """
+
+    def __init__(self, frame: str | None = None, *, name: str | None = None) -> None:
+        super().__init__(frame, (0, 1, 5), name=name or f"planar:{frame or 'tip'}")
+
+    def set_planar_target(self, x: float, y: float, phi: float, velocity: Any = None) -> None:
+        """Target ``(x, y)`` in m and ``φ`` in rad; ``velocity`` = ``(ẋ, ẏ, φ̇)``."""
+        c, s = np.cos(phi), np.sin(phi)
+        T = np.eye(4)
+        T[:2, :2] = [[c, -s], [s, c]]
+        T[:2, 3] = [x, y]
+        twist = np.zeros(6)
+        if velocity is not None:
+            twist[[0, 1, 5]] = as_vector(velocity, "velocity", 3)
+        self.set_target(T, twist)
