@@ -2,6 +2,7 @@
 
 from .clik import final_configuration, run
 from .runlog import RunLog
+from .scenarios import SCENARIOS, Scenario, iiwa_arm_angle_eight, panda_joint_limit_circle
 from .trajectories import (
     Circle,
     FigureEight,
@@ -19,10 +20,14 @@ __all__ = [
     "Hold",
     "Line",
     "MinimumJerk",
+    "SCENARIOS",
     "RunLog",
+    "Scenario",
     "Sample",
     "Trajectory",
     "final_configuration",
+    "iiwa_arm_angle_eight",
     "minimum_jerk",
+    "panda_joint_limit_circle",
     "run",
 ]

@@ -63,9 +63,9 @@ _SYMMETRY_RTOL = 1e-9
 def _jit(func: Callable[..., Any]) -> Any:
     """Compile ``func`` with numba, cached on disk when a cache location is writable."""
     try:
-        return numba.njit(cache=True, nogil=True)(func)
+        return numba.njit(cache=True, nogil=True, error_model="numpy")(func)
     except RuntimeError:  # no writable cache directory (read-only install)
-        return numba.njit(cache=False, nogil=True)(func)
+        return numba.njit(cache=False, nogil=True, error_model="numpy")(func)
 
 
 @_jit
@@ -197,40 +197,67 @@ def _charpoly(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
 
 
 @_jit
-def _laguerre(d, e, lo, hi, x, direction):  # type: ignore[no-untyped-def]
-    """Extreme eigenvalue of an unreduced tridiagonal block by Laguerre's method.
-
-    Started outside the spectrum (``direction = +1`` below it for the smallest eigenvalue,
-    ``-1`` above it for the largest), Laguerre's iteration on a polynomial with real roots
-    moves monotonically to the nearest root, cubically for the simple roots of an
-    unreduced block (Wilkinson, The Algebraic Eigenvalue Problem, 1965, ch. 7).
-    """
+def _laguerre_step(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
+    """One Laguerre step ``x -> x - step`` on ``det(T - x I)`` of the block; 0 at a root."""
     degree = hi - lo + 1
-    for _ in range(60):
-        p, dp, ddp = _charpoly(d, e, lo, hi, x)
-        if p == 0.0:
-            return x
-        G = dp / p
-        H = G * G - ddp / p
-        disc = (degree - 1) * (degree * H - G * G)
-        root = math.sqrt(disc) if disc > 0.0 else 0.0
-        den = G - root if G < 0.0 else G + root
-        if den == 0.0:
-            return x
-        x_new = x - degree / den
-        if direction * (x_new - x) <= 0.0:  # converged (rounding turned the step back)
-            return x
-        x = x_new
-    return x
+    p, dp, ddp = _charpoly(d, e, lo, hi, x)
+    if p == 0.0:
+        return 0.0
+    G = dp / p
+    H = G * G - ddp / p
+    disc = (degree - 1) * (degree * H - G * G)
+    root = math.sqrt(disc) if disc > 0.0 else 0.0
+    den = G - root if G < 0.0 else G + root
+    if den == 0.0:
+        return 0.0
+    return degree / den
 
 
 @_jit
-def _extreme_eigenvalues(d, e, size):  # type: ignore[no-untyped-def]
+def _laguerre_pair(d, e, lo, hi, below, above):  # type: ignore[no-untyped-def]
+    """Smallest and largest eigenvalue of an unreduced tridiagonal block (Laguerre).
+
+    Started outside the spectrum (``below`` under it, ``above`` over it), Laguerre's
+    iteration on a polynomial with real roots moves monotonically to the nearest root,
+    cubically for the simple roots of an unreduced block (Wilkinson, The Algebraic
+    Eigenvalue Problem, 1965, ch. 7). Both searches run in one loop so that the processor
+    can overlap their dependency chains. Each stops when rounding turns its step back.
+    """
+    low_done = False
+    high_done = False
+    for _ in range(60):
+        if not low_done:
+            x = below - _laguerre_step(d, e, lo, hi, below)
+            if x <= below:
+                low_done = True
+            else:
+                below = x
+        if not high_done:
+            x = above - _laguerre_step(d, e, lo, hi, above)
+            if x >= above:
+                high_done = True
+            else:
+                above = x
+        if low_done and high_done:
+            break
+    return below, above
+
+
+@_jit
+def _extreme_eigenvalues(d, e, size, nonnegative):  # type: ignore[no-untyped-def]
     """Smallest and largest eigenvalue of the symmetric tridiagonal (d, e).
 
     The matrix is split where an off-diagonal entry is negligible; each unreduced block is
-    started from its Gershgorin bounds.
+    started from its Gershgorin bounds, tightened to ``[-1e-12, 1] ||T||_F`` when the
+    caller knows the matrix is positive semi-definite up to rounding (a Gram matrix, whose
+    eigenvalues are perturbed by far less than ``1e-12 ||T||``).
     """
+    frobenius2 = 0.0
+    for i in range(size):
+        frobenius2 += d[i] * d[i]
+        if i < size - 1:
+            frobenius2 += 2.0 * e[i] * e[i]
+    frobenius = math.sqrt(frobenius2)
     lo = 0
     smallest = math.inf
     largest = -math.inf
@@ -252,8 +279,12 @@ def _extreme_eigenvalues(d, e, size):  # type: ignore[no-untyped-def]
                     radius += abs(e[i])
                 below = min(below, d[i] - radius)
                 above = max(above, d[i] + radius)
-            smallest = min(smallest, _laguerre(d, e, lo, hi, below, 1.0))
-            largest = max(largest, _laguerre(d, e, lo, hi, above, -1.0))
+            if nonnegative:  # a Gram matrix: the spectrum lies in [-rounding, ||T||_F]
+                below = max(below, -1e-12 * frobenius)
+                above = min(above, frobenius * (1.0 + 1e-12))
+            low, high = _laguerre_pair(d, e, lo, hi, below, above)
+            smallest = min(smallest, low)
+            largest = max(largest, high)
         lo = hi + 1
     return smallest, largest
 
@@ -346,17 +377,20 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, work):  # type: ignore[
     off = work[base + m : base + 2 * m]
     v = work[base + 2 * m : base + 3 * m]
     p = work[base + 3 * m : base + 4 * m]
+    # Gram matrix, lower triangle; the innermost loop runs over independent entries.
     for i in range(m):
         for j in range(i + 1):
-            acc = 0.0
-            for k in range(n):
-                acc += Js[i, k] * Js[j, k]
-            A[i, j] = acc
-            A[j, i] = acc
-            T[i, j] = acc
-            T[j, i] = acc
+            A[i, j] = 0.0
+        for k in range(n):
+            a = Js[i, k]
+            for j in range(i + 1):
+                A[i, j] += a * Js[j, k]
+        for j in range(i + 1):
+            T[i, j] = A[i, j]
+            T[j, i] = A[i, j]
+            A[j, i] = A[i, j]
     _tridiagonalize(T, m, mu, off, v, p)
-    lowest, highest = _extreme_eigenvalues(mu, off, m)
+    lowest, highest = _extreme_eigenvalues(mu, off, m, True)
     smax_s = math.sqrt(max(highest, 0.0))
     smin_s = math.sqrt(max(lowest, 0.0)) if kmin == m else 0.0
     lam2 = _damping_squared(smin_s * scale, dmode, lam, lam_max, eps)
@@ -590,11 +624,14 @@ def _step(J, xd, grad, out, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, r
     # qd = Js^T S (xd / s + k Js g) - k g, then back to joint coordinates.
     inv_scale = 1.0 / scale
     for i in range(m):
-        acc = 0.0
-        if has_grad:
-            for j in range(n):
-                acc += Js[i, j] * g[j]
-        r[i] = xd[i] * inv_scale + k_null * acc
+        r[i] = 0.0
+    if has_grad:
+        for j in range(n):
+            gj = g[j]
+            for i in range(m):
+                r[i] += Js[i, j] * gj
+    for i in range(m):
+        r[i] = xd[i] * inv_scale + k_null * r[i]
     if use_chol:
         _cholesky_solve(C, r, m)
     else:

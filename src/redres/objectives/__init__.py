@@ -2,7 +2,7 @@
 
 from .base import Objective
 from .joint_limits import JointLimitObjective
-from .manipulability import ManipulabilityObjective, manipulability_and_gradient
+from .manipulability import ManipulabilityObjective
 from .obstacles import (
     CapsuleObstacle,
     Obstacle,
@@ -25,6 +25,5 @@ __all__ = [
     "PostureObjective",
     "Proximity",
     "SphereObstacle",
-    "manipulability_and_gradient",
     "proximities",
 ]

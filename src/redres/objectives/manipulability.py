@@ -1,10 +1,9 @@
 """Manipulability as a cost (seed 001's secondary objective; Yoshikawa 1985).
 
-``w(q) = √det(J Jᵀ) = Πₖ σₖ`` and ``D(q) = −w(q)``. With the SVD ``J = U Σ Vᵀ``,
-``∂w/∂qᵢ = Σₖ (Π_{j≠k} σⱼ) uₖᵀ (∂J/∂qᵢ) vₖ``, the usual ``w tr((JJᵀ)⁻¹ ∂J/∂qᵢ Jᵀ)``
-written so that it stays finite at singular configurations. The partial derivatives
-``∂J/∂qᵢ`` are the Jacobian's time variation along the unit joint velocity ``eᵢ``
-(Pinocchio), not finite differences.
+``w(q) = √det(J Jᵀ)`` and ``D(q) = −w(q)``; the gradient is
+:func:`redres.linalg.manipulability_gradient` (finite at singular configurations) fed
+with the partial derivatives ``∂J/∂qᵢ``, which are the Jacobian's time variation along
+the unit joint velocity ``eᵢ`` (Pinocchio), not finite differences.
 """
 
 from __future__ import annotations
@@ -15,22 +14,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._validate import FloatArray
+from ..linalg import manipulability, manipulability_gradient
 from .base import Objective
 
 if TYPE_CHECKING:
     from ..robot import Robot
-
-
-def manipulability_and_gradient(J: FloatArray, dJ: Sequence[FloatArray]) -> tuple[float, FloatArray]:
-    """``w = √det(JJᵀ)`` of an ``m x n`` Jacobian (``m ≤ n``) and ``∂w/∂q`` from the
-    partials ``dJ[i] = ∂J/∂qᵢ`` (each ``m x n``)."""
-    U, s, Vt = np.linalg.svd(J, full_matrices=False)
-    w = float(np.prod(s))
-    m = s.size
-    # Π_{j≠k} σ_j without dividing by σ_k (finite when some σ is zero).
-    others = np.array([np.prod(np.delete(s, k)) for k in range(m)])
-    grad = np.array([float(np.sum(others * np.einsum("ik,ij,kj->k", U, d, Vt))) for d in dJ])
-    return w, grad
 
 
 class ManipulabilityObjective(Objective):
@@ -49,8 +37,7 @@ class ManipulabilityObjective(Objective):
 
     def manipulability(self, robot: Robot, q: FloatArray) -> float:
         """``w(q) = √det(J Jᵀ)``."""
-        J = robot.jacobian(q, self.frame)[self.rows]
-        return float(np.prod(np.linalg.svd(J, compute_uv=False)))
+        return manipulability(robot.jacobian(q, self.frame)[self.rows])
 
     def cost(self, robot: Robot, q: FloatArray) -> float:
         return -self.manipulability(robot, q)
@@ -59,4 +46,4 @@ class ManipulabilityObjective(Objective):
         J = robot.jacobian(q, self.frame)[self.rows]
         eye = np.eye(robot.n)
         dJ = [robot.jacobian_dot(q, eye[i], self.frame)[self.rows] for i in range(robot.n)]
-        return -manipulability_and_gradient(J, dJ)[1]
+        return -manipulability_gradient(J, np.asarray(dJ))

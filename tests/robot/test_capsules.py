@@ -1,0 +1,32 @@
+"""Link capsules stay on their link: both end points follow the frames they were read
+from, at every configuration (a capsule on the wrong link would drift)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import redres as rr
+
+ENDS = {
+    "panda": [("base", "shoulder"), ("shoulder", "elbow"), ("elbow", "wrist"),
+              ("wrist", "link7"), ("link7", "tcp")],
+    "iiwa14": [("link0", "shoulder"), ("shoulder", "elbow"), ("elbow", "wrist"),
+               ("wrist", "flange")],
+    "srs7": [("base", "shoulder"), ("shoulder", "elbow"), ("elbow", "wrist"),
+             ("wrist", "tool")],
+}
+
+
+@pytest.mark.parametrize("name", sorted(ENDS))
+def test_capsule_end_points_are_rigid(name: str, rng: np.random.Generator) -> None:
+    robot = rr.models.load(name)
+    assert len(robot.capsules) == len(ENDS[name])
+    for _ in range(10):
+        q = robot.random_configuration(rng)
+        for cap, (start, end) in zip(robot.capsules, ENDS[name]):
+            T = robot.fk(q, cap.frame)
+            a = T[:3, :3] @ cap.a + T[:3, 3]
+            b = T[:3, :3] @ cap.b + T[:3, 3]
+            assert np.allclose(a, robot.fk(q, start)[:3, 3], atol=1e-12), cap.name
+            assert np.allclose(b, robot.fk(q, end)[:3, 3], atol=1e-12), cap.name
