@@ -4,7 +4,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
-EXTRAS ?= test,dev
+EXTRAS ?= test,dev,qp,report
 
 .PHONY: demo test lint format bench clean
 
