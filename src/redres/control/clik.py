@@ -155,7 +155,7 @@ def run(
                 pos_err[k] = float(np.linalg.norm(e[:3]))
                 rot_err[k] = float(np.linalg.norm(e[3:]))
                 assert frame_task.last_pose is not None and frame_task.target is not None
-                pos_log[k] = frame_task.last_pose[:3, 3]
+                pos_log[k] = frame_task.last_pose.translation
                 target_log[k] = frame_task.target[:3, 3]
             else:
                 pos_err[k] = float(np.linalg.norm(state.error))

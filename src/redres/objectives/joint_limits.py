@@ -13,6 +13,7 @@ formula (seed 000 eq. 6) lowers ``D`` as intended.
 
 from __future__ import annotations
 
+import weakref
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -29,10 +30,20 @@ class JointLimitObjective(Objective):
 
     name = "joint_limits"
 
+    def __init__(self) -> None:
+        self._cache: tuple[weakref.ref[Robot], FloatArray, FloatArray] | None = None
+
+    def _mid_scale(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
+        # Limits are fixed per robot: compute q̄ and 2/(q_max − q_min)² once.
+        if self._cache is None or self._cache[0]() is not robot:
+            lo, hi = robot.q_min, robot.q_max
+            self._cache = (weakref.ref(robot), (lo + hi) / 2, 2.0 / (hi - lo) ** 2)
+        return self._cache[1], self._cache[2]
+
     def cost(self, robot: Robot, q: FloatArray) -> float:
-        lo, hi = robot.q_min, robot.q_max
-        return float(np.sum(((q - (lo + hi) / 2) / (lo - hi)) ** 2))
+        mid, scale = self._mid_scale(robot)
+        return float(np.sum(0.5 * scale * (q - mid) ** 2))
 
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
-        lo, hi = robot.q_min, robot.q_max
-        return 2.0 * (q - (lo + hi) / 2) / (hi - lo) ** 2
+        mid, scale = self._mid_scale(robot)
+        return scale * (q - mid)

@@ -298,12 +298,22 @@ class Robot:
         self, q: Any, frame: str | None = None, reference: Reference = "world"
     ) -> tuple[FloatArray, FloatArray]:
         """Pose (4x4) and Jacobian (6 x n) of ``frame`` from one forward pass."""
-        fid = self.frame_id(frame)
-        rf = self._reference(reference)
-        pin.computeJointJacobians(self.model, self.data, self._q(q))
-        pin.updateFramePlacement(self.model, self.data, fid)
-        J = pin.getFrameJacobian(self.model, self.data, fid, rf)
-        return np.array(self.data.oMf[fid].homogeneous), np.asarray(J).reshape(6, self.n)
+        placement, J = self.placement_jacobian(self._q(q), self.frame_id(frame), reference)
+        return placement.homogeneous, J
+
+    def placement_jacobian(
+        self, q: FloatArray, frame_id: int, reference: Reference = "world"
+    ) -> tuple[pin.SE3, FloatArray]:
+        """Hot-path form of :meth:`kinematics`: Pinocchio ``SE3`` placement and Jacobian.
+
+        ``q`` must already be a valid float64 vector of shape ``(n,)`` (not checked) and
+        ``frame_id`` a value of :meth:`frame_id`.
+        """
+        model, data = self.model, self.data
+        pin.computeJointJacobians(model, data, q)
+        placement = pin.updateFramePlacement(model, data, frame_id)
+        J = pin.getFrameJacobian(model, data, frame_id, _REFERENCE[reference])
+        return placement, J if J.ndim == 2 else J.reshape(6, self.n)
 
     def point_jacobians(
         self, q: Any, frames: Sequence[str]

@@ -65,10 +65,12 @@ class FrameTask(Task):
         self.dim = len(self.rows)
         self.name = name or f"frame:{frame or 'tip'}"
         self._T_target: FloatArray | None = None
+        self._R_target = np.eye(3)
+        self._p_target = np.zeros(3)
         self._twist = np.zeros(6)
         self._all_rows = self.rows == list(range(6))
-        #: Pose of the frame and six-row error at the last :meth:`compute`.
-        self.last_pose: FloatArray | None = None
+        #: Placement (Pinocchio SE3) of the frame and six-row error at the last compute.
+        self.last_pose: pin.SE3 | None = None
         self.last_error: FloatArray | None = None
 
     def set_target(self, T_target: Any, twist: Any = None, *, validate: bool = True) -> None:
@@ -80,7 +82,10 @@ class FrameTask(Task):
             self._T_target = as_transform(T_target, "T_target")
             self._twist = np.zeros(6) if twist is None else as_vector(twist, "twist", 6)
         else:
-            self._T_target, self._twist = T_target, twist
+            self._T_target = T_target
+            self._twist = np.zeros(6) if twist is None else twist
+        self._R_target = np.ascontiguousarray(self._T_target[:3, :3])
+        self._p_target = self._T_target[:3, 3].copy()
 
     @property
     def target(self) -> FloatArray | None:
@@ -89,19 +94,23 @@ class FrameTask(Task):
 
     def full_error(self, T: FloatArray) -> FloatArray:
         """Six-row error ``[p_d − p; log(R_d Rᵀ)]`` of pose ``T`` against the target."""
-        assert self._T_target is not None
-        Td = self._T_target
+        if self._T_target is None:
+            raise InvalidParameterError(f"task {self.name!r} has no target yet")
+        return self._error(T[:3, :3], T[:3, 3])
+
+    def _error(self, R: FloatArray, p: FloatArray) -> FloatArray:
         e = np.empty(6)
-        e[:3] = Td[:3, 3] - T[:3, 3]
-        e[3:] = pin.log3(Td[:3, :3] @ T[:3, :3].T)
+        e[:3] = self._p_target - p
+        e[3:] = pin.log3(self._R_target @ R.T)
         return e
 
     def compute(self, robot: Robot, q: FloatArray) -> TaskState:
-        T, J = robot.kinematics(q, self.frame)
+        qv = as_vector(q, "q", robot.n)
+        placement, J = robot.placement_jacobian(qv, robot.frame_id(self.frame))
         if self._T_target is None:
-            self._T_target = T
-        e = self.full_error(T)
-        self.last_pose, self.last_error = T, e
+            self.set_target(placement.homogeneous, validate=False)
+        e = self._error(placement.rotation, placement.translation)
+        self.last_pose, self.last_error = placement.copy(), e
         if self._all_rows:
             return TaskState(e, J, self._twist.copy())
         return TaskState(e[self.rows], J[self.rows], self._twist[self.rows])

@@ -1,0 +1,157 @@
+"""One control step on the Panda: redres next to pink, mink and KDL, in one run.
+
+The redres step is the full CLIK step of the redundancy-resolution issue, through the
+public API: forward kinematics and Jacobian of the TCP, the pose error (SO(3) log), the
+damped inverse with seed 003's joint-limit gradient projected into its null space, and
+the integration ``q + q̇ dt``. Peers do their equivalent step on the same Panda:
+
+* pink ``solve_ik`` and mink ``solve_ik``: a frame task plus a posture task, solved as a
+  QP with joint-limit constraints (their only mode), then integration;
+* KDL: forward kinematics, pose error, ``ChainIkSolverVel_wdls`` (weighted damped least
+  squares), integration.
+
+Run: ``python benchmarks/step.py`` (or ``make bench``). Medians of interleaved batches;
+ratios are peer time / redres time (> 1: redres faster).
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+import redres as rr  # noqa: E402
+from _common import interleaved, machine, median, table  # noqa: E402
+from peers import import_kdl, import_mink, import_pink, kdl_panda, mujoco_panda  # noqa: E402
+from redres.objectives import JointLimitObjective  # noqa: E402
+from redres.tasks import FrameTask  # noqa: E402
+
+DT = 1e-3
+GAIN = 50.0
+DAMPING = 0.05
+
+
+def problem() -> tuple[rr.Robot, np.ndarray, np.ndarray]:
+    """The Panda at a configuration inside its limits and a TCP target 2 cm away."""
+    robot = rr.models.panda()
+    q = robot.random_configuration(7, margin=0.3)
+    target = robot.fk(q)
+    target[:3, 3] += [0.02, -0.01, 0.01]
+    target[:3, :3] = target[:3, :3] @ pin.exp3(np.array([0.02, 0.0, -0.03]))
+    return robot, q, target
+
+
+def redres_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[], object]:
+    task = FrameTask()
+    task.set_target(target)
+    limits = JointLimitObjective()
+    rate_step = rr.linalg.rate_step
+
+    def step() -> np.ndarray:
+        state = task.compute(robot, q)  # fk, Jacobian, pose error
+        grad = limits.gradient(robot, q)
+        qd, _ = rate_step(state.jacobian, state.command(GAIN), grad, k_null=1.0, damping=DAMPING)
+        return q + qd * DT
+
+    return step
+
+
+def pink_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[], object] | None:
+    found = import_pink()
+    if found is None:
+        return None
+    pink, tasks = found
+    model = pin.Model(robot.model)
+    configuration = pink.Configuration(model, model.createData(), q.copy())
+    frame = tasks.FrameTask("tcp", position_cost=1.0, orientation_cost=1.0)
+    frame.set_target(pin.SE3(target[:3, :3], target[:3, 3]))
+    posture = tasks.PostureTask(cost=1e-3)
+    posture.set_target(robot.neutral())
+    solver = "daqp"
+
+    def step() -> object:
+        configuration.update(q)
+        v = pink.solve_ik(configuration, [frame, posture], DT, solver=solver, damping=1e-6)
+        return q + v * DT
+
+    return step
+
+
+def mink_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[], object] | None:
+    found = import_mink()
+    if found is None:
+        return None
+    mink, mujoco = found
+    model = mujoco_panda(mujoco)
+    configuration = mink.Configuration(model)
+    configuration.update(q.copy())
+    frame = mink.FrameTask("panda_hand_tcp", "body", position_cost=1.0, orientation_cost=1.0)
+    frame.set_target(mink.SE3.from_rotation_and_translation(
+        mink.SO3.from_matrix(target[:3, :3]), target[:3, 3]))
+    posture = mink.PostureTask(model, cost=1e-3)
+    posture.set_target(robot.neutral())
+    limits = [mink.ConfigurationLimit(model)]
+    tcp = configuration.get_transform_frame_to_world("panda_hand_tcp", "body")
+    if not np.allclose(tcp.translation(), robot.fk(q)[:3, 3], atol=1e-9):
+        raise AssertionError("mink's Panda differs from redres'")
+
+    def step() -> object:
+        configuration.update(q)
+        v = mink.solve_ik(configuration, [frame, posture], DT, "daqp", damping=1e-6, limits=limits)
+        return q + v * DT
+
+    return step
+
+
+def kdl_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[], object] | None:
+    kdl = import_kdl()
+    if kdl is None:
+        return None
+    chain = kdl_panda(kdl)
+    fk = kdl.ChainFkSolverPos_recursive(chain)
+    ik = kdl.ChainIkSolverVel_wdls(chain)
+    ik.setLambda(DAMPING)
+    goal = kdl.Frame(
+        kdl.Rotation(*target[:3, :3].ravel().tolist()), kdl.Vector(*target[:3, 3].tolist())
+    )
+    jnt, qdot, pose = kdl.JntArray(7), kdl.JntArray(7), kdl.Frame()
+    for i, v in enumerate(q):
+        jnt[i] = float(v)
+
+    def step() -> object:
+        fk.JntToCart(jnt, pose)
+        twist = kdl.diff(pose, goal) * GAIN
+        ik.CartToJnt(jnt, twist, qdot)
+        return [jnt[i] + qdot[i] * DT for i in range(7)]
+
+    return step
+
+
+def main() -> int:
+    robot, q, target = problem()
+    contenders = {"redres (CLIK, DLS + joint-limit null space)": redres_step(robot, q, target)}
+    peers = {
+        "pink solve_ik (frame + posture QP)": pink_step(robot, q, target),
+        "mink solve_ik (frame + posture QP)": mink_step(robot, q, target),
+        "KDL ChainIkSolverVel_wdls": kdl_step(robot, q, target),
+    }
+    contenders.update({k: v for k, v in peers.items() if v is not None})
+    print(f"Panda control step, {machine()}")
+    times = interleaved(contenders, rounds=5, batch=200, batches=5)
+    base = median(times[next(iter(contenders))])
+    rows = []
+    for name, t in times.items():
+        med, p99 = median(t), float(np.percentile(t, 99))
+        ratio = "1" if med == base else f"{med / base:.1f}x"
+        rows.append([name, f"{med:.1f}", f"{p99:.1f}", ratio])
+    print(table(["step", "median µs", "p99 µs", "time / redres"], rows))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
