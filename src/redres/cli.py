@@ -9,6 +9,7 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -71,7 +72,46 @@ def _cmd_robots(args: argparse.Namespace) -> int:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo import run_demo
 
-    return run_demo(quiet=args.quiet, as_json=args.json)
+    return run_demo(out=Path(args.out), quiet=args.quiet, as_json=args.json)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from .demo import run_scenarios
+    from .scenario import builtin_scenarios, load_scenario
+
+    builtin = builtin_scenarios()
+    if args.list:
+        for name, path in sorted(builtin.items()):
+            spec = load_scenario(path)
+            print(f"{name:28s} {spec.description}")
+        return 0
+    if not args.scenario:
+        print("redres run: error: give a scenario file (or --list)", file=sys.stderr)
+        return 2
+    target = args.scenario
+    path = builtin[target] if target in builtin and not Path(target).exists() else Path(target)
+    spec = load_scenario(path)
+    return run_scenarios(
+        [spec], out=Path(args.out), as_json=args.json, quiet=args.quiet, title=spec.name
+    )
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    import runpy
+
+    script = Path(__file__).resolve().parents[2] / "benchmarks" / "step.py"
+    if not script.is_file():
+        print("redres bench: error: benchmarks/step.py is part of the source checkout; "
+              "run it from a clone of the repository", file=sys.stderr)
+        return 2
+    runpy.run_path(str(script), run_name="__main__")
+    return 0
+
+
+def _output_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", default="redres-report", help="report folder")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--quiet", action="store_true", help="print only the results")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -83,10 +123,16 @@ def build_parser() -> argparse.ArgumentParser:
     robots = sub.add_parser("robots", help="list the built-in robot models")
     robots.add_argument("--json", action="store_true", help="print JSON instead of a table")
     robots.set_defaults(func=_cmd_robots)
-    demo = sub.add_parser("demo", help="run the demonstration")
-    demo.add_argument("--json", action="store_true", help="print one JSON object")
-    demo.add_argument("--quiet", action="store_true", help="print only the results")
+    demo = sub.add_parser("demo", help="compare every scheme on the built-in scenarios")
+    _output_options(demo)
     demo.set_defaults(func=_cmd_demo)
+    run = sub.add_parser("run", help="run a scenario file (TOML)")
+    run.add_argument("scenario", nargs="?", help="scenario file or built-in scenario name")
+    run.add_argument("--list", action="store_true", help="list the built-in scenarios")
+    _output_options(run)
+    run.set_defaults(func=_cmd_run)
+    bench = sub.add_parser("bench", help="run the control-step benchmark against peers")
+    bench.set_defaults(func=_cmd_bench)
     return parser
 
 

@@ -1,18 +1,29 @@
-"""``redres demo``: the built-in robots and worked examples from the seed documents.
+"""``redres demo`` and ``redres run``: run scenarios, print the comparison, write a report.
 
-This is the demo of the foundation release; the side-by-side comparison of schemes joins
-it as those land.
+The demo runs the built-in scenarios (``redres run --list``): the Panda circle that drives
+plain pseudo-inverse control into a joint limit, under every scheme, and the iiwa14 figure
+eight with its arm angle held by the augmented Jacobian. The seeds' worked examples follow.
 """
 
 from __future__ import annotations
 
 import json
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from . import linalg, models
+from .control import RunLog
+from .errors import MissingDependencyError
+from .runner import format_table, run_scenario
+from .scenario import ScenarioSpec, builtin_scenarios, load_scenario
 
 DEG = np.pi / 180
+DEMO_SCENARIOS = ("panda_joint_limit_circle", "iiwa_arm_angle_eight")
 
 
 def worked_examples() -> list[dict[str, object]]:
@@ -72,25 +83,78 @@ def worked_examples() -> list[dict[str, object]]:
     return out
 
 
-def run_demo(*, quiet: bool = False, as_json: bool = False) -> int:
-    """Print the built-in robots and the worked examples; returns the exit code."""
-    from .cli import robots_table
+def _write_report(
+    out: Path, runs: list[tuple[ScenarioSpec, RunLog]], title: str, description: str
+) -> Path | None:
+    try:
+        from .report import write_report
+    except ImportError:
+        print("redres: note: the report package is not available; no report written",
+              file=sys.stderr)
+        return None
+    try:
+        return Path(
+            write_report(
+                out,
+                [(spec.robot, log) for spec, log in runs],
+                title=title,
+                description=description,
+                table=[log.summary() for _, log in runs],
+            )
+        )
+    except MissingDependencyError as exc:
+        print(f"redres: note: {exc}; no report written", file=sys.stderr)
+        return None
 
-    table, records = robots_table()
-    examples = worked_examples()
+
+def run_scenarios(
+    specs: Sequence[ScenarioSpec],
+    *,
+    out: Path,
+    as_json: bool,
+    quiet: bool,
+    title: str,
+    examples: bool = False,
+) -> int:
+    """Run ``specs``, print the table (or JSON), write the report; returns the exit code."""
+    started = time.perf_counter()
+    runs: list[tuple[ScenarioSpec, RunLog]] = []
+    show_progress = None if not (quiet or as_json) else False
+    for spec in specs:
+        if not (quiet or as_json):
+            print(f"{spec.name}: {spec.description}", file=sys.stderr)
+        runs += [(spec, log) for log in run_scenario(spec, progress=show_progress)]
+    description = "\n".join(f"{s.name}: {s.description}" for s in specs)
+    report = _write_report(out, runs, title, description)
+    summaries = [log.summary() for _, log in runs]
     if as_json:
-        print(json.dumps({"robots": records, "examples": examples}))
+        payload: dict[str, Any] = {
+            "report": str(report) if report else None,
+            "runs": summaries,
+        }
+        if examples:
+            payload["examples"] = worked_examples()
+        print(json.dumps(payload))
         return 0
+    print(format_table(summaries))
+    if report is not None:
+        print(f"\nreport: {report}")
     if not quiet:
-        print("redres: redundancy resolution for robot manipulators\n")
-        print("Built-in robots (redres robots):")
-    print(table)
-    print()
-    if not quiet:
-        print("Worked examples, computed now:")
-    for ex in examples:
-        print(f"- {ex['example']}")
-        for key, value in ex.items():
-            if key != "example":
-                print(f"    {key}: {value}")
+        print(f"({len(runs)} runs in {time.perf_counter() - started:.1f} s)")
+        if examples:
+            print("\nWorked examples of the seed documents, computed now:")
+            for ex in worked_examples():
+                print(f"- {ex['example']}")
+                for key, value in ex.items():
+                    if key != "example":
+                        print(f"    {key}: {value}")
     return 0
+
+
+def run_demo(*, out: Path, quiet: bool = False, as_json: bool = False) -> int:
+    """The flagship demo: every scheme on the built-in scenarios."""
+    files = builtin_scenarios()
+    specs = [load_scenario(files[name]) for name in DEMO_SCENARIOS]
+    return run_scenarios(
+        specs, out=out, as_json=as_json, quiet=quiet, title="redres demo", examples=True
+    )

@@ -216,3 +216,33 @@ def test_home_outside_the_limits_is_rejected() -> None:
     links = [{"a": 1.0, "alpha": 0.0, "d": 0.0, "q_min": -1.0, "q_max": 1.0}]
     with pytest.raises(JointLimitError, match="outside the limits"):
         rr.Robot.from_dh(links, home=[2.0])
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_jacobian_derivatives_are_the_partials(
+    name: str, builtin_robots: dict[str, rr.Robot], rng: np.random.Generator
+) -> None:
+    """∂J/∂qᵢ from one Jacobian equals J̇ along eᵢ and central differences of J."""
+    robot = builtin_robots[name]
+    q = robot.random_configuration(rng)
+    D = robot.jacobian_derivatives(q)
+    eye = np.eye(robot.n)
+    for i in range(robot.n):
+        assert np.allclose(D[i], robot.jacobian_dot(q, eye[i]), atol=1e-12)
+        fd = (robot.jacobian(q + 1e-6 * eye[i]) - robot.jacobian(q - 1e-6 * eye[i])) / 2e-6
+        assert np.allclose(D[i], fd, atol=1e-7)
+
+
+def test_jacobian_derivatives_with_a_prismatic_joint(rng: np.random.Generator) -> None:
+    links = [
+        {"a": 0.3, "alpha": 0.5, "d": 0.1},
+        {"a": 0.2, "alpha": -0.4, "d": 0.0, "joint": "prismatic", "q_min": -0.5, "q_max": 0.5},
+        {"a": 0.1, "alpha": 0.9, "d": 0.2},
+    ]
+    robot = rr.Robot.from_dh(links)
+    q = robot.random_configuration(rng)
+    D = robot.jacobian_derivatives(q)
+    for i in range(3):
+        e = np.eye(3)[i]
+        fd = (robot.jacobian(q + 1e-6 * e) - robot.jacobian(q - 1e-6 * e)) / 2e-6
+        assert np.allclose(D[i], fd, atol=1e-7)

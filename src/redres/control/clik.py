@@ -206,22 +206,23 @@ def _analyse(
     the task Jacobian, objective values, obstacle distances."""
     frame = task.frame if isinstance(task, FrameTask) else None
     rows = task.rows if isinstance(task, FrameTask) else list(range(6))
+    q_min, q_max = robot.q_min, robot.q_max
+    log.joint_limit_margin[:] = np.minimum(log.q - q_min, q_max - log.q).min(axis=1)
+    fid = robot.frame_id(frame)
+    jacobians = np.stack([robot.placement_jacobian(q, fid)[1][rows] for q in log.q])
+    if len(jacobians):
+        s = np.linalg.svd(jacobians, compute_uv=False)
+        log.sigma_min[:] = s[:, -1]
+        log.manipulability[:] = np.prod(s, axis=1)
     objectives = {obj.name: obj for obj in [*_scheme_objectives(scheme), *extra]}
-    values: dict[str, list[float]] = {name: [] for name in objectives}
-    distances: list[float] = []
+    log.objectives = {
+        name: np.array([obj.cost(robot, q) for q in log.q]) for name, obj in objectives.items()
+    }
     obstacle = next((o for o in objectives.values() if isinstance(o, ObstacleObjective)), None)
-    for k, q in enumerate(log.q):
-        log.joint_limit_margin[k] = float(np.min(robot.joint_limit_margin(q)))
-        s = np.linalg.svd(robot.jacobian(q, frame)[rows], compute_uv=False)
-        log.sigma_min[k] = float(s[-1])
-        log.manipulability[k] = float(np.prod(s))
-        for name, obj in objectives.items():
-            values[name].append(obj.cost(robot, q))
-        if obstacle is not None:
-            distances.append(obstacle.min_distance(robot, q))
-    log.objectives = {name: np.asarray(v) for name, v in values.items()}
     if obstacle is not None:
-        log.objectives["obstacle_distance_m"] = np.asarray(distances)
+        log.objectives["obstacle_distance_m"] = np.array(
+            [obstacle.min_distance(robot, q) for q in log.q]
+        )
 
 
 def final_configuration(log: RunLog) -> FloatArray:

@@ -14,8 +14,10 @@ def closest_point_on_segment(p: FloatArray, a: FloatArray, b: FloatArray) -> Flo
     """The point of segment ``[a, b]`` closest to ``p``."""
     ab = b - a
     denom = float(ab @ ab)
-    t = 0.0 if denom <= _EPS else float(np.clip((p - a) @ ab / denom, 0.0, 1.0))
-    return a + t * ab
+    if denom <= _EPS:
+        return a.copy()
+    t = float((p - a) @ ab) / denom
+    return a + (0.0 if t < 0.0 else 1.0 if t > 1.0 else t) * ab
 
 
 def closest_points_segments(

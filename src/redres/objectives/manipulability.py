@@ -3,7 +3,8 @@
 ``w(q) = √det(J Jᵀ)`` and ``D(q) = −w(q)``; the gradient is
 :func:`redres.linalg.manipulability_gradient` (finite at singular configurations) fed
 with the partial derivatives ``∂J/∂qᵢ``, which are the Jacobian's time variation along
-the unit joint velocity ``eᵢ`` (Pinocchio), not finite differences.
+the unit joint velocity ``eᵢ`` (:meth:`redres.Robot.jacobian_derivatives`), not finite
+differences.
 """
 
 from __future__ import annotations
@@ -44,6 +45,5 @@ class ManipulabilityObjective(Objective):
 
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
         J = robot.jacobian(q, self.frame)[self.rows]
-        eye = np.eye(robot.n)
-        dJ = [robot.jacobian_dot(q, eye[i], self.frame)[self.rows] for i in range(robot.n)]
-        return -manipulability_gradient(J, np.asarray(dJ))
+        dJ = robot.jacobian_derivatives(q, self.frame)[:, self.rows, :]
+        return -manipulability_gradient(J, dJ)

@@ -15,11 +15,13 @@ first order).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import pinocchio as pin
 
 from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError
@@ -82,18 +84,22 @@ def proximities(
     robot: Robot, q: FloatArray, obstacles: Sequence[Obstacle], capsules: Sequence[Capsule]
 ) -> list[Proximity]:
     """Surface distances of every (capsule, obstacle) pair at ``q``, m (< 0: penetration)."""
+    model, data = robot.model, robot.data
+    pin.framesForwardKinematics(model, data, as_vector(q, "q", robot.n))  # one pass, all frames
     out = []
     for cap in capsules:
-        T = robot.fk(q, cap.frame)
-        a = T[:3, :3] @ cap.a + T[:3, 3]
-        b = T[:3, :3] @ cap.b + T[:3, 3]
+        placement = data.oMf[robot.frame_id(cap.frame)]
+        R, t = placement.rotation, placement.translation
+        a = R @ cap.a + t
+        b = R @ cap.b + t
         for obs in obstacles:
             if isinstance(obs, SphereObstacle):
                 p_obs = obs.center
                 p_link = closest_point_on_segment(p_obs, a, b)
             else:
                 p_link, p_obs = closest_points_segments(a, b, obs.a, obs.b)
-            d = float(np.linalg.norm(p_link - p_obs)) - cap.radius - obs.radius
+            gap = p_link - p_obs
+            d = math.sqrt(float(gap @ gap)) - cap.radius - obs.radius
             out.append(Proximity(cap.name, obs.name, d, p_link, p_obs, cap.frame))
     return out
 
@@ -144,16 +150,25 @@ class ObstacleObjective(Objective):
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
         d0 = self.influence
         grad = np.zeros(robot.n)
-        for p in self.proximities(robot, q):
-            if p.distance >= d0:
-                continue
+        near = [p for p in self.proximities(robot, q) if p.distance < d0]
+        if not near:
+            return grad
+        model, data = robot.model, robot.data
+        pin.computeJointJacobians(model, data, q)  # one pass for every frame below
+        for p in near:
             offset = p.point_on_link - p.point_on_obstacle
             norm = float(np.linalg.norm(offset))
             if norm < 1e-12:  # segments touch: the direction is undefined
                 continue
-            T, J = robot.kinematics(q, p.frame)
-            r = p.point_on_link - T[:3, 3]
-            J_point = J[:3] - np.cross(r, J[3:].T).T  # v_p = v_f + ω × r
-            dd_dq = (offset / norm) @ J_point
+            fid = robot.frame_id(p.frame)
+            origin = pin.updateFramePlacement(model, data, fid).translation
+            J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+            n_hat = offset / norm
+            # ∂d/∂q = n̂ᵀ (J_v − [r]× J_ω) = n̂ᵀ J_v + (r × n̂)ᵀ J_ω, r = p − p_frame
+            r = p.point_on_link - origin
+            r_x_n = np.array([r[1] * n_hat[2] - r[2] * n_hat[1],
+                              r[2] * n_hat[0] - r[0] * n_hat[2],
+                              r[0] * n_hat[1] - r[1] * n_hat[0]])
+            dd_dq = n_hat @ J[:3] + r_x_n @ J[3:]
             grad += -2.0 / d0 * (1.0 - p.distance / d0) * dd_dq
         return grad

@@ -83,6 +83,11 @@ class Robot:
         self._qdd_max = np.full(n, np.inf) if qdd_max is None else _limit_vector(qdd_max, n)
         self._frame_ids: dict[str, int] = {}
         self._refresh_frames()
+        self._all_revolute = all(
+            j.shortname() in ("JointModelRX", "JointModelRY", "JointModelRZ",
+                              "JointModelRevoluteUnaligned")
+            for j in list(model.joints)[1:]
+        )
         self._tip_id = self.frame_id(tip)
         self._tip = tip
         if home is None:
@@ -336,6 +341,33 @@ class Robot:
             jacobians[k] = np.asarray(J).reshape(6, self.n)[:3]
         return points, jacobians
 
+    def jacobian_derivatives(self, q: Any, frame: str | None = None) -> FloatArray:
+        """Partial derivatives ``∂J/∂qᵢ`` of the world-aligned Jacobian, shape ``(n, 6, n)``.
+
+        For a serial chain of revolute joints with axes ``zⱼ`` and ``J = [Jᵥ; J_ω]``
+        (Bruyninckx and De Schutter; also the form Pinocchio's kinematic Hessian takes):
+        ``∂Jᵥ,ⱼ/∂qᵢ = zᵢ × Jᵥ,ⱼ`` for ``i < j`` and ``zⱼ × Jᵥ,ᵢ`` for ``i ≥ j``;
+        ``∂J_ω,ⱼ/∂qᵢ = zᵢ × zⱼ`` for ``i < j`` and 0 otherwise — all from one Jacobian. Chains
+        with prismatic joints fall back to ``n`` calls of :meth:`jacobian_dot`.
+        """
+        qv = self._q(q)
+        if not self._all_revolute:
+            eye = np.eye(self.n)
+            return np.stack([self.jacobian_dot(qv, eye[i], frame) for i in range(self.n)])
+        J = self.jacobian(qv, frame)
+        Jv, z = J[:3].T, J[3:].T  # (n, 3) each
+        n = self.n
+        # cross[i, j] = z_i × Jv_j and zz[i, j] = z_i × z_j for every pair.
+        cross_v = _pairwise_cross(z, Jv)
+        cross_w = _pairwise_cross(z, z)
+        upper = np.triu(np.ones((n, n), dtype=bool), 1)[:, :, None]  # i < j
+        dv = np.where(upper, cross_v, cross_v.transpose(1, 0, 2))  # i ≥ j: zⱼ × Jᵥ,ᵢ
+        dw = np.where(upper, cross_w, 0.0)
+        out = np.empty((n, 6, n))
+        out[:, :3, :] = dv.transpose(0, 2, 1)
+        out[:, 3:, :] = dw.transpose(0, 2, 1)
+        return out
+
     def jacobian_dot(
         self, q: Any, qd: Any, frame: str | None = None, reference: Reference = "world"
     ) -> FloatArray:
@@ -410,6 +442,13 @@ class Robot:
                 f"{name}[{j}] = {q[j]} is outside the limits of joint "
                 f"{self.joint_names[j]!r}: [{self._q_min[j]}, {self._q_max[j]}]"
             )
+
+
+def _pairwise_cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``out[i, j] = a[i] × b[j]`` for ``(n, 3)`` arrays (np.cross is slow on small sizes)."""
+    ax, ay, az = a[:, 0:1], a[:, 1:2], a[:, 2:3]
+    bx, by, bz = b[:, 0], b[:, 1], b[:, 2]
+    return np.stack((ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx), axis=-1)
 
 
 def _limit_vector(value: Any, n: int) -> FloatArray:

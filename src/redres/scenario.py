@@ -1,0 +1,327 @@
+"""Scenario files: a robot, a path, run settings, obstacles and the schemes to compare.
+
+Read with :mod:`tomllib` only; nothing in a scenario is executed. Every problem is
+reported as one :class:`ScenarioError` naming the file, the key path (``[schemes][2].gain``)
+and the fix. See docs/scenarios.md for the format; built-in scenarios ship in
+``redres/scenarios`` (``redres run --list``).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from . import models
+from .errors import RedresError
+from .objectives import (
+    CapsuleObstacle,
+    JointLimitObjective,
+    ManipulabilityObjective,
+    Objective,
+    Obstacle,
+    ObstacleObjective,
+    PostureObjective,
+    SphereObstacle,
+)
+from .resolution import (
+    AugmentedJacobianScheme,
+    GradientProjectionScheme,
+    PseudoInverseScheme,
+    Scheme,
+    WeightedLeastNormScheme,
+)
+from .robot import Robot
+from .tasks import FrameTask
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+from .control.trajectories import Circle, FigureEight, Hold, Line, MinimumJerk, Trajectory
+
+
+class ScenarioError(RedresError, ValueError):
+    """A scenario file is unreadable or invalid (the message names the key and the fix)."""
+
+
+@dataclass
+class SchemeSpec:
+    """A scheme to run: its stable identifier, a label, and a factory."""
+
+    kind: str
+    label: str
+    build: Callable[[], Scheme]
+
+
+@dataclass
+class ScenarioSpec:
+    """A validated scenario."""
+
+    name: str
+    description: str
+    robot: Robot
+    q0: np.ndarray
+    task: Callable[[], FrameTask]
+    trajectory: Trajectory
+    dt: float
+    duration: float
+    gain: float
+    obstacles: list[Obstacle]
+    schemes: list[SchemeSpec] = field(default_factory=list)
+    source: str = ""
+
+
+class _Reader:
+    """Typed access to one TOML table, remembering its path and the keys used."""
+
+    def __init__(self, table: Any, path: str, file: str) -> None:
+        if not isinstance(table, dict):
+            raise ScenarioError(f"{file}: {path} must be a table; got {type(table).__name__}")
+        self.table, self.path, self.file, self.used = table, path, file, set()
+
+    def fail(self, key: str, message: str) -> ScenarioError:
+        return ScenarioError(f"{self.file}: {self.path}.{key}: {message}")
+
+    def get(self, key: str, kind: str, default: Any = ..., *, size: int | None = None) -> Any:
+        self.used.add(key)
+        if key not in self.table:
+            if default is ...:
+                raise self.fail(key, f"missing; add `{key} = <{kind}>`")
+            return default
+        value = self.table[key]
+        if kind == "number":
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise self.fail(key, f"expected a number, got {value!r} (write {key} = 1.0)")
+            if not math.isfinite(value):
+                raise self.fail(key, f"must be finite; got {value!r}")
+            return float(value)
+        if kind == "string":
+            if not isinstance(value, str):
+                raise self.fail(key, f'expected a string, got {value!r} (write {key} = "...")')
+            return value
+        if kind == "vector":
+            ok = isinstance(value, list) and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in value
+            )
+            if not ok or (size is not None and len(value) != size):
+                want = f"{size} numbers" if size else "a list of numbers"
+                raise self.fail(key, f"expected {want}, got {value!r}")
+            arr = np.array(value, dtype=float)
+            if not np.all(np.isfinite(arr)):
+                raise self.fail(key, "must contain finite numbers")
+            return arr
+        if kind == "tables":
+            if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+                raise self.fail(key, f"expected a list of tables, got {value!r}")
+            return value
+        raise AssertionError(kind)
+
+    def positive(self, key: str, default: Any = ...) -> float:
+        value = self.get(key, "number", default)
+        if value is not None and value <= 0:
+            raise self.fail(key, f"must be > 0; got {value}")
+        return float(value)
+
+    def done(self) -> None:
+        unknown = sorted(set(self.table) - self.used)
+        if unknown:
+            raise self.fail(
+                unknown[0], f"unknown key; valid keys here: {', '.join(sorted(self.used))}"
+            )
+
+
+def _robot(r: _Reader, base: Path) -> Robot:
+    model = r.get("model", "string", None)
+    urdf = r.get("urdf", "string", None)
+    tip = r.get("tip", "string", None)
+    if (model is None) == (urdf is None):
+        raise r.fail("model", 'give exactly one of model = "<built-in name>" or urdf = "<path>"')
+    try:
+        if model is not None:
+            robot = models.load(model)
+        else:
+            robot = Robot.from_urdf(base / urdf, tip=tip)
+    except RedresError as exc:
+        raise r.fail("model" if model else "urdf", str(exc)) from None
+    if tip is not None and model is not None:
+        if tip not in robot.frames():
+            raise r.fail("tip", f"unknown frame {tip!r}; frames: {', '.join(robot.frames())}")
+        robot = Robot(robot.model, tip=tip, name=robot.name, home=robot.neutral(),
+                      qdd_max=robot.qdd_max)
+    return robot
+
+
+def _trajectory(r: _Reader, start: np.ndarray) -> Trajectory:
+    kind = r.get("type", "string")
+    if kind == "circle":
+        return Circle(start, r.positive("radius"), r.positive("period"),
+                      normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
+                      phase=r.get("phase", "number", 0.0), turns=r.positive("turns", 1.0),
+                      ramp=r.get("ramp", "number", 0.0))
+    if kind == "figure_eight":
+        return FigureEight(start, r.positive("width"), r.positive("height"),
+                           r.positive("period"),
+                           normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
+                           turns=r.positive("turns", 1.0))
+    if kind == "line":
+        return Line(start, r.get("end", "vector", size=3), r.positive("duration"))
+    if kind == "minimum_jerk":
+        end = start.copy()
+        end[:3, 3] = r.get("end_position", "vector", start[:3, 3], size=3)
+        rotation = r.get("rotation", "vector", np.zeros(3), size=3)
+        end[:3, :3] = start[:3, :3] @ pin.exp3(rotation)
+        return MinimumJerk(start, end, r.positive("duration"))
+    if kind == "hold":
+        return Hold(start, r.positive("duration"))
+    raise r.fail("type", f"unknown trajectory {kind!r}; use circle, figure_eight, line, "
+                         "minimum_jerk or hold")
+
+
+def _obstacle(r: _Reader) -> Obstacle:
+    kind = r.get("type", "string")
+    name = r.get("name", "string", kind)
+    radius = r.get("radius", "number", 0.0)
+    if radius < 0:
+        raise r.fail("radius", f"must be >= 0; got {radius}")
+    if kind in ("sphere", "point"):
+        return SphereObstacle(r.get("center", "vector", size=3), radius, name)
+    if kind == "capsule":
+        return CapsuleObstacle(r.get("a", "vector", size=3), r.get("b", "vector", size=3),
+                               radius, name)
+    raise r.fail("type", f"unknown obstacle {kind!r}; use sphere, point or capsule")
+
+
+def _objective(r: _Reader, obstacles: list[Obstacle], n: int) -> tuple[Objective, float]:
+    kind = r.get("type", "string")
+    weight = r.get("weight", "number", 1.0)
+    obj: Objective
+    if kind == "joint_limits":
+        obj = JointLimitObjective()
+    elif kind == "manipulability":
+        obj = ManipulabilityObjective()
+    elif kind == "posture":
+        obj = PostureObjective(r.get("q_ref", "vector", None, size=n),
+                               r.get("weights", "vector", np.ones(n), size=n))
+    elif kind == "obstacles":
+        if not obstacles:
+            raise r.fail("type", "an obstacles objective needs [[obstacles]] in the scenario")
+        obj = ObstacleObjective(obstacles, r.positive("influence", 0.15))
+    else:
+        raise r.fail("type", f"unknown objective {kind!r}; use joint_limits, manipulability, "
+                             "posture or obstacles")
+    return obj, weight
+
+
+SCHEME_TYPES = ("pinv", "dls", "gradient_projection", "wln", "augmented")
+
+
+def _scheme(r: _Reader, obstacles: list[Obstacle], n: int, file: str) -> SchemeSpec:
+    kind = r.get("type", "string")
+    label = r.get("label", "string", kind)
+    inverse = r.get("inverse", "string", "damped" if kind == "dls" else "exact")
+    params = {k: r.positive(k) for k in ("damping", "threshold", "max_damping") if k in r.table}
+    objectives = [
+        _objective(_Reader(t, f"{r.path}.objectives[{i}]", file), obstacles, n)
+        for i, t in enumerate(r.get("objectives", "tables", []))
+    ]
+    gain = r.get("gain", "number", 1.0)
+    if gain < 0:
+        raise r.fail("gain", f"must be >= 0; got {gain}")
+    try:
+        if kind in ("pinv", "dls"):
+            PseudoInverseScheme(inverse, **params)  # validate now, build per run
+            build: Callable[[], Scheme] = lambda: PseudoInverseScheme(inverse, **params)  # noqa: E731
+        elif kind == "gradient_projection":
+            GradientProjectionScheme(objectives, gain, inverse, **params)
+            build = lambda: GradientProjectionScheme(objectives, gain, inverse, **params)  # noqa: E731
+        elif kind == "wln":
+            c = r.positive("c", 1.0)
+            build = lambda: WeightedLeastNormScheme(c, objectives, gain, inverse, **params)  # noqa: E731
+        elif kind == "augmented":
+            build = lambda: AugmentedJacobianScheme(gain=gain if "gain" in r.table else 10.0)  # noqa: E731
+        else:
+            raise r.fail("type", f"unknown scheme {kind!r}; use {', '.join(SCHEME_TYPES)}")
+    except RedresError as exc:
+        if isinstance(exc, ScenarioError):
+            raise
+        raise r.fail("type", str(exc)) from None
+    r.done()
+    return SchemeSpec(kind, label, build)
+
+
+def load_scenario(path: str | Path) -> ScenarioSpec:
+    """Read and validate a scenario file; raises :class:`ScenarioError`."""
+    file = Path(path)
+    try:
+        data = tomllib.loads(file.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ScenarioError(f"{file}: no such scenario file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{file}: cannot be read ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{file}: not valid TOML ({exc})") from None
+    return parse_scenario(data, file.name, file.parent)
+
+
+def parse_scenario(data: dict[str, Any], file: str = "<scenario>", base: Path = Path()) -> ScenarioSpec:
+    """Validate a parsed scenario (a dict as :mod:`tomllib` returns)."""
+    top = _Reader(data, "", file)
+    name = top.get("name", "string", Path(file).stem)
+    description = top.get("description", "string", "")
+    top.used.update({"robot", "trajectory", "run", "obstacles", "schemes"})
+    if "robot" not in data:
+        raise ScenarioError(f'{file}: missing [robot] table; add [robot] with model = "panda"')
+    rob = _Reader(data["robot"], "[robot]", file)
+    robot = _robot(rob, base)
+    q0 = rob.get("q0", "vector", None, size=robot.n)
+    if q0 is None:
+        q0 = robot.neutral()
+    elif not robot.within_limits(q0):
+        raise rob.fail("q0", "is outside the joint limits; see `redres robots` for them")
+    rob.done()
+    start = robot.fk(q0)
+    if "trajectory" not in data:
+        raise ScenarioError(f'{file}: missing [trajectory] table; add type = "circle" etc.')
+    traj_r = _Reader(data["trajectory"], "[trajectory]", file)
+    try:
+        trajectory = _trajectory(traj_r, start)
+    except ScenarioError:
+        raise
+    except RedresError as exc:
+        raise ScenarioError(f"{file}: [trajectory]: {exc}") from None
+    traj_r.done()
+    run_r = _Reader(data.get("run", {}), "[run]", file)
+    dt = run_r.positive("dt", 1e-3)
+    duration = run_r.positive("duration", trajectory.duration)
+    gain = run_r.get("gain", "number", 50.0)
+    if gain < 0:
+        raise run_r.fail("gain", f"must be >= 0; got {gain}")
+    run_r.done()
+    obstacles = []
+    for i, t in enumerate(top.get("obstacles", "tables", [])):
+        r = _Reader(t, f"[obstacles][{i}]", file)
+        obstacles.append(_obstacle(r))
+        r.done()
+    tables = top.get("schemes", "tables", ...)
+    if not tables:
+        raise ScenarioError(f'{file}: [[schemes]] is empty; add one with type = "pinv"')
+    schemes = [_scheme(_Reader(t, f"[schemes][{i}]", file), obstacles, robot.n, file)
+               for i, t in enumerate(tables)]
+    top.done()
+    return ScenarioSpec(name, description, robot, q0, FrameTask, trajectory, dt, duration, gain,
+                        obstacles, schemes, file)
+
+
+def builtin_scenarios() -> dict[str, Path]:
+    """Name -> path of the scenario files shipped with redres."""
+    folder = resources.files("redres") / "scenarios"
+    return {Path(str(p)).stem: Path(str(p)) for p in folder.iterdir() if str(p).endswith(".toml")}
