@@ -1,15 +1,39 @@
-"""The redres command line."""
+"""The redres command line: robots, demo (quick), run with scenario validation."""
 
 from __future__ import annotations
 
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 import redres as rr
 from redres.cli import main
+
+RUN_KEYS = (
+    "robot",
+    "scheme",
+    "steps",
+    "max_position_error_m",
+    "rms_position_error_m",
+    "min_joint_limit_margin_rad",
+    "min_sigma",
+    "peak_speed_ratio",
+    "step_time_us_median",
+)
+STABLE_SCHEMES = {
+    "pinv",
+    "dls",
+    "gradient_projection",
+    "wln",
+    "augmented",
+    "priority",
+    "osc",
+    "qp",
+    "sns",
+}
 
 
 def test_robots_table_lists_every_builtin(capsys: pytest.CaptureFixture[str]) -> None:
@@ -28,20 +52,55 @@ def test_robots_json(capsys: pytest.CaptureFixture[str]) -> None:
     assert by_name["iiwa14"]["tau_max"][0] == 320.0
 
 
-def test_demo_prints_robots_and_worked_examples(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["demo"]) == 0
-    out = capsys.readouterr().out
-    assert "panda" in out and "seed 002" in out
+@pytest.fixture(scope="module")
+def quick_demo(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path]:
+    out = tmp_path_factory.mktemp("demo") / "report"
+    proc = subprocess.run(
+        [sys.executable, "-m", "redres", "demo", "--quick", "--json", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout), out
 
 
-def test_demo_json_carries_the_seed_numbers(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["demo", "--json"]) == 0
-    examples = json.loads(capsys.readouterr().out)["examples"]
+def test_demo_json_has_the_stable_keys(quick_demo: tuple[dict, Path]) -> None:
+    payload, out = quick_demo
+    assert set(payload) >= {"report", "runs"}
+    schemes = {run["scheme"] for run in payload["runs"]}
+    assert {"pinv", "dls", "gradient_projection", "wln", "augmented"} <= schemes
+    assert schemes <= STABLE_SCHEMES
+    for run in payload["runs"]:
+        for key in RUN_KEYS:
+            assert key in run, key
+        assert run["steps"] == 500  # 5 % of 10 s at 1 kHz
+    assert {run["robot"] for run in payload["runs"]} == {"panda", "iiwa14"}
+    if payload["report"] is not None:
+        assert Path(payload["report"]).is_file()
+        assert Path(payload["report"]).parent == out
+
+
+def test_demo_json_carries_the_seed_numbers(quick_demo: tuple[dict, Path]) -> None:
+    examples = quick_demo[0]["examples"]
     assert examples[0]["qd_rad_s"] == [-3.59, 5.56, -0.41]
     assert examples[1]["qd_rad_s"] == [-2.76, 5.56, -2.84]
     assert examples[2]["qd_rad_s"] == [0.146, 0.107]
+    assert examples[2]["achieved_x"] == [-0.293, 0.254, 0.254]
+    assert examples[3]["qd_rad_s"] == [1.093, 0.8]
     assert examples[4]["qd_rad_s"] == [0.8, 0.4]
     assert examples[5]["task_residual"] < 1e-12
+
+
+def test_run_list_and_builtin_name(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    assert main(["run", "--list"]) == 0
+    listing = capsys.readouterr().out
+    assert "panda_joint_limit_circle" in listing and "iiwa_arm_angle_eight" in listing
+    code = main(["run", "iiwa_arm_angle_eight", "--quick", "--quiet", "--out", str(tmp_path / "r")])
+    assert code == 0
+    table = capsys.readouterr().out
+    assert "augmented" in table and "iiwa14" in table
 
 
 def test_bad_usage_exits_2() -> None:

@@ -13,7 +13,7 @@ Quick start::
 
 from __future__ import annotations
 
-from . import control, errors, linalg, models, objectives, resolution, tasks
+from . import control, dynamics, errors, linalg, models, objectives, resolution, tasks
 from .control import run
 from .errors import RedresError
 from .robot import DHLink, Robot
@@ -26,6 +26,7 @@ __all__ = [
     "Robot",
     "__version__",
     "control",
+    "dynamics",
     "errors",
     "linalg",
     "models",

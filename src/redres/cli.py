@@ -72,7 +72,7 @@ def _cmd_robots(args: argparse.Namespace) -> int:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo import run_demo
 
-    return run_demo(out=Path(args.out), quiet=args.quiet, as_json=args.json)
+    return run_demo(out=Path(args.out), quiet=args.quiet, as_json=args.json, quick=args.quick)
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -92,7 +92,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     path = builtin[target] if target in builtin and not Path(target).exists() else Path(target)
     spec = load_scenario(path)
     return run_scenarios(
-        [spec], out=Path(args.out), as_json=args.json, quiet=args.quiet, title=spec.name
+        [spec],
+        out=Path(args.out),
+        as_json=args.json,
+        quiet=args.quiet,
+        title=spec.name,
+        quick=args.quick,
     )
 
 
@@ -101,8 +106,11 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
     script = Path(__file__).resolve().parents[2] / "benchmarks" / "step.py"
     if not script.is_file():
-        print("redres bench: error: benchmarks/step.py is part of the source checkout; "
-              "run it from a clone of the repository", file=sys.stderr)
+        print(
+            "redres bench: error: benchmarks/step.py is part of the source checkout; "
+            "run it from a clone of the repository",
+            file=sys.stderr,
+        )
         return 2
     runpy.run_path(str(script), run_name="__main__")
     return 0
@@ -112,6 +120,9 @@ def _output_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="redres-report", help="report folder")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--quiet", action="store_true", help="print only the results")
+    parser.add_argument(
+        "--quick", action="store_true", help="run 5%% of each scenario's duration (smoke test)"
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -155,23 +155,33 @@ def _robot(r: _Reader, base: Path) -> Robot:
     if tip is not None and model is not None:
         if tip not in robot.frames():
             raise r.fail("tip", f"unknown frame {tip!r}; frames: {', '.join(robot.frames())}")
-        robot = Robot(robot.model, tip=tip, name=robot.name, home=robot.neutral(),
-                      qdd_max=robot.qdd_max)
+        robot = Robot(
+            robot.model, tip=tip, name=robot.name, home=robot.neutral(), qdd_max=robot.qdd_max
+        )
     return robot
 
 
 def _trajectory(r: _Reader, start: np.ndarray) -> Trajectory:
     kind = r.get("type", "string")
     if kind == "circle":
-        return Circle(start, r.positive("radius"), r.positive("period"),
-                      normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
-                      phase=r.get("phase", "number", 0.0), turns=r.positive("turns", 1.0),
-                      ramp=r.get("ramp", "number", 0.0))
+        return Circle(
+            start,
+            r.positive("radius"),
+            r.positive("period"),
+            normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
+            phase=r.get("phase", "number", 0.0),
+            turns=r.positive("turns", 1.0),
+            ramp=r.get("ramp", "number", 0.0),
+        )
     if kind == "figure_eight":
-        return FigureEight(start, r.positive("width"), r.positive("height"),
-                           r.positive("period"),
-                           normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
-                           turns=r.positive("turns", 1.0))
+        return FigureEight(
+            start,
+            r.positive("width"),
+            r.positive("height"),
+            r.positive("period"),
+            normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
+            turns=r.positive("turns", 1.0),
+        )
     if kind == "line":
         return Line(start, r.get("end", "vector", size=3), r.positive("duration"))
     if kind == "minimum_jerk":
@@ -182,8 +192,9 @@ def _trajectory(r: _Reader, start: np.ndarray) -> Trajectory:
         return MinimumJerk(start, end, r.positive("duration"))
     if kind == "hold":
         return Hold(start, r.positive("duration"))
-    raise r.fail("type", f"unknown trajectory {kind!r}; use circle, figure_eight, line, "
-                         "minimum_jerk or hold")
+    raise r.fail(
+        "type", f"unknown trajectory {kind!r}; use circle, figure_eight, line, minimum_jerk or hold"
+    )
 
 
 def _obstacle(r: _Reader) -> Obstacle:
@@ -195,8 +206,9 @@ def _obstacle(r: _Reader) -> Obstacle:
     if kind in ("sphere", "point"):
         return SphereObstacle(r.get("center", "vector", size=3), radius, name)
     if kind == "capsule":
-        return CapsuleObstacle(r.get("a", "vector", size=3), r.get("b", "vector", size=3),
-                               radius, name)
+        return CapsuleObstacle(
+            r.get("a", "vector", size=3), r.get("b", "vector", size=3), radius, name
+        )
     raise r.fail("type", f"unknown obstacle {kind!r}; use sphere, point or capsule")
 
 
@@ -209,15 +221,18 @@ def _objective(r: _Reader, obstacles: list[Obstacle], n: int) -> tuple[Objective
     elif kind == "manipulability":
         obj = ManipulabilityObjective()
     elif kind == "posture":
-        obj = PostureObjective(r.get("q_ref", "vector", None, size=n),
-                               r.get("weights", "vector", np.ones(n), size=n))
+        obj = PostureObjective(
+            r.get("q_ref", "vector", None, size=n), r.get("weights", "vector", np.ones(n), size=n)
+        )
     elif kind == "obstacles":
         if not obstacles:
             raise r.fail("type", "an obstacles objective needs [[obstacles]] in the scenario")
         obj = ObstacleObjective(obstacles, r.positive("influence", 0.15))
     else:
-        raise r.fail("type", f"unknown objective {kind!r}; use joint_limits, manipulability, "
-                             "posture or obstacles")
+        raise r.fail(
+            "type",
+            f"unknown objective {kind!r}; use joint_limits, manipulability, posture or obstacles",
+        )
     return obj, weight
 
 
@@ -272,7 +287,9 @@ def load_scenario(path: str | Path) -> ScenarioSpec:
     return parse_scenario(data, file.name, file.parent)
 
 
-def parse_scenario(data: dict[str, Any], file: str = "<scenario>", base: Path = Path()) -> ScenarioSpec:
+def parse_scenario(
+    data: dict[str, Any], file: str = "<scenario>", base: Path = Path()
+) -> ScenarioSpec:
     """Validate a parsed scenario (a dict as :mod:`tomllib` returns)."""
     top = _Reader(data, "", file)
     name = top.get("name", "string", Path(file).stem)
@@ -314,11 +331,25 @@ def parse_scenario(data: dict[str, Any], file: str = "<scenario>", base: Path = 
     tables = top.get("schemes", "tables", ...)
     if not tables:
         raise ScenarioError(f'{file}: [[schemes]] is empty; add one with type = "pinv"')
-    schemes = [_scheme(_Reader(t, f"[schemes][{i}]", file), obstacles, robot.n, file)
-               for i, t in enumerate(tables)]
+    schemes = [
+        _scheme(_Reader(t, f"[schemes][{i}]", file), obstacles, robot.n, file)
+        for i, t in enumerate(tables)
+    ]
     top.done()
-    return ScenarioSpec(name, description, robot, q0, FrameTask, trajectory, dt, duration, gain,
-                        obstacles, schemes, file)
+    return ScenarioSpec(
+        name,
+        description,
+        robot,
+        q0,
+        FrameTask,
+        trajectory,
+        dt,
+        duration,
+        gain,
+        obstacles,
+        schemes,
+        file,
+    )
 
 
 def builtin_scenarios() -> dict[str, Path]:

@@ -27,7 +27,9 @@ def test_task_error_decays_exponentially() -> None:
     target = robot.fk(q0)
     target[:3, 3] += [0.02, -0.01, 0.015]
     gain, dt = 10.0, 1e-3
-    log = rr.run(robot, FrameTask(), Hold(target, 0.5), PseudoInverseScheme(), dt=dt, gain=gain, q0=q0)
+    log = rr.run(
+        robot, FrameTask(), Hold(target, 0.5), PseudoInverseScheme(), dt=dt, gain=gain, q0=q0
+    )
     e = log.position_error
     assert np.all(np.diff(e) < 0)  # strictly decreasing
     # Discrete CLIK: e_k ≈ (1 − K dt)^k e_0 while the linearisation holds.
@@ -96,9 +98,18 @@ def test_run_log_summary_keys() -> None:
     robot = rr.models.iiwa14()
     log = rr.run(robot, FrameTask(), Hold(robot.fk(robot.neutral()), 0.02), PseudoInverseScheme())
     s = log.summary()
-    for key in ("robot", "scheme", "steps", "max_position_error_m", "rms_position_error_m",
-                "min_joint_limit_margin_rad", "min_sigma", "peak_speed_ratio",
-                "step_time_us_median", "path_length_rad"):
+    for key in (
+        "robot",
+        "scheme",
+        "steps",
+        "max_position_error_m",
+        "rms_position_error_m",
+        "min_joint_limit_margin_rad",
+        "min_sigma",
+        "peak_speed_ratio",
+        "step_time_us_median",
+        "path_length_rad",
+    ):
         assert key in s
     assert s["steps"] == 20 and s["robot"] == "iiwa14" and s["scheme"] == "pinv"
 
@@ -109,8 +120,11 @@ def test_panda_circle_pinv_hits_a_limit_and_self_motion_avoids_it() -> None:
     tracking error below 1e-4 m."""
     sc = panda_joint_limit_circle()
     results = {}
-    for scheme in (PseudoInverseScheme(), GradientProjectionScheme([JointLimitObjective()], gain=5.0),
-                   WeightedLeastNormScheme()):
+    for scheme in (
+        PseudoInverseScheme(),
+        GradientProjectionScheme([JointLimitObjective()], gain=5.0),
+        WeightedLeastNormScheme(),
+    ):
         log = rr.run(sc.robot, FrameTask(), sc.trajectory, scheme, q0=sc.q0, dt=1e-3, gain=50.0)
         assert log.steps == 10_000
         results[scheme.name] = log.summary()

@@ -56,7 +56,9 @@ def test_null_space_term_never_disturbs_the_task(
         assert np.linalg.norm(res.null_term) > 1e-6  # the term is really there
         assert np.linalg.norm(J @ res.null_term) <= 1e-10
         assert np.allclose(J @ res.qd, xd, atol=1e-10)
-        grad = JointLimitObjective().gradient(robot, q) + 10 * ManipulabilityObjective().gradient(robot, q)
+        grad = JointLimitObjective().gradient(robot, q) + 10 * ManipulabilityObjective().gradient(
+            robot, q
+        )
         N = np.eye(robot.n) - np.linalg.pinv(J) @ J
         assert np.allclose(res.null_term, -3.0 * N @ grad, atol=1e-10)
 

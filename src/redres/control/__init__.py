@@ -1,5 +1,6 @@
 """Rate-control loops, trajectories and run logs."""
 
+from .analysis import analyse_run, progress_bar
 from .clik import final_configuration, run
 from .runlog import RunLog
 from .scenarios import SCENARIOS, Scenario, iiwa_arm_angle_eight, panda_joint_limit_circle
@@ -15,19 +16,21 @@ from .trajectories import (
 )
 
 __all__ = [
+    "SCENARIOS",
     "Circle",
     "FigureEight",
     "Hold",
     "Line",
     "MinimumJerk",
-    "SCENARIOS",
     "RunLog",
-    "Scenario",
     "Sample",
+    "Scenario",
     "Trajectory",
+    "analyse_run",
     "final_configuration",
     "iiwa_arm_angle_eight",
     "minimum_jerk",
     "panda_joint_limit_circle",
+    "progress_bar",
     "run",
 ]

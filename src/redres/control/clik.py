@@ -14,7 +14,6 @@ exactly; ``K·dt`` must stay well below 2 for the discrete loop to be stable.
 
 from __future__ import annotations
 
-import sys
 import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
@@ -23,25 +22,15 @@ import numpy as np
 
 from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError, JointLimitError, SimulationError
-from ..objectives import Objective, ObstacleObjective
+from ..objectives import Objective
 from ..resolution import GradientProjectionScheme, Scheme, WeightedLeastNormScheme
 from ..tasks import FrameTask, Task
+from .analysis import analyse_run, progress_bar
 from .runlog import RunLog
 from .trajectories import Trajectory
 
 if TYPE_CHECKING:
     from ..robot import Robot
-
-
-def _progress(total: int, enabled: bool | None, desc: str) -> Any:
-    show = enabled if enabled is not None else (total >= 5000 and sys.stderr.isatty())
-    if not show:
-        return None
-    try:
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover - tqdm is a dependency
-        return None
-    return tqdm(total=total, desc=desc, unit="step", leave=False, mininterval=0.25)
 
 
 def run(
@@ -100,7 +89,7 @@ def run(
             f"q0[{j}] = {q[j]:.6g} is outside the limits "
             f"[{robot.q_min[j]:.6g}, {robot.q_max[j]:.6g}] of joint {robot.joint_names[j]!r}"
         )
-    steps = int(round(duration / dt))
+    steps = round(duration / dt)
     n = robot.n
     qd_max = robot.qd_max
     scheme.reset()
@@ -121,7 +110,7 @@ def run(
     algorithmic = np.zeros(steps, dtype=bool)
 
     frame_task = task if isinstance(task, FrameTask) else None
-    bar = _progress(steps, progress, f"{robot.name} {label or scheme.name}")
+    bar = progress_bar(steps, progress, f"{robot.name} {label or scheme.name}")
     clock = time.perf_counter_ns
     try:
         for k in range(steps):
@@ -189,7 +178,15 @@ def run(
     log.extra["inverse_sigma_min"] = inv_sigma.copy()
     log.extra["algorithmic_singularity"] = algorithmic
     log.extra["final_q"] = q
-    _analyse(robot, task, scheme, log, log_objectives)
+    frame = task.frame if isinstance(task, FrameTask) else None
+    rows = task.rows if isinstance(task, FrameTask) else list(range(6))
+    analyse_run(
+        robot,
+        log,
+        frame=frame,
+        rows=rows,
+        objectives=[*_scheme_objectives(scheme), *log_objectives],
+    )
     return log
 
 
@@ -197,32 +194,6 @@ def _scheme_objectives(scheme: Scheme) -> list[Objective]:
     if isinstance(scheme, (GradientProjectionScheme, WeightedLeastNormScheme)):
         return [obj for obj, _ in scheme.objectives]
     return []
-
-
-def _analyse(
-    robot: Robot, task: Task, scheme: Scheme, log: RunLog, extra: Sequence[Objective]
-) -> None:
-    """Post-run measures (not in the timed loop): margins, σ_min and manipulability of
-    the task Jacobian, objective values, obstacle distances."""
-    frame = task.frame if isinstance(task, FrameTask) else None
-    rows = task.rows if isinstance(task, FrameTask) else list(range(6))
-    q_min, q_max = robot.q_min, robot.q_max
-    log.joint_limit_margin[:] = np.minimum(log.q - q_min, q_max - log.q).min(axis=1)
-    fid = robot.frame_id(frame)
-    jacobians = np.stack([robot.placement_jacobian(q, fid)[1][rows] for q in log.q])
-    if len(jacobians):
-        s = np.linalg.svd(jacobians, compute_uv=False)
-        log.sigma_min[:] = s[:, -1]
-        log.manipulability[:] = np.prod(s, axis=1)
-    objectives = {obj.name: obj for obj in [*_scheme_objectives(scheme), *extra]}
-    log.objectives = {
-        name: np.array([obj.cost(robot, q) for q in log.q]) for name, obj in objectives.items()
-    }
-    obstacle = next((o for o in objectives.values() if isinstance(o, ObstacleObjective)), None)
-    if obstacle is not None:
-        log.objectives["obstacle_distance_m"] = np.array(
-            [obstacle.min_distance(robot, q) for q in log.q]
-        )
 
 
 def final_configuration(log: RunLog) -> FloatArray:

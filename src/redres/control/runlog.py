@@ -62,7 +62,8 @@ class RunLog:
     def summary(self) -> dict[str, Any]:
         """Summary metrics with stable keys (used by ``redres demo --json``)."""
         pe = self.position_error
-        path = float(np.sum(np.linalg.norm(np.diff(self.q, axis=0), axis=1))) if self.steps > 1 else 0.0
+        steps = np.diff(self.q, axis=0)
+        path = float(np.sum(np.linalg.norm(steps, axis=1))) if self.steps > 1 else 0.0
         out: dict[str, Any] = {
             "robot": self.robot,
             "scheme": self.scheme,

@@ -45,11 +45,19 @@ def panda_joint_limit_circle(*, turns: float = 4.0) -> Scenario:
     robot = panda()
     q0 = np.array(PANDA_CIRCLE_Q0)
     circle = Circle(
-        robot.fk(q0), 0.10, 2.5, normal=PANDA_CIRCLE_NORMAL, phase=PANDA_CIRCLE_PHASE,
+        robot.fk(q0),
+        0.10,
+        2.5,
+        normal=PANDA_CIRCLE_NORMAL,
+        phase=PANDA_CIRCLE_PHASE,
         turns=turns,
     )
     return Scenario(
-        "panda_joint_limit_circle", robot, q0, FrameTask(), circle,
+        "panda_joint_limit_circle",
+        robot,
+        q0,
+        FrameTask(),
+        circle,
         "Panda TCP, 10 cm circle, 2.5 s per turn; the minimum-norm solution drives joint 2 "
         "past its lower limit",
     )
@@ -61,10 +69,16 @@ def iiwa_arm_angle_eight(*, turns: float = 2.0) -> Scenario:
     q0 = robot.neutral()
     eight = FigureEight(robot.fk(q0), 0.15, 0.10, 5.0, normal=(1.0, 0.0, 0.0), turns=turns)
     return Scenario(
-        "iiwa_arm_angle_eight", robot, q0, FrameTask(), eight,
+        "iiwa_arm_angle_eight",
+        robot,
+        q0,
+        FrameTask(),
+        eight,
         "iiwa14 flange, 15 x 10 cm figure eight in a vertical plane, 5 s per eight",
     )
 
 
-SCENARIOS = {"panda_joint_limit_circle": panda_joint_limit_circle,
-             "iiwa_arm_angle_eight": iiwa_arm_angle_eight}
+SCENARIOS = {
+    "panda_joint_limit_circle": panda_joint_limit_circle,
+    "iiwa_arm_angle_eight": iiwa_arm_angle_eight,
+}

@@ -127,8 +127,11 @@ class Circle(Trajectory):
         radial = (c, s) @ basis
         tangent = (-s, c) @ basis
         r = self.radius
-        return self._fixed(self.center + r * radial, (r * da) * tangent,
-                           (r * dda) * tangent - (r * da * da) * radial)
+        return self._fixed(
+            self.center + r * radial,
+            (r * da) * tangent,
+            (r * dda) * tangent - (r * da * da) * radial,
+        )
 
 
 class FigureEight(Trajectory):

@@ -144,8 +144,9 @@ class ObstacleObjective(Objective):
 
     def cost(self, robot: Robot, q: FloatArray) -> float:
         d0 = self.influence
-        return float(sum((1.0 - p.distance / d0) ** 2 for p in self.proximities(robot, q)
-                         if p.distance < d0))
+        return float(
+            sum((1.0 - p.distance / d0) ** 2 for p in self.proximities(robot, q) if p.distance < d0)
+        )
 
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
         d0 = self.influence
@@ -166,9 +167,13 @@ class ObstacleObjective(Objective):
             n_hat = offset / norm
             # ∂d/∂q = n̂ᵀ (J_v − [r]× J_ω) = n̂ᵀ J_v + (r × n̂)ᵀ J_ω, r = p − p_frame
             r = p.point_on_link - origin
-            r_x_n = np.array([r[1] * n_hat[2] - r[2] * n_hat[1],
-                              r[2] * n_hat[0] - r[0] * n_hat[2],
-                              r[0] * n_hat[1] - r[1] * n_hat[0]])
+            r_x_n = np.array(
+                [
+                    r[1] * n_hat[2] - r[2] * n_hat[1],
+                    r[2] * n_hat[0] - r[0] * n_hat[2],
+                    r[0] * n_hat[1] - r[1] * n_hat[0],
+                ]
+            )
             dd_dq = n_hat @ J[:3] + r_x_n @ J[3:]
             grad += -2.0 / d0 * (1.0 - p.distance / d0) * dd_dq
         return grad

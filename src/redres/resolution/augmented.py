@@ -77,5 +77,3 @@ class AugmentedJacobianScheme(Scheme):
             "extra_error": np.concatenate([s.error for s in states]),
         }
         return StepResult(qd, info, np.zeros_like(qd), extra)
-
-

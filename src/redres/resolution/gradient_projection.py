@@ -31,8 +31,7 @@ def weighted_objectives(objectives: Sequence[WeightedObjective]) -> list[tuple[O
         obj, weight = item if isinstance(item, tuple) else (item, 1.0)
         if not isinstance(obj, Objective):
             raise InvalidParameterError(
-                f"objectives must be Objective instances or (objective, weight) pairs; "
-                f"got {item!r}"
+                f"objectives must be Objective instances or (objective, weight) pairs; got {item!r}"
             )
         out.append((obj, as_scalar(weight, f"weight of {obj.name}")))
     return out
@@ -46,9 +45,7 @@ def total_gradient(
     for obj, weight in objectives:
         g = obj.gradient(robot, q)
         if g.shape != (robot.n,):
-            raise ShapeError(
-                f"gradient of {obj.name} has shape {g.shape}; expected ({robot.n},)"
-            )
+            raise ShapeError(f"gradient of {obj.name} has shape {g.shape}; expected ({robot.n},)")
         grad += weight * g
     return grad
 

@@ -84,8 +84,8 @@ class Robot:
         self._frame_ids: dict[str, int] = {}
         self._refresh_frames()
         self._all_revolute = all(
-            j.shortname() in ("JointModelRX", "JointModelRY", "JointModelRZ",
-                              "JointModelRevoluteUnaligned")
+            j.shortname()
+            in ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned")
             for j in list(model.joints)[1:]
         )
         self._tip_id = self.frame_id(tip)
@@ -320,9 +320,7 @@ class Robot:
         J = pin.getFrameJacobian(model, data, frame_id, _REFERENCE[reference])
         return placement, J if J.ndim == 2 else J.reshape(6, self.n)
 
-    def point_jacobians(
-        self, q: Any, frames: Sequence[str]
-    ) -> tuple[FloatArray, FloatArray]:
+    def point_jacobians(self, q: Any, frames: Sequence[str]) -> tuple[FloatArray, FloatArray]:
         """Origins of several frames and their position Jacobians from one forward pass.
 
         Returns:

@@ -69,7 +69,11 @@ def arm_angle_from_points(
     # v × e and w × v
     cx, cy, cz = vy * ez - vz * ey, vz * ex - vx * ez, vx * ey - vy * ex
     det = wx * cx + wy * cy + wz * cz  # wᵀ(v × e)
-    wv, we, ve = wx * vx + wy * vy + wz * vz, wx * ex + wy * ey + wz * ez, vx * ex + vy * ey + vz * ez
+    wv, we, ve = (
+        wx * vx + wy * vy + wz * vz,
+        wx * ex + wy * ey + wz * ez,
+        vx * ex + vy * ey + vz * ez,
+    )
     S = nw * det
     C = ww * ve - wv * we
     r2 = S * S + C * C

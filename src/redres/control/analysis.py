@@ -1,0 +1,70 @@
+"""Shared by the kinematic loop and the dynamic simulator: progress bars and the post-run
+measures of a :class:`~redres.control.RunLog` (computed after the timed loop)."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..objectives import Objective, ObstacleObjective
+from .runlog import RunLog
+
+if TYPE_CHECKING:
+    from ..robot import Robot
+
+
+def progress_bar(total: int, enabled: bool | None, desc: str) -> Any:
+    """A tqdm bar over ``total`` steps, or ``None``.
+
+    ``enabled=None`` shows it for long runs (≥ 5,000 steps) on a terminal only.
+    """
+    show = enabled if enabled is not None else (total >= 5000 and sys.stderr.isatty())
+    if not show:
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is a dependency
+        return None
+    return tqdm(total=total, desc=desc, unit="step", leave=False, mininterval=0.25)
+
+
+def analyse_run(
+    robot: Robot,
+    log: RunLog,
+    *,
+    frame: str | None,
+    rows: Sequence[int],
+    objectives: Sequence[Objective] = (),
+) -> np.ndarray:
+    """Fill the post-run measures of ``log`` from its configurations ``log.q``.
+
+    Joint-limit margins; smallest singular value and manipulability of the task
+    Jacobian (``rows`` of ``frame``'s world-aligned Jacobian); the value of each objective
+    at every step; and the smallest arm–obstacle distance when an
+    :class:`~redres.objectives.ObstacleObjective` is among them.
+
+    Returns:
+        The singular values of the task Jacobian at every step, shape ``(K, min(m, n))``.
+    """
+    rows = list(rows)
+    log.joint_limit_margin[:] = np.minimum(log.q - robot.q_min, robot.q_max - log.q).min(axis=1)
+    fid = robot.frame_id(frame)
+    s = np.zeros((0, min(len(rows), robot.n)))
+    if log.steps:
+        jacobians = np.stack([robot.placement_jacobian(q, fid)[1][rows] for q in log.q])
+        s = np.linalg.svd(jacobians, compute_uv=False)
+        log.sigma_min[:] = s[:, -1]
+        log.manipulability[:] = np.prod(s, axis=1)
+    by_name = {obj.name: obj for obj in objectives}
+    log.objectives = {
+        name: np.array([obj.cost(robot, q) for q in log.q]) for name, obj in by_name.items()
+    }
+    obstacle = next((o for o in by_name.values() if isinstance(o, ObstacleObjective)), None)
+    if obstacle is not None:
+        log.objectives["obstacle_distance_m"] = np.array(
+            [obstacle.min_distance(robot, q) for q in log.q]
+        )
+    return s

@@ -1,0 +1,124 @@
+"""Shared parts of the torque-level controllers (internal): the task servo and the
+null-space acceleration law."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+
+from .._validate import FloatArray, as_scalar
+from ..errors import InvalidParameterError
+from ..resolution.gradient_projection import (
+    WeightedObjective,
+    total_gradient,
+    weighted_objectives,
+)
+from ..tasks import FrameTask
+from .base import TaskGains
+
+if TYPE_CHECKING:
+    from ..control import Sample
+    from ..robot import Robot
+
+
+class ServoState(NamedTuple):
+    """One evaluation of the task servo.
+
+    Attributes:
+        pose: 4x4 pose of the task frame.
+        error: six-row error ``[p_d − p; log(R_d Rᵀ)]``, (6,), m and rad.
+        jacobian: task rows of the world-aligned Jacobian, (m, n).
+        command: ``ẍ* − J̇ q̇`` with ``ẍ* = ẍ_d + K_d (ẋ_d − J q̇) + K_p e``, (m,).
+    """
+
+    pose: FloatArray
+    error: FloatArray
+    jacobian: FloatArray
+    command: FloatArray
+
+
+class TaskServo:
+    """PD tracking of a frame task's reference at the acceleration level.
+
+    ``ẍ* = ẍ_d + K_d (ẋ_d − J q̇) + K_p e`` (Khatib 1987, eq. for the servo of the unit-mass
+    system), with ``e`` the task error of :class:`~redres.tasks.FrameTask` and ``ẋ_d − J q̇``
+    the velocity error in the same world-aligned coordinates.
+    """
+
+    def __init__(self, task: FrameTask, kp: Any, kd: Any) -> None:
+        if not isinstance(task, FrameTask):
+            raise InvalidParameterError(
+                f"task must be a FrameTask (or PositionTask, OrientationTask, PlanarTask): "
+                f"the operational-space law needs its frame for J̇ q̇; got {task!r}"
+            )
+        self.task = task
+        self.rows = list(task.rows)
+        # A slice when all six rows are used: no fancy-indexing copies in the hot path.
+        self._sel: slice | np.ndarray = (
+            slice(None) if self.rows == list(range(6)) else np.array(self.rows)
+        )
+        self.gains = TaskGains.make(kp, kd, len(self.rows))
+        self._twist = np.zeros(6)
+        self._accel = np.zeros(6)
+        self._has_target = task.target is not None
+
+    def reset(self) -> None:
+        """Hold the task's own target (if set) with zero feed-forward until a sample comes."""
+        self._twist = np.zeros(6)
+        self._accel = np.zeros(6)
+        self._has_target = self.task.target is not None
+
+    def update(self, sample: Sample | None) -> None:
+        """Take the reference pose, twist and acceleration of a trajectory sample."""
+        if sample is None:
+            return
+        self._twist = np.asarray(sample.twist, dtype=float)
+        self._accel = np.asarray(sample.acceleration, dtype=float)
+        self.task.set_target(sample.pose, self._twist, validate=False)
+        self._has_target = True
+
+    def evaluate(self, robot: Robot, q: FloatArray, qd: FloatArray) -> ServoState:
+        """Error, Jacobian and the commanded ``ẍ* − J̇ q̇`` at ``(q, q̇)``."""
+        frame, rows = self.task.frame, self._sel
+        T, J6 = robot.kinematics(q, frame)
+        if not self._has_target:
+            self.task.set_target(T, np.zeros(6), validate=False)
+            self._has_target = True
+        e6 = self.task.full_error(T)
+        jdot_qd = robot.jacobian_dot(q, qd, frame)[rows] @ qd
+        J = J6[rows]
+        g = self.gains
+        cmd = self._accel[rows] + g.kd * (self._twist[rows] - J @ qd) + g.kp * e6[rows]
+        return ServoState(T, e6, J, cmd - jdot_qd)
+
+    def target(self) -> FloatArray | None:
+        """The current target pose (4x4)."""
+        return self.task.target
+
+
+class NullSpaceLaw:
+    """Secondary motion as a joint acceleration ``q̈₀ = −k_p Σ wᵢ ∇Dᵢ(q) − k_d q̇``.
+
+    With ``D`` a posture cost ``½ (q − q_ref)ᵀ W (q − q_ref)`` this is a joint PD law
+    pulling towards ``q_ref``; ``k_d`` also damps the self-motion when there is no
+    objective.
+
+    Args:
+        objectives: costs ``Dᵢ`` (docs/conventions.md), optionally ``(objective, weight)``.
+        kp: 1/s² per unit of gradient (rad/s² per rad for a unit-weight posture), ≥ 0.
+        kd: 1/s, ≥ 0.
+    """
+
+    def __init__(self, objectives: Sequence[WeightedObjective], kp: float, kd: float) -> None:
+        self.objectives = weighted_objectives(objectives)
+        self.kp = as_scalar(kp, "null_kp", minimum=0.0)
+        self.kd = as_scalar(kd, "null_kd", minimum=0.0)
+
+    def acceleration(self, robot: Robot, q: FloatArray, qd: FloatArray) -> FloatArray:
+        """``q̈₀``, shape ``(n,)``, rad/s²."""
+        qdd0 = -self.kd * qd
+        if self.objectives and self.kp > 0.0:
+            qdd0 = qdd0 - self.kp * total_gradient(robot, q, self.objectives)
+        return qdd0

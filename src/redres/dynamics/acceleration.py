@@ -1,0 +1,174 @@
+"""Acceleration-level redundancy resolution and computed-torque control (seed 004).
+
+Differentiating ``ẋ = J q̇`` gives ``ẍ − J̇ q̇ = J q̈`` (seed 004, eq. 8); resolving it with
+a generalised inverse ``J#`` and adding a null-space acceleration::
+
+    q̈ = J# (ẍ − J̇ q̇) + (I − J# J) q̈₀           J# = J̄ = M⁻¹ Jᵀ Λ   ("dynamic", seed 004)
+                                                J# = J⁺              ("kinematic")
+
+and the torque follows from inverse dynamics, ``τ = M q̈ + C q̇ + g`` (RNEA).
+
+With ``J# = J̄`` and ``τ₀ = M q̈₀`` this is exactly the operational-space law of
+:mod:`redres.dynamics.osc` with joint-space compensation, since ``M J̄ = Jᵀ Λ`` and
+``M (I − J̄ J) = (I − Jᵀ J̄ᵀ) M`` — a test checks the two torques agree. At the acceleration
+level both inverses leave the task untouched (``J (I − J# J) = 0`` for either); the
+choice only changes *which* null-space motion a given ``q̈₀`` produces: ``J̄`` gives the
+kinetic-energy-weighted projection of ``q̈₀``, ``J⁺`` the Euclidean one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, Literal, get_args
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .._validate import FloatArray, as_matrix, as_vector
+from ..errors import InvalidParameterError
+from ..linalg import RCOND, AdaptiveDamping, InverseInfo, generalized_inverse
+from ..resolution.gradient_projection import WeightedObjective
+from ..tasks import FrameTask
+from ._servo import NullSpaceLaw, TaskServo
+from .base import ControlStep, TorqueLaw
+from .osc import check_choice, dynamic_inverse
+
+if TYPE_CHECKING:
+    from ..control import Sample
+    from ..robot import Robot
+
+__all__ = ["AccelerationController", "InverseKind", "resolve_acceleration"]
+
+InverseKind = Literal["dynamic", "kinematic"]
+
+
+def _inverse(
+    J: FloatArray,
+    M: FloatArray | None,
+    inverse: str,
+    damping: float | AdaptiveDamping,
+    rcond: float,
+) -> tuple[FloatArray, InverseInfo]:
+    if inverse == "dynamic":
+        if M is None:
+            raise InvalidParameterError("the dynamically consistent inverse needs M")
+        return dynamic_inverse(J, M, damping, rcond)
+    return generalized_inverse(J, damping=damping, rcond=rcond, return_info=True)
+
+
+def resolve_acceleration(
+    J: ArrayLike,
+    M: ArrayLike | None,
+    xdd: ArrayLike,
+    jdot_qd: ArrayLike,
+    qdd0: ArrayLike | None = None,
+    *,
+    inverse: InverseKind = "dynamic",
+    damping: float | AdaptiveDamping = 0.0,
+    rcond: float = RCOND,
+) -> tuple[FloatArray, InverseInfo]:
+    """Joint accelerations ``q̈ = J# (ẍ − J̇ q̇) + (I − J# J) q̈₀`` (seed 004, eq. 9).
+
+    Args:
+        J: task Jacobian, ``(m, n)``.
+        M: joint-space inertia, SPD, ``(n, n)`` (may be ``None`` for ``"kinematic"``).
+        xdd: desired task acceleration ``ẍ``, ``(m,)``, m/s² and rad/s².
+        jdot_qd: ``J̇ q̇``, ``(m,)``, same units.
+        qdd0: null-space acceleration before projection, ``(n,)``, rad/s².
+        inverse: ``"dynamic"`` (``J̄``, seed 004) or ``"kinematic"`` (``J⁺``).
+        damping: ``λ ≥ 0`` or :class:`~redres.linalg.AdaptiveDamping`.
+        rcond: relative rank tolerance when undamped.
+
+    Returns:
+        ``(qdd, info)``: ``(n,)`` joint accelerations, rad/s², and the inverse's diagnostics.
+
+    Raises:
+        ShapeError, NonFiniteError: wrong shapes or NaN/inf input (named).
+        NotPositiveDefiniteError: ``M`` is not symmetric positive definite.
+        InvalidParameterError: unknown ``inverse``, or ``"dynamic"`` without ``M``.
+    """
+    check_choice(inverse, "inverse", get_args(InverseKind))
+    Jm = as_matrix(J, "J")
+    m, n = Jm.shape
+    a = as_vector(xdd, "xdd", m) - as_vector(jdot_qd, "jdot_qd", m)
+    Mm = None if M is None else as_matrix(M, "M", (n, n))
+    J_hash, info = _inverse(Jm, Mm, inverse, damping, rcond)
+    qdd = J_hash @ a
+    if qdd0 is not None:
+        q0 = as_vector(qdd0, "qdd0", n)
+        qdd = qdd + (q0 - J_hash @ (Jm @ q0))
+    return qdd, info
+
+
+class AccelerationController(TorqueLaw):
+    """Computed torque from acceleration-level resolution: ``τ = RNEA(q, q̇, q̈)``.
+
+    ``q̈ = J# (ẍ* − J̇ q̇) + (I − J# J) q̈₀`` with the task servo ``ẍ*`` and the null-space
+    law ``q̈₀ = −k_p,0 ∇D − k_d,0 q̇`` of :class:`~redres.dynamics.OperationalSpaceController`
+    (same arguments and units).
+
+    Args:
+        task: frame task (default: the tip, six rows).
+        kp, kd: task gains, 1/s² and 1/s (``kd=None``: ``2√K_p``).
+        objectives, null_kp, null_kd: the null-space law.
+        inverse: ``"dynamic"`` or ``"kinematic"``.
+        damping, rcond: as for :func:`resolve_acceleration`.
+        name: identifier in run logs (default ``acceleration_<inverse>``).
+    """
+
+    def __init__(
+        self,
+        task: FrameTask | None = None,
+        *,
+        kp: Any = 400.0,
+        kd: Any = None,
+        objectives: Sequence[WeightedObjective] = (),
+        null_kp: float = 25.0,
+        null_kd: float = 10.0,
+        inverse: InverseKind = "dynamic",
+        damping: float | AdaptiveDamping = 0.0,
+        rcond: float = RCOND,
+        name: str | None = None,
+    ) -> None:
+        self.servo = TaskServo(FrameTask() if task is None else task, kp, kd)
+        self.null_law = NullSpaceLaw(objectives, null_kp, null_kd)
+        self.inverse = check_choice(inverse, "inverse", get_args(InverseKind))
+        generalized_inverse(np.eye(1), damping=damping)  # validates damping early
+        self.damping = damping
+        self.rcond = rcond
+        self.name = name or f"acceleration_{inverse}"
+
+    @property
+    def task(self) -> FrameTask:
+        """The controlled frame task."""
+        return self.servo.task
+
+    def reset(self) -> None:
+        self.servo.reset()
+
+    def task_frame(self) -> tuple[str | None, list[int]]:
+        return self.servo.task.frame, self.servo.rows
+
+    def step(
+        self, robot: Robot, q: FloatArray, qd: FloatArray, sample: Sample | None = None
+    ) -> ControlStep:
+        """Torques for state ``(q, q̇)`` tracking ``sample`` (``None``: hold the target)."""
+        q = as_vector(q, "q", robot.n)
+        qd = as_vector(qd, "qd", robot.n)
+        self.servo.update(sample)
+        s = self.servo.evaluate(robot, q, qd)
+        M = robot.mass_matrix(q)
+        qdd0 = self.null_law.acceleration(robot, q, qd)
+        J_hash, info = _inverse(s.jacobian, M, self.inverse, self.damping, self.rcond)
+        qdd_task = J_hash @ s.command
+        qdd_null = qdd0 - J_hash @ (s.jacobian @ qdd0)
+        tau = robot.inverse_dynamics(q, qd, qdd_task + qdd_null)
+        return ControlStep(
+            tau,
+            info,
+            s.error,
+            s.pose,
+            self.servo.target(),
+            M @ qdd_null,
+            {"qdd": qdd_task + qdd_null},
+        )

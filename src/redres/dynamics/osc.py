@@ -1,0 +1,308 @@
+"""Operational-space torque control with a null-space torque (seed 004; Khatib 1987).
+
+The law, with ``M`` the joint-space inertia, ``b = C(q, q̇) q̇ + g(q)`` the bias torques,
+``J`` the task Jacobian (world-aligned rows of the task frame), ``Λ = (J M⁻¹ Jᵀ)⁻¹`` and
+``J̄ = M⁻¹ Jᵀ Λ`` the dynamically consistent inverse::
+
+    ẍ*  = ẍ_d + K_d (ẋ_d − J q̇) + K_p e                    task servo (1/s², 1/s)
+    τ   = Jᵀ Λ (ẍ* − J̇ q̇)  +  b  +  (I − Jᵀ J#ᵀ) τ₀         J# = J̄  ("dynamic")
+                                                          J# = J⁺  ("kinematic")
+    τ₀  = M (−k_p,0 ∇D(q) − k_d,0 q̇)  [+ any user torque]
+
+Why this form:
+
+* **Full bias in joint space** (``compensation="joint"``). Khatib writes the task force
+  as ``F = Λ ẍ* + μ + p`` with ``μ + p = J̄ᵀ b − Λ J̇ q̇``, i.e. ``τ = Jᵀ F = Jᵀ Λ (ẍ* −
+  J̇ q̇) + Jᵀ J̄ᵀ b`` (``compensation="task"``). Both give the same task acceleration, but
+  the task form leaves ``(I − Jᵀ J̄ᵀ) b`` uncompensated: gravity and Coriolis torques then
+  act on the self-motion and the posture sags. Adding ``b`` whole costs the same (one
+  RNEA) and makes the closed loop ``M q̈ = Jᵀ Λ (ẍ* − J̇ q̇) + (I − Jᵀ J̄ᵀ) τ₀``, whence
+  ``ẍ = J q̈ + J̇ q̇ = ẍ*`` exactly: every task row obeys ``ë + K_d ė + K_p e = 0``.
+* **``Jᵀ Λ = M J̄``** (from ``J̄ = M⁻¹ Jᵀ Λ``), so the task torque needs only ``J̄`` — one
+  factorisation per step, no separate ``Λ``.
+* **Null-space torque from an acceleration**: ``τ₀ = M q̈₀`` gives, with the dynamic
+  projector, the joint acceleration ``M⁻¹ (I − Jᵀ J̄ᵀ) M q̈₀ = (I − J̄ J) q̈₀``: the posture
+  PD acts with gains in 1/s² and 1/s whatever the link inertias, and its motion is the
+  projection of ``q̈₀`` onto the null space of ``J``.
+* **Dynamic consistency**: ``J M⁻¹ (I − Jᵀ J̄ᵀ) = J M⁻¹ − Λ⁻¹ Λ J M⁻¹ = 0`` (seed 004,
+  appendix B), so ``τ₀`` never accelerates the task. With the kinematic ``J⁺`` the same
+  product is ``J M⁻¹ − J M⁻¹ Jᵀ J⁺ᵀ ≠ 0`` in general: the null-space torque disturbs the
+  task, and only the task's feedback rejects it. :func:`task_disturbance` measures it.
+* With ``damping = λ > 0`` the inverse is ``J̄_λ = M⁻¹ Jᵀ (J M⁻¹ Jᵀ + λ² I)⁻¹``: bounded
+  near singularities, but consistency is then only approximate:
+  ``J M⁻¹ (I − Jᵀ J̄_λᵀ) = λ² (J M⁻¹ Jᵀ + λ² I)⁻¹ J M⁻¹``.
+
+References:
+    O. Khatib, "A unified approach for motion and force control of robot manipulators:
+    the operational space formulation", IEEE J. Robotics and Automation 3(1), 1987.
+    O. Khatib, "Inertial properties in robotic manipulation: an object-level framework",
+    Int. J. Robotics Research 14(1), 1995.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.linalg import cho_solve
+
+from .._validate import FloatArray, as_matrix, as_vector
+from ..errors import InvalidParameterError, NotPositiveDefiniteError
+from ..linalg import RCOND, AdaptiveDamping, InverseInfo, generalized_inverse
+from ..linalg.dynamics import mass_matrix_factor
+from ..resolution.gradient_projection import WeightedObjective
+from ..tasks import FrameTask
+from ._servo import NullSpaceLaw, TaskServo
+from .base import ControlStep, TorqueLaw
+
+if TYPE_CHECKING:
+    from ..control import Sample
+    from ..robot import Robot
+
+__all__ = [
+    "Compensation",
+    "OperationalSpaceController",
+    "OperationalSpaceTorque",
+    "Projector",
+    "operational_space_torque",
+    "task_disturbance",
+]
+
+Projector = Literal["dynamic", "kinematic"]
+Compensation = Literal["joint", "task"]
+_PROJECTORS: tuple[str, ...] = get_args(Projector)
+_COMPENSATIONS: tuple[str, ...] = get_args(Compensation)
+
+
+def check_choice(value: str, name: str, choices: tuple[str, ...]) -> str:
+    """``value`` if it is one of ``choices``, else an error listing them."""
+    if value not in choices:
+        raise InvalidParameterError(f"{name} must be one of {', '.join(choices)}; got {value!r}")
+    return value
+
+
+def dynamic_inverse(
+    J: FloatArray, M: ArrayLike, damping: float | AdaptiveDamping, rcond: float
+) -> tuple[FloatArray, InverseInfo]:
+    """``J̄ = M⁻¹ Jᵀ (J M⁻¹ Jᵀ + λ² I)⁻¹`` and its info, errors naming ``M``.
+
+    This is :func:`redres.linalg.weighted_pinv` with ``W = M`` (seed 004: the
+    dynamically consistent inverse is the inertia-weighted one), the compiled path of
+    :func:`redres.linalg.dynamically_consistent_pinv`; tests check the two agree.
+    """
+    try:
+        J_bar, info = generalized_inverse(
+            J, weights=M, damping=damping, rcond=rcond, return_info=True
+        )
+    except NotPositiveDefiniteError as exc:
+        raise NotPositiveDefiniteError(
+            f"M must be a symmetric positive definite mass matrix ({exc})"
+        ) from exc
+    return J_bar, info
+
+
+class OperationalSpaceTorque(NamedTuple):
+    """The parts of one operational-space torque, each shape ``(n,)``, N·m.
+
+    Attributes:
+        tau: total ``task + compensation + null``.
+        task: ``Jᵀ Λ (ẍ* − J̇ q̇)``.
+        compensation: ``b`` (joint) or ``Jᵀ J̄ᵀ b`` (task).
+        null: ``(I − Jᵀ J#ᵀ) τ₀``.
+        info: diagnostics of ``J̄`` (singular values of ``J M^{-1/2}``).
+    """
+
+    tau: FloatArray
+    task: FloatArray
+    compensation: FloatArray
+    null: FloatArray
+    info: InverseInfo
+
+
+def operational_space_torque(
+    J: ArrayLike,
+    M: ArrayLike,
+    bias: ArrayLike,
+    command: ArrayLike,
+    tau0: ArrayLike | None = None,
+    *,
+    projector: Projector = "dynamic",
+    compensation: Compensation = "joint",
+    damping: float | AdaptiveDamping = 0.0,
+    rcond: float = RCOND,
+) -> OperationalSpaceTorque:
+    """One operational-space torque on bare arrays (module docstring; Khatib 1987).
+
+    ``τ = M J̄ a + b + (I − Jᵀ J#ᵀ) τ₀`` with ``a = ẍ* − J̇ q̇`` (``M J̄ = Jᵀ Λ``).
+
+    Args:
+        J: task Jacobian, shape ``(m, n)``.
+        M: joint-space inertia, symmetric positive definite, ``(n, n)``, kg·m².
+        bias: ``C q̇ + g``, ``(n,)``, N·m.
+        command: ``ẍ* − J̇ q̇``, ``(m,)``, m/s² and rad/s².
+        tau0: null-space torque before projection, ``(n,)``, N·m (``None``: none).
+        projector: ``"dynamic"`` (``J# = J̄``, consistent) or ``"kinematic"`` (``J# = J⁺``).
+        compensation: ``"joint"`` (add ``b``) or ``"task"`` (add ``Jᵀ J̄ᵀ b``, Khatib's
+            ``Jᵀ (μ + p)``).
+        damping: ``λ ≥ 0`` or :class:`~redres.linalg.AdaptiveDamping`, used by both
+            inverses.
+        rcond: relative rank tolerance when undamped.
+
+    Raises:
+        ShapeError, NonFiniteError: wrong shapes or NaN/inf input (named).
+        NotPositiveDefiniteError: ``M`` is not symmetric positive definite.
+        InvalidParameterError: unknown ``projector`` or ``compensation``.
+    """
+    check_choice(projector, "projector", _PROJECTORS)
+    check_choice(compensation, "compensation", _COMPENSATIONS)
+    Jm = as_matrix(J, "J")
+    m, n = Jm.shape
+    Mm = as_matrix(M, "M", (n, n))
+    b = as_vector(bias, "bias", n)
+    a = as_vector(command, "command", m)
+    t0 = None if tau0 is None else as_vector(tau0, "tau0", n)
+    return _torque(Jm, Mm, b, a, t0, projector, compensation, damping, rcond)
+
+
+def _torque(
+    J: FloatArray,
+    M: FloatArray,
+    b: FloatArray,
+    a: FloatArray,
+    tau0: FloatArray | None,
+    projector: str,
+    compensation: str,
+    damping: float | AdaptiveDamping,
+    rcond: float,
+) -> OperationalSpaceTorque:
+    """:func:`operational_space_torque` on validated arrays (the controller's hot path)."""
+    J_bar, info = dynamic_inverse(J, M, damping, rcond)
+    tau_task = M @ (J_bar @ a)
+    tau_comp = b if compensation == "joint" else J.T @ (J_bar.T @ b)
+    if tau0 is None:
+        tau_null = np.zeros(M.shape[0])
+    else:
+        if projector == "dynamic":
+            J_hash = J_bar
+        else:
+            J_hash = generalized_inverse(J, damping=damping, rcond=rcond)
+        tau_null = tau0 - J.T @ (J_hash.T @ tau0)
+    return OperationalSpaceTorque(
+        tau_task + tau_comp + tau_null, tau_task, tau_comp, tau_null, info
+    )
+
+
+def task_disturbance(J: ArrayLike, M: ArrayLike, tau: ArrayLike) -> FloatArray:
+    """Task acceleration ``J M⁻¹ τ`` that a torque ``τ`` causes on its own, ``(m,)``.
+
+    Zero for ``τ = (I − Jᵀ J̄ᵀ) τ₀`` (dynamic consistency, seed 004 eq. 13).
+
+    Args:
+        J: task Jacobian, ``(m, n)``.
+        M: joint-space inertia, SPD, ``(n, n)``.
+        tau: joint torque, ``(n,)``, N·m.
+    """
+    Jm = as_matrix(J, "J")
+    n = Jm.shape[1]
+    L = mass_matrix_factor(M, n)
+    t = as_vector(tau, "tau", n)
+    return Jm @ cho_solve((L, True), t)
+
+
+class OperationalSpaceController(TorqueLaw):
+    """Khatib's operational-space controller with a null-space posture (module docstring).
+
+    Args:
+        task: the frame task (default: the robot's tip, all six rows); its ``rows`` select
+            the controlled directions.
+        kp: task stiffness ``K_p``, 1/s² (scalar or per row), ≥ 0.
+        kd: task damping ``K_d``, 1/s (default ``2√K_p``: critically damped), ≥ 0.
+        objectives: secondary costs for ``τ₀``, e.g. ``[PostureObjective(q_ref)]``.
+        null_kp: ``k_p,0`` of ``q̈₀ = −k_p,0 ∇D − k_d,0 q̇``, 1/s², ≥ 0.
+        null_kd: ``k_d,0``, 1/s, ≥ 0 (damps the self-motion).
+        null_torque: optional ``f(robot, q, qd) -> (n,)`` added to ``τ₀`` (N·m), for any
+            other secondary torque.
+        projector: ``"dynamic"`` (``I − Jᵀ J̄ᵀ``) or ``"kinematic"`` (``I − Jᵀ J⁺ᵀ``).
+        compensation: ``"joint"`` or ``"task"`` bias compensation.
+        damping: ``λ`` of the inverses near singularities (0: exact), or
+            :class:`~redres.linalg.AdaptiveDamping`.
+        rcond: relative rank tolerance when undamped.
+        name: identifier in run logs (default ``osc_<projector>``).
+    """
+
+    def __init__(
+        self,
+        task: FrameTask | None = None,
+        *,
+        kp: Any = 400.0,
+        kd: Any = None,
+        objectives: Sequence[WeightedObjective] = (),
+        null_kp: float = 25.0,
+        null_kd: float = 10.0,
+        null_torque: Callable[[Robot, FloatArray, FloatArray], Any] | None = None,
+        projector: Projector = "dynamic",
+        compensation: Compensation = "joint",
+        damping: float | AdaptiveDamping = 0.0,
+        rcond: float = RCOND,
+        name: str | None = None,
+    ) -> None:
+        self.servo = TaskServo(FrameTask() if task is None else task, kp, kd)
+        self.null_law = NullSpaceLaw(objectives, null_kp, null_kd)
+        if null_torque is not None and not callable(null_torque):
+            raise InvalidParameterError(f"null_torque must be callable; got {null_torque!r}")
+        self.null_torque = null_torque
+        check_choice(projector, "projector", _PROJECTORS)
+        check_choice(compensation, "compensation", _COMPENSATIONS)
+        self.projector: Projector = projector
+        self.compensation: Compensation = compensation
+        generalized_inverse(np.eye(1), damping=damping)  # validates damping early
+        self.damping = damping
+        self.rcond = rcond
+        self.name = name or f"osc_{projector}"
+
+    @property
+    def task(self) -> FrameTask:
+        """The controlled frame task."""
+        return self.servo.task
+
+    def reset(self) -> None:
+        self.servo.reset()
+
+    def task_frame(self) -> tuple[str | None, list[int]]:
+        return self.servo.task.frame, self.servo.rows
+
+    def null_space_torque(
+        self, robot: Robot, q: FloatArray, qd: FloatArray, M: FloatArray
+    ) -> FloatArray:
+        """``τ₀ = M q̈₀`` (+ the user's ``null_torque``), before projection, ``(n,)``."""
+        tau0 = M @ self.null_law.acceleration(robot, q, qd)
+        if self.null_torque is not None:
+            tau0 = tau0 + as_vector(self.null_torque(robot, q, qd), "null_torque()", robot.n)
+        return tau0
+
+    def step(
+        self, robot: Robot, q: FloatArray, qd: FloatArray, sample: Sample | None = None
+    ) -> ControlStep:
+        """Torques for state ``(q, q̇)`` tracking ``sample`` (``None``: hold the target)."""
+        q = as_vector(q, "q", robot.n)
+        qd = as_vector(qd, "qd", robot.n)
+        self.servo.update(sample)
+        s = self.servo.evaluate(robot, q, qd)
+        M = robot.mass_matrix(q)
+        tau0 = self.null_space_torque(robot, q, qd, M)
+        out = _torque(
+            s.jacobian,
+            M,
+            robot.bias(q, qd),
+            s.command,
+            tau0,
+            self.projector,
+            self.compensation,
+            self.damping,
+            self.rcond,
+        )
+        return ControlStep(
+            out.tau, out.info, s.error, s.pose, self.servo.target(), out.null, {"tau0": tau0}
+        )
