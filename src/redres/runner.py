@@ -28,6 +28,21 @@ def run_scenario(spec: ScenarioSpec, *, progress: bool | None = None) -> list[Ru
     logs = []
     extra = [ObstacleObjective(spec.obstacles)] if spec.obstacles else []
     for scheme_spec in spec.schemes:
+        if scheme_spec.kind == "osc":
+            from .dynamics import simulate
+
+            log = simulate(
+                spec.robot,
+                scheme_spec.build(),
+                spec.trajectory,
+                dt=spec.dt,
+                duration=spec.duration,
+                q0=spec.q0,
+                label=scheme_spec.label,
+                progress=progress,
+            )
+            logs.append(log)
+            continue
         log = run(
             spec.robot,
             spec.task(),

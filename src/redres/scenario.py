@@ -35,7 +35,6 @@ from .resolution import (
     AugmentedJacobianScheme,
     GradientProjectionScheme,
     PseudoInverseScheme,
-    Scheme,
     WeightedLeastNormScheme,
 )
 from .robot import Robot
@@ -59,7 +58,7 @@ class SchemeSpec:
 
     kind: str
     label: str
-    build: Callable[[], Scheme]
+    build: Callable[[], Any]  # a Scheme, or a torque law for "osc"
 
 
 @dataclass
@@ -236,7 +235,30 @@ def _objective(r: _Reader, obstacles: list[Obstacle], n: int) -> tuple[Objective
     return obj, weight
 
 
-SCHEME_TYPES = ("pinv", "dls", "gradient_projection", "wln", "augmented")
+SCHEME_TYPES = ("pinv", "dls", "gradient_projection", "wln", "augmented", "osc")
+
+
+def _osc(r: _Reader, objectives: list[tuple[Objective, float]]) -> Callable[[], Any]:
+    """Operational-space torque control (seed 004), simulated with forward dynamics."""
+    from .dynamics import OperationalSpaceController
+
+    kp = r.positive("kp", 400.0)
+    kd = r.positive("kd", 2.0 * math.sqrt(kp))
+    projector = r.get("projector", "string", "dynamic")
+    null_kp = r.get("null_kp", "number", 25.0)
+    null_kd = r.get("null_kd", "number", 10.0)
+    posture = objectives or [(PostureObjective(), 1.0)]
+    if projector not in ("dynamic", "kinematic"):
+        raise r.fail("projector", f"use 'dynamic' or 'kinematic'; got {projector!r}")
+    return lambda: OperationalSpaceController(
+        kp=kp,
+        kd=kd,
+        objectives=posture,
+        null_kp=null_kp,
+        null_kd=null_kd,
+        projector=projector,
+        name="osc",  # type: ignore[arg-type]
+    )
 
 
 def _scheme(r: _Reader, obstacles: list[Obstacle], n: int, file: str) -> SchemeSpec:
@@ -254,7 +276,7 @@ def _scheme(r: _Reader, obstacles: list[Obstacle], n: int, file: str) -> SchemeS
     try:
         if kind in ("pinv", "dls"):
             PseudoInverseScheme(inverse, **params)  # validate now, build per run
-            build: Callable[[], Scheme] = lambda: PseudoInverseScheme(inverse, **params)  # noqa: E731
+            build: Callable[[], Any] = lambda: PseudoInverseScheme(inverse, **params)  # noqa: E731
         elif kind == "gradient_projection":
             GradientProjectionScheme(objectives, gain, inverse, **params)
             build = lambda: GradientProjectionScheme(objectives, gain, inverse, **params)  # noqa: E731
@@ -263,6 +285,8 @@ def _scheme(r: _Reader, obstacles: list[Obstacle], n: int, file: str) -> SchemeS
             build = lambda: WeightedLeastNormScheme(c, objectives, gain, inverse, **params)  # noqa: E731
         elif kind == "augmented":
             build = lambda: AugmentedJacobianScheme(gain=gain if "gain" in r.table else 10.0)  # noqa: E731
+        elif kind == "osc":
+            build = _osc(r, objectives)
         else:
             raise r.fail("type", f"unknown scheme {kind!r}; use {', '.join(SCHEME_TYPES)}")
     except RedresError as exc:
