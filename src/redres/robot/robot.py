@@ -90,6 +90,7 @@ class Robot:
         )
         self._tip_id = self.frame_id(tip)
         self._tip = tip
+        self._lower = np.tril_indices(n, -1)
         if home is None:
             home_q = np.clip(np.zeros(n), q_min, q_max)
         else:
@@ -386,9 +387,10 @@ class Robot:
 
         Includes the rotor armature on its diagonal.
         """
-        M = pin.crba(self.model, self.data, self._q(q))
-        M = np.triu(M)
-        return M + np.triu(M, 1).T
+        M = np.array(pin.crba(self.model, self.data, self._q(q)))  # upper triangle filled
+        lower = self._lower
+        M[lower] = M.T[lower]
+        return M
 
     def bias(self, q: Any, qd: Any) -> FloatArray:
         """Coriolis, centrifugal and gravity torques C(q, qd) qd + g(q), shape ``(n,)``."""
