@@ -45,11 +45,12 @@ def worked_examples() -> list[dict[str, object]]:
         )
     rr_arm = models.planar([1.0, 1.0])
     J = rr_arm.jacobian(np.array([30.0, 30.0]) * DEG)[[0, 1, 5]]
-    for v in ([1.0, 1.0, 1.0], [-2.0, 2.0, 2.0]):
-        qd = linalg.left_pinv(J) @ np.array(v)
+    for v_list in ([1.0, 1.0, 1.0], [-2.0, 2.0, 2.0]):
+        qd = linalg.left_pinv(J) @ np.array(v_list)
         out.append(
             {
-                "example": f"seed 002: RR at (30, 30) deg, left pseudo-inverse, v = {tuple(v)}",
+                "example": f"seed 002: RR at (30, 30) deg, left pseudo-inverse, "
+                f"v = {tuple(v_list)}",
                 "qd_rad_s": np.round(qd, 3).tolist(),
                 "achieved_x": np.round(J @ qd, 3).tolist(),
             }

@@ -85,7 +85,8 @@ class _Reader:
     def __init__(self, table: Any, path: str, file: str) -> None:
         if not isinstance(table, dict):
             raise ScenarioError(f"{file}: {path} must be a table; got {type(table).__name__}")
-        self.table, self.path, self.file, self.used = table, path, file, set()
+        self.table, self.path, self.file = table, path, file
+        self.used: set[str] = set()
 
     def fail(self, key: str, message: str) -> ScenarioError:
         return ScenarioError(f"{self.file}: {self.path}.{key}: {message}")

@@ -52,7 +52,7 @@ def analyse_run(
     rows = list(rows)
     log.joint_limit_margin[:] = np.minimum(log.q - robot.q_min, robot.q_max - log.q).min(axis=1)
     fid = robot.frame_id(frame)
-    s = np.zeros((0, min(len(rows), robot.n)))
+    s: np.ndarray = np.zeros((0, min(len(rows), robot.n)))
     if log.steps:
         jacobians = np.stack([robot.placement_jacobian(q, fid)[1][rows] for q in log.q])
         s = np.linalg.svd(jacobians, compute_uv=False)

@@ -94,7 +94,7 @@ def run(
     qd_max = robot.qd_max
     scheme.reset()
 
-    t_log = np.arange(steps) * dt
+    t_log = np.arange(steps, dtype=np.float64) * dt
     q_log = np.empty((steps, n))
     qd_log = np.empty((steps, n))
     pos_log = np.zeros((steps, 3))
