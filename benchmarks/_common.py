@@ -24,7 +24,11 @@ def time_calls(fn: Callable[[], object], *, batch: int = 200, batches: int = 30)
 
 
 def interleaved(
-    contenders: dict[str, Callable[[], object]], *, rounds: int = 7, batch: int = 200, batches: int = 5
+    contenders: dict[str, Callable[[], object]],
+    *,
+    rounds: int = 7,
+    batch: int = 200,
+    batches: int = 5,
 ) -> dict[str, np.ndarray]:
     """Time every contender in turn, ``rounds`` times, so machine noise hits all alike."""
     samples: dict[str, list[float]] = {name: [] for name in contenders}
