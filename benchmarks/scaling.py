@@ -23,10 +23,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-import redres as rr  # noqa: E402
-from _common import machine, median, table, time_calls  # noqa: E402
-from redres.objectives import JointLimitObjective  # noqa: E402
-from redres.tasks import FrameTask, PlanarTask  # noqa: E402
+from _common import machine, median, table, time_calls
+
+import redres as rr
+from redres.objectives import JointLimitObjective
+from redres.tasks import FrameTask, PlanarTask
 
 SIZES = (3, 5, 7, 10, 15, 20, 30, 40, 50)
 
