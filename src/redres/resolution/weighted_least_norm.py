@@ -67,7 +67,12 @@ class WeightedLeastNormScheme(Scheme):
         inverse: InverseChoice | str = "exact",
         **inverse_params: Any,
     ) -> None:
-        c_arr = np.asarray(c, dtype=float)
+        try:
+            c_arr = np.asarray(c, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidParameterError(
+                f"c must be a positive number or one per joint; got {c!r}"
+            ) from None
         if not np.all(np.isfinite(c_arr)) or np.any(c_arr <= 0):
             raise InvalidParameterError(f"c must be positive; got {c}")
         self.c = c_arr

@@ -1,0 +1,208 @@
+"""The self-contained report page: one HTML file, no network, no server.
+
+Plots are PNG data URIs; plotly.js is inlined once; the 3D figures of every run are one
+JSON document in the page, and a small script draws the run picked in a drop-down into a
+single plotly graph (one WebGL context however many runs there are). The graph element
+gets ``data-status="rendered"`` once plotly has drawn it (``"error"`` if it failed), which
+automated checks can read.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from html import escape
+from typing import Any
+
+from .plots import PLOT_TITLES
+
+PLOTLY_CONFIG = {"displaylogo": False, "responsive": True}
+
+CSS = """
+:root { --fg: #1d1f23; --muted: #5f6570; --line: #dde0e5; --accent: #1f5fbf; }
+* { box-sizing: border-box; }
+body { margin: 0; color: var(--fg); background: #fff;
+  font: 15px/1.5 system-ui, -apple-system, "Segoe UI", Roboto, "Helvetica Neue", sans-serif; }
+main { max-width: 1260px; margin: 0 auto; padding: 24px 28px 48px; }
+header h1 { margin: 0 0 4px; font-size: 26px; letter-spacing: -0.01em; }
+header .meta { color: var(--muted); font-size: 13px; margin: 0 0 12px; }
+header p { margin: 6px 0; max-width: 900px; }
+h2 { font-size: 19px; margin: 34px 0 10px; padding-bottom: 4px;
+  border-bottom: 1px solid var(--line); }
+table.summary { border-collapse: collapse; width: 100%; font-size: 13.5px; }
+table.summary th, table.summary td { padding: 5px 9px; border-bottom: 1px solid var(--line);
+  text-align: left; vertical-align: bottom; }
+table.summary th { font-weight: 600; background: #f5f6f8; }
+table.summary tbody tr:hover { background: #f0f5ff; }
+.num { text-align: right !important; font-variant-numeric: tabular-nums; }
+.unit { font-weight: 400; color: var(--muted); font-size: 12px; }
+td.bad { color: #b3261e; font-weight: 600; }
+td.missing { color: var(--muted); }
+.picker { display: flex; gap: 10px; align-items: center; margin: 6px 0 4px; }
+.picker select, .picker button { font: inherit; padding: 3px 8px; }
+.picker button { border: 1px solid #b9bec7; background: #f5f6f8; border-radius: 4px;
+  cursor: pointer; }
+.picker button:hover { background: #e8ecf3; }
+.hint { color: var(--muted); font-size: 13px; }
+#arm-view { width: 100%; min-height: 680px; border: 1px solid var(--line); border-radius: 6px; }
+.plots { display: grid; grid-template-columns: 1fr 1fr; gap: 14px; }
+.plots figure { margin: 0; }
+.plots figure.wide { grid-column: 1 / -1; }
+.plots img { width: 100%; height: auto; border: 1px solid var(--line); border-radius: 4px; }
+figcaption { color: var(--muted); font-size: 13px; }
+footer { margin-top: 40px; color: var(--muted); font-size: 12.5px; }
+"""
+
+SCRIPT = """
+(function () {
+  var runs = JSON.parse(document.getElementById("redres-runs").textContent);
+  var config = JSON.parse(document.getElementById("redres-plotly-config").textContent);
+  var view = document.getElementById("arm-view");
+  var select = document.getElementById("run-select");
+  var current = 0, frame = "0", bound = false;
+  function quiet() {}  // an interrupted animation rejects its promise: expected
+  function pause() {
+    return Plotly.animate(view, [null], {mode: "immediate", transition: {duration: 0},
+                                         frame: {duration: 0, redraw: false}}).catch(quiet);
+  }
+  function play() {  // from the frame after the one shown, or from the start at the end
+    var names = runs[current].frames.map(function (f) { return f.name; });
+    var at = names.indexOf(frame);
+    var rest = at >= 0 && at < names.length - 1 ? names.slice(at + 1) : names;
+    Plotly.animate(view, rest, {mode: "immediate", transition: {duration: 0},
+                                frame: {duration: runs[current].play.frame_ms, redraw: true}})
+      .catch(quiet);
+  }
+  function show(i) {
+    var fig = runs[i];
+    current = i; frame = "0";
+    view.dataset.status = "rendering";
+    if (view.data) { pause(); }
+    Plotly.react(view, {data: fig.data, layout: fig.layout, frames: fig.frames, config: config})
+      .then(function () {
+        if (!bound) {
+          view.on("plotly_animatingframe", function (e) { frame = e.name; });
+          bound = true;
+        }
+        view.dataset.status = "rendered"; view.dataset.run = String(i);
+      })
+      .catch(function (err) { view.dataset.status = "error"; console.error(err); });
+  }
+  select.addEventListener("change", function () { show(Number(select.value)); });
+  document.getElementById("play").addEventListener("click", play);
+  document.getElementById("pause").addEventListener("click", pause);
+  var match = /^#run-(\\d+)$/.exec(window.location.hash);
+  var first = match && Number(match[1]) < runs.length ? Number(match[1]) : 0;
+  select.value = String(first);
+  show(first);
+})();
+"""
+
+
+@dataclass(frozen=True)
+class RobotPlots:
+    """The PNG plots of one robot, keyed by kind (see :data:`~redres.report.plots.PLOT_TITLES`)."""
+
+    robot: str
+    pngs: Mapping[str, bytes]
+    files: Mapping[str, str]
+
+
+def _script_json(value: Any) -> str:
+    """JSON safe inside a ``<script>`` element (no ``</`` sequence can close it)."""
+    return json.dumps(value, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+
+
+def _inline_js(source: str) -> str:
+    return source.replace("</script", "<\\/script")
+
+
+def _arm_section(views: Sequence[tuple[str, str, Mapping[str, Any]]]) -> str:
+    options: dict[str, list[str]] = {}
+    for i, (robot, label, _) in enumerate(views):
+        options.setdefault(robot, []).append(f'<option value="{i}">{escape(label)}</option>')
+    groups = "".join(
+        f'<optgroup label="{escape(robot)}">{"".join(opts)}</optgroup>'
+        for robot, opts in options.items()
+    )
+    return f"""<section id="motion"><h2>Arm motion</h2>
+<div class="picker"><label for="run-select">Run</label>
+<select id="run-select">{groups}</select>
+<button id="play" type="button">▶ Play</button><button id="pause" type="button">❚❚ Pause</button>
+<span class="hint">Play, or drag the time slider; drag the scene to turn it, scroll to zoom.
+Links to one run: <code>report.html#run-N</code>.</span></div>
+<div id="arm-view" data-status="pending"></div>
+<noscript><p>The 3D view needs JavaScript.</p></noscript></section>"""
+
+
+def _plot_section(plots: RobotPlots) -> str:
+    figures = []
+    for kind, title in PLOT_TITLES.items():
+        if kind not in plots.pngs:
+            continue
+        data = base64.b64encode(plots.pngs[kind]).decode("ascii")
+        wide = ' class="wide"' if kind in ("joints", "objectives") else ""
+        figures.append(
+            f'<figure{wide}><img alt="{escape(plots.robot)}: {escape(title)}" '
+            f'src="data:image/png;base64,{data}"><figcaption>{escape(title)} · '
+            f"{escape(plots.files[kind])}</figcaption></figure>"
+        )
+    if "objectives" not in plots.pngs:
+        figures.append('<p class="hint">No run of this robot logged a secondary objective.</p>')
+    return (
+        f'<section class="robot"><h2>{escape(plots.robot)}</h2>'
+        f'<div class="plots">{"".join(figures)}</div></section>'
+    )
+
+
+def _paragraphs(text: str) -> str:
+    blocks = [b.strip() for b in text.split("\n\n") if b.strip()]
+    return "".join(f"<p>{escape(b)}</p>" for b in blocks)
+
+
+def render_page(
+    *,
+    title: str,
+    description: str,
+    table: str,
+    views: Sequence[tuple[str, str, Mapping[str, Any]]],
+    plots: Sequence[RobotPlots],
+    plotly_js: str,
+    version: str,
+) -> str:
+    """The whole page as one string.
+
+    Args:
+        title, description: page heading and plain-text introduction (blank lines separate
+            paragraphs); both are escaped.
+        table: the summary table's HTML (already escaped, see :func:`table_html`).
+        views: ``(robot, run label, plotly figure dict)`` for each run's 3D view.
+        plots: the PNG plots of each robot.
+        plotly_js: the plotly.js bundle, inlined once.
+        version: redres version, shown in the header.
+    """
+    sections = "".join(_plot_section(p) for p in plots)
+    figures = _script_json([fig for _, _, fig in views])
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<meta name="generator" content="redres {escape(version)}">
+<title>{escape(title)}</title><style>{CSS}</style>
+<script>{_inline_js(plotly_js)}</script>
+</head><body><main>
+<header><h1>{escape(title)}</h1>
+<p class="meta">redres {escape(version)} · {len(views)} runs ·
+one self-contained file, works offline</p>
+{_paragraphs(description)}</header>
+<section id="summary"><h2>Summary</h2>{table}</section>
+{_arm_section(views)}
+{sections}
+<footer>Made with redres {escape(version)}. Plots: matplotlib; 3D view: plotly.js (MIT).
+</footer></main>
+<script type="application/json" id="redres-runs">{figures}</script>
+<script type="application/json" id="redres-plotly-config">{_script_json(PLOTLY_CONFIG)}</script>
+<script>{SCRIPT}</script>
+</body></html>
+"""

@@ -1,0 +1,268 @@
+"""Animated 3D view of a run: the arm as a polyline through its frame origins.
+
+:func:`arm_animation` samples a run (about 80 configurations, forward kinematics on each)
+and :func:`animation_figure` turns it into a plotly figure (plain JSON-ready dicts, so
+plotly.js draws it without the Python plotly objects): the arm, the target and actual
+paths of the task frame, play/pause buttons and a time slider, equal scale on all axes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .._validate import FloatArray, as_vector
+from .series import IntArray, even_indices
+
+if TYPE_CHECKING:
+    from ..control import RunLog
+    from ..robot import Robot
+
+DECIMALS = 5  # 10 µm: finer than the screen, and keeps the page small
+
+
+def arm_frames(robot: Robot) -> list[str]:
+    """Frames whose origins draw the arm, base to tip.
+
+    Built-in models: the root frame (``base``/``link0``), the frames whose names start
+    with ``link`` in kinematic order, then the tip. Models without ``link…`` frames (URDF):
+    the root frame, the frames of the joints, then the tip.
+    """
+    bodies = robot.frames(include_joint_frames=False)
+    chain = [f for f in bodies if f.startswith("link")]
+    if not chain:
+        every = set(robot.frames())
+        chain = [j for j in robot.joint_names if j in every]
+    if bodies and bodies[0] not in chain:
+        chain.insert(0, bodies[0])
+    if robot.tip not in chain:
+        chain.append(robot.tip)
+    return chain
+
+
+def arm_points(robot: Robot, q: Any, frames: Sequence[str] | None = None) -> FloatArray:
+    """World positions of the arm's frame origins at ``q``.
+
+    Args:
+        robot: the robot.
+        q: joint positions, shape ``(n,)``, rad (m for prismatic joints).
+        frames: frames to use, in order (default :func:`arm_frames`).
+
+    Returns:
+        Shape ``(k, 3)``, m: row ``i`` is ``robot.fk(q, frames[i])[:3, 3]``.
+    """
+    qv = as_vector(q, "q", robot.n)
+    names = arm_frames(robot) if frames is None else list(frames)
+    return np.array([robot.fk(qv, name)[:3, 3] for name in names]).reshape(len(names), 3)
+
+
+@dataclass(frozen=True)
+class ArmAnimation:
+    """What the 3D view of one run shows.
+
+    Attributes:
+        robot, label: names of the robot and the run.
+        times: time of each animation frame, shape ``(F,)``, s.
+        steps: the run's step index of each frame, ``(F,)``.
+        arm: arm points per frame, ``(F, k, 3)``, m.
+        target, position: the task frame's target and actual paths, ``(P, 3)``, m;
+            ``target`` is ``None`` when the run did not log a frame target.
+        now: the target at each frame (the tip when there is no target), ``(F, 3)``, m.
+    """
+
+    robot: str
+    label: str
+    times: FloatArray
+    steps: IntArray
+    arm: FloatArray
+    target: FloatArray | None
+    position: FloatArray
+    now: FloatArray
+
+
+def arm_animation(
+    robot: Robot, log: RunLog, *, frames: int = 80, path_points: int = 1000
+) -> ArmAnimation:
+    """Sample a run for the 3D view.
+
+    Args:
+        robot: the robot the run was recorded on.
+        log: the run.
+        frames: number of animation frames (≥ 2; fewer for shorter runs).
+        path_points: at most this many points per path.
+    """
+    names = arm_frames(robot)
+    idx = even_indices(log.steps, frames)
+    arm = np.stack([arm_points(robot, log.q[k], names) for k in idx])
+    path = even_indices(log.steps, path_points)
+    if np.any(log.position) or np.any(log.target):
+        target: FloatArray | None = log.target[path]
+        position = log.position[path]
+        now = log.target[idx]
+    else:  # the task had no frame: show the tip's path instead
+        target = None
+        position = np.array([robot.fk(log.q[k])[:3, 3] for k in path])
+        now = arm[:, -1]
+    label = log.label or log.scheme
+    return ArmAnimation(robot.name, label, log.t[idx], idx, arm, target, position, now)
+
+
+def _xyz(points: FloatArray) -> dict[str, list[float]]:
+    p = np.round(np.asarray(points, dtype=float), DECIMALS)
+    return {"x": p[:, 0].tolist(), "y": p[:, 1].tolist(), "z": p[:, 2].tolist()}
+
+
+def _scene(anim: ArmAnimation) -> dict[str, Any]:
+    clouds = [anim.arm.reshape(-1, 3), anim.position, np.zeros((1, 3))]
+    if anim.target is not None:
+        clouds.append(anim.target)
+    every = np.concatenate(clouds)
+    low, high = every.min(axis=0), every.max(axis=0)
+    centre = 0.5 * (low + high)
+    half = 0.54 * (high - low)  # 8 % margin
+    half = np.maximum(half, max(0.025, 0.1 * float(half.max())))  # flat scenes: some depth
+    span = half / half.max()
+    axes = {
+        f"{c}axis": {
+            "range": [round(float(centre[i] - half[i]), 4), round(float(centre[i] + half[i]), 4)],
+            "title": {"text": f"{c} (m)"},
+            "backgroundcolor": "#f7f7f9",
+        }
+        for i, c in enumerate("xyz")
+    }
+    return {
+        **axes,
+        "aspectmode": "manual",  # equal scale: ratios proportional to the ranges
+        "aspectratio": {c: round(float(span[i]), 4) for i, c in enumerate("xyz")},
+        "camera": {"eye": {"x": 1.1, "y": -1.1, "z": 0.6}, "center": {"x": 0, "y": 0, "z": -0.1}},
+    }
+
+
+def _traces(anim: ArmAnimation, colour: str) -> list[dict[str, Any]]:
+    first = anim.arm[0]
+    traces: list[dict[str, Any]] = [
+        {
+            "type": "scatter3d",
+            "mode": "lines+markers",
+            "name": "arm",
+            **_xyz(first),
+            "line": {"color": colour, "width": 8},
+            "marker": {"size": 4, "color": "#333"},
+        },
+        {
+            "type": "scatter3d",
+            "mode": "markers",
+            **_xyz(anim.now[:1]),
+            "name": "target now" if anim.target is not None else "tip now",
+            "marker": {"size": 5, "color": "#d62728", "symbol": "diamond"},
+        },
+        {
+            "type": "scatter3d",
+            "mode": "lines",
+            "name": "arm at t = 0",
+            **_xyz(first),
+            "line": {"color": "#b0b0b0", "width": 4},
+            "opacity": 0.6,
+            "visible": "legendonly",
+        },
+        {
+            "type": "scatter3d",
+            "mode": "lines",
+            "name": "actual path",
+            **_xyz(anim.position),
+            "line": {"color": colour, "width": 3},
+        },
+    ]
+    if anim.target is not None:
+        traces.append(
+            {
+                "type": "scatter3d",
+                "mode": "lines",
+                "name": "target path",
+                **_xyz(anim.target),
+                "line": {"color": "#555", "width": 2, "dash": "dash"},
+            }
+        )
+    return traces
+
+
+def _frames(anim: ArmAnimation) -> list[dict[str, Any]]:
+    return [
+        {
+            "name": str(f),
+            "traces": [0, 1],
+            "data": [
+                {"type": "scatter3d", **_xyz(arm)},
+                {"type": "scatter3d", **_xyz(anim.now[f : f + 1])},
+            ],
+        }
+        for f, arm in enumerate(anim.arm)
+    ]
+
+
+def frame_delay_ms(anim: ArmAnimation) -> int:
+    """Milliseconds per animation frame: about real time, within 20–250 ms."""
+    duration_s = float(anim.times[-1] - anim.times[0])
+    return int(np.clip(1000.0 * duration_s / max(len(anim.times) - 1, 1), 20, 250))
+
+
+def _slider(anim: ArmAnimation) -> dict[str, Any]:
+    """A time slider bound to the frames (step labels hidden: the current time shows)."""
+    steps = [
+        {
+            "method": "animate",
+            "label": f"{t:.2f}",
+            "args": [
+                [str(f)],
+                {
+                    "mode": "immediate",
+                    "frame": {"duration": 0, "redraw": True},
+                    "transition": {"duration": 0},
+                },
+            ],
+        }
+        for f, t in enumerate(anim.times)
+    ]
+    return {
+        "active": 0,
+        "steps": steps,
+        "x": 0.02,
+        "len": 0.96,
+        "y": 0.0,
+        "yanchor": "top",
+        "pad": {"t": 4},
+        "ticklen": 0,
+        "font": {"color": "rgba(0,0,0,0)", "size": 1},
+        "currentvalue": {"prefix": "t = ", "suffix": " s", "font": {"size": 13, "color": "#333"}},
+        "transition": {"duration": 0},
+    }
+
+
+def animation_figure(anim: ArmAnimation, colour: str = "#1f77b4") -> dict[str, Any]:
+    """A plotly figure (``{"data", "layout", "frames"}`` of plain JSON types) of a run,
+    with a time slider. The play/pause buttons are the page's (see :mod:`.html`): they
+    drive ``Plotly.animate`` themselves so that pausing raises no unhandled promise
+    rejection, as plotly's own animation buttons do; ``play.frame_ms`` gives their speed.
+
+    Args:
+        anim: the sampled run.
+        colour: colour of the arm and of the actual path (``#rrggbb``).
+    """
+    layout = {
+        "title": {"text": f"{anim.robot} · {anim.label}", "x": 0.02, "font": {"size": 15}},
+        "scene": _scene(anim),
+        "height": 680,
+        "margin": {"l": 0, "r": 0, "t": 40, "b": 70},
+        "legend": {"x": 0.01, "y": 0.95, "bgcolor": "rgba(255,255,255,0.7)"},
+        "uirevision": "arm-view",
+        "sliders": [_slider(anim)],
+    }
+    return {
+        "data": _traces(anim, colour),
+        "layout": layout,
+        "frames": _frames(anim),
+        "play": {"frame_ms": frame_delay_ms(anim)},
+    }

@@ -1,0 +1,194 @@
+"""``write_report``: plots, 3D views and the page, written atomically."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ..errors import InvalidParameterError, ShapeError
+from . import html, plots, view3d
+from ._deps import check_report_dependencies, require
+from .table import table_html
+
+if TYPE_CHECKING:
+    from ..control import RunLog
+    from ..robot import Robot
+
+PAGE = "report.html"
+FILE_KINDS = {
+    "joints": "joints",
+    "position_error": "position-error",
+    "sigma_min": "sigma-min",
+    "objectives": "objectives",
+}
+
+
+def _check_options(
+    table: Sequence[Mapping[str, Any]] | None, frames: int, max_points: int
+) -> list[Mapping[str, Any]] | None:
+    if frames < 2:
+        raise InvalidParameterError(f"frames must be at least 2; got {frames}")
+    if max_points < 4:
+        raise InvalidParameterError(f"max_points must be at least 4; got {max_points}")
+    if table is None:
+        return None
+    rows = list(table)
+    for i, row in enumerate(rows):
+        if not isinstance(row, Mapping):
+            raise InvalidParameterError(
+                f"table[{i}] must be a mapping such as RunLog.summary(); got {type(row).__name__}"
+            )
+    return rows
+
+
+def _check_runs(runs: Sequence[tuple[Robot, RunLog]]) -> list[tuple[Robot, RunLog]]:
+    pairs = list(runs)
+    if not pairs:
+        raise InvalidParameterError("runs is empty: give at least one (robot, log) pair")
+    for i, pair in enumerate(pairs):
+        if not isinstance(pair, tuple) or len(pair) != 2:
+            raise InvalidParameterError(f"runs[{i}] must be a (robot, log) pair; got {pair!r}")
+        robot, log = pair
+        if log.steps < 1:
+            raise InvalidParameterError(f"runs[{i}] ({log.robot} {log.scheme}) has no steps")
+        if log.robot != robot.name:
+            raise InvalidParameterError(
+                f"runs[{i}]: the log was recorded on {log.robot!r} but is paired with robot "
+                f"{robot.name!r}"
+            )
+        if log.q.shape != (log.steps, robot.n):
+            raise ShapeError(
+                f"runs[{i}]: log.q has shape {log.q.shape}; expected ({log.steps}, {robot.n}) "
+                f"for {robot.name}"
+            )
+    return pairs
+
+
+def _slug(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "robot"
+
+
+def _by_robot(pairs: Sequence[tuple[Robot, RunLog]]) -> dict[str, tuple[Robot, list[RunLog]]]:
+    groups: dict[str, tuple[Robot, list[RunLog]]] = {}
+    for robot, log in pairs:
+        groups.setdefault(robot.name, (robot, []))[1].append(log)
+    return groups
+
+
+def _write_plots(
+    staging: Path,
+    pairs: Sequence[tuple[Robot, RunLog]],
+    colours: Mapping[str, str],
+    max_points: int,
+) -> list[html.RobotPlots]:
+    out = []
+    for name, (robot, logs) in _by_robot(pairs).items():
+        pngs = plots.robot_figures(robot, logs, colours, max_points=max_points)
+        files = {kind: f"{_slug(name)}-{FILE_KINDS[kind]}.png" for kind in pngs}
+        for kind, data in pngs.items():
+            (staging / files[kind]).write_bytes(data)
+        out.append(html.RobotPlots(name, pngs, files))
+    return out
+
+
+def _build(
+    staging: Path,
+    pairs: Sequence[tuple[Robot, RunLog]],
+    rows: list[Mapping[str, Any]] | None,
+    title: str,
+    description: str,
+    frames: int,
+    max_points: int,
+) -> None:
+    """Write every file of the report into ``staging``."""
+    from .. import __version__
+
+    colours = plots.palette([plots.run_name(log) for _, log in pairs])
+    robot_plots = _write_plots(staging, pairs, colours, max_points)
+    views = []
+    for robot, log in pairs:
+        anim = view3d.arm_animation(robot, log, frames=frames)
+        figure = view3d.animation_figure(anim, colours[plots.run_name(log)])
+        views.append((robot.name, anim.label, figure))
+    page = html.render_page(
+        title=title,
+        description=description,
+        table=table_html(rows if rows is not None else [log.summary() for _, log in pairs]),
+        views=views,
+        plots=robot_plots,
+        plotly_js=require("plotly.offline").get_plotlyjs(),
+        version=__version__,
+    )
+    (staging / PAGE).write_text(page, encoding="utf-8")
+
+
+def _publish(staging: Path, out_dir: Path) -> None:
+    """Move the finished report into place: the whole directory by one rename when
+    ``out_dir`` does not exist, else file by file (``os.replace``), the page last, leaving
+    other files in ``out_dir`` alone."""
+    if not out_dir.exists():
+        try:
+            staging.rename(out_dir)
+            return
+        except OSError:  # created meanwhile by someone else: fall back to file moves
+            out_dir.mkdir(parents=True, exist_ok=True)
+    for path in sorted(staging.iterdir(), key=lambda p: (p.name == PAGE, p.name)):
+        os.replace(path, out_dir / path.name)
+
+
+def write_report(
+    out_dir: str | os.PathLike[str],
+    runs: Sequence[tuple[Robot, RunLog]],
+    *,
+    title: str,
+    description: str = "",
+    table: Sequence[Mapping[str, Any]] | None = None,
+    frames: int = 80,
+    max_points: int = 2000,
+) -> Path:
+    """Write a report of several runs: PNG plots per robot and one self-contained page.
+
+    Everything is built in a temporary directory next to ``out_dir`` and moved into place
+    only when complete, so a failure leaves ``out_dir`` as it was.
+
+    Args:
+        out_dir: directory to write (created if needed; other files in it are kept).
+        runs: ``(robot, log)`` pairs, any mix of robots and schemes; a run is named by
+            ``log.label`` (else ``log.scheme``).
+        title: page title.
+        description: plain-text introduction (blank lines separate paragraphs).
+        table: summary rows for the comparison table (``RunLog.summary()`` dicts; default:
+            the summaries of ``runs``).
+        frames: animation frames per run in the 3D view (≥ 2).
+        max_points: at most this many samples per plotted curve (≥ 4).
+
+    Returns:
+        Path of ``report.html`` in ``out_dir``.
+
+    Raises:
+        MissingDependencyError: matplotlib or plotly is missing (the ``report`` extra).
+        InvalidParameterError: no runs, a log without steps or paired with another robot,
+            ``out_dir`` is a file, a table row that is not a mapping, ``frames < 2`` or
+            ``max_points < 4``.
+        ShapeError: a log's joint positions do not match its robot.
+    """
+    check_report_dependencies()
+    pairs = _check_runs(runs)
+    rows = _check_options(table, frames, max_points)
+    target = Path(out_dir).resolve()
+    if target.exists() and not target.is_dir():
+        raise InvalidParameterError(f"out_dir {str(target)!r} exists and is not a directory")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+    try:
+        _build(staging, pairs, rows, title, description, frames, max_points)
+        os.chmod(staging, 0o755)  # mkdtemp makes it private; a report is meant to be shared
+        _publish(staging, target)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return target / PAGE
