@@ -16,18 +16,21 @@ from __future__ import annotations
 from . import control, dynamics, errors, linalg, models, objectives, resolution, tasks
 from .control import run
 from .errors import RedresError
+from .ik import IKResult, ik
 from .robot import DHLink, Robot
 
 __version__ = "0.1.0.dev0"
 
 __all__ = [
     "DHLink",
+    "IKResult",
     "RedresError",
     "Robot",
     "__version__",
     "control",
     "dynamics",
     "errors",
+    "ik",
     "linalg",
     "models",
     "objectives",
