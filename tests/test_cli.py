@@ -70,7 +70,7 @@ def test_demo_json_has_the_stable_keys(quick_demo: tuple[dict, Path]) -> None:
     payload, out = quick_demo
     assert set(payload) >= {"report", "runs"}
     schemes = {run["scheme"] for run in payload["runs"]}
-    assert {"pinv", "dls", "gradient_projection", "wln", "augmented"} <= schemes
+    assert {"pinv", "dls", "gradient_projection", "wln", "augmented", "priority", "osc"} <= schemes
     assert schemes <= STABLE_SCHEMES
     for run in payload["runs"]:
         for key in RUN_KEYS:

@@ -34,11 +34,12 @@ from .objectives import (
 from .resolution import (
     AugmentedJacobianScheme,
     GradientProjectionScheme,
+    PriorityScheme,
     PseudoInverseScheme,
     WeightedLeastNormScheme,
 )
 from .robot import Robot
-from .tasks import FrameTask
+from .tasks import ArmAngleTask, FrameTask, LookAtTask, PostureTask, Task
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -236,7 +237,39 @@ def _objective(r: _Reader, obstacles: list[Obstacle], n: int) -> tuple[Objective
     return obj, weight
 
 
-SCHEME_TYPES = ("pinv", "dls", "gradient_projection", "wln", "augmented", "osc")
+SCHEME_TYPES = ("pinv", "dls", "gradient_projection", "wln", "augmented", "priority", "osc")
+LEVEL_TYPES = ("arm_angle", "posture", "look_at")
+
+
+def _level(r: _Reader, n: int) -> Callable[[], Task]:
+    """A factory of one priority level's task (fresh per run: tasks keep targets)."""
+    kind = r.get("type", "string")
+    if kind == "arm_angle":
+        target = r.get("target", "number", None)
+        reference = r.get("reference", "vector", (0.0, 0.0, 1.0), size=3)
+        return lambda: ArmAngleTask(reference=reference, target=target)
+    if kind == "posture":
+        q_ref = r.get("q_ref", "vector", None, size=n)
+        return lambda: PostureTask(q_ref)
+    if kind == "look_at":
+        frame = r.get("frame", "string", None)
+        point = r.get("target", "vector", size=3)
+        return lambda: LookAtTask(frame, target=point)
+    raise r.fail("type", f"unknown level {kind!r}; use {', '.join(LEVEL_TYPES)}")
+
+
+def _priority(r: _Reader, n: int, file: str) -> Callable[[], Any]:
+    """Strict task priorities: the path first, then the listed levels."""
+    levels = [
+        _level(_Reader(t, f"{r.path}.levels[{i}]", file), n)
+        for i, t in enumerate(r.get("levels", "tables"))
+    ]
+    if not levels:
+        raise r.fail("levels", 'list at least one level, e.g. levels = [{ type = "posture" }]')
+    method = r.get("method", "string", "exact")
+    gain = r.get("level_gain", "number", 10.0)
+    PriorityScheme([make() for make in levels], method=method, gain=gain)  # type: ignore[arg-type]
+    return lambda: PriorityScheme([make() for make in levels], method=method, gain=gain)  # type: ignore[arg-type]
 
 
 def _osc(r: _Reader, objectives: list[tuple[Objective, float]]) -> Callable[[], Any]:
@@ -288,6 +321,8 @@ def _scheme(r: _Reader, obstacles: list[Obstacle], n: int, file: str) -> SchemeS
             build = lambda: AugmentedJacobianScheme(gain=gain if "gain" in r.table else 10.0)  # noqa: E731
         elif kind == "osc":
             build = _osc(r, objectives)
+        elif kind == "priority":
+            build = _priority(r, n, file)
         else:
             raise r.fail("type", f"unknown scheme {kind!r}; use {', '.join(SCHEME_TYPES)}")
     except RedresError as exc:
