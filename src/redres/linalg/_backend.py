@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
+from collections.abc import Callable
 from types import ModuleType
 from typing import Any
 
@@ -31,7 +32,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._validate import as_matrix, as_scalar
-from ..errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
+from ..errors import (
+    NonFiniteError,
+    NotPositiveDefiniteError,
+    ShapeError,
+)
 from . import _codes as codes
 from ._info import AdaptiveDamping, InverseInfo
 
@@ -70,6 +75,32 @@ def kernels() -> ModuleType | None:
     return loaded
 
 
+def fast_step() -> Callable[..., Any] | None:
+    """The compiled fast-lane step for float64 C-contiguous arrays and float scalars.
+
+    Returns the native entry point of ``_kernels.step`` for exactly those argument types,
+    which skips numba's per-call type dispatch; callers must pass float64 C-contiguous
+    arrays (``J`` 2-D, the rest 1-D) and Python floats. Falls back to the dispatcher if
+    numba's internals differ, and returns None when the kernels are unavailable.
+    """
+    kern = kernels()
+    if kern is None:
+        return None
+    dispatcher = kern.step
+    warm = (np.zeros((1, 1)), np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0, 0.0)
+    dispatcher(*warm)  # compile, or load from the disk cache
+    try:
+        import numba
+
+        typeof: Callable[[object], Any] = numba.typeof
+        signature = tuple(typeof(arg) for arg in warm)
+        entry: Callable[..., Any] = dispatcher.overloads[signature].entry_point
+        entry(*warm)
+    except Exception:  # pragma: no cover - numba internals changed: use the dispatcher
+        return dispatcher  # type: ignore[no-any-return]
+    return entry
+
+
 def set_jit_enabled(enabled: bool) -> bool:
     """Enable or disable the compiled kernels (for tests and comparisons); returns the old value."""
     global loaded
@@ -77,7 +108,13 @@ def set_jit_enabled(enabled: bool) -> bool:
     _state["enabled"] = bool(enabled)
     if not enabled:
         loaded = None
+    for hook in _on_switch:
+        hook()
     return previous
+
+
+_on_switch: list[Callable[[], None]] = []
+"""Callbacks run by :func:`set_jit_enabled` (modules that cache a kernel entry point)."""
 
 
 def use_fast_path(m: int, n: int) -> ModuleType | None:
@@ -133,6 +170,8 @@ def raise_status(status: int, names: dict[str, str]) -> None:
         raise NonFiniteError(f"{names.get('xd', 'xd')} contains NaN or infinity")
     if status == codes.GRAD_NONFINITE:
         raise NonFiniteError(f"{names.get('grad', 'grad')} contains NaN or infinity")
+    if status == codes.J_EMPTY:
+        raise ShapeError(f"{names.get('J', 'J')} must have at least one row and one column")
     w = names.get("W", "W")
     if status == codes.W_NONFINITE:
         raise NonFiniteError(f"{w} contains NaN or infinity")
@@ -165,9 +204,7 @@ def weight_factor(mode: int, diag: FloatArray, full: FloatArray, name: str) -> F
         L = np.linalg.cholesky(full)
     except np.linalg.LinAlgError:
         raise_status(codes.W_NOT_SPD, {"W": name})
-    if not np.isfinite(L).all():  # pragma: no cover - cholesky of finite SPD is finite
-        raise_status(codes.W_NOT_SPD, {"W": name})
-    return L
+    return np.asarray(L, dtype=np.float64)
 
 
 def weigh(J: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
@@ -213,18 +250,22 @@ def times_lt(X: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
 Result = FloatArray | tuple[FloatArray, InverseInfo]
 
 
+Parts = tuple[FloatArray, tuple[int, float, float, float], str]
+"""``(matrix, (rank, sigma_min, sigma_max, damping), method)`` before packaging."""
+
+
 def finish(
-    Jp: FloatArray,
-    shape: tuple[int, int],
+    X: FloatArray,
     stats: tuple[int, float, float, float],
     method: str,
+    shape: tuple[int, ...],
     return_info: bool,
 ) -> Result:
-    """``Jp`` alone, or ``(Jp, InverseInfo)`` built from the engine's statistics."""
+    """``X`` alone, or ``(X, InverseInfo)`` built from the engine's statistics."""
     if not return_info:
-        return Jp
+        return X
     rank, smin, smax, used = stats
-    return Jp, InverseInfo(rank, rank == min(shape), smin, smax, used, method)
+    return X, InverseInfo(rank, rank == min(shape), smin, smax, used, method)
 
 
 def as_jacobian(J: Any, name: str = "J") -> FloatArray:
@@ -298,7 +339,7 @@ class Filtered:
     def projector(self) -> FloatArray:
         """``I - V diag(sigma f) V^T`` (n x n)."""
         n = self.Vt.shape[1]
-        return np.eye(n) - (self.Vt.T * self.p) @ self.Vt
+        return np.asarray(np.eye(n) - (self.Vt.T * self.p) @ self.Vt)
 
     def apply(self, xd: FloatArray) -> FloatArray:
         """``J# xd``."""
@@ -306,7 +347,7 @@ class Filtered:
 
     def project(self, g: FloatArray) -> FloatArray:
         """``N g``."""
-        return g - self.Vt.T @ (self.p * (self.Vt @ g))
+        return np.asarray(g - self.Vt.T @ (self.p * (self.Vt @ g)))
 
 
 def invert(
@@ -336,10 +377,41 @@ def invert(
         if status:
             raise_status(status, {"J": "J", "W": weights_name})
         return Jp, N, rank, smin, smax, used, mode
-    factor = EMPTY_2D if wmode == codes.NO_WEIGHTS else weight_factor(wmode, wdiag, wfull, weights_name)
+    factor = (
+        EMPTY_2D if wmode == codes.NO_WEIGHTS else weight_factor(wmode, wdiag, wfull, weights_name)
+    )
     filt = Filtered(weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
     Jp = unweigh_rows(filt.pinv(), wmode, factor) if want_pinv else EMPTY_2D
     N = EMPTY_2D
     if want_projector:
         N = times_lt(unweigh_rows(filt.projector(), wmode, factor), wmode, factor)
     return Jp, N, filt.rank, filt.sigma_min, filt.sigma_max, filt.damping, mode
+
+
+def matrix_inverse(
+    J: FloatArray,
+    *,
+    weights: Any,
+    weights_name: str,
+    damping: float | AdaptiveDamping,
+    rcond: float,
+    exact_label: str,
+) -> tuple[FloatArray, tuple[int, float, float, float], str]:
+    """``(J#, (rank, sigma_min, sigma_max, damping), method)`` for the matrix functions.
+
+    An exact unweighted inverse of a rank-deficient ``J`` is labelled ``"pinv"`` (the
+    truncated SVD pseudo-inverse it falls back to) instead of ``exact_label``.
+    """
+    Jp, _, rank, smin, smax, used, mode = invert(
+        J,
+        weights=weights,
+        weights_name=weights_name,
+        damping=damping,
+        rcond=rcond,
+        want_pinv=True,
+        want_projector=False,
+    )
+    method = method_label(mode, weights is not None, exact_label)
+    if weights is None and mode == codes.EXACT and rank < min(J.shape):
+        method = "pinv"
+    return Jp, (rank, smin, smax, used), method

@@ -20,6 +20,8 @@ from ..errors import InvalidParameterError, NonFiniteError
 
 __all__ = ["RCOND", "AdaptiveDamping", "InverseInfo", "adaptive_damping"]
 
+_EPS = 2.220446049250313e-16
+
 RCOND = 1e-10
 """Default relative rank tolerance: singular values ``<= RCOND * sigma_max`` count as zero."""
 
@@ -54,10 +56,14 @@ class InverseInfo(NamedTuple):
 
     @property
     def condition(self) -> float:
-        """Condition number ``sigma_max / sigma_min`` (``inf`` if ``sigma_min == 0``)."""
-        if self.sigma_min > 0.0:
+        """Condition number ``sigma_max / sigma_min``, capped at ``1 / eps`` (~4.5e15).
+
+        The cap stands for "numerically singular" and keeps the value finite (see
+        :func:`redres.linalg.condition_number`).
+        """
+        if self.sigma_min > self.sigma_max * _EPS:
             return self.sigma_max / self.sigma_min
-        return math.inf
+        return 1.0 / _EPS
 
 
 @dataclass(frozen=True)

@@ -7,20 +7,27 @@ for numba. The kernels are compiled on first use and cached on disk next to this
 in numba's user-wide cache directory); where no cache location is writable, they are
 compiled in memory instead.
 
-Every kernel works on a *scaled, weighted* Jacobian ``Js = J W^{-1/2} / s`` with ``s`` its
-largest absolute entry, so that ``Js Js^T`` neither overflows nor underflows. Whatever the
-inverse (exact, damped, adaptively damped, weighted), it is written
-``J# = W^{-1/2} Js^T S / s`` with an ``m x m`` symmetric *core* ``S``:
+Every kernel works on a *weighted* Jacobian ``Js = J W^{-1/2}`` (``J L^-T`` for a full
+``W = L L^T``), divided by its largest entry when that entry is outside ``[1e-100, 1e100]``
+so that ``Js Js^T`` can neither overflow nor underflow. The extreme eigenvalues of the Gram
+matrix ``A = Js Js^T`` (Householder tridiagonalisation, then Laguerre's method) give
+``sigma_min`` and ``sigma_max``, hence the damping law, the rank and the choice of path:
 
-* well-conditioned case (``sigma_min >= 1e-4 sigma_max``), ``S = (Js Js^T + lam'^2 I)^-1``,
-  used through its Cholesky factor — a few hundred flops;
-* near-singular case, ``S = G^T diag(d) G`` from a one-sided Jacobi SVD of ``Js``
-  (Hestenes 1958), whose singular values are accurate even when tiny. ``d_i`` is
-  ``1 / (sigma_i^2 + lam_i^2)``, or ``1 / sigma_i^2`` above the rank tolerance and ``0``
-  below it when no damping applies.
+* well conditioned (``sigma_min >= 1e-3 sigma_max``): ``J# = Js^T (A + lam^2 I)^-1`` by a
+  Cholesky solve, a few hundred flops, accurate to ``kappa(A) eps <= 2e-10``; the Gram
+  eigenvalues give ``sigma`` to about ``kappa(J)^2 eps <= 2e-10`` relative;
+* near-singular: a one-sided Jacobi SVD (Hestenes 1958) of ``Js``, ``B = G Js`` with
+  orthogonal rows ``sigma_i v_i^T``: ``J# = B^T diag(d) G`` and ``J# J = B^T diag(d) B``
+  with ``d_i = 1 / (sigma_i^2 + lam_i^2)``, or ``1 / sigma_i^2`` above the rank tolerance
+  and ``0`` below it when no damping applies. Its singular values are accurate even when
+  tiny, so the rank and ``sigma_min`` reported near a singularity are those of the SVD.
 
 Status codes (returned first by each kernel, turned into errors by the caller) name the
-offending argument; the kernels never raise.
+offending argument; the kernels never raise. The small helpers are inlined into the entry
+kernels (``_inline``): calls between separately compiled numba functions cost more than
+the few dozen flops each does. All compiled code lives in this one file on purpose: numba
+invalidates its disk cache per source file, so a helper inlined from another file could
+leave stale compiled code behind after an edit.
 """
 
 from __future__ import annotations
@@ -34,15 +41,21 @@ import numpy as np
 
 from ._codes import (
     ADAPTIVE,
+    DAMPING_NEGATIVE,
+    DAMPING_NONFINITE,
     DIAGONAL,
     EXACT,
     FIXED,
     FULL,
     GRAD_NONFINITE,
     GRAD_SHAPE,
+    J_EMPTY,
     J_NONFINITE,
+    K_NONFINITE,
     NO_WEIGHTS,
     OK,
+    RCOND_NEGATIVE,
+    RCOND_NONFINITE,
     SELECTIVE,
     W_ASYMMETRIC,
     W_NONFINITE,
@@ -52,23 +65,34 @@ from ._codes import (
     XD_SHAPE,
 )
 
-# Below this ratio sigma_min / sigma_max the Gram matrix J J^T is too ill-conditioned for a
-# Cholesky solve (kappa(J J^T) > 1e8) and its eigenvalues give sigma_min to less than
-# ~1e-8 relative accuracy: switch to the Jacobi SVD of J itself.
-_CHOLESKY_MIN_RATIO = 1e-4
+# Below this ratio sigma_min / sigma_max, J J^T (kappa > 1e6) is too ill-conditioned for a
+# Cholesky solve accurate to 2e-10 and its eigenvalues give sigma_min to less than that:
+# switch to the Jacobi SVD of J itself.
+_CHOLESKY_MIN_RATIO = 1e-3
 _EPS = 2.220446049250313e-16
 _SYMMETRY_RTOL = 1e-9
 
 
 def _jit(func: Callable[..., Any]) -> Any:
     """Compile ``func`` with numba, cached on disk when a cache location is writable."""
+    return _compile(func, inline="never")
+
+
+def _inline(func: Callable[..., Any]) -> Any:
+    """:func:`_jit`, and inline the function's body into its callers (numba IR inlining)."""
+    return _compile(func, inline="always")
+
+
+def _compile(func: Callable[..., Any], inline: str) -> Any:
+    njit: Callable[..., Any] = numba.njit
+    options: dict[str, Any] = {"nogil": True, "error_model": "numpy", "inline": inline}
     try:
-        return numba.njit(cache=True, nogil=True, error_model="numpy")(func)
+        return njit(cache=True, **options)(func)
     except RuntimeError:  # no writable cache directory (read-only install)
-        return numba.njit(cache=False, nogil=True, error_model="numpy")(func)
+        return njit(cache=False, **options)(func)
 
 
-@_jit
+@_inline
 def _finite_1d(a):  # type: ignore[no-untyped-def]
     for i in range(a.shape[0]):
         if not math.isfinite(a[i]):
@@ -85,7 +109,7 @@ def _finite_2d(a):  # type: ignore[no-untyped-def]
     return True
 
 
-@_jit
+@_inline
 def _cholesky(A, L, size, shift):  # type: ignore[no-untyped-def]
     """Lower Cholesky factor of ``A + shift I`` (lower triangle of A read) into L.
 
@@ -109,7 +133,7 @@ def _cholesky(A, L, size, shift):  # type: ignore[no-untyped-def]
     return True
 
 
-@_jit
+@_inline
 def _cholesky_solve(L, b, size):  # type: ignore[no-untyped-def]
     """Solve ``L L^T x = b`` in place of ``b``."""
     for i in range(size):
@@ -124,15 +148,16 @@ def _cholesky_solve(L, b, size):  # type: ignore[no-untyped-def]
         b[i] = acc / L[i, i]
 
 
-@_jit
+@_inline
 def _tridiagonalize(A, size, d, e, v, p):  # type: ignore[no-untyped-def]
-    """Householder reduction of the symmetric A (destroyed) to tridiagonal (d, e).
+    """Householder reduction of the symmetric A (lower triangle, destroyed) to (d, e).
 
     ``d[i]`` is the diagonal and ``e[i]`` the entry (i+1, i) of ``Q^T A Q`` (Golub &
     Van Loan, Matrix Computations, 4th ed., Alg. 8.3.1). ``v``, ``p``: scratch of ``size``.
     """
     for k in range(size - 2):
-        # Householder vector of x = A[k+1:, k], so that H x = alpha e_1.
+        # Householder vector of x = A[k+1:, k], so that H x = alpha e_1. Only the lower
+        # triangle of A is read and updated.
         norm2 = 0.0
         for i in range(k + 1, size):
             norm2 += A[i, k] * A[i, k]
@@ -140,31 +165,31 @@ def _tridiagonalize(A, size, d, e, v, p):  # type: ignore[no-untyped-def]
         if norm2 == 0.0:
             e[k] = 0.0
             continue
-        alpha = math.sqrt(norm2)
-        if A[k + 1, k] > 0.0:
-            alpha = -alpha
-        vnorm2 = 0.0
+        x0 = A[k + 1, k]
+        alpha = -math.sqrt(norm2) if x0 > 0.0 else math.sqrt(norm2)
         for i in range(k + 1, size):
             v[i] = A[i, k]
-        v[k + 1] -= alpha
-        for i in range(k + 1, size):
-            vnorm2 += v[i] * v[i]
-        beta = 2.0 / vnorm2
+        v[k + 1] = x0 - alpha
+        beta = 1.0 / (alpha * (alpha - x0))  # 2 / ||v||^2, ||v||^2 = 2 alpha (alpha - x0)
         # Trailing block S <- H S H = S - v w^T - w v^T with p = beta S v,
         # w = p - (beta/2)(p.v) v.
         pv = 0.0
         for i in range(k + 1, size):
             acc = 0.0
-            for j in range(k + 1, size):
+            for j in range(k + 1, i + 1):
                 acc += A[i, j] * v[j]
+            for j in range(i + 1, size):
+                acc += A[j, i] * v[j]
             p[i] = beta * acc
             pv += p[i] * v[i]
         half = 0.5 * beta * pv
         for i in range(k + 1, size):
             p[i] -= half * v[i]
         for i in range(k + 1, size):
-            for j in range(k + 1, size):
-                A[i, j] -= v[i] * p[j] + p[i] * v[j]
+            vi = v[i]
+            pi = p[i]
+            for j in range(k + 1, i + 1):
+                A[i, j] -= vi * p[j] + pi * v[j]
         e[k] = alpha
     if size >= 2:
         d[size - 2] = A[size - 2, size - 2]
@@ -172,8 +197,7 @@ def _tridiagonalize(A, size, d, e, v, p):  # type: ignore[no-untyped-def]
     d[size - 1] = A[size - 1, size - 1]
 
 
-
-@_jit
+@_inline
 def _charpoly(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
     """``p(x), p'(x), p''(x)`` for ``p = det(T - x I)`` of the block ``lo..hi`` of (d, e).
 
@@ -196,15 +220,16 @@ def _charpoly(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
     return p1, d1, dd1
 
 
-@_jit
+@_inline
 def _laguerre_step(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
     """One Laguerre step ``x -> x - step`` on ``det(T - x I)`` of the block; 0 at a root."""
     degree = hi - lo + 1
     p, dp, ddp = _charpoly(d, e, lo, hi, x)
     if p == 0.0:
         return 0.0
-    G = dp / p
-    H = G * G - ddp / p
+    inv_p = 1.0 / p
+    G = dp * inv_p
+    H = G * G - ddp * inv_p
     disc = (degree - 1) * (degree * H - G * G)
     root = math.sqrt(disc) if disc > 0.0 else 0.0
     den = G - root if G < 0.0 else G + root
@@ -213,7 +238,7 @@ def _laguerre_step(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
     return degree / den
 
 
-@_jit
+@_inline
 def _laguerre_pair(d, e, lo, hi, below, above):  # type: ignore[no-untyped-def]
     """Smallest and largest eigenvalue of an unreduced tridiagonal block (Laguerre).
 
@@ -221,29 +246,51 @@ def _laguerre_pair(d, e, lo, hi, below, above):  # type: ignore[no-untyped-def]
     iteration on a polynomial with real roots moves monotonically to the nearest root,
     cubically for the simple roots of an unreduced block (Wilkinson, The Algebraic
     Eigenvalue Problem, 1965, ch. 7). Both searches run in one loop so that the processor
-    can overlap their dependency chains. Each stops when rounding turns its step back.
+    can overlap their dependency chains. Each stops when rounding turns its step back or
+    when :func:`_converged` says the next step would be below rounding.
     """
     low_done = False
     high_done = False
+    low_step = math.inf
+    high_step = math.inf
     for _ in range(60):
         if not low_done:
-            x = below - _laguerre_step(d, e, lo, hi, below)
+            step = _laguerre_step(d, e, lo, hi, below)
+            x = below - step
             if x <= below:
                 low_done = True
             else:
                 below = x
+                low_done = _converged(step, low_step, x)
+                low_step = abs(step)
         if not high_done:
-            x = above - _laguerre_step(d, e, lo, hi, above)
+            step = _laguerre_step(d, e, lo, hi, above)
+            x = above - step
             if x >= above:
                 high_done = True
             else:
                 above = x
+                high_done = _converged(step, high_step, x)
+                high_step = abs(step)
         if low_done and high_done:
             break
     return below, above
 
 
-@_jit
+@_inline
+def _converged(step, previous, x):  # type: ignore[no-untyped-def]
+    """True once a cubically converging iteration's next step is below rounding.
+
+    A step under ``1e-6 |x|`` that is also under ``1e-3`` of the previous one shows the
+    asymptotic (cubic) regime: the error left is about ``(1e-6)^3 |x|``. Slow, linear
+    convergence (clustered roots) never passes the second test, so it goes on until
+    rounding turns the step back.
+    """
+    size = abs(step)
+    return size <= 1e-6 * abs(x) and size <= 1e-3 * previous
+
+
+@_inline
 def _extreme_eigenvalues(d, e, size, nonnegative):  # type: ignore[no-untyped-def]
     """Smallest and largest eigenvalue of the symmetric tridiagonal (d, e).
 
@@ -342,7 +389,7 @@ def _jacobi_rows(R, m, n):  # type: ignore[no-untyped-def]
             break
 
 
-@_jit
+@_inline
 def _damping_squared(sigma, dmode, lam, lam_max, eps):  # type: ignore[no-untyped-def]
     """Damping lambda^2 for a singular value ``sigma`` (unscaled units).
 
@@ -359,14 +406,21 @@ def _damping_squared(sigma, dmode, lam, lam_max, eps):  # type: ignore[no-untype
     return 0.0
 
 
-@_jit
-def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, work):  # type: ignore[no-untyped-def]
-    """Build the core of the inverse of the scaled matrix Js (m x n) into C (m x m).
+@_inline
+def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, work):  # type: ignore[no-untyped-def]
+    """Factor the inverse of the scaled matrix Js (m x n).
 
-    Returns ``(use_cholesky, rank, sigma_min, sigma_max, damping)``: with ``use_cholesky``
-    C holds the lower Cholesky factor of ``Js Js^T + lam'^2 I``, else C holds S itself.
+    Returns ``(use_cholesky, rank, sigma_min, sigma_max, damping)``:
+
+    * ``use_cholesky``: C holds the lower Cholesky factor of ``Js Js^T + lam'^2 I`` and
+      ``J# = Js^T C^-T C^-1 / s``;
+    * otherwise Js is overwritten with ``B = G Js`` (orthogonal rows ``sigma_i v_i^T``), C
+      with the rotation ``G`` and ``dvec`` with the filter ``d``: ``J# = B^T diag(d) G / s``
+      and ``J# J = B^T diag(d) B``. Using B itself, not ``G Js``, keeps the tiny rows of the
+      near-singular directions accurate to their own size.
+
     Singular values and damping are in the units of the unscaled matrix. ``work`` is
-    scratch space of at least ``2 m^2 + 4 m`` floats.
+    scratch space of at least ``2 m^2 + 4 m`` floats; ``dvec`` has length m.
     """
     m, n = Js.shape
     kmin = min(m, n)
@@ -377,18 +431,13 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, work):  # type: ignore[
     off = work[base + m : base + 2 * m]
     v = work[base + 2 * m : base + 3 * m]
     p = work[base + 3 * m : base + 4 * m]
-    # Gram matrix, lower triangle; the innermost loop runs over independent entries.
     for i in range(m):
         for j in range(i + 1):
-            A[i, j] = 0.0
-        for k in range(n):
-            a = Js[i, k]
-            for j in range(i + 1):
-                A[i, j] += a * Js[j, k]
-        for j in range(i + 1):
-            T[i, j] = A[i, j]
-            T[j, i] = A[i, j]
-            A[j, i] = A[i, j]
+            acc = 0.0
+            for k in range(n):
+                acc += Js[i, k] * Js[j, k]
+            A[i, j] = acc
+            T[i, j] = acc
     _tridiagonalize(T, m, mu, off, v, p)
     lowest, highest = _extreme_eigenvalues(mu, off, m, True)
     smax_s = math.sqrt(max(highest, 0.0))
@@ -405,15 +454,15 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, work):  # type: ignore[
         shift = lam2 / (scale * scale)
         if _cholesky(A, C, m, shift):
             rank = m
-            if smin_s <= rcond * smax_s:  # only for rcond >= 1e-4: count like the SVD does
+            if smin_s <= rcond * smax_s:  # only for rcond >= 1e-3: count like the SVD does
                 tau = (rcond * smax_s) ** 2
                 rank = m - _count_below(mu, off, m, tau * (1.0 + 4.0 * _EPS))
             return True, rank, smin_s * scale, smax_s * scale, math.sqrt(lam2)
-    return _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C)
+    return _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec)
 
 
 @_jit
-def _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C):  # type: ignore[no-untyped-def]
+def _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec):  # type: ignore[no-untyped-def]
     """Near-singular branch of :func:`_core`: one-sided Jacobi SVD of ``[Js | I]``."""
     m, n = Js.shape
     kmin = min(m, n)
@@ -424,12 +473,14 @@ def _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C):  # type: ignore[no
         R[i, n + i] = 1.0
     _jacobi_rows(R, m, n)
     sig = np.empty(m)
-    dvec = np.zeros(m)
     order = np.empty(m, dtype=np.int64)
     for i in range(m):
         acc = 0.0
         for j in range(n):
+            Js[i, j] = R[i, j]
             acc += R[i, j] * R[i, j]
+        for j in range(m):
+            C[i, j] = R[i, n + j]
         sig[i] = math.sqrt(acc)
         order[i] = i
     for i in range(1, m):  # indices sorted by descending singular value
@@ -455,22 +506,15 @@ def _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C):  # type: ignore[no
         if significant:
             rank += 1
         denom = sig[i] * sig[i] + li2_s
+        dvec[i] = 0.0
         if li2 > 0.0 and denom > 0.0:
             dvec[i] = 1.0 / denom
         elif significant:
             dvec[i] = 1.0 / (sig[i] * sig[i])
-    # S = G^T diag(d) G with G = R[:, n:].
-    for a in range(m):
-        for b in range(a + 1):
-            acc = 0.0
-            for i in range(m):
-                acc += R[i, n + a] * dvec[i] * R[i, n + b]
-            C[a, b] = acc
-            C[b, a] = acc
     return False, rank, smin_s * scale, smax_s * scale, math.sqrt(used)
 
 
-@_jit
+@_inline
 def _copy_finite_2d(src, dst):  # type: ignore[no-untyped-def]
     """dst <- src; False if src has a NaN or an infinity (x * 0 is NaN exactly then)."""
     bad = 0.0
@@ -524,22 +568,30 @@ def _weigh(Js, wmode, wdiag, W, Lw):  # type: ignore[no-untyped-def]
     return OK
 
 
-@_jit
+@_inline
 def _scale(Js):  # type: ignore[no-untyped-def]
+    """Largest absolute entry s of Js; Js is divided by s unless s is in [1e-100, 1e100].
+
+    Returns the factor applied (1.0 when the entries are already safe to square and sum,
+    0.0 for a zero matrix).
+    """
     m, n = Js.shape
     s = 0.0
     for i in range(m):
         for j in range(n):
             s = max(s, abs(Js[i, j]))
-    if s > 0.0:
-        inv = 1.0 / s
-        for i in range(m):
-            for j in range(n):
-                Js[i, j] *= inv
+    if s == 0.0:
+        return 0.0
+    if 1e-100 <= s <= 1e100:
+        return 1.0
+    inv = 1.0 / s
+    for i in range(m):
+        for j in range(n):
+            Js[i, j] *= inv
     return s
 
 
-@_jit
+@_inline
 def _weight_up(v, wmode, Lw):  # type: ignore[no-untyped-def]
     """v <- W^{1/2}-side map L^T v (diagonal: sqrt(w) v), in place."""
     n = v.shape[0]
@@ -554,7 +606,7 @@ def _weight_up(v, wmode, Lw):  # type: ignore[no-untyped-def]
             v[j] = acc
 
 
-@_jit
+@_inline
 def _weight_down(v, wmode, Lw):  # type: ignore[no-untyped-def]
     """v <- L^-T v (diagonal: v / sqrt(w)), in place."""
     n = v.shape[0]
@@ -569,31 +621,45 @@ def _weight_down(v, wmode, Lw):  # type: ignore[no-untyped-def]
             v[j] = acc / Lw[j, j]
 
 
-@_jit
-def _factor_storage(n, wmode):  # type: ignore[no-untyped-def]
-    """Storage for the weight factor: n x n (full), n x 1 (diagonal) or 0 x 0."""
+@_inline
+def _factor_size(n, wmode):  # type: ignore[no-untyped-def]
+    """Floats needed for the weight factor: n x n (full), n (diagonal) or 0."""
     if wmode == FULL:
-        return np.empty((n, n))
+        return n * n
     if wmode == DIAGONAL:
-        return np.empty((n, 1))
-    return np.empty((0, 0))
+        return n
+    return 0
 
 
-@_jit
+@_inline
+def _factor_view(buffer, n, wmode):  # type: ignore[no-untyped-def]
+    """The weight factor's storage carved from ``buffer``: (n, n), (n, 1) or (0, 0)."""
+    if wmode == FULL:
+        return buffer[: n * n].reshape((n, n))
+    if wmode == DIAGONAL:
+        return buffer[:n].reshape((n, 1))
+    return buffer[:0].reshape((0, 0))
+
+
+@_inline
 def _step(J, xd, grad, out, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
+    """``out <- J# xd - k_null (I - J# J) grad``; ``(status, rank, smin, smax, damping)``."""
     m, n = J.shape
     has_grad = grad.shape[0] > 0
     if xd.shape[0] != m:
         return XD_SHAPE, 0, 0.0, 0.0, 0.0
     if has_grad and grad.shape[0] != n:
         return GRAD_SHAPE, 0, 0.0, 0.0, 0.0
-    work = np.empty(m * n + 3 * m * m + 6 * m + n)
+    fsize = _factor_size(n, wmode)
+    work = np.empty(m * n + 3 * m * m + 7 * m + n + fsize)
+    Lw = _factor_view(work[work.shape[0] - fsize :], n, wmode)
     Js = work[: m * n].reshape((m, n))
     C = work[m * n : m * n + m * m].reshape((m, m))
     base = m * n + m * m
     r = work[base : base + m]
-    g = work[base + m : base + m + n]
-    scratch = work[base + m + n :]
+    dvec = work[base + m : base + 2 * m]
+    g = work[base + 2 * m : base + 2 * m + n]
+    scratch = work[base + 2 * m + n : work.shape[0] - fsize]
     if not _copy_finite_2d(J, Js):
         return J_NONFINITE, 0, 0.0, 0.0, 0.0
     if not _finite_1d(xd):
@@ -605,7 +671,6 @@ def _step(J, xd, grad, out, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, r
         g[j] = x
     if bad != 0.0:
         return GRAD_NONFINITE, 0, 0.0, 0.0, 0.0
-    Lw = _factor_storage(n, wmode)
     status = _weigh(Js, wmode, wdiag, W, Lw)
     if status != OK:
         return status, 0, 0.0, 0.0, 0.0
@@ -619,64 +684,76 @@ def _step(J, xd, grad, out, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, r
         _weight_down(out, wmode, Lw)
         return OK, 0, 0.0, 0.0, lam_used
     use_chol, rank, smin, smax, lam_used = _core(
-        Js, scale, dmode, lam, lam_max, eps, rcond, C, scratch
+        Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, scratch
     )
-    # qd = Js^T S (xd / s + k Js g) - k g, then back to joint coordinates.
+    # Cholesky: qd = Js^T (Js Js^T + lam^2)^-1 (xd / s + k Js g) - k g.
+    # SVD (Js now holds B): qd = B^T diag(d) (G xd / s + k B g) - k g.
     inv_scale = 1.0 / scale
     for i in range(m):
-        r[i] = 0.0
-    if has_grad:
-        for j in range(n):
-            gj = g[j]
-            for i in range(m):
-                r[i] += Js[i, j] * gj
-    for i in range(m):
-        r[i] = xd[i] * inv_scale + k_null * r[i]
+        acc = 0.0
+        if has_grad:
+            for j in range(n):
+                acc += Js[i, j] * g[j]
+        if use_chol:
+            task = xd[i]
+        else:
+            task = 0.0
+            for k in range(m):
+                task += C[i, k] * xd[k]
+        r[i] = task * inv_scale + k_null * acc
     if use_chol:
         _cholesky_solve(C, r, m)
     else:
-        y = np.empty(m)
         for i in range(m):
-            acc = 0.0
-            for k in range(m):
-                acc += C[i, k] * r[k]
-            y[i] = acc
-        for i in range(m):
-            r[i] = y[i]
+            r[i] *= dvec[i]
     for j in range(n):
-        out[j] = -k_null * g[j]
-    for i in range(m):
-        ri = r[i]
-        for j in range(n):
-            out[j] += Js[i, j] * ri
+        acc = -k_null * g[j]
+        for i in range(m):
+            acc += Js[i, j] * r[i]
+        out[j] = acc
     _weight_down(out, wmode, Lw)
     return OK, rank, smin, smax, lam_used
 
 
 @_jit
-def step(J, xd, grad, out, k_null, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
-    """Unweighted rate step into ``out``: ``qd = J# xd - k_null (I - J# J) grad``.
+def step(J, xd, grad, out, k_null, damping, rcond):  # type: ignore[no-untyped-def]
+    """Unweighted rate step with fixed damping (0: exact) into ``out`` (the fast lane).
 
-    ``grad`` of length 0 means no secondary objective. Returns
+    ``qd = J# xd - k_null (I - J# J) grad``; ``grad`` of length 0 means no secondary
+    objective. Scalars are validated here. Returns
+    ``(status, rank, full_rank, sigma_min, sigma_max, damping, mode)``.
+    """
+    m, n = J.shape
+    if m == 0 or n == 0:
+        return J_EMPTY, 0, False, 0.0, 0.0, 0.0, EXACT
+    if k_null * 0.0 != 0.0:
+        return K_NONFINITE, 0, False, 0.0, 0.0, 0.0, EXACT
+    if damping * 0.0 != 0.0:
+        return DAMPING_NONFINITE, 0, False, 0.0, 0.0, 0.0, EXACT
+    if damping < 0.0:
+        return DAMPING_NEGATIVE, 0, False, 0.0, 0.0, 0.0, EXACT
+    if rcond * 0.0 != 0.0:
+        return RCOND_NONFINITE, 0, False, 0.0, 0.0, 0.0, EXACT
+    if rcond < 0.0:
+        return RCOND_NEGATIVE, 0, False, 0.0, 0.0, 0.0, EXACT
+    mode = FIXED if damping > 0.0 else EXACT
+    status, rank, smin, smax, used = _step(
+        J, xd, grad, out, k_null, NO_WEIGHTS, xd[:0], J[:0, :0], mode, damping, 0.0, 1.0, rcond
+    )
+    return status, rank, rank == min(m, n), smin, smax, used, mode
+
+
+@_jit
+def step_general(J, xd, grad, wdiag, W, out, k_null, wmode, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
+    """Rate step with any weights and damping mode (scalars validated by the caller).
+
+    ``wmode`` selects ``wdiag`` (n,) or ``W`` (n, n); the other may be empty. Returns
     ``(status, rank, sigma_min, sigma_max, damping)``.
     """
-    return _step(
-        J, xd, grad, out, k_null, NO_WEIGHTS, xd[:0], J[:0, :0], dmode, lam, lam_max, eps, rcond
-    )
-
-
-@_jit
-def step_diagonal(J, xd, grad, w, out, k_null, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
-    """:func:`step` with diagonal joint weights ``w`` (n,)."""
-    return _step(
-        J, xd, grad, out, k_null, DIAGONAL, w, J[:0, :0], dmode, lam, lam_max, eps, rcond
-    )
-
-
-@_jit
-def step_full(J, xd, grad, W, out, k_null, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
-    """:func:`step` with a full SPD joint weight matrix ``W`` (n, n)."""
-    return _step(J, xd, grad, out, k_null, FULL, xd[:0], W, dmode, lam, lam_max, eps, rcond)
+    m, n = J.shape
+    if m == 0 or n == 0:
+        return J_EMPTY, 0, 0.0, 0.0, 0.0
+    return _step(J, xd, grad, out, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond)
 
 
 @_jit
@@ -688,15 +765,17 @@ def inverse(J, wdiag, W, Jp, N, wmode, dmode, lam, lam_max, eps, rcond):  # type
     m, n = J.shape
     want_pinv = Jp.shape[0] > 0
     want_projector = N.shape[0] > 0
-    work = np.empty(2 * m * n + 3 * m * m + 5 * m)
+    fsize = _factor_size(n, wmode)
+    work = np.empty(2 * m * n + 3 * m * m + 6 * m + fsize)
+    Lw = _factor_view(work[work.shape[0] - fsize :], n, wmode)
     Js = work[: m * n].reshape((m, n))
     X = work[m * n : 2 * m * n].reshape((m, n))
     C = work[2 * m * n : 2 * m * n + m * m].reshape((m, m))
     col = work[2 * m * n + m * m : 2 * m * n + m * m + m]
-    scratch = work[2 * m * n + m * m + m :]
+    dvec = work[2 * m * n + m * m + m : 2 * m * n + m * m + 2 * m]
+    scratch = work[2 * m * n + m * m + 2 * m : work.shape[0] - fsize]
     if not _copy_finite_2d(J, Js):
         return J_NONFINITE, 0, 0.0, 0.0, 0.0
-    Lw = _factor_storage(n, wmode)
     status = _weigh(Js, wmode, wdiag, W, Lw)
     if status != OK:
         return status, 0, 0.0, 0.0, 0.0
@@ -711,27 +790,31 @@ def inverse(J, wdiag, W, Jp, N, wmode, dmode, lam, lam_max, eps, rcond):  # type
         lam_used = lam if dmode == FIXED else (lam_max if dmode != EXACT else 0.0)
         return OK, 0, 0.0, 0.0, lam_used
     use_chol, rank, smin, smax, lam_used = _core(
-        Js, scale, dmode, lam, lam_max, eps, rcond, C, scratch
+        Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, scratch
     )
-    # X = S Js (m x n): the scaled inverse is Js^T S = X^T.
+    # X = (Js Js^T + lam^2)^-1 Js (Cholesky) or diag(d) B (SVD, Js holds B), so that
+    # J# J = Js^T X and J# = X^T / s (Cholesky) or X^T G / s (SVD).
     for j in range(n):
-        for i in range(m):
-            col[i] = Js[i, j]
         if use_chol:
+            for i in range(m):
+                col[i] = Js[i, j]
             _cholesky_solve(C, col, m)
             for i in range(m):
                 X[i, j] = col[i]
         else:
             for i in range(m):
-                acc = 0.0
-                for k in range(m):
-                    acc += C[i, k] * col[k]
-                X[i, j] = acc
+                X[i, j] = dvec[i] * Js[i, j]
     inv_scale = 1.0 / scale
     if want_pinv:
         for j in range(n):
             for i in range(m):
-                Jp[j, i] = X[i, j] * inv_scale
+                if use_chol:
+                    Jp[j, i] = X[i, j] * inv_scale
+                else:
+                    acc = 0.0
+                    for p in range(m):
+                        acc += X[p, j] * C[p, i]
+                    Jp[j, i] = acc * inv_scale
         if wmode != NO_WEIGHTS:
             for i in range(m):
                 _weight_down(Jp[:, i], wmode, Lw)

@@ -71,17 +71,15 @@ def damped_pinv(
         InvalidParameterError: ``damping`` is negative.
     """
     A = be.as_jacobian(J)
-    Jp, _, rank, smin, smax, used, mode = be.invert(
+    parts = be.matrix_inverse(
         A,
         weights=None,
         weights_name="W",
         damping=damping,
         rcond=be.as_rcond(rcond),
-        want_pinv=True,
-        want_projector=False,
+        exact_label="pinv",
     )
-    method = be.method_label(mode, False, "pinv")
-    return be.finish(Jp, A.shape, (rank, smin, smax, used), method, return_info)
+    return be.finish(*parts, A.shape, return_info)
 
 
 @overload

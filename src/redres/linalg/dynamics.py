@@ -57,7 +57,7 @@ def mass_matrix_factor(M: ArrayLike, n: int) -> FloatArray:
             "(fill both triangles, or use (M + M.T) / 2 if the asymmetry is rounding)"
         )
     try:
-        return np.linalg.cholesky(A)
+        return np.asarray(np.linalg.cholesky(A), dtype=np.float64)
     except np.linalg.LinAlgError as exc:
         raise NotPositiveDefiniteError(
             "M must be a symmetric positive definite mass matrix; its Cholesky "
@@ -136,7 +136,7 @@ def task_space_inertia(
         ``Lambda``, shape ``(m, m)``, symmetric (kg for translational rows).
     """
     Lam, _, A, stats, method = _decompose(J, M, damping, rcond)
-    return be.finish(Lam, A.shape, stats, method, return_info)
+    return be.finish(Lam, stats, method, A.shape, return_info)
 
 
 @overload
@@ -182,7 +182,7 @@ def dynamically_consistent_pinv(
         ``J_bar``, shape ``(n, m)``.
     """
     _, J_bar, A, stats, method = _decompose(J, M, damping, rcond)
-    return be.finish(J_bar, A.shape, stats, method, return_info)
+    return be.finish(J_bar, stats, method, A.shape, return_info)
 
 
 def dynamically_consistent_projector(

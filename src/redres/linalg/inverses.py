@@ -32,25 +32,22 @@ __all__ = [
     "weighted_pinv",
 ]
 
-def _exact(J: FloatArray, rcond: float, label: str, return_info: bool) -> Result:
-    """Exact inverse through the shared engine; ``label`` unless rank-deficient."""
-    Jp, _, rank, smin, smax, used, _ = be.invert(
-        J,
-        weights=None,
-        weights_name="W",
-        damping=0.0,
-        rcond=rcond,
-        want_pinv=True,
-        want_projector=False,
+
+def _exact(J: FloatArray, rcond: float, label: str) -> be.Parts:
+    """Exact inverse through the shared engine, labelled ``label`` unless rank-deficient."""
+    return be.matrix_inverse(
+        J, weights=None, weights_name="W", damping=0.0, rcond=rcond, exact_label=label
     )
-    method = label if rank == min(J.shape) else "pinv"
-    return be.finish(Jp, J.shape, (rank, smin, smax, used), method, return_info)
+
+
+def _left(J: FloatArray, rcond: float) -> be.Parts:
+    """Left pseudo-inverse as the transpose of the right one of ``J^T``."""
+    Jp_t, stats, method = _exact(np.ascontiguousarray(J.T), rcond, "left")
+    return np.ascontiguousarray(Jp_t.T), stats, method
 
 
 @overload
-def pinv(
-    J: ArrayLike, rcond: float = ..., *, return_info: Literal[False] = ...
-) -> FloatArray: ...
+def pinv(J: ArrayLike, rcond: float = ..., *, return_info: Literal[False] = ...) -> FloatArray: ...
 @overload
 def pinv(
     J: ArrayLike, rcond: float = ..., *, return_info: Literal[True]
@@ -74,7 +71,7 @@ def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Re
     A = be.as_jacobian(J)
     filt = be.Filtered(A, 0, 0.0, 0.0, 1.0, be.as_rcond(rcond))
     stats = (filt.rank, filt.sigma_min, filt.sigma_max, 0.0)
-    return be.finish(filt.pinv(), A.shape, stats, "pinv", return_info)
+    return be.finish(filt.pinv(), stats, "pinv", A.shape, return_info)
 
 
 @overload
@@ -112,7 +109,7 @@ def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False)
             f"right_pinv needs a wide J (m <= n); got shape {A.shape}. "
             "Use left_pinv for tall J, or pinv for any shape."
         )
-    return _exact(A, be.as_rcond(rcond), "right", return_info)
+    return be.finish(*_exact(A, be.as_rcond(rcond), "right"), A.shape, return_info)
 
 
 @overload
@@ -149,10 +146,7 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
             f"left_pinv needs a tall J (m >= n); got shape {A.shape}. "
             "Use right_pinv for wide J, or pinv for any shape."
         )
-    At = np.ascontiguousarray(A.T)
-    Jp_t, info = _exact(At, be.as_rcond(rcond), "left", True)
-    Jp = np.ascontiguousarray(Jp_t.T)
-    return (Jp, info) if return_info else Jp
+    return be.finish(*_left(A, be.as_rcond(rcond)), A.shape, return_info)
 
 
 @overload
@@ -183,7 +177,7 @@ def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = Fa
     A = be.as_jacobian(J)
     if A.shape[0] != A.shape[1]:
         raise ShapeError(f"square_inverse needs a square J; got shape {A.shape}. Use pinv.")
-    return _exact(A, be.as_rcond(rcond), "square", return_info)
+    return be.finish(*_exact(A, be.as_rcond(rcond), "square"), A.shape, return_info)
 
 
 @overload
@@ -240,17 +234,10 @@ def weighted_pinv(
         NonFiniteError: ``J`` or ``W`` contains NaN or infinity.
     """
     A = be.as_jacobian(J)
-    Jp, _, rank, smin, smax, used, mode = be.invert(
-        A,
-        weights=W,
-        weights_name="W",
-        damping=damping,
-        rcond=be.as_rcond(rcond),
-        want_pinv=True,
-        want_projector=False,
+    parts = be.matrix_inverse(
+        A, weights=W, weights_name="W", damping=damping, rcond=be.as_rcond(rcond), exact_label=""
     )
-    method = be.method_label(mode, True, "weighted")
-    return be.finish(Jp, A.shape, (rank, smin, smax, used), method, return_info)
+    return be.finish(*parts, A.shape, return_info)
 
 
 @overload
@@ -302,15 +289,14 @@ def generalized_inverse(
     A = be.as_jacobian(J)
     m, n = A.shape
     rc = be.as_rcond(rcond)
-    if weights is not None:
-        return weighted_pinv(A, weights, damping=damping, rcond=rc, return_info=return_info)
-    if be.parse_damping(damping)[0] != 0:
-        from .damping import damped_pinv
-
-        return damped_pinv(A, damping, rcond=rc, return_info=return_info)
-    if m == n:
-        return square_inverse(A, rcond=rc, return_info=return_info)
-    if m < n:
-        return right_pinv(A, rcond=rc, return_info=return_info)
-    return left_pinv(A, rcond=rc, return_info=return_info)
-
+    if weights is not None or be.parse_damping(damping)[0] != 0:
+        parts = be.matrix_inverse(
+            A, weights=weights, weights_name="weights", damping=damping, rcond=rc, exact_label=""
+        )
+    elif m == n:
+        parts = _exact(A, rc, "square")
+    elif m < n:
+        parts = _exact(A, rc, "right")
+    else:
+        parts = _left(A, rc)
+    return be.finish(*parts, A.shape, return_info)

@@ -7,14 +7,14 @@ reachable per unit joint speed (Maciejewski & Klein 1988; Yoshikawa 1985).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import NonFiniteError, ShapeError
 from . import _backend as be
 from ._backend import FloatArray
+
+_EPS = float(np.finfo(np.float64).eps)
 
 __all__ = [
     "condition_number",
@@ -34,7 +34,7 @@ def singular_values(J: ArrayLike) -> FloatArray:
     Returns:
         ``sigma``, shape ``(min(m, n),)``, in the units of ``J``'s entries.
     """
-    return np.linalg.svd(be.as_jacobian(J), compute_uv=False)
+    return np.asarray(np.linalg.svd(be.as_jacobian(J), compute_uv=False), dtype=np.float64)
 
 
 def sigma_min(J: ArrayLike) -> float:
@@ -49,18 +49,23 @@ def sigma_min(J: ArrayLike) -> float:
 def condition_number(J: ArrayLike) -> float:
     """Condition number ``sigma_max / sigma_min`` of ``J`` (dimensionless, >= 1).
 
-    Returns ``inf`` when ``sigma_min`` is exactly zero (a rank-deficient ``J`` whose zero
-    singular value is exact, or ``J = 0``) — the one non-finite value of this package, kept
-    because it is the true answer; compare ``sigma_min`` against a threshold instead when a
-    bounded measure is wanted.
+    Capped at ``1 / eps`` (about 4.5e15, ``eps`` the float64 machine epsilon): a ratio
+    beyond it means ``J`` is numerically singular, and an exactly singular ``J`` (or
+    ``J = 0``) returns the cap rather than infinity, so the result is always finite.
+    Compare :func:`sigma_min` with a threshold for a measure in the units of ``J``.
 
     Args:
         J: Matrix, shape ``(m, n)``.
     """
     sigma = singular_values(J)
-    if sigma[-1] > 0.0:
-        return float(sigma[0] / sigma[-1])
-    return math.inf
+    return condition_from(float(sigma[0]), float(sigma[-1]))
+
+
+def condition_from(sigma_max: float, sigma_min: float) -> float:
+    """``sigma_max / sigma_min`` capped at ``1 / eps`` (see :func:`condition_number`)."""
+    if sigma_min > sigma_max * _EPS:
+        return sigma_max / sigma_min
+    return 1.0 / _EPS
 
 
 def manipulability(J: ArrayLike) -> float:

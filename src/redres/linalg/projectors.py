@@ -111,7 +111,7 @@ def nullspace_projector(
         want_projector=True,
     )
     method = be.method_label(mode, weights is not None, "pinv")
-    return be.finish(N, A.shape, (rank, smin, smax, used), method, return_info)
+    return be.finish(N, (rank, smin, smax, used), method, A.shape, return_info)
 
 
 def nullspace_basis(J: ArrayLike, rcond: float = RCOND) -> FloatArray:

@@ -16,6 +16,7 @@ kernel call.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -30,19 +31,26 @@ from ._info import RCOND, AdaptiveDamping, InverseInfo
 __all__ = ["rate_step"]
 
 _F64 = np.float64
+_ndarray = np.ndarray
 _contiguous = np.ascontiguousarray
+_empty = np.empty
 _new_info = tuple.__new__
 _NO_GRAD = be.EMPTY_1D
-_empty = np.empty
-_INF = math.inf
-_MAX_ROWS = be.FAST_MAX_ROWS
-_MAX_COLS = be.FAST_MAX_COLS
-_EXACT = codes.EXACT
-_FIXED = codes.FIXED
 _NAMES = {"J": "J", "xd": "xd", "grad": "grad", "W": "weights"}
 # InverseInfo.method by damping mode (EXACT, FIXED, ADAPTIVE, SELECTIVE).
 _LABELS = ("pinv", "damped", "adaptive", "selective")
 _WEIGHTED_LABELS = ("weighted", "weighted-damped", "weighted-adaptive", "weighted-selective")
+
+# Native entry point of the compiled step for float64 arrays and float scalars; filled on
+# the first call (None until then, False when the kernels are unavailable).
+_lane: list[Callable[..., Any] | bool | None] = [None]
+
+
+def _reset_lane() -> None:
+    _lane[0] = None
+
+
+be._on_switch.append(_reset_lane)
 
 
 def rate_step(
@@ -101,62 +109,96 @@ def rate_step(
         ga = _NO_GRAD if grad is None else _contiguous(grad, _F64)
     except (TypeError, ValueError) as exc:
         raise ShapeError(f"J, xd and grad must be arrays of numbers: {exc}") from exc
-    if Ja.ndim != 2 or xa.ndim != 1 or ga.ndim != 1 or Ja.size == 0:
+    if Ja.ndim != 2 or xa.ndim != 1 or ga.ndim != 1 or (grad is not None and not ga.size):
         _raise_shape(Ja, xa, ga, grad is not None)
     m, n = Ja.shape
-    # Scalars: x - x is 0.0 for finite floats, NaN for NaN and +-inf.
-    k = k_null if type(k_null) is float else _number(k_null, "k_null")
-    rc = rcond if type(rcond) is float else _number(rcond, "rcond")
-    if k - k != 0.0 or rc - rc != 0.0:
-        raise NonFiniteError(f"k_null and rcond must be finite; got {k_null!r}, {rcond!r}")
-    if rc < 0.0:
-        raise InvalidParameterError(f"rcond must be >= 0; got {rc}")
-    if type(damping) is float:
-        lam = damping
-        if not 0.0 <= lam < _INF:
-            raise InvalidParameterError(f"damping must be finite and >= 0; got {damping}")
-        mode = _FIXED if lam > 0.0 else _EXACT
-        lam_max = 0.0
-        eps = 1.0
-    else:
-        mode, lam, lam_max, eps = be.parse_damping(damping)
+    lane = _lane[0]
+    if lane is None:
+        lane = _lane[0] = be.fast_step() or False
+    if lane and weights is None and m <= 6 and n <= 50:  # be.FAST_MAX_ROWS, FAST_MAX_COLS
+        if type(damping) is not AdaptiveDamping:
+            qd = _empty(n)
+            try:
+                status, rank, full, smin, smax, used, mode = lane(  # type: ignore[operator]
+                    Ja, xa, ga, qd, k_null, damping, rcond
+                )
+            except TypeError:  # a scalar that is not a number: the general path says which
+                status = -1
+            if not status:
+                return qd, _new_info(InverseInfo, (rank, full, smin, smax, used, _LABELS[mode]))
+            if status > 0:
+                _raise_for_status(status, Ja, xa, ga, grad is not None, k_null, damping, rcond)
+    return _general_step(Ja, xa, ga, grad is not None, k_null, damping, weights, rcond)
 
-    kern = be.loaded
-    small = m <= _MAX_ROWS and n <= _MAX_COLS
-    if kern is None and small:
-        kern = be.kernels()
-    if kern is not None and small:
-        qd = _empty(n)
-        if weights is None:
-            status, rank, smin, smax, used = kern.step(
-                Ja, xa, ga, qd, k, mode, lam, lam_max, eps, rc
-            )
-            labels = _LABELS
-        else:
-            wmode, wdiag, wfull = be.parse_weights(weights, n, "weights")
-            if wmode == codes.DIAGONAL:
-                status, rank, smin, smax, used = kern.step_diagonal(
-                    Ja, xa, ga, wdiag, qd, k, mode, lam, lam_max, eps, rc
-                )
-            else:
-                status, rank, smin, smax, used = kern.step_full(
-                    Ja, xa, ga, wfull, qd, k, mode, lam, lam_max, eps, rc
-                )
-            labels = _WEIGHTED_LABELS
+
+def _general_step(
+    J: FloatArray,
+    xd: FloatArray,
+    grad: FloatArray,
+    has_grad: bool,
+    k_null: Any,
+    damping: float | AdaptiveDamping,
+    weights: Any,
+    rcond: Any,
+) -> tuple[FloatArray, InverseInfo]:
+    """Any options and sizes: the general kernel for small sizes, NumPy beyond."""
+    m, n = J.shape
+    if J.size == 0 or xd.shape != (m,) or (has_grad and grad.shape != (n,)):
+        _raise_shape(J, xd, grad, has_grad)
+    k, rc = _scalars(k_null, rcond)
+    mode, lam, lam_max, eps = be.parse_damping(damping)
+    wmode, wdiag, wfull = be.parse_weights(weights, n, "weights")
+    labels = _LABELS if weights is None else _WEIGHTED_LABELS
+    kern = be.use_fast_path(m, n)
+    if kern is not None:
+        qd = np.empty(n)
+        status, rank, smin, smax, used = kern.step_general(
+            J, xd, grad, wdiag, wfull, qd, k, wmode, mode, lam, lam_max, eps, rc
+        )
         if status:
-            if status == codes.XD_SHAPE or status == codes.GRAD_SHAPE:
-                _raise_shape(Ja, xa, ga, grad is not None)
             be.raise_status(status, _NAMES)
     else:
-        if xa.shape != (m,) or (grad is not None and ga.shape != (n,)):
-            _raise_shape(Ja, xa, ga, grad is not None)
-        wmode, wdiag, wfull = be.parse_weights(weights, n, "weights")
         qd, rank, smin, smax, used = _numpy_step(
-            Ja, xa, ga, k, wmode, wdiag, wfull, (mode, lam, lam_max, eps, rc)
+            J, xd, grad, k, wmode, wdiag, wfull, (mode, lam, lam_max, eps, rc)
         )
-        labels = _LABELS if weights is None else _WEIGHTED_LABELS
-    full = rank == (m if m < n else n)
-    return qd, _new_info(InverseInfo, (rank, full, smin, smax, used, labels[mode]))
+    full = rank == min(m, n)
+    return qd, InverseInfo(rank, full, smin, smax, used, labels[mode])
+
+
+def _scalars(k_null: Any, rcond: Any) -> tuple[float, float]:
+    """Validated ``(k_null, rcond)``."""
+    values = []
+    for value, name in ((k_null, "k_null"), (rcond, "rcond")):
+        try:
+            x = float(value)
+        except (TypeError, ValueError) as exc:
+            raise InvalidParameterError(f"{name} must be a number; got {value!r}") from exc
+        if not math.isfinite(x):
+            raise NonFiniteError(f"{name} must be finite; got {x}")
+        values.append(x)
+    if values[1] < 0.0:
+        raise InvalidParameterError(f"rcond must be >= 0; got {values[1]}")
+    return values[0], values[1]
+
+
+def _raise_for_status(
+    status: int,
+    J: FloatArray,
+    xd: FloatArray,
+    grad: FloatArray,
+    has_grad: bool,
+    k_null: Any,
+    damping: Any,
+    rcond: Any,
+) -> None:
+    """Turn a fast-lane status into the error of the general path (same messages)."""
+    if status in (codes.J_EMPTY, codes.XD_SHAPE, codes.GRAD_SHAPE):
+        _raise_shape(J, xd, grad, has_grad)
+    if status in (codes.K_NONFINITE, codes.RCOND_NONFINITE, codes.RCOND_NEGATIVE):
+        _scalars(k_null, rcond)
+    if status in (codes.DAMPING_NONFINITE, codes.DAMPING_NEGATIVE):
+        be.parse_damping(damping)
+    be.raise_status(status, _NAMES)
 
 
 def _raise_shape(J: FloatArray, xd: FloatArray, grad: FloatArray, has_grad: bool) -> None:
@@ -167,14 +209,7 @@ def _raise_shape(J: FloatArray, xd: FloatArray, grad: FloatArray, has_grad: bool
         raise ShapeError(f"xd must have shape ({m},) to match J {J.shape}; got {xd.shape}")
     if has_grad and grad.shape != (n,):
         raise ShapeError(f"grad must have shape ({n},) to match J {J.shape}; got {grad.shape}")
-    raise ShapeError("inconsistent shapes")  # pragma: no cover
-
-
-def _number(value: Any, name: str) -> float:
-    try:
-        return float(value)
-    except (TypeError, ValueError) as exc:
-        raise InvalidParameterError(f"{name} must be a number; got {value!r}") from exc
+    raise ShapeError(f"grad must be a vector; got shape {grad.shape}")
 
 
 def _numpy_step(

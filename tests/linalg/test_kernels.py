@@ -1,0 +1,170 @@
+"""The compiled fast path: agreement with the NumPy reference, lazy import, cache fallback."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import redres.linalg as rl
+from redres.linalg import _backend
+
+from .strategies import PROPERTY, Jac, jacobians, orthogonal, positive_weights, spd_matrices
+
+kernels = pytest.importorskip("redres.linalg._kernels")
+
+SRC = os.path.join(os.path.dirname(__file__), "..", "..", "src")
+
+
+def run_python(code: str, **env: str) -> str:
+    """Run code in a fresh interpreter (with src on the path) and return its stdout."""
+    environment = dict(os.environ, PYTHONPATH=os.path.abspath(SRC), **env)
+    result = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        env=environment,
+        check=True,
+        timeout=300,
+    )
+    return result.stdout.strip()
+
+
+def extremes(A: np.ndarray) -> tuple[float, float]:
+    size = A.shape[0]
+    d, e, v, p = (np.zeros(size) for _ in range(4))
+    T = np.tril(A).copy()
+    kernels._tridiagonalize(T, size, d, e, v, p)
+    return kernels._extreme_eigenvalues(d, e, size, True)
+
+
+@pytest.mark.parametrize(
+    "sigma",
+    [
+        [1.0],
+        [2.0, 1.0],
+        [3.0, 2.0, 1.0, 0.5, 0.2, 0.1],
+        [1.0, 1.0, 1.0, 1.0, 1.0, 1.0],  # six-fold eigenvalue
+        [1.0, 1.0, 1.0, 0.1, 0.1, 0.1],  # two clusters
+        [1.0, 1.0 + 1e-9, 0.5, 0.5 + 1e-12, 0.01, 0.01],  # near-multiple
+        [1.0, 0.0, 0.0, 0.0],  # rank one
+        [5.0, 1e-3, 1e-3],
+    ],
+)
+def test_extreme_eigenvalues_of_gram_matrices(sigma) -> None:
+    s = np.array(sigma)
+    for seed in range(5):
+        Q = orthogonal(np.random.default_rng(seed), s.size)
+        A = (Q * s**2) @ Q.T
+        low, high = extremes(A)
+        reference = np.linalg.eigvalsh(A)
+        assert high == pytest.approx(reference[-1], rel=1e-13)
+        assert abs(low - reference[0]) <= 1e-13 * reference[-1]
+
+
+def test_extreme_eigenvalues_of_diagonal_and_zero() -> None:
+    assert extremes(np.diag([3.0, 1.0, 2.0])) == (1.0, 3.0)
+    assert extremes(np.zeros((3, 3))) == (0.0, 0.0)
+
+
+@PROPERTY
+@given(
+    jac=jacobians(),
+    mode=st.sampled_from(["exact", "fixed", "adaptive", "selective"]),
+    weighting=st.sampled_from(["none", "diagonal", "full"]),
+    data=st.data(),
+)
+def test_compiled_inverse_matches_numpy(jac: Jac, mode: str, weighting: str, data) -> None:
+    J = jac.J
+    n = J.shape[1]
+    damping = {
+        "exact": 0.0,
+        "fixed": 0.05,
+        "adaptive": rl.AdaptiveDamping(0.1, 0.3),
+        "selective": rl.AdaptiveDamping(0.1, 0.3, selective=True),
+    }[mode]
+    weights = {
+        "none": None,
+        "diagonal": data.draw(positive_weights(n)),
+        "full": data.draw(spd_matrices(n, max_condition=100.0)),
+    }[weighting]
+    results = {}
+    for enabled in (True, False):
+        previous = _backend.set_jit_enabled(enabled)
+        try:
+            results[enabled] = (
+                rl.nullspace_projector(J, weights=weights, damping=damping, return_info=True),
+                rl.generalized_inverse(J, weights=weights, damping=damping),
+            )
+        finally:
+            _backend.set_jit_enabled(previous)
+    (N_c, info_c), X_c = results[True]
+    (N_n, info_n), X_n = results[False]
+    # near-singular exact inverses amplify rounding by kappa (see test_projectors)
+    kappa = 1.0 if mode != "exact" else min(jac.condition, 1e10)
+    scale = 1.0 + np.abs(X_n).max()
+    np.testing.assert_allclose(X_c, X_n, atol=1e-9 * scale * max(1.0, kappa * 1e-6))
+    np.testing.assert_allclose(
+        N_c, N_n, atol=1e-9 * max(1.0, kappa * 1e-5) * (1 + np.abs(N_n).max())
+    )
+    assert info_c.rank == info_n.rank
+    assert info_c.method == info_n.method
+    assert info_c.sigma_max == pytest.approx(info_n.sigma_max, rel=1e-9)
+    assert abs(info_c.sigma_min - info_n.sigma_min) <= 1e-9 * info_n.sigma_max
+    assert info_c.damping == pytest.approx(info_n.damping, rel=1e-6, abs=1e-12)
+
+
+def test_fast_lane_entry_point_matches_dispatcher(rng: np.random.Generator) -> None:
+    entry = _backend.fast_step()
+    J = rng.standard_normal((6, 7))
+    xd, grad = rng.standard_normal(6), rng.standard_normal(7)
+    out1, out2 = np.empty(7), np.empty(7)
+    r1 = entry(J, xd, grad, out1, 0.5, 0.05, 1e-10)
+    r2 = kernels.step(J, xd, grad, out2, 0.5, 0.05, 1e-10)
+    assert r1 == r2
+    np.testing.assert_array_equal(out1, out2)
+
+
+def test_cache_falls_back_when_no_location_is_writable() -> None:
+    # A function compiled from a string has no source file, so numba cannot cache it:
+    # njit(cache=True) raises RuntimeError, which _jit turns into an in-memory compile.
+    namespace: dict[str, object] = {}
+    exec("def twice(x):\n    return 2.0 * x\n", namespace)
+    compiled = kernels._jit(namespace["twice"])
+    assert compiled(1.5) == 3.0
+
+
+def test_import_redres_does_not_import_numba() -> None:
+    out = run_python(
+        """
+        import sys
+        import redres
+        import redres.linalg as rl
+        print("numba" in sys.modules)
+        rl.pinv([[1.0, 2.0]])  # the SVD path needs no kernel
+        print("numba" in sys.modules)
+        rl.damped_pinv([[1.0, 2.0]], 0.1)  # the compiled path imports it on demand
+        print("numba" in sys.modules)
+        """
+    )
+    assert out.split() == ["False", "False", "True"]
+
+
+def test_environment_variable_disables_the_kernels() -> None:
+    out = run_python(
+        """
+        import sys
+        import redres.linalg as rl
+        from redres.linalg import _backend
+        qd, info = rl.rate_step([[1.0, 0.0, 1.0]], [1.0], damping=0.1)
+        print(_backend.kernels() is None, "numba" in sys.modules, info.method)
+        """,
+        REDRES_DISABLE_JIT="1",
+    )
+    assert out.split() == ["True", "False", "damped"]
