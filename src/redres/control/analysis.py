@@ -59,12 +59,14 @@ def analyse_run(
         log.sigma_min[:] = s[:, -1]
         log.manipulability[:] = np.prod(s, axis=1)
     by_name = {obj.name: obj for obj in objectives}
-    log.objectives = {
-        name: np.array([obj.cost(robot, q) for q in log.q]) for name, obj in by_name.items()
-    }
     obstacle = next((o for o in by_name.values() if isinstance(o, ObstacleObjective)), None)
+    log.objectives = {
+        name: np.array([obj.cost(robot, q) for q in log.q])
+        for name, obj in by_name.items()
+        if obj is not obstacle
+    }
     if obstacle is not None:
-        log.objectives["obstacle_distance_m"] = np.array(
-            [obstacle.min_distance(robot, q) for q in log.q]
-        )
+        pairs = np.array([obstacle.cost_and_distance(robot, q) for q in log.q]).reshape(-1, 2)
+        log.objectives[obstacle.name] = pairs[:, 0]
+        log.objectives["obstacle_distance_m"] = pairs[:, 1]
     return s
