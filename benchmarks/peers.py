@@ -105,3 +105,214 @@ def check_same_panda(q: np.ndarray) -> None:
         p = np.array([frame.p[i] for i in range(3)])
         if not np.allclose(p, robot.fk(q)[:3, 3], atol=1e-9):
             raise AssertionError(f"KDL Panda TCP {p} != redres {robot.fk(q)[:3, 3]}")
+
+
+# --- Both arms (Panda and iiwa 14) for every peer: differential.py, ik_compare.py, quality.py
+
+IIWA_URDF = ROOT / "src" / "redres" / "models" / "data" / "iiwa14.urdf"
+ARMS = ("panda", "iiwa14")
+#: The controlled frame: a URDF link of each arm, and redres' tip frame of the same pose.
+TIP_LINK = {"panda": "panda_hand_tcp", "iiwa14": "flange"}
+TIP_FRAME = {"panda": "tcp", "iiwa14": "flange"}
+_MUJOCO_TAG = '<mujoco><compiler fusestatic="false" discardvisual="true"/></mujoco>'
+
+
+def arm_urdf(name: str) -> str:
+    """URDF text of an arm without meshes: the fingerless Panda, or redres' iiwa 14."""
+    if name == "panda":
+        return panda_urdf_without_fingers()
+    if name == "iiwa14":
+        return IIWA_URDF.read_text()
+    raise KeyError(f"unknown arm {name!r}; expected one of {ARMS}")
+
+
+def write_urdf(name: str, directory: Path) -> Path:
+    """The arm's URDF written to ``directory`` (rtb and ikpy read files)."""
+    path = Path(directory) / f"{name}.urdf"
+    path.write_text(arm_urdf(name))
+    return path
+
+
+def mujoco_model(mujoco: Any, name: str) -> Any:
+    """MuJoCo model of the arm's URDF, fixed links kept as bodies, visuals discarded."""
+    text = arm_urdf(name)
+    text = re.sub(r"(<robot name=\"[^\"]*\">)", r"\1" + _MUJOCO_TAG, text, count=1)
+    return mujoco.MjModel.from_xml_string(text)
+
+
+def _origin(joint: Any) -> np.ndarray:
+    """4x4 placement of a URDF joint in its parent link (xyz, then fixed-axis rpy)."""
+    element = joint.find("origin")
+    attributes = element.attrib if element is not None else {}
+    xyz = [float(v) for v in attributes.get("xyz", "0 0 0").split()]
+    rpy = [float(v) for v in attributes.get("rpy", "0 0 0").split()]
+    cr, cp, cy = np.cos(rpy)
+    sr, sp, sy = np.sin(rpy)
+    T = np.eye(4)
+    T[:3, :3] = [  # Rz(yaw) Ry(pitch) Rx(roll), the URDF convention
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ]
+    T[:3, 3] = xyz
+    return T
+
+
+def urdf_joints(text: str, tip: str) -> list[tuple[str, bool, np.ndarray]]:
+    """Joints from the root to ``tip``: (name, revolute about z, placement), parsed only."""
+    import xml.etree.ElementTree as ET
+
+    by_child = {j.find("child").get("link"): j for j in ET.fromstring(text).iter("joint")}
+    chain, link = [], tip
+    while link in by_child:
+        joint = by_child[link]
+        revolute = joint.get("type") in ("revolute", "continuous")
+        axis = joint.find("axis")
+        if revolute and (axis is None or axis.get("xyz", "").split() != ["0", "0", "1"]):
+            raise ValueError(f"joint {joint.get('name')}: only z axes are supported here")
+        chain.append((joint.get("name"), revolute, _origin(joint)))
+        link = joint.find("parent").get("link")
+    return chain[::-1]
+
+
+def kdl_chain(kdl: Any, name: str) -> Any:
+    """KDL chain of an arm to its tip: the Panda from its DH table, the iiwa from its URDF."""
+    if name == "panda":
+        return kdl_panda(kdl)
+    chain, moving = kdl.Chain(), False
+    # A KDL segment turns its joint, then applies its tip frame: the tip frame of each
+    # segment is the placement of the next URDF joint.
+    for _, revolute, T in urdf_joints(arm_urdf(name), TIP_LINK[name]):
+        rotation = kdl.Rotation(*T[:3, :3].ravel().tolist())
+        tip = kdl.Frame(rotation, kdl.Vector(*T[:3, 3].tolist()))
+        joint = kdl.Joint(kdl.Joint.RotZ) if moving else kdl.Joint(kdl.Joint.Fixed)
+        chain.addSegment(kdl.Segment(joint, tip))
+        moving = revolute
+    if moving:
+        chain.addSegment(kdl.Segment(kdl.Joint(kdl.Joint.RotZ), kdl.Frame()))
+    return chain
+
+
+def import_rtb() -> Any:
+    try:
+        import roboticstoolbox
+    except ImportError:
+        note("robotics-toolbox (pip install roboticstoolbox-python) is not installed: skipped")
+        return None
+    return roboticstoolbox
+
+
+def rtb_robot(rtb: Any, path: Path) -> Any:
+    """robotics-toolbox robot read from a URDF file (its own parser, ETS kinematics)."""
+    from roboticstoolbox.models.URDF.URDFRobot import URDF_file
+
+    links, name, _ = URDF_file(str(path))
+    return rtb.Robot(links, name=name)
+
+
+def import_ikpy() -> Any:
+    try:
+        import ikpy.chain
+    except ImportError:
+        note("ikpy (pip install ikpy) is not installed: skipped")
+        return None
+    return ikpy.chain
+
+
+def ikpy_chain(ikpy_chain_module: Any, name: str, path: Path) -> tuple[Any, np.ndarray]:
+    """ikpy chain from the URDF file, with only the revolute joints active; and that mask."""
+    base = "panda_link0" if name == "panda" else "link0"
+    kinds = [revolute for _, revolute, _ in urdf_joints(arm_urdf(name), TIP_LINK[name])]
+    mask = np.array([False, *kinds])  # ikpy adds a fixed "Base link" in front
+    chain = ikpy_chain_module.Chain.from_urdf_file(
+        str(path), base_elements=[base], active_links_mask=mask.tolist(), symbolic=False
+    )
+    if len(chain.links) != len(mask):
+        raise AssertionError(f"ikpy's {name} chain: {len(chain.links)} links, not {len(mask)}")
+    return chain, mask
+
+
+def _kdl_fk(kdl: Any, name: str) -> Any:
+    chain = kdl_chain(kdl, name)
+    fk = kdl.ChainFkSolverPos_recursive(chain)
+
+    def kdl_fk(q: np.ndarray) -> np.ndarray:
+        jnt, frame = kdl.JntArray(len(q)), kdl.Frame()
+        for i, v in enumerate(q):
+            jnt[i] = float(v)
+        fk.JntToCart(jnt, frame)
+        _ = chain  # KDL solvers hold a bare reference: keep the chain alive
+        return kdl_matrix(frame)
+
+    return kdl_fk
+
+
+def kdl_matrix(frame: Any) -> np.ndarray:
+    """4x4 of a KDL frame."""
+    T = np.eye(4)
+    T[:3, :3] = [[frame.M[i, j] for j in range(3)] for i in range(3)]
+    T[:3, 3] = [frame.p[i] for i in range(3)]
+    return T
+
+
+def _mujoco_fk(mujoco: Any, name: str) -> Any:
+    model = mujoco_model(mujoco, name)
+    data = mujoco.MjData(model)
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, TIP_LINK[name])
+
+    def mujoco_fk(q: np.ndarray) -> np.ndarray:
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        T = np.eye(4)
+        T[:3, :3] = data.xmat[body].reshape(3, 3)
+        T[:3, 3] = data.xpos[body]
+        return T
+
+    return mujoco_fk
+
+
+def _ikpy_fk(ikpy: Any, name: str, directory: Path) -> Any:
+    chain, mask = ikpy_chain(ikpy, name, write_urdf(name, directory))
+
+    def ikpy_fk(q: np.ndarray) -> np.ndarray:
+        full = np.zeros(len(mask))
+        full[mask] = q
+        return np.asarray(chain.forward_kinematics(full))
+
+    return ikpy_fk
+
+
+def peer_fk(name: str, directory: Path) -> dict[str, Any]:
+    """Forward kinematics of the tip, ``q -> 4x4``, for every installed peer."""
+    out: dict[str, Any] = {}
+    kdl = import_kdl()
+    if kdl is not None:
+        out["KDL"] = _kdl_fk(kdl, name)
+    found = import_mink()
+    if found is not None:
+        out["mink"] = _mujoco_fk(found[1], name)
+    rtb = import_rtb()
+    if rtb is not None:
+        arm = rtb_robot(rtb, write_urdf(name, directory))
+        out["robotics-toolbox"] = lambda q: np.asarray(arm.fkine(q, end=TIP_LINK[name]).A)
+    ikpy = import_ikpy()
+    if ikpy is not None:
+        out["ikpy"] = _ikpy_fk(ikpy, name, directory)
+    return out
+
+
+def check_same_robot(name: str, directory: Path, count: int = 5, seed: int = 0) -> list[str]:
+    """Abort loudly unless every peer's tip pose equals redres' at random configurations."""
+    robot = rr.models.load(name)
+    rng = np.random.default_rng(seed)
+    configurations = [robot.random_configuration(rng) for _ in range(count)]
+    fks = peer_fk(name, directory)
+    for peer, fk in fks.items():
+        for q in configurations:
+            gap = float(np.abs(fk(q) - robot.fk(q, TIP_FRAME[name])).max())
+            if not gap < 1e-9:
+                raise AssertionError(
+                    f"{peer}'s {name} is not redres' {name}: tip poses differ by {gap:.3g} at "
+                    f"q = {np.round(q, 4).tolist()}; fix benchmarks/peers.py before comparing"
+                )
+    return list(fks)

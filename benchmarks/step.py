@@ -10,6 +10,11 @@ the integration ``q + q̇ dt``. Peers do their equivalent step on the same Panda
 * KDL: forward kinematics, pose error, ``ChainIkSolverVel_wdls`` (weighted damped least
   squares), integration.
 
+The hard-limit rows (issue 8) do the same frame task under hard position, velocity and
+acceleration limits: ``QPScheme`` (a QP through DAQP) and ``SNSScheme`` (saturation in the
+null space, no QP), each from the state it reaches after the warm-up calls on this problem
+(steady state: the task is feasible and met exactly; the path is printed under the table).
+
 Run: ``python benchmarks/step.py`` (or ``make bench``). Medians of interleaved batches;
 ratios are peer time / redres time (> 1: redres faster).
 """
@@ -25,11 +30,14 @@ import pinocchio as pin
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-import redres as rr  # noqa: E402
-from _common import interleaved, machine, median, table  # noqa: E402
-from peers import import_kdl, import_mink, import_pink, kdl_panda, mujoco_panda  # noqa: E402
-from redres.objectives import JointLimitObjective  # noqa: E402
-from redres.tasks import FrameTask  # noqa: E402
+from _common import interleaved, machine, median, table
+from peers import import_kdl, import_mink, import_pink, kdl_panda, mujoco_panda
+
+import redres as rr
+from redres.objectives import JointLimitObjective
+from redres.resolution.qp import QPScheme
+from redres.resolution.sns import SNSScheme
+from redres.tasks import FrameTask
 
 DT = 1e-3
 GAIN = 50.0
@@ -57,6 +65,22 @@ def redres_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[
         grad = limits.gradient(robot, q)
         qd, _ = rate_step(state.jacobian, state.command(GAIN), grad, k_null=1.0, damping=DAMPING)
         return q + qd * DT
+
+    return step
+
+
+def hard_limit_step(
+    scheme: QPScheme | SNSScheme, robot: rr.Robot, q: np.ndarray, target: np.ndarray
+) -> Callable[[], object]:
+    """Frame task, then the scheme's step inside the hard-limit box, then integration."""
+    task = FrameTask()
+    task.set_target(target)
+
+    def step() -> np.ndarray:
+        state = task.compute(robot, q)
+        result = scheme.step(robot, q, state.jacobian, state.command(GAIN))
+        step.last = result  # type: ignore[attr-defined]
+        return q + result.qd * DT
 
     return step
 
@@ -91,8 +115,9 @@ def mink_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[]
     configuration = mink.Configuration(model)
     configuration.update(q.copy())
     frame = mink.FrameTask("panda_hand_tcp", "body", position_cost=1.0, orientation_cost=1.0)
-    frame.set_target(mink.SE3.from_rotation_and_translation(
-        mink.SO3.from_matrix(target[:3, :3]), target[:3, 3]))
+    frame.set_target(
+        mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(target[:3, :3]), target[:3, 3])
+    )
     posture = mink.PostureTask(model, cost=1e-3)
     posture.set_target(robot.neutral())
     limits = [mink.ConfigurationLimit(model)]
@@ -135,6 +160,12 @@ def kdl_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[],
 def main() -> int:
     robot, q, target = problem()
     contenders = {"redres (CLIK, DLS + joint-limit null space)": redres_step(robot, q, target)}
+    hard = {
+        "redres QPScheme (hard limits, DAQP)": hard_limit_step(QPScheme(dt=DT), robot, q, target),
+        "redres SNSScheme (hard limits, no QP)": hard_limit_step(SNSScheme(dt=DT), robot, q,
+                                                                 target),
+    }  # fmt: skip
+    contenders.update(hard)
     peers = {
         "pink solve_ik (frame + posture QP)": pink_step(robot, q, target),
         "mink solve_ik (frame + posture QP)": mink_step(robot, q, target),
@@ -150,6 +181,15 @@ def main() -> int:
         ratio = "1" if med == base else f"{med / base:.1f}x"
         rows.append([name, f"{med:.1f}", f"{p99:.1f}", ratio])
     print(table(["step", "median µs", "p99 µs", "time / redres"], rows))
+    for name, fn in hard.items():
+        last = fn.last  # type: ignore[attr-defined]
+        ratios = [
+            f"{median(times[peer]) / median(times[name]):.1f}x faster than {peer.split()[0]}"
+            for peer in ("pink solve_ik (frame + posture QP)", "mink solve_ik (frame + posture QP)")
+            if peer in times
+        ]
+        path = "exact" if last.extra["feasible"] else "least violating / scaled"
+        print(f"{name}: path {path}; {', '.join(ratios) or 'no QP peers installed'}")
     return 0
 
 

@@ -97,10 +97,10 @@ def test_seed_001_weight_function_equals_chan_dubey() -> None:
     lo, hi = np.array([-2.0, -1.0]), np.array([1.0, 3.0])
     q = np.array([0.4, 2.1])
 
-    def H(x: np.ndarray) -> float:
+    def criterion(x: np.ndarray) -> float:
         return float(np.sum((hi - lo) ** 2 / (4 * (hi - x) * (x - lo))))
 
-    fd = np.array([(H(q + e * 1e-6) - H(q - e * 1e-6)) / 2e-6 for e in np.eye(2)])
+    fd = np.array([(criterion(q + e * 1e-6) - criterion(q - e * 1e-6)) / 2e-6 for e in np.eye(2)])
     assert np.allclose(joint_limit_gradient(q, lo, hi, 4 / (hi - lo)), fd, rtol=1e-6)
 
 

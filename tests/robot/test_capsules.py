@@ -9,12 +9,20 @@ import pytest
 import redres as rr
 
 ENDS = {
-    "panda": [("base", "shoulder"), ("shoulder", "elbow"), ("elbow", "wrist"),
-              ("wrist", "link7"), ("link7", "tcp")],
-    "iiwa14": [("link0", "shoulder"), ("shoulder", "elbow"), ("elbow", "wrist"),
-               ("wrist", "flange")],
-    "srs7": [("base", "shoulder"), ("shoulder", "elbow"), ("elbow", "wrist"),
-             ("wrist", "tool")],
+    "panda": [
+        ("base", "shoulder"),
+        ("shoulder", "elbow"),
+        ("elbow", "wrist"),
+        ("wrist", "link7"),
+        ("link7", "tcp"),
+    ],
+    "iiwa14": [
+        ("link0", "shoulder"),
+        ("shoulder", "elbow"),
+        ("elbow", "wrist"),
+        ("wrist", "flange"),
+    ],
+    "srs7": [("base", "shoulder"), ("shoulder", "elbow"), ("elbow", "wrist"), ("wrist", "tool")],
 }
 
 

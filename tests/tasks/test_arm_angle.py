@@ -43,7 +43,7 @@ def test_point_gradients_match_finite_differences(rng: np.random.Generator) -> N
         angle = arm_angle_from_points(*pts, v)
         for i, grad in enumerate((angle.d_shoulder, angle.d_elbow, angle.d_wrist)):
 
-            def phi_of(x: np.ndarray, i: int = i) -> np.ndarray:
+            def phi_of(x: np.ndarray, i: int = i, pts: list = pts, v: np.ndarray = v) -> np.ndarray:
                 moved = list(pts)
                 moved[i] = x
                 return np.array([arm_angle_from_points(*moved, v).phi])

@@ -12,8 +12,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from .._validate import FloatArray
 from ..linalg import manipulability, manipulability_gradient
 from .base import Objective
