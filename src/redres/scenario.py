@@ -36,6 +36,8 @@ from .resolution import (
     GradientProjectionScheme,
     PriorityScheme,
     PseudoInverseScheme,
+    QPScheme,
+    SNSScheme,
     WeightedLeastNormScheme,
 )
 from .robot import Robot
@@ -237,7 +239,17 @@ def _objective(r: _Reader, obstacles: list[Obstacle], n: int) -> tuple[Objective
     return obj, weight
 
 
-SCHEME_TYPES = ("pinv", "dls", "gradient_projection", "wln", "augmented", "priority", "osc")
+SCHEME_TYPES = (
+    "pinv",
+    "dls",
+    "gradient_projection",
+    "wln",
+    "augmented",
+    "priority",
+    "qp",
+    "sns",
+    "osc",
+)
 LEVEL_TYPES = ("arm_angle", "posture", "look_at")
 
 
@@ -295,7 +307,16 @@ def _osc(r: _Reader, objectives: list[tuple[Objective, float]]) -> Callable[[], 
     )
 
 
-def _scheme(r: _Reader, obstacles: list[Obstacle], n: int, file: str) -> SchemeSpec:
+def _hard_limits(
+    kind: str, dt: float, objectives: list[tuple[Objective, float]], gain: float
+) -> Callable[[], Any]:
+    """QP or SNS with hard joint limits, planning over the run's own period ``dt``."""
+    cls = QPScheme if kind == "qp" else SNSScheme
+    cls(dt=dt, objectives=objectives, gain=gain)  # validate now
+    return lambda: cls(dt=dt, objectives=objectives, gain=gain)
+
+
+def _scheme(r: _Reader, obstacles: list[Obstacle], n: int, file: str, run_dt: float) -> SchemeSpec:
     kind = r.get("type", "string")
     label = r.get("label", "string", kind)
     inverse = r.get("inverse", "string", "damped" if kind == "dls" else "exact")
@@ -323,6 +344,8 @@ def _scheme(r: _Reader, obstacles: list[Obstacle], n: int, file: str) -> SchemeS
             build = _osc(r, objectives)
         elif kind == "priority":
             build = _priority(r, n, file)
+        elif kind in ("qp", "sns"):
+            build = _hard_limits(kind, run_dt, objectives, gain)
         else:
             raise r.fail("type", f"unknown scheme {kind!r}; use {', '.join(SCHEME_TYPES)}")
     except RedresError as exc:
@@ -392,7 +415,7 @@ def parse_scenario(
     if not tables:
         raise ScenarioError(f'{file}: [[schemes]] is empty; add one with type = "pinv"')
     schemes = [
-        _scheme(_Reader(t, f"[schemes][{i}]", file), obstacles, robot.n, file)
+        _scheme(_Reader(t, f"[schemes][{i}]", file), obstacles, robot.n, file, dt)
         for i, t in enumerate(tables)
     ]
     top.done()

@@ -3,25 +3,44 @@
 from .augmented import AugmentedJacobianScheme
 from .base import INVERSES, InverseChoice, InverseKind, Scheme, StepResult, as_inverse
 from .gradient_projection import GradientProjectionScheme, total_gradient
+from .limits import (
+    Binding,
+    JointLimits,
+    braking_velocity,
+    run_violation,
+    step_violation,
+    velocity_bounds,
+)
 from .priority import METHODS, LevelInfo, PriorityScheme, prioritized_velocity
 from .pseudoinverse import PseudoInverseScheme
+from .qp import QPScheme
+from .sns import SNSScheme, largest_scale
 from .weighted_least_norm import WeightedLeastNormScheme, joint_limit_gradient
 
 __all__ = [
     "INVERSES",
     "METHODS",
     "AugmentedJacobianScheme",
+    "Binding",
     "GradientProjectionScheme",
     "InverseChoice",
     "InverseKind",
+    "JointLimits",
     "LevelInfo",
     "PriorityScheme",
     "PseudoInverseScheme",
+    "QPScheme",
+    "SNSScheme",
     "Scheme",
     "StepResult",
     "WeightedLeastNormScheme",
     "as_inverse",
+    "braking_velocity",
     "joint_limit_gradient",
+    "largest_scale",
     "prioritized_velocity",
+    "run_violation",
+    "step_violation",
     "total_gradient",
+    "velocity_bounds",
 ]
