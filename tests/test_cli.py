@@ -70,7 +70,17 @@ def test_demo_json_has_the_stable_keys(quick_demo: tuple[dict, Path]) -> None:
     payload, out = quick_demo
     assert set(payload) >= {"report", "runs"}
     schemes = {run["scheme"] for run in payload["runs"]}
-    assert {"pinv", "dls", "gradient_projection", "wln", "augmented", "priority", "osc"} <= schemes
+    assert {
+        "pinv",
+        "dls",
+        "gradient_projection",
+        "wln",
+        "augmented",
+        "priority",
+        "osc",
+        "qp",
+        "sns",
+    } <= schemes
     assert schemes <= STABLE_SCHEMES
     for run in payload["runs"]:
         for key in RUN_KEYS:
