@@ -151,10 +151,14 @@ def kdl_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[],
     for i, v in enumerate(q):
         jnt[i] = float(v)
 
-    def step() -> object:
+    def step(chain: object = chain) -> object:
+        # The solvers hold a bare reference to the chain: keep it alive with the closure,
+        # or KDL returns an error code and a zero velocity (a no-op that times nothing).
         fk.JntToCart(jnt, pose)
         twist = kdl.diff(pose, goal) * GAIN
-        ik.CartToJnt(jnt, twist, qdot)
+        status = ik.CartToJnt(jnt, twist, qdot)
+        if status < 0:
+            raise RuntimeError(f"KDL ChainIkSolverVel_wdls failed with code {status}")
         return [jnt[i] + qdot[i] * DT for i in range(7)]
 
     return step
