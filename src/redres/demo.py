@@ -133,7 +133,7 @@ def run_scenarios(
         if not (quiet or as_json):
             print(f"{spec.name}: {spec.description}", file=sys.stderr)
         runs += [(spec, log) for log in run_scenario(spec, progress=show_progress)]
-    description = "\n".join(f"{s.name}: {s.description}" for s in specs)
+    description = " ".join(f"{s.description}." for s in specs)
     report = _write_report(out, runs, title, description)
     summaries = [log.summary() for _, log in runs]
     if as_json:
