@@ -30,35 +30,13 @@ from redres.resolution.limits import (
     JointLimits,
     run_violation,
     step_violation,
-    velocity_bounds,
 )
 from redres.resolution.qp import QPScheme
 from redres.resolution.sns import SNSScheme
+from redres.testing import random_limit_states
 
 DT = 1e-3
 STEPS = 10_000
-
-
-def random_states(robot: rr.Robot, rng: np.random.Generator, count: int) -> list[tuple]:
-    """Same construction as tests/resolution/test_sns.py."""
-    lim = JointLimits.from_robot(robot)
-    out = []
-    for k in range(count):
-        q = robot.random_configuration(rng)
-        near, upper = rng.random(robot.n) < 0.3, rng.random(robot.n) < 0.5
-        gap = rng.choice([0.0, 1e-6, 1e-3, 0.02], size=robot.n)
-        q = np.where(near, np.where(upper, lim.q_max - gap, lim.q_min + gap), q)
-        prev = rng.uniform(-1, 1, robot.n) * lim.qd_max * rng.choice([0.0, 0.01, 0.3, 1.0])
-        while not velocity_bounds(lim, q, prev, DT).viable:
-            prev = 0.5 * prev
-        J = robot.jacobian(q)
-        if k % 2:
-            xd = rng.normal(size=6) * 10 ** rng.uniform(-4, 0)
-        else:
-            xd = J @ (prev + rng.normal(size=robot.n) * 10 ** rng.uniform(-3, -1))
-            xd *= rng.choice([1.0, 1.5, 3.0])
-        out.append((q, prev, J, xd))
-    return out
 
 
 def highs_scale(J: np.ndarray, xd: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float | None:
@@ -83,7 +61,7 @@ def timed(scheme: QPScheme | SNSScheme, robot: rr.Robot, states: list) -> list:
 
 def random_steps(robot: rr.Robot) -> None:
     lim = JointLimits.from_robot(robot)
-    states = random_states(robot, np.random.default_rng(8), STEPS)
+    states = random_limit_states(robot, np.random.default_rng(8), STEPS)
     rows = []
     for scheme in (QPScheme(dt=DT), SNSScheme(dt=DT)):
         timed(scheme, robot, states[:500])  # warm-up

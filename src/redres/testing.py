@@ -24,6 +24,7 @@ __all__ = [
     "jacobian_dot_fd",
     "numerical_gradient",
     "numerical_jacobian",
+    "random_limit_states",
 ]
 
 
@@ -118,3 +119,35 @@ def assert_jacobian_close(
             f"{name} differs from the reference at {idx}: {A[idx]!r} vs {B[idx]!r} "
             f"(max abs error {np.max(np.abs(A - B)):.3e}, atol={atol}, rtol={rtol})"
         )
+
+
+def random_limit_states(
+    robot: Robot, rng: np.random.Generator, count: int, dt: float = 1e-3
+) -> list[tuple[FloatArray, FloatArray, FloatArray, FloatArray]]:
+    """Random states ``(q, q̇_prev, J, ẋ)`` near the joint limits, for hard-limit schemes.
+
+    ``q``: uniform, then ~30 % of the joints moved to within 2 cm of a limit (some exactly
+    on it); ``qd_prev``: at rest, slow or fast, halved until the box is viable (a state
+    reachable by a run that kept its limits); ``ẋ``: random (0.1 mm/s to 1 m/s) or the
+    current task velocity perturbed and amplified. ``J`` is the tip Jacobian (6 x n).
+    """
+    from .resolution.limits import JointLimits, velocity_bounds
+
+    lim = JointLimits.from_robot(robot)
+    out = []
+    for k in range(count):
+        q = robot.random_configuration(rng)
+        near, upper = rng.random(robot.n) < 0.3, rng.random(robot.n) < 0.5
+        gap = rng.choice([0.0, 1e-6, 1e-3, 0.02], size=robot.n)
+        q = np.where(near, np.where(upper, lim.q_max - gap, lim.q_min + gap), q)
+        prev = rng.uniform(-1, 1, robot.n) * lim.qd_max * rng.choice([0.0, 0.01, 0.3, 1.0])
+        while not velocity_bounds(lim, q, prev, dt).viable:
+            prev = 0.5 * prev
+        J = robot.jacobian(q)
+        if k % 2:
+            xd = rng.normal(size=6) * 10 ** rng.uniform(-4, 0)
+        else:
+            xd = J @ (prev + rng.normal(size=robot.n) * 10 ** rng.uniform(-3, -1))
+            xd *= rng.choice([1.0, 1.5, 3.0])
+        out.append((q, prev, J, xd))
+    return out

@@ -18,34 +18,13 @@ import redres as rr
 from redres.control import panda_joint_limit_circle
 from redres.errors import InvalidParameterError, MissingDependencyError
 from redres.objectives import JointLimitObjective
-from redres.resolution.limits import JointLimits, run_violation, step_violation, velocity_bounds
+from redres.resolution.limits import JointLimits, run_violation, step_violation
 from redres.resolution.qp import QPScheme
 from redres.tasks import PostureTask
+from redres.testing import random_limit_states
 
 DT = 1e-3
 STEPS = 2000  # the full 10,000 run in benchmarks/hard_limits.py
-
-
-def random_states(robot: rr.Robot, rng: np.random.Generator, count: int) -> list[tuple]:
-    """Viable states near the limits and random task velocities (as in test_sns.py)."""
-    lim = JointLimits.from_robot(robot)
-    out = []
-    for k in range(count):
-        q = robot.random_configuration(rng)
-        near, upper = rng.random(robot.n) < 0.3, rng.random(robot.n) < 0.5
-        gap = rng.choice([0.0, 1e-6, 1e-3, 0.02], size=robot.n)
-        q = np.where(near, np.where(upper, lim.q_max - gap, lim.q_min + gap), q)
-        prev = rng.uniform(-1, 1, robot.n) * lim.qd_max * rng.choice([0.0, 0.01, 0.3, 1.0])
-        while not velocity_bounds(lim, q, prev, DT).viable:
-            prev = 0.5 * prev
-        J = robot.jacobian(q)
-        if k % 2:
-            xd = rng.normal(size=6) * 10 ** rng.uniform(-4, 0)
-        else:
-            xd = J @ (prev + rng.normal(size=robot.n) * 10 ** rng.uniform(-3, -1))
-            xd *= rng.choice([1.0, 1.5, 3.0])
-        out.append((q, prev, J, xd))
-    return out
 
 
 def task_feasible(J: np.ndarray, xd: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
@@ -75,7 +54,7 @@ def kkt_residual(grad: np.ndarray, qd: np.ndarray, lo: np.ndarray, hi: np.ndarra
 @pytest.fixture(scope="module")
 def panda_steps() -> tuple:
     robot = rr.models.panda()
-    states = random_states(robot, np.random.default_rng(11), STEPS)
+    states = random_limit_states(robot, np.random.default_rng(11), STEPS)
     scheme = QPScheme(dt=DT)
     results = []
     for q, prev, J, xd in states:

@@ -19,40 +19,13 @@ from redres.control import panda_joint_limit_circle
 from redres.errors import NonFiniteError, ShapeError
 from redres.objectives import JointLimitObjective
 from redres.resolution import PseudoInverseScheme
-from redres.resolution.limits import JointLimits, run_violation, step_violation, velocity_bounds
+from redres.resolution.limits import JointLimits, run_violation, step_violation
 from redres.resolution.sns import SNSScheme, largest_scale
+from redres.testing import random_limit_states
 
 DT = 1e-3
 STEPS = 10_000
 PAIRS = np.array(list(itertools.combinations(range(16), 2))).T
-
-
-def random_states(robot: rr.Robot, rng: np.random.Generator, count: int) -> list[tuple]:
-    """Random viable states near the limits and random task velocities.
-
-    ``q``: uniform, then ~30 % of the joints moved to within 2 cm of a limit (some exactly
-    on it); ``qd_prev``: at rest, slow or fast, halved until the box is viable (a state
-    reachable by a run that kept its limits); ``ẋ``: random (0.1 mm/s to 1 m/s) or the
-    current task velocity perturbed and amplified.
-    """
-    lim = JointLimits.from_robot(robot)
-    out = []
-    for k in range(count):
-        q = robot.random_configuration(rng)
-        near, upper = rng.random(robot.n) < 0.3, rng.random(robot.n) < 0.5
-        gap = rng.choice([0.0, 1e-6, 1e-3, 0.02], size=robot.n)
-        q = np.where(near, np.where(upper, lim.q_max - gap, lim.q_min + gap), q)
-        prev = rng.uniform(-1, 1, robot.n) * lim.qd_max * rng.choice([0.0, 0.01, 0.3, 1.0])
-        while not velocity_bounds(lim, q, prev, DT).viable:
-            prev = 0.5 * prev
-        J = robot.jacobian(q)
-        if k % 2:
-            xd = rng.normal(size=6) * 10 ** rng.uniform(-4, 0)
-        else:
-            xd = J @ (prev + rng.normal(size=robot.n) * 10 ** rng.uniform(-3, -1))
-            xd *= rng.choice([1.0, 1.5, 3.0])
-        out.append((q, prev, J, xd))
-    return out
 
 
 def scale_oracle(J: np.ndarray, xd: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple:
@@ -120,7 +93,7 @@ def scale_oracle(J: np.ndarray, xd: np.ndarray, lo: np.ndarray, hi: np.ndarray) 
 @pytest.fixture(scope="module")
 def panda_steps() -> tuple[rr.Robot, JointLimits, list]:
     robot = rr.models.panda()
-    states = random_states(robot, np.random.default_rng(8), STEPS)
+    states = random_limit_states(robot, np.random.default_rng(8), STEPS)
     scheme = SNSScheme(dt=DT)
     results = []
     for q, prev, J, xd in states:
