@@ -16,7 +16,7 @@ from ..resolution.gradient_projection import (
     weighted_objectives,
 )
 from ..tasks import FrameTask
-from .base import TaskGains
+from .base import TaskGains, TorqueLaw
 
 if TYPE_CHECKING:
     from ..control import Sample
@@ -122,3 +122,21 @@ class NullSpaceLaw:
         if self.objectives and self.kp > 0.0:
             qdd0 = qdd0 - self.kp * total_gradient(robot, q, self.objectives)
         return qdd0
+
+
+class ServoLaw(TorqueLaw):
+    """A torque law built on a :class:`TaskServo` (``self.servo``): the task plumbing that
+    the operational-space and acceleration-level controllers share."""
+
+    servo: TaskServo
+
+    @property
+    def task(self) -> FrameTask:
+        """The controlled frame task."""
+        return self.servo.task
+
+    def reset(self) -> None:
+        self.servo.reset()
+
+    def task_frame(self) -> tuple[str | None, list[int]]:
+        return self.servo.task.frame, self.servo.rows

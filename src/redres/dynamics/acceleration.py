@@ -29,8 +29,8 @@ from ..errors import InvalidParameterError
 from ..linalg import RCOND, AdaptiveDamping, InverseInfo, generalized_inverse
 from ..resolution.gradient_projection import WeightedObjective
 from ..tasks import FrameTask
-from ._servo import NullSpaceLaw, TaskServo
-from .base import ControlStep, TorqueLaw
+from ._servo import NullSpaceLaw, ServoLaw, TaskServo
+from .base import ControlStep
 from .osc import check_choice, dynamic_inverse
 
 if TYPE_CHECKING:
@@ -100,7 +100,7 @@ def resolve_acceleration(
     return qdd, info
 
 
-class AccelerationController(TorqueLaw):
+class AccelerationController(ServoLaw):
     """Computed torque from acceleration-level resolution: ``τ = RNEA(q, q̇, q̈)``.
 
     ``q̈ = J# (ẍ* − J̇ q̇) + (I − J# J) q̈₀`` with the task servo ``ẍ*`` and the null-space
@@ -137,17 +137,6 @@ class AccelerationController(TorqueLaw):
         self.damping = damping
         self.rcond = rcond
         self.name = name or f"acceleration_{inverse}"
-
-    @property
-    def task(self) -> FrameTask:
-        """The controlled frame task."""
-        return self.servo.task
-
-    def reset(self) -> None:
-        self.servo.reset()
-
-    def task_frame(self) -> tuple[str | None, list[int]]:
-        return self.servo.task.frame, self.servo.rows
 
     def step(
         self, robot: Robot, q: FloatArray, qd: FloatArray, sample: Sample | None = None

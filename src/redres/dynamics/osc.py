@@ -54,8 +54,8 @@ from ..linalg import RCOND, AdaptiveDamping, InverseInfo, generalized_inverse
 from ..linalg.dynamics import mass_matrix_factor
 from ..resolution.gradient_projection import WeightedObjective
 from ..tasks import FrameTask
-from ._servo import NullSpaceLaw, TaskServo
-from .base import ControlStep, TorqueLaw
+from ._servo import NullSpaceLaw, ServoLaw, TaskServo
+from .base import ControlStep
 
 if TYPE_CHECKING:
     from ..control import Sample
@@ -211,7 +211,7 @@ def task_disturbance(J: ArrayLike, M: ArrayLike, tau: ArrayLike) -> FloatArray:
     return Jm @ cho_solve((L, True), t)
 
 
-class OperationalSpaceController(TorqueLaw):
+class OperationalSpaceController(ServoLaw):
     """Khatib's operational-space controller with a null-space posture (module docstring).
 
     Args:
@@ -261,17 +261,6 @@ class OperationalSpaceController(TorqueLaw):
         self.damping = damping
         self.rcond = rcond
         self.name = name or f"osc_{projector}"
-
-    @property
-    def task(self) -> FrameTask:
-        """The controlled frame task."""
-        return self.servo.task
-
-    def reset(self) -> None:
-        self.servo.reset()
-
-    def task_frame(self) -> tuple[str | None, list[int]]:
-        return self.servo.task.frame, self.servo.rows
 
     def null_space_torque(
         self, robot: Robot, q: FloatArray, qd: FloatArray, M: FloatArray
