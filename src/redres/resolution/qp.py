@@ -52,7 +52,7 @@ from ..errors import InvalidParameterError, MissingDependencyError, ShapeError
 from ..linalg import InverseInfo
 from ..tasks import Task, stack
 from .base import Scheme, StepResult
-from .gradient_projection import WeightedObjective, total_gradient, weighted_objectives
+from .gradient_projection import WeightedObjective, weighted_objectives
 from .limits import JointLimits, fast_entry, kernel, register_kernels
 
 # Kernels shared with SNS (rebound to their compiled versions by :func:`_kernels`).
@@ -63,7 +63,7 @@ from .sns import (
     _solved,
     binding_list,
     input_error,
-    step_arrays,
+    step_inputs,
 )
 
 if TYPE_CHECKING:
@@ -196,16 +196,8 @@ class QPScheme(Scheme):
         self._ws, self._robot = ws, robot
 
     def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        q, J, xd = step_arrays(q, J, xd, robot.n)
-        ws = self._ws
-        if robot is not self._robot or ws.key[1] != xd.shape[0]:
-            self._prepare(robot, q, J, xd)
-            ws = self._ws
-        qd0 = ws.zero
-        if self.objectives:
-            qd0 = np.ascontiguousarray(-self.gain * total_gradient(robot, q, self.objectives))
+        q, J, xd, ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, sigma = ws.outputs()
-        prev = ws.zero if self.qd_prev is None else self.qd_prev
         err, relaxed, rank, full, inside = self._begin(
             q, prev, self.dt, ws.lim, J, xd, qd0, out, codes, sigma, ws.M, ws.wm, self._bu,
             self._bl, self._f,

@@ -735,6 +735,26 @@ def input_error(code: int, values: tuple[Any, ...]) -> NonFiniteError:
     return NonFiniteError(f"{name} contains NaN or infinity: {values[-code - 1]}")
 
 
+def step_inputs(
+    scheme: Any, robot: Robot, q: Any, J: Any, xd: Any
+) -> tuple[FloatArray, FloatArray, FloatArray, Workspace, FloatArray, FloatArray]:
+    """The prologue of a hard-limit scheme's step (shared by SNS and QP, internal).
+
+    Checks the arrays, (re)builds ``scheme``'s workspace when the robot or the task size
+    changes, and returns ``(q, J, xd, workspace, qd0, qd_prev)`` with ``qd0 = −k ΣwᵢDᵢ``
+    the secondary target (zeros without objectives).
+    """
+    q, J, xd = step_arrays(q, J, xd, robot.n)
+    if robot is not scheme._robot or scheme._ws.key[1] != xd.shape[0]:
+        scheme._prepare(robot, q, J, xd)
+    ws = scheme._ws
+    qd0 = ws.zero
+    if scheme.objectives:
+        qd0 = np.ascontiguousarray(-scheme.gain * total_gradient(robot, q, scheme.objectives))
+    prev = ws.zero if scheme.qd_prev is None else scheme.qd_prev
+    return q, J, xd, ws, qd0, prev
+
+
 class BindingList(Sequence[Binding]):
     """The :class:`~redres.resolution.limits.Binding` bounds of a step, built on first
     access from the kernel's code rows (a list of namedtuples costs microseconds a step;
@@ -868,16 +888,8 @@ class SNSScheme(Scheme):
         self._ws, self._robot = ws, robot
 
     def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        q, J, xd = step_arrays(q, J, xd, robot.n)
-        ws = self._ws
-        if robot is not self._robot or ws.key[1] != xd.shape[0]:
-            self._prepare(robot, q, J, xd)
-            ws = self._ws
-        qd0 = ws.zero
-        if self.objectives:
-            qd0 = np.ascontiguousarray(-self.gain * total_gradient(robot, q, self.objectives))
+        q, J, xd, ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, sigma = ws.outputs()
-        prev = ws.zero if self.qd_prev is None else self.qd_prev
         status, s, relaxed, active, rank = self._kernel(
             q, prev, self.dt, ws.lim, J, xd, qd0, bool(self.objectives), self.tolerance,
             out, codes, sigma, ws.M, ws.wm, ws.wn, ws.wb,
