@@ -36,6 +36,7 @@ from _common import interleaved, machine, median, table
 from peers import import_kdl, import_mink, import_pink, kdl_panda, mujoco_panda
 
 import redres as rr
+from redres.control import ClikController
 from redres.objectives import JointLimitObjective
 from redres.resolution.qp import QPScheme
 from redres.resolution.sns import SNSScheme
@@ -55,6 +56,17 @@ def problem(scale: float = 1.0) -> tuple[rr.Robot, np.ndarray, np.ndarray]:
     target[:3, 3] += scale * np.array([0.02, -0.01, 0.01])
     target[:3, :3] = target[:3, :3] @ pin.exp3(scale * np.array([0.02, 0.0, -0.03]))
     return robot, q, target
+
+
+def controller_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[], object]:
+    """The same step (plus velocity scaling) through the compiled ClikController."""
+    controller = ClikController(
+        robot, gain=GAIN, objectives=[JointLimitObjective()], inverse="damped",
+        damping=DAMPING, dt=DT,
+    )  # fmt: skip
+    controller.set_target(target)
+    step = controller.step
+    return lambda: step(q)
 
 
 def redres_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[], object]:
@@ -180,7 +192,10 @@ def report(hard: dict[str, Callable[[], object]], times: dict[str, np.ndarray]) 
 
 def main() -> int:
     robot, q, target = problem()
-    contenders = {"redres (CLIK, DLS + joint-limit null space)": redres_step(robot, q, target)}
+    contenders = {
+        "redres ClikController (compiled CLIK step)": controller_step(robot, q, target),
+        "redres composed (FrameTask + gradient + rate_step)": redres_step(robot, q, target),
+    }
     hard = {
         "redres QPScheme (hard limits, DAQP)": hard_limit_step(QPScheme(dt=DT), robot, q, target),
         "redres SNSScheme (hard limits, no QP)": hard_limit_step(SNSScheme(dt=DT), robot, q,

@@ -49,15 +49,17 @@ def test_jacobian_dot_matches_finite_differences(
         assert_jacobian_close(dJ, dJ_fd, atol=1e-7, rtol=1e-6, name=f"{name} dJ")
 
 
+@pytest.mark.parametrize("reference", ["world", "local"])
 @pytest.mark.parametrize("name", ROBOTS)
 def test_kinematics_returns_fk_and_jacobian_of_one_pass(
-    name: str, builtin_robots: dict[str, rr.Robot], rng: np.random.Generator
+    name: str, reference: str, builtin_robots: dict[str, rr.Robot], rng: np.random.Generator
 ) -> None:
     robot = builtin_robots[name]
+    robot.fk(robot.random_configuration(rng))  # leave another configuration in the data
     q = robot.random_configuration(rng)
-    T, J = robot.kinematics(q, reference="local")
+    T, J = robot.kinematics(q, reference=reference)  # type: ignore[arg-type]
     assert np.allclose(T, robot.fk(q), rtol=0, atol=1e-14)
-    assert np.allclose(J, robot.jacobian(q, reference="local"), rtol=0, atol=1e-14)
+    assert np.allclose(J, robot.jacobian(q, reference=reference), rtol=0, atol=1e-14)  # type: ignore[arg-type]
 
 
 def test_world_and_local_jacobians_differ_by_the_frame_rotation(

@@ -2,6 +2,7 @@
 
 from .analysis import analyse_run, progress_bar
 from .clik import final_configuration, run
+from .controller import ClikController
 from .runlog import RunLog
 from .scenarios import SCENARIOS, Scenario, iiwa_arm_angle_eight, panda_joint_limit_circle
 from .trajectories import (
@@ -18,6 +19,7 @@ from .trajectories import (
 __all__ = [
     "SCENARIOS",
     "Circle",
+    "ClikController",
     "FigureEight",
     "Hold",
     "Line",

@@ -83,11 +83,37 @@ def fast_step() -> Callable[..., Any] | None:
     arrays (``J`` 2-D, the rest 1-D) and Python floats. Falls back to the dispatcher if
     numba's internals differ, and returns None when the kernels are unavailable.
     """
+    warm = (np.zeros((1, 1)), np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0, 0.0)
+    return _entry_point("step", warm)
+
+
+def fused_clik_step() -> Callable[..., Any] | None:
+    """Native entry point of ``_kernels.clik_step`` (the fused CLIK step), or None.
+
+    Arguments must be float64 C-contiguous arrays ``J (6, n)``, ``H (4, 4)``, ``q (n,)``,
+    int64 ``rows (m,)``, float64 ``config`` and ``out`` (see the kernel); a mismatched
+    type is not detected by the entry point, so callers check their arrays once.
+    """
+    n = 1
+    warm = (
+        np.zeros((6, n)),
+        np.eye(4),
+        np.zeros(n),
+        np.arange(1, dtype=np.int64),
+        np.zeros(codes.CFG_VECTORS + 3 * n),
+        np.zeros(2 * n + 6),
+    )
+    return _entry_point("clik_step", warm)
+
+
+def _entry_point(name: str, warm: tuple[Any, ...]) -> Callable[..., Any] | None:
+    """The native entry point of kernel ``name`` for the types of ``warm`` (compiled or
+    loaded from the disk cache by one warm-up call), the dispatcher if numba's internals
+    differ, None when the kernels are unavailable."""
     kern = kernels()
     if kern is None:
         return None
-    dispatcher = kern.step
-    warm = (np.zeros((1, 1)), np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0, 0.0)
+    dispatcher = getattr(kern, name)
     dispatcher(*warm)  # compile, or load from the disk cache
     try:
         import numba

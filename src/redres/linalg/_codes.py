@@ -34,3 +34,26 @@ SELECTIVE = 3
 NO_WEIGHTS = 0
 DIAGONAL = 1
 FULL = 2
+
+# Codes of the fused CLIK step (clik_step), after the rate-step codes.
+Q_NONFINITE = 16
+Q_SHAPE = 17
+POSE_NONFINITE = 18
+
+# Layout of the ``config`` vector of ``_kernels.clik_step`` (n joints): target rotation
+# (row-major), target position, feedforward twist, per-row gain, then the scalars, then the
+# quadratic cost coefficients and the velocity limits.
+CFG_ROTATION = 0
+CFG_POSITION = 9
+CFG_TWIST = 12
+CFG_GAIN = 18
+CFG_K_NULL = 24
+CFG_DAMPING = 25
+CFG_MAX_DAMPING = 26
+CFG_THRESHOLD = 27
+CFG_MODE = 28
+CFG_DT = 29
+CFG_RCOND = 30
+CFG_LIMIT = 31
+CFG_HAS_GRAD = 32
+CFG_VECTORS = 33

@@ -28,5 +28,14 @@ class Objective(ABC):
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
         """``∂D/∂q``, shape ``(n,)``."""
 
+    def quadratic_form(self, robot: Robot) -> tuple[FloatArray, FloatArray] | None:
+        """``(a, r)``, each shape ``(n,)``, when ``∇D(q) = a ∘ (q − r)`` for every ``q``.
+
+        A diagonal quadratic cost has such a form; compiled loops
+        (:class:`redres.control.ClikController`) evaluate its gradient inside their kernel.
+        ``None`` (the default) for any other cost.
+        """
+        return None
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r})"

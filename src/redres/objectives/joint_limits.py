@@ -47,3 +47,8 @@ class JointLimitObjective(Objective):
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
         mid, scale = self._mid_scale(robot)
         return scale * (q - mid)
+
+    def quadratic_form(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
+        """``(2/(q_max − q_min)², q̄)``: the gradient is ``a ∘ (q − q̄)``."""
+        mid, scale = self._mid_scale(robot)
+        return scale.copy(), mid.copy()

@@ -40,3 +40,8 @@ class PostureObjective(Objective):
 
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
         return self.weights * self._offset(robot, q)
+
+    def quadratic_form(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
+        """``(weights, q_ref)`` broadcast to ``(n,)``: the gradient is ``w ∘ (q − q_ref)``."""
+        q_ref = robot.neutral() if self.q_ref is None else self.q_ref
+        return np.broadcast_to(self.weights, (robot.n,)).astype(float), np.array(q_ref, float)

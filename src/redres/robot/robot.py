@@ -316,9 +316,17 @@ class Robot:
         ``frame_id`` a value of :meth:`frame_id`.
         """
         model, data = self.model, self.data
-        pin.computeJointJacobians(model, data, q)
-        placement = pin.updateFramePlacement(model, data, frame_id)
-        J = pin.getFrameJacobian(model, data, frame_id, _REFERENCE[reference])
+        if reference == "world":
+            # One forward pass fills the joint placements and this frame's Jacobian (faster
+            # than computeJointJacobians + getFrameJacobian, which fill every joint's
+            # columns). Not for "local": Pinocchio computes that one by a backward pass
+            # that leaves the joint placements untouched.
+            J = pin.computeFrameJacobian(model, data, q, frame_id, pin.LOCAL_WORLD_ALIGNED)
+            placement = pin.updateFramePlacement(model, data, frame_id)
+        else:
+            pin.computeJointJacobians(model, data, q)
+            placement = pin.updateFramePlacement(model, data, frame_id)
+            J = pin.getFrameJacobian(model, data, frame_id, _REFERENCE[reference])
         return placement, J if J.ndim == 2 else J.reshape(6, self.n)
 
     def point_jacobians(self, q: Any, frames: Sequence[str]) -> tuple[FloatArray, FloatArray]:

@@ -1,0 +1,309 @@
+"""A compiled CLIK controller for one frame task: a whole control step in two calls.
+
+:class:`ClikController` does, for a :class:`~redres.tasks.FrameTask` and diagonal quadratic
+secondary costs (joint-limit mid-range, posture), what one iteration of
+:func:`redres.control.run` does with :class:`~redres.resolution.GradientProjectionScheme`
+(or :class:`~redres.resolution.PseudoInverseScheme` without costs)::
+
+    e   = [p_d − p; log(R_d Rᵀ)]                       (world-aligned, docs/conventions.md)
+    q̇   = J# (ẋ_d + K e) − k (I − J# J) Σ wᵢ ∇Dᵢ(q)     (seed 000 eq. 6, seed 003)
+    q̇  ← q̇ / max(1, maxⱼ |q̇ⱼ| / q̇_max,j)               (one factor: keeps the direction)
+    q  ← q + q̇ dt
+
+in one Pinocchio call (frame placement and Jacobian, one forward pass) and one compiled
+kernel (pose error, inverse, null-space term, scaling, integration) — no NumPy temporaries,
+no per-step Python objects. It is the loop for a 1 kHz controller; :func:`run` stays the
+general path (any task, scheme and objective, with a full run log).
+
+The costs must declare :meth:`~redres.objectives.Objective.quadratic_form` (their gradient
+is ``a ∘ (q − r)``); a cost without one (manipulability, obstacles) is refused with a
+pointer to the general path. Without the compiled kernels (numba missing or disabled) the
+same step runs through :class:`~redres.tasks.FrameTask` and :func:`redres.linalg.rate_step`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .._validate import FloatArray, as_scalar, as_transform, as_vector
+from ..errors import InvalidParameterError, NonFiniteError, ShapeError
+from ..linalg import InverseInfo, rate_step
+from ..linalg import _backend as be
+from ..linalg import _codes as codes
+from ..resolution.base import InverseChoice, as_inverse
+from ..resolution.gradient_projection import WeightedObjective, weighted_objectives
+from ..tasks import FrameTask
+
+if TYPE_CHECKING:
+    from ..robot import Robot
+
+__all__ = ["ClikController"]
+
+_F64 = np.float64
+_empty = np.empty
+_contiguous = np.ascontiguousarray
+_LABELS = ("pinv", "damped", "adaptive", "selective")  # by damping mode, as rate_step
+_new_info = tuple.__new__
+
+
+class ClikController:
+    """Closed-loop inverse kinematics of one frame, compiled into a single kernel call.
+
+    Args:
+        robot: the robot.
+        frame: task frame (``None``: the robot's tip).
+        rows: task rows of ``[x, y, z, rx, ry, rz]``, indices or names (default: all six).
+        gain: CLIK gain ``K`` in 1/s, a scalar or one value per task row (≥ 0).
+        objectives: diagonal quadratic costs, each optionally with a weight:
+            ``[JointLimitObjective(), (PostureObjective(q_ref), 0.1)]``.
+        k_null: gain ``k`` of the null-space term ``−k N ∇D`` (≥ 0).
+        inverse: ``"exact"``, ``"svd"``, ``"damped"``, ``"adaptive"`` or an
+            :class:`~redres.resolution.InverseChoice`; its parameters (``damping``,
+            ``max_damping``, ``threshold``, ``rcond``) as keywords, as for the schemes.
+        dt: control period in s (> 0).
+        limit_velocity: scale each command uniformly down to the joint velocity limits.
+
+    Use :meth:`set_target` (pose and twist, e.g. from a trajectory sample), then
+    ``q = controller.step(q)`` each period. After a step, :attr:`qd`, :attr:`error`,
+    :attr:`info` and :attr:`speed_ratio` describe it. Until a target is set, the target is
+    the pose at the first step (hold still).
+
+    Raises:
+        InvalidParameterError: a bad gain, period, inverse or a cost without a quadratic
+            form.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        frame: str | None = None,
+        rows: Sequence[int] | Sequence[str] | None = None,
+        *,
+        gain: float | Sequence[float] | FloatArray = 50.0,
+        objectives: Sequence[WeightedObjective] = (),
+        k_null: float = 1.0,
+        inverse: InverseChoice | str = "exact",
+        dt: float = 1e-3,
+        limit_velocity: bool = True,
+        **inverse_params: Any,
+    ) -> None:
+        n = robot.n
+        self.robot = robot
+        self.task = FrameTask(frame, rows)
+        self.frame_id = robot.frame_id(frame)
+        self.rows = np.array(self.task.rows, dtype=np.int64)
+        self.dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
+        self.k_null = as_scalar(k_null, "k_null", minimum=0.0)
+        self.limit_velocity = bool(limit_velocity)
+        self.inverse = as_inverse(inverse, **inverse_params)
+        self.objectives = weighted_objectives(objectives)
+        self._gain = _row_gains(gain, self.task.rows)
+        a, b = self._quadratic(robot)
+        self._rate_kwargs = self.inverse.rate_kwargs()
+        mode, lam, lam_max, eps = be.parse_damping(self._rate_kwargs["damping"])
+        config = np.zeros(codes.CFG_VECTORS + 3 * n)
+        config[codes.CFG_ROTATION : codes.CFG_ROTATION + 9] = np.eye(3).ravel()
+        config[codes.CFG_GAIN : codes.CFG_GAIN + 6] = self._gain
+        config[codes.CFG_K_NULL] = self.k_null
+        config[codes.CFG_DAMPING] = lam
+        config[codes.CFG_MAX_DAMPING] = lam_max
+        config[codes.CFG_THRESHOLD] = eps
+        config[codes.CFG_MODE] = mode
+        config[codes.CFG_DT] = self.dt
+        config[codes.CFG_RCOND] = self._rate_kwargs.get("rcond", 1e-10)
+        config[codes.CFG_LIMIT] = 1.0 if self.limit_velocity else 0.0
+        config[codes.CFG_HAS_GRAD] = 1.0 if self.objectives else 0.0
+        v = codes.CFG_VECTORS
+        config[v : v + n] = a
+        config[v + n : v + 2 * n] = b
+        config[v + 2 * n : v + 3 * n] = robot.qd_max
+        self._config = config
+        self._mode = mode
+        self._a, self._b = a, b
+        self._has_target = False
+        self._size = 2 * n + 6
+        self._out: FloatArray = np.zeros(self._size)
+        self._diag: tuple[int, float, float, float, float] = (0, 0.0, 0.0, 0.0, 0.0)
+        self._kernel = _kernel_for(robot, self.frame_id)
+
+    def _quadratic(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
+        """``(a, b)`` with ``Σ wᵢ ∇Dᵢ(q) = a ∘ q − b`` for the weighted costs."""
+        a, b = np.zeros(robot.n), np.zeros(robot.n)
+        for obj, weight in self.objectives:
+            form = obj.quadratic_form(robot)
+            if form is None:
+                raise InvalidParameterError(
+                    f"ClikController fuses only diagonal quadratic costs (joint limits, "
+                    f"posture); {obj.name!r} is not one: use redres.control.run with a "
+                    f"GradientProjectionScheme for it"
+                )
+            ai, ri = (as_vector(x, f"quadratic form of {obj.name}", robot.n) for x in form)
+            a += weight * ai
+            b += weight * ai * ri
+        return a, b
+
+    # -- target -------------------------------------------------------------------------
+
+    def set_target(self, pose: Any, twist: Any = None, *, validate: bool = True) -> None:
+        """Target pose (4x4, world) and feedforward twist ``[v; ω]`` (6,), m/s and rad/s.
+
+        ``validate=False`` skips the checks (finite, homogeneous, a rotation block), for
+        loops that feed trajectory samples already checked.
+        """
+        if validate:
+            pose = as_transform(pose, "pose")
+            twist = None if twist is None else as_vector(twist, "twist", 6)
+        cfg = self._config
+        cfg[0:9] = pose[:3, :3].ravel()  # codes.CFG_ROTATION
+        cfg[9:12] = pose[:3, 3]  # codes.CFG_POSITION
+        if twist is None:
+            cfg[12:18] = 0.0
+        else:
+            cfg[12:18] = twist  # codes.CFG_TWIST
+        self._has_target = True
+
+    @property
+    def target(self) -> FloatArray | None:
+        """The target pose (4x4), ``None`` before the first target or step."""
+        if not self._has_target:
+            return None
+        T = np.eye(4)
+        T[:3, :3] = self._config[0:9].reshape(3, 3)
+        T[:3, 3] = self._config[9:12]
+        return T
+
+    # -- the step -----------------------------------------------------------------------
+
+    def step(self, q: Any) -> FloatArray:
+        """The next configuration ``q + q̇ dt``, shape ``(n,)``.
+
+        Raises:
+            ShapeError: ``q`` does not have shape ``(n,)``.
+            NonFiniteError: ``q`` contains NaN or infinity.
+        """
+        try:
+            qa = _contiguous(q, _F64)
+        except (TypeError, ValueError) as exc:
+            raise ShapeError(f"q must be an array of {self.robot.n} numbers: {exc}") from exc
+        if qa.ndim != 1 or qa.shape[0] != self.robot.n:
+            raise ShapeError(f"q must have shape ({self.robot.n},); got {qa.shape}")
+        kernel = self._kernel
+        if kernel is None:
+            return self._composed_step(qa)
+        placement, J = self.robot.placement_jacobian(qa, self.frame_id)
+        H = placement.homogeneous
+        if not self._has_target:
+            if not np.all(np.isfinite(qa)):
+                raise NonFiniteError("q contains NaN or infinity")
+            self.set_target(H, validate=False)
+        out = _empty(self._size)
+        status, rank, smin, smax, used, speed = kernel(J, H, qa, self.rows, self._config, out)
+        if status:
+            _raise_for_status(status, self.robot.n)
+        self._out = out
+        self._diag = (rank, smin, smax, used, speed)
+        return out[: self.robot.n]
+
+    def _composed_step(self, q: FloatArray) -> FloatArray:
+        """The same step through FrameTask and rate_step (no compiled kernels)."""
+        if not np.all(np.isfinite(q)):
+            raise NonFiniteError("q contains NaN or infinity")
+        task, cfg, n = self.task, self._config, self.robot.n
+        if not self._has_target:
+            self.set_target(self.robot.fk(q, task.frame), validate=False)
+        task.set_target(self.target, cfg[12:18].copy(), validate=False)
+        state = task.compute(self.robot, q)
+        grad = self._a * q - self._b if self.objectives else None
+        xd = state.feedforward + self._gain[self.task.rows] * state.error
+        qd, info = rate_step(state.jacobian, xd, grad, k_null=self.k_null, **self._rate_kwargs)
+        speed = float(np.max(np.abs(qd) / self.robot.qd_max)) if self.limit_velocity else 0.0
+        if speed > 1.0:
+            qd = qd / speed
+        out = np.empty(self._size)
+        out[:n] = q + qd * self.dt
+        out[n : 2 * n] = qd
+        assert task.last_error is not None
+        out[2 * n :] = task.last_error
+        self._out = out
+        self._diag = (info.rank, info.sigma_min, info.sigma_max, info.damping, speed)
+        return out[:n]
+
+    # -- what the last step did -----------------------------------------------------------
+
+    @property
+    def qd(self) -> FloatArray:
+        """Joint velocity of the last step (after velocity scaling), rad/s."""
+        n = self.robot.n
+        return self._out[n : 2 * n]
+
+    @property
+    def error(self) -> FloatArray:
+        """Six-row pose error ``[p_d − p; log(R_d Rᵀ)]`` at the last step (m, rad)."""
+        n = self.robot.n
+        return self._out[2 * n :]
+
+    @property
+    def speed_ratio(self) -> float:
+        """``maxⱼ |q̇ⱼ| / q̇_max,j`` of the last step before scaling (0 if limits are off)."""
+        return self._diag[4]
+
+    @property
+    def scaled(self) -> bool:
+        """Whether the last command was scaled down to the velocity limits."""
+        return self._diag[4] > 1.0
+
+    @property
+    def info(self) -> InverseInfo:
+        """Diagonostics of the inverse at the last step (rank, σ_min, σ_max, damping)."""
+        rank, smin, smax, used, _ = self._diag
+        full = rank == min(len(self.rows), self.robot.n)
+        return _new_info(InverseInfo, (rank, full, smin, smax, used, _LABELS[self._mode]))
+
+    def __repr__(self) -> str:
+        return (
+            f"ClikController(robot={self.robot.name!r}, frame={self.task.frame!r}, "
+            f"rows={self.task.rows}, inverse={self.inverse.kind!r}, "
+            f"objectives={[obj.name for obj, _ in self.objectives]})"
+        )
+
+
+def _row_gains(gain: Any, rows: list[int]) -> FloatArray:
+    """Six per-row gains (unused rows 0) from a scalar or one value per task row."""
+    g = np.asarray(gain, dtype=float) if not isinstance(gain, (int, float)) else None
+    full = np.zeros(6)
+    if g is None or g.ndim == 0:
+        full[rows] = as_scalar(gain, "gain", minimum=0.0)
+        return full
+    values = as_vector(g, "gain", len(rows))
+    if np.any(values < 0.0):
+        raise InvalidParameterError(f"gain must be >= 0 on every row; got {values}")
+    full[rows] = values
+    return full
+
+
+def _kernel_for(robot: Robot, frame_id: int) -> Any:
+    """The fused kernel's native entry point when the arrays Pinocchio returns have the
+    layout it was compiled for (float64, C order), numba's dispatcher if not, None
+    without compiled kernels."""
+    entry = be.fused_clik_step()
+    if entry is None:
+        return None
+    placement, J = robot.placement_jacobian(robot.neutral(), frame_id)
+    H = placement.homogeneous
+    if all(x.dtype == _F64 and x.flags.c_contiguous for x in (J, H)):
+        return entry
+    kernels = be.kernels()  # pragma: no cover - a Pinocchio build returning other layouts
+    return None if kernels is None else kernels.clik_step  # pragma: no cover
+
+
+def _raise_for_status(status: int, n: int) -> None:
+    if status == codes.Q_NONFINITE:
+        raise NonFiniteError("q contains NaN or infinity")
+    if status == codes.Q_SHAPE:
+        raise ShapeError(f"q must have shape ({n},)")
+    if status == codes.POSE_NONFINITE:
+        raise NonFiniteError("the frame placement is not finite (is q astronomically large?)")
+    be.raise_status(status, {"J": "the frame Jacobian", "xd": "the task command"})

@@ -1,0 +1,285 @@
+"""ClikController: the compiled CLIK step against the composed path it fuses.
+
+Oracles: Pinocchio's ``log3`` and ``exp3`` for the kernel's SO(3) logarithm; the composed
+step (FrameTask + total_gradient + rate_step + uniform velocity scaling, each tested on
+its own elsewhere) for single steps; ``rr.run`` with the equivalent scheme for a whole
+closed-loop run.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import redres as rr
+from redres.control import ClikController
+from redres.errors import InvalidParameterError, NonFiniteError, ShapeError
+from redres.linalg import _backend
+from redres.objectives import JointLimitObjective, ManipulabilityObjective, PostureObjective
+from redres.resolution import GradientProjectionScheme, PseudoInverseScheme
+from redres.resolution.gradient_projection import total_gradient, weighted_objectives
+from redres.tasks import FrameTask
+
+INVERSES: list[tuple[str, dict[str, Any]]] = [
+    ("exact", {}),
+    ("damped", {"damping": 0.05}),
+    ("adaptive", {"max_damping": 0.1, "threshold": 0.3}),
+    ("svd", {"rcond": 1e-3}),
+]
+
+
+def _so3_log() -> Any:
+    kernels = _backend.kernels()
+    if kernels is None:
+        pytest.skip("compiled kernels unavailable")
+    return kernels._so3_log
+
+
+def _random_rotation(rng: np.random.Generator, angle: float) -> np.ndarray:
+    axis = rng.normal(size=3)
+    return np.asarray(pin.exp3(angle * axis / np.linalg.norm(axis)))
+
+
+@pytest.mark.parametrize(
+    "angle",
+    [0.0, 1e-12, 1e-8, 1e-5, 1e-4, 2e-4, 0.1, 1.0, 2.0, 2.69, 2.7, 3.0, 3.14, np.pi - 1e-6,
+     np.pi - 1e-10],
+)  # fmt: skip
+def test_so3_log_matches_pinocchio_at_every_angle(angle: float, rng: np.random.Generator) -> None:
+    log = _so3_log()
+    for _ in range(20):
+        R = _random_rotation(rng, angle)
+        out = np.empty(3)
+        log(R, out)
+        assert np.allclose(out, pin.log3(R), rtol=0, atol=2e-9)
+        assert np.allclose(pin.exp3(out), R, rtol=0, atol=1e-14)  # exp(log R) = R
+
+
+def test_so3_log_at_exactly_pi_gives_a_valid_logarithm() -> None:
+    log = _so3_log()
+    for axis in np.eye(3).tolist() + [[1.0, 1.0, 0.0], [1.0, -2.0, 3.0]]:
+        u = np.array(axis) / np.linalg.norm(axis)
+        R = 2.0 * np.outer(u, u) - np.eye(3)  # rotation by pi about u
+        out = np.empty(3)
+        log(R, out)
+        assert np.isclose(np.linalg.norm(out), np.pi, rtol=0, atol=1e-12)
+        assert np.allclose(pin.exp3(out), R, rtol=0, atol=1e-14)
+
+
+def composed_step(
+    robot: rr.Robot,
+    q: np.ndarray,
+    target: np.ndarray,
+    twist: np.ndarray,
+    *,
+    rows: list[int] | None,
+    gain: float,
+    objectives: list[Any],
+    inverse: rr.resolution.InverseChoice,
+    limit: bool,
+    dt: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The step built from its tested parts: ``(q_next, qd, six-row error)``."""
+    task = FrameTask(rows=rows)
+    task.set_target(target, twist)
+    state = task.compute(robot, q)
+    pairs = weighted_objectives(objectives)
+    grad = total_gradient(robot, q, pairs) if pairs else None
+    qd, _ = rr.linalg.rate_step(
+        state.jacobian, state.command(gain), grad, k_null=0.7, **inverse.rate_kwargs()
+    )
+    speed = np.max(np.abs(qd) / robot.qd_max)
+    if limit and speed > 1.0:
+        qd = qd / speed
+    assert task.last_error is not None
+    return q + qd * dt, qd, task.last_error
+
+
+def _target_near(robot: rr.Robot, q: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    T = robot.fk(q)
+    T[:3, 3] += rng.uniform(-0.03, 0.03, 3)
+    T[:3, :3] = T[:3, :3] @ pin.exp3(rng.uniform(-0.05, 0.05, 3))
+    return T
+
+
+@pytest.mark.parametrize(("kind", "params"), INVERSES)
+@pytest.mark.parametrize(
+    ("name", "rows"),
+    [("panda", None), ("iiwa14", None), ("srs7", [0, 1, 2]), ("panda", ["x", "z", "ry"]),
+     ("planar3", ["x", "y"])],
+)  # fmt: skip
+def test_step_equals_the_composed_step(
+    name: str,
+    rows: Any,
+    kind: str,
+    params: dict[str, Any],
+    builtin_robots: dict[str, rr.Robot],
+    rng: np.random.Generator,
+) -> None:
+    robot = builtin_robots[name]
+    inverse = rr.resolution.InverseChoice(kind, **params)  # type: ignore[arg-type]
+    parsed = None if rows is None else FrameTask(rows=rows).rows
+    for trial in range(12):
+        q = robot.random_configuration(rng)
+        target = _target_near(robot, q, rng)
+        twist = rng.uniform(-0.2, 0.2, 6)
+        objectives: list[Any] = [
+            [],
+            [JointLimitObjective()],
+            [(JointLimitObjective(), 2.0), (PostureObjective(weights=0.3), 0.5)],
+        ][trial % 3]
+        limit = trial % 2 == 0
+        controller = ClikController(
+            robot, rows=rows, gain=40.0, objectives=objectives, k_null=0.7, inverse=inverse,
+            dt=2e-3, limit_velocity=limit,
+        )  # fmt: skip
+        controller.set_target(target, twist)
+        q_next = controller.step(q)
+        expected, qd, error = composed_step(
+            robot, q, target, twist, rows=parsed, gain=40.0, objectives=objectives,
+            inverse=inverse, limit=limit, dt=2e-3,
+        )  # fmt: skip
+        scale = 1.0 + np.abs(qd).max()
+        assert np.allclose(controller.qd, qd, rtol=0, atol=1e-11 * scale)
+        assert np.allclose(q_next, expected, rtol=0, atol=1e-13 * scale)
+        assert np.allclose(controller.error, error, rtol=0, atol=1e-14)
+
+
+def test_info_and_scaling_describe_the_last_step(rng: np.random.Generator) -> None:
+    robot = rr.models.panda()
+    q = robot.random_configuration(rng, margin=0.3)
+    controller = ClikController(robot, inverse="damped", damping=0.05, gain=500.0)
+    controller.set_target(_target_near(robot, q, rng))
+    controller.step(q)
+    task = FrameTask()
+    task.set_target(controller.target)
+    state = task.compute(robot, q)
+    _, info = rr.linalg.rate_step(state.jacobian, state.command(500.0), damping=0.05)
+    assert controller.info.rank == info.rank == 6 and controller.info.full_rank
+    assert controller.info.method == "damped" and controller.info.damping == 0.05
+    assert np.isclose(controller.info.sigma_min, info.sigma_min, rtol=1e-12)
+    assert np.isclose(controller.info.sigma_max, info.sigma_max, rtol=1e-12)
+    assert controller.scaled and controller.speed_ratio > 1.0
+    assert np.isclose(np.max(np.abs(controller.qd) / robot.qd_max), 1.0, rtol=1e-14)
+
+
+def test_without_a_target_the_pose_is_held_and_the_null_space_acts_alone(
+    rng: np.random.Generator,
+) -> None:
+    robot = rr.models.panda()
+    q = robot.random_configuration(rng, margin=0.3)
+    controller = ClikController(robot, objectives=[JointLimitObjective()], k_null=5.0)
+    assert controller.target is None
+    controller.step(q)
+    assert np.allclose(controller.target, robot.fk(q), rtol=0, atol=1e-15)  # type: ignore[arg-type]
+    assert np.abs(controller.error).max() < 1e-14
+    J = robot.jacobian(q)
+    assert np.linalg.norm(controller.qd) > 1e-3  # the joint-limit cost moves the arm
+    assert np.linalg.norm(J @ controller.qd) < 1e-10  # ... without moving the hand
+
+
+def test_per_row_gains(rng: np.random.Generator) -> None:
+    robot = rr.models.iiwa14()
+    q = robot.random_configuration(rng, margin=0.3)
+    target = _target_near(robot, q, rng)
+    gains = np.array([10.0, 20.0, 30.0, 1.0, 2.0, 3.0])
+    controller = ClikController(robot, gain=gains, limit_velocity=False)
+    controller.set_target(target)
+    controller.step(q)
+    task = FrameTask()
+    task.set_target(target)
+    state = task.compute(robot, q)
+    qd, _ = rr.linalg.rate_step(state.jacobian, gains * state.error)
+    assert np.allclose(controller.qd, qd, rtol=0, atol=1e-11)
+
+
+def test_the_kernel_and_the_numpy_fallback_agree(rng: np.random.Generator) -> None:
+    robot = rr.models.panda()
+    q = robot.random_configuration(rng, margin=0.2)
+    target = _target_near(robot, q, rng)
+    kwargs: dict[str, Any] = {"objectives": [JointLimitObjective()], "inverse": "damped"}
+    compiled = ClikController(robot, **kwargs)
+    compiled.set_target(target)
+    expected = [compiled.step(q).copy(), compiled.qd.copy(), compiled.error.copy()]
+    previous = _backend.set_jit_enabled(False)
+    try:
+        fallback = ClikController(robot, **kwargs)
+        fallback.set_target(target)
+        got = [fallback.step(q), fallback.qd, fallback.error]
+        assert fallback.info.method == "damped"
+    finally:
+        _backend.set_jit_enabled(previous)
+    for a, b in zip(got, expected, strict=True):
+        assert np.allclose(a, b, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("objectives", [[], [(JointLimitObjective(), 1.0)]])
+def test_a_closed_loop_run_reproduces_rr_run(objectives: list[Any]) -> None:
+    """One second of the Panda joint-limit circle, step for step."""
+    scenario = rr.control.panda_joint_limit_circle()
+    robot, trajectory = scenario.robot, scenario.trajectory
+    assert trajectory is not None
+    scheme = (
+        GradientProjectionScheme(objectives, gain=5.0, inverse="damped", damping=0.01)
+        if objectives
+        else PseudoInverseScheme(inverse="damped", damping=0.01)
+    )
+    log = rr.run(robot, FrameTask(), trajectory, scheme, duration=1.0, q0=scenario.q0, gain=50.0)
+    controller = ClikController(
+        robot, objectives=objectives, k_null=5.0, inverse="damped", damping=0.01, gain=50.0
+    )
+    q = scenario.q0.copy()
+    for k in range(len(log.t)):
+        assert np.allclose(q, log.q[k], rtol=0, atol=1e-9), f"step {k}"
+        sample = trajectory.sample(k * 1e-3)
+        controller.set_target(sample.pose, sample.twist, validate=False)
+        q = controller.step(q)
+        assert controller.scaled == log.scaled[k]
+    assert np.allclose(q, rr.control.final_configuration(log), rtol=0, atol=1e-9)
+
+
+def test_bad_input_is_refused_with_a_clear_error(rng: np.random.Generator) -> None:
+    robot = rr.models.panda()
+    controller = ClikController(robot)
+    q = robot.neutral()
+    with pytest.raises(NonFiniteError, match="q contains NaN"):
+        controller.step(np.full(7, np.nan))
+    with pytest.raises(ShapeError, match=r"shape \(7,\)"):
+        controller.step(np.zeros(6))
+    with pytest.raises(ShapeError, match=r"shape \(7,\)"):
+        controller.step(np.zeros((7, 1)))
+    with pytest.raises(ShapeError):
+        controller.step("not a configuration")
+    with pytest.raises(ShapeError, match="rotation"):
+        controller.set_target(np.diag([2.0, 1.0, 1.0, 1.0]))
+    with pytest.raises(NonFiniteError):
+        controller.set_target(robot.fk(q), [0.0, 0.0, np.inf, 0.0, 0.0, 0.0])
+    with pytest.raises(InvalidParameterError, match="manipulability.*GradientProjectionScheme"):
+        ClikController(robot, objectives=[ManipulabilityObjective()])
+    with pytest.raises(InvalidParameterError, match="dt must be > 0"):
+        ClikController(robot, dt=0.0)
+    with pytest.raises(InvalidParameterError, match="gain"):
+        ClikController(robot, gain=-1.0)
+    with pytest.raises(ShapeError, match="gain"):
+        ClikController(robot, gain=[1.0, 2.0])
+    with pytest.raises(InvalidParameterError, match="inverse"):
+        ClikController(robot, inverse="magic")
+    # A failed call leaves the controller usable.
+    assert np.all(np.isfinite(controller.step(q)))
+
+
+def test_quadratic_forms_reproduce_the_gradients(
+    builtin_robots: dict[str, rr.Robot], rng: np.random.Generator
+) -> None:
+    for robot in builtin_robots.values():
+        for obj in (JointLimitObjective(), PostureObjective(weights=rng.uniform(0, 2, robot.n))):
+            form = obj.quadratic_form(robot)
+            assert form is not None
+            a, r = form
+            for _ in range(5):
+                q = robot.random_configuration(rng)
+                assert np.allclose(a * (q - r), obj.gradient(robot, q), rtol=1e-14, atol=1e-15)
+    assert ManipulabilityObjective().quadratic_form(rr.models.panda()) is None
