@@ -283,3 +283,54 @@ def test_quadratic_forms_reproduce_the_gradients(
                 q = robot.random_configuration(rng)
                 assert np.allclose(a * (q - r), obj.gradient(robot, q), rtol=1e-14, atol=1e-15)
     assert ManipulabilityObjective().quadratic_form(rr.models.panda()) is None
+
+
+def _scheme(name: str) -> Any:
+    if name == "sns":
+        return rr.resolution.SNSScheme(dt=1e-3, objectives=[JointLimitObjective()], gain=2.0)
+    if name == "qp":
+        pytest.importorskip("daqp")
+        return rr.resolution.QPScheme(dt=1e-3, objectives=[JointLimitObjective()], gain=2.0)
+    return rr.resolution.WeightedLeastNormScheme()
+
+
+@pytest.mark.parametrize("jit", [True, False])
+@pytest.mark.parametrize("name", ["sns", "qp", "wln"])
+def test_a_scheme_in_the_controller_reproduces_rr_run(name: str, jit: bool) -> None:
+    """Half a second of the Panda circle: kernel front end + the scheme's velocity()."""
+    scenario = rr.control.panda_joint_limit_circle()
+    robot, trajectory = scenario.robot, scenario.trajectory
+    assert trajectory is not None
+    log = rr.run(robot, FrameTask(), trajectory, _scheme(name), duration=0.5, q0=scenario.q0)
+    previous = _backend.set_jit_enabled(jit)
+    try:
+        controller = ClikController(robot, scheme=_scheme(name))
+        q = scenario.q0.copy()
+        for k in range(len(log.t)):
+            assert np.allclose(q, log.q[k], rtol=0, atol=1e-9), f"step {k}"
+            sample = trajectory.sample(k * 1e-3)
+            controller.set_target(sample.pose, sample.twist, validate=False)
+            q = controller.step(q)
+            assert np.allclose(controller.qd, log.qd[k], rtol=0, atol=1e-8), f"step {k}"
+            assert controller.scaled == log.scaled[k]
+    finally:
+        _backend.set_jit_enabled(previous)
+    result = controller.last_result()
+    assert result.qd is controller.scheme.last_result().qd  # type: ignore[union-attr]
+    assert controller.info == result.info
+    assert np.isclose(np.linalg.norm(controller.error[:3]), log.position_error[-1], atol=1e-12)
+
+
+def test_scheme_arguments_are_checked() -> None:
+    robot = rr.models.panda()
+    sns = rr.resolution.SNSScheme(dt=1e-3)
+    with pytest.raises(InvalidParameterError, match="objectives to the scheme"):
+        ClikController(robot, scheme=sns, objectives=[JointLimitObjective()])
+    with pytest.raises(InvalidParameterError, match="dt = 0.001.*dt = 0.002"):
+        ClikController(robot, scheme=sns, dt=2e-3)
+    with pytest.raises(InvalidParameterError, match="Scheme"):
+        ClikController(robot, scheme="sns")  # type: ignore[arg-type]
+    with pytest.raises(InvalidParameterError, match="scheme="):
+        ClikController(robot).last_result()
+    with pytest.raises(InvalidParameterError, match="no velocity"):
+        ClikController(robot, scheme=sns).last_result()

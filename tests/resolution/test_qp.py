@@ -233,3 +233,38 @@ def test_panda_circle_keeps_every_limit_and_tracks() -> None:
     assert summary["min_joint_limit_margin_rad"] >= -1e-12
     assert summary["max_position_error_m"] <= 0.01
     assert summary["rms_position_error_m"] <= 1e-3
+
+
+def test_warm_started_daqp_model_agrees_with_cold_daqp_solves(rng: np.random.Generator) -> None:
+    """WarmQP through daqp.Model (warm active sets) and through daqp.solve (its fallback
+    for DAQP without Model) give the same optimum on a sequence of related QPs."""
+    daqp = pytest.importorskip("daqp")
+    from types import SimpleNamespace
+
+    from redres.resolution.qp import WarmQP
+
+    n, m = 7, 6
+    sense = np.zeros(n + m, dtype=np.intc)
+    sense[n:] = 5
+    J = rng.normal(size=(m, n))
+    xd = rng.normal(size=m)
+    box = np.full(n, 1.0)
+    first = {"H": np.eye(n), "f": np.zeros(n), "A": J, "bupper": np.r_[box, xd],
+             "blower": np.r_[-box, xd], "sense": sense}  # fmt: skip
+    warm = WarmQP(daqp, {"primal_tol": 1e-10}, **first)
+    cold = WarmQP(SimpleNamespace(solve=daqp.solve), {"primal_tol": 1e-10}, **dict(first))
+    assert warm._model is not None and cold._model is None
+    solved = 0
+    for _ in range(400):
+        J = J + 0.05 * rng.normal(size=J.shape)
+        xd = rng.uniform(0.05, 1.5) * rng.normal(size=m)
+        hi = rng.uniform(0.2, 1.0, n)
+        data = {"f": rng.normal(size=n), "A": J, "bupper": np.r_[hi, xd], "blower": np.r_[-hi, xd]}
+        x_warm, flag_warm = warm.solve(**data)
+        x_cold, flag_cold = cold.solve(**data)
+        assert (flag_warm > 0) == (flag_cold > 0)
+        if flag_warm > 0:
+            solved += 1
+            assert np.allclose(x_warm, x_cold, rtol=0, atol=1e-9)
+            assert np.all(np.abs(x_warm) <= hi + 1e-9) and np.allclose(J @ x_warm, xd, atol=1e-9)
+    assert 40 < solved < 360  # both feasible and infeasible problems were met

@@ -17,8 +17,16 @@ general path (any task, scheme and objective, with a full run log).
 
 The costs must declare :meth:`~redres.objectives.Objective.quadratic_form` (their gradient
 is ``a ∘ (q − r)``); a cost without one (manipulability, obstacles) is refused with a
-pointer to the general path. Without the compiled kernels (numba missing or disabled) the
-same step runs through :class:`~redres.tasks.FrameTask` and :func:`redres.linalg.rate_step`.
+pointer to the general path.
+
+With ``scheme=`` (any :class:`~redres.resolution.Scheme`, e.g. the hard-limit
+:class:`~redres.resolution.SNSScheme` and :class:`~redres.resolution.QPScheme`), the
+compiled kernel computes the task error and command only and the scheme's
+:meth:`~redres.resolution.Scheme.velocity` resolves them; the step is then that of
+:func:`run` with that scheme.
+
+Without the compiled kernels (numba missing or disabled) the same step runs through
+:class:`~redres.tasks.FrameTask` and :func:`redres.linalg.rate_step` (or the scheme).
 """
 
 from __future__ import annotations
@@ -33,7 +41,7 @@ from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import InverseInfo, rate_step
 from ..linalg import _backend as be
 from ..linalg import _codes as codes
-from ..resolution.base import InverseChoice, as_inverse
+from ..resolution.base import InverseChoice, Scheme, StepResult, as_inverse
 from ..resolution.gradient_projection import WeightedObjective, weighted_objectives
 from ..tasks import FrameTask
 
@@ -64,7 +72,11 @@ class ClikController:
             :class:`~redres.resolution.InverseChoice`; its parameters (``damping``,
             ``max_damping``, ``threshold``, ``rcond``) as keywords, as for the schemes.
         dt: control period in s (> 0).
-        limit_velocity: scale each command uniformly down to the joint velocity limits.
+        limit_velocity: scale each command uniformly down to the joint velocity limits
+            (schemes that enforce hard limits already keep them).
+        scheme: resolve the task with this scheme instead (then ``objectives``,
+            ``k_null`` and ``inverse`` belong to the scheme; a hard-limit scheme must have
+            the same ``dt``).
 
     Use :meth:`set_target` (pose and twist, e.g. from a trajectory sample), then
     ``q = controller.step(q)`` each period. After a step, :attr:`qd`, :attr:`error`,
@@ -72,8 +84,8 @@ class ClikController:
     the pose at the first step (hold still).
 
     Raises:
-        InvalidParameterError: a bad gain, period, inverse or a cost without a quadratic
-            form.
+        InvalidParameterError: a bad gain, period, inverse, a cost without a quadratic
+            form, or objectives given next to a scheme.
     """
 
     def __init__(
@@ -88,6 +100,7 @@ class ClikController:
         inverse: InverseChoice | str = "exact",
         dt: float = 1e-3,
         limit_velocity: bool = True,
+        scheme: Scheme | None = None,
         **inverse_params: Any,
     ) -> None:
         n = robot.n
@@ -125,9 +138,32 @@ class ClikController:
         self._a, self._b = a, b
         self._has_target = False
         self._size = 2 * n + 6
-        self._out: FloatArray = np.zeros(self._size)
+        self._out: FloatArray | None = np.zeros(self._size)
         self._diag: tuple[int, float, float, float, float] = (0, 0.0, 0.0, 0.0, 0.0)
-        self._kernel = _kernel_for(robot, self.frame_id)
+        self.scheme = scheme
+        self._front: Any = None
+        self._kernel: Any = None
+        if scheme is not None:
+            self._check_scheme(scheme)
+            self._front = _kernel_for(robot, self.frame_id, be.fused_frame_command, "frame_command")
+        else:
+            self._kernel = _kernel_for(robot, self.frame_id, be.fused_clik_step, "clik_step")
+        self._qd = self._e = self._out[:0]
+
+    def _check_scheme(self, scheme: Scheme) -> None:
+        if not isinstance(scheme, Scheme):
+            raise InvalidParameterError(f"scheme must be a redres Scheme; got {scheme!r}")
+        if self.objectives:
+            raise InvalidParameterError(
+                "give the objectives to the scheme, not to the controller, when a scheme "
+                "resolves the task"
+            )
+        dt = getattr(scheme, "dt", None)
+        if scheme.hard_limits and dt is not None and dt != self.dt:
+            raise InvalidParameterError(
+                f"the {scheme.name} scheme was built for dt = {dt}, the controller runs at "
+                f"dt = {self.dt}: its limits hold only at its own period"
+            )
 
     def _quadratic(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
         """``(a, b)`` with ``Σ wᵢ ∇Dᵢ(q) = a ∘ q − b`` for the weighted costs."""
@@ -190,15 +226,15 @@ class ClikController:
             raise ShapeError(f"q must be an array of {self.robot.n} numbers: {exc}") from exc
         if qa.ndim != 1 or qa.shape[0] != self.robot.n:
             raise ShapeError(f"q must have shape ({self.robot.n},); got {qa.shape}")
+        if self.scheme is not None:
+            return self._scheme_step(qa)
         kernel = self._kernel
         if kernel is None:
             return self._composed_step(qa)
         placement, J = self.robot.placement_jacobian(qa, self.frame_id)
         H = placement.homogeneous
         if not self._has_target:
-            if not np.all(np.isfinite(qa)):
-                raise NonFiniteError("q contains NaN or infinity")
-            self.set_target(H, validate=False)
+            self._hold(qa, H)
         out = _empty(self._size)
         status, rank, smin, smax, used, speed = kernel(J, H, qa, self.rows, self._config, out)
         if status:
@@ -206,6 +242,46 @@ class ClikController:
         self._out = out
         self._diag = (rank, smin, smax, used, speed)
         return out[: self.robot.n]
+
+    def _hold(self, q: FloatArray, H: FloatArray) -> None:
+        """Target the pose ``H`` at ``q`` (first step without a target)."""
+        if not np.all(np.isfinite(q)):
+            raise NonFiniteError("q contains NaN or infinity")
+        self.set_target(H, validate=False)
+
+    def _scheme_step(self, q: FloatArray) -> FloatArray:
+        """Task command by the kernel (or FrameTask), joint velocity by the scheme."""
+        assert self.scheme is not None
+        robot, m = self.robot, self.rows.shape[0]
+        front = self._front
+        if front is None:
+            if not np.all(np.isfinite(q)):
+                raise NonFiniteError("q contains NaN or infinity")
+            if not self._has_target:
+                self.set_target(robot.fk(q, self.task.frame), validate=False)
+            self.task.set_target(self.target, self._config[12:18].copy(), validate=False)
+            state = self.task.compute(robot, q)
+            Jm, xd = state.jacobian, state.feedforward + self._gain[self.task.rows] * state.error
+            assert self.task.last_error is not None
+            e = self.task.last_error
+        else:
+            placement, J = robot.placement_jacobian(q, self.frame_id)
+            H = placement.homogeneous
+            if not self._has_target:
+                self._hold(q, H)
+            Jm, xd, e = _empty((m, robot.n)), _empty(m), _empty(6)
+            status = front(J, H, q, self.rows, self._config, Jm, xd, e)
+            if status:
+                _raise_for_status(status, robot.n)
+        qd = self.scheme.velocity(robot, q, Jm, xd)
+        speed = 0.0
+        if self.limit_velocity and not self.scheme.hard_limits:
+            speed = float(np.max(np.abs(qd) / robot.qd_max))
+            if speed > 1.0:
+                qd = qd / speed
+        self._out, self._qd, self._e = None, qd, e
+        self._diag = (0, 0.0, 0.0, 0.0, speed)
+        return q + qd * self.dt
 
     def _composed_step(self, q: FloatArray) -> FloatArray:
         """The same step through FrameTask and rate_step (no compiled kernels)."""
@@ -236,18 +312,22 @@ class ClikController:
     @property
     def qd(self) -> FloatArray:
         """Joint velocity of the last step (after velocity scaling), rad/s."""
+        if self._out is None:
+            return self._qd
         n = self.robot.n
         return self._out[n : 2 * n]
 
     @property
     def error(self) -> FloatArray:
         """Six-row pose error ``[p_d − p; log(R_d Rᵀ)]`` at the last step (m, rad)."""
-        n = self.robot.n
-        return self._out[2 * n :]
+        if self._out is None:
+            return self._e
+        return self._out[2 * self.robot.n :]
 
     @property
     def speed_ratio(self) -> float:
-        """``maxⱼ |q̇ⱼ| / q̇_max,j`` of the last step before scaling (0 if limits are off)."""
+        """``maxⱼ |q̇ⱼ| / q̇_max,j`` of the last step before scaling (0 if limits are off
+        or a hard-limit scheme kept them)."""
         return self._diag[4]
 
     @property
@@ -257,10 +337,19 @@ class ClikController:
 
     @property
     def info(self) -> InverseInfo:
-        """Diagonostics of the inverse at the last step (rank, σ_min, σ_max, damping)."""
+        """Diagnostics of the inverse at the last step (rank, σ_min, σ_max, damping)."""
+        if self.scheme is not None:
+            return self.scheme.last_result().info
         rank, smin, smax, used, _ = self._diag
         full = rank == min(len(self.rows), self.robot.n)
         return _new_info(InverseInfo, (rank, full, smin, smax, used, _LABELS[self._mode]))
+
+    def last_result(self) -> StepResult:
+        """The scheme's full :class:`~redres.resolution.StepResult` of the last step (only
+        with ``scheme=``; the fused step has :attr:`qd` and :attr:`info`)."""
+        if self.scheme is None:
+            raise InvalidParameterError("last_result() needs a controller built with scheme=")
+        return self.scheme.last_result()
 
     def __repr__(self) -> str:
         return (
@@ -284,11 +373,11 @@ def _row_gains(gain: Any, rows: list[int]) -> FloatArray:
     return full
 
 
-def _kernel_for(robot: Robot, frame_id: int) -> Any:
-    """The fused kernel's native entry point when the arrays Pinocchio returns have the
-    layout it was compiled for (float64, C order), numba's dispatcher if not, None
-    without compiled kernels."""
-    entry = be.fused_clik_step()
+def _kernel_for(robot: Robot, frame_id: int, entry_point: Any, name: str) -> Any:
+    """A fused kernel's native entry point (from ``entry_point()``) when the arrays
+    Pinocchio returns have the layout it was compiled for (float64, C order), numba's
+    dispatcher ``name`` if not, None without compiled kernels."""
+    entry = entry_point()
     if entry is None:
         return None
     placement, J = robot.placement_jacobian(robot.neutral(), frame_id)
@@ -296,7 +385,7 @@ def _kernel_for(robot: Robot, frame_id: int) -> Any:
     if all(x.dtype == _F64 and x.flags.c_contiguous for x in (J, H)):
         return entry
     kernels = be.kernels()  # pragma: no cover - a Pinocchio build returning other layouts
-    return None if kernels is None else kernels.clik_step  # pragma: no cover
+    return None if kernels is None else getattr(kernels, name)  # pragma: no cover
 
 
 def _raise_for_status(status: int, n: int) -> None:

@@ -106,6 +106,24 @@ def fused_clik_step() -> Callable[..., Any] | None:
     return _entry_point("clik_step", warm)
 
 
+def fused_frame_command() -> Callable[..., Any] | None:
+    """Native entry point of ``_kernels.frame_command`` (the frame-task part of the fused
+    step: ``J (6, n)``, ``H``, ``q``, ``rows``, ``config``, then ``Jm (m, n)``, ``xd (m,)``
+    and ``e (6,)`` to fill), or None; same argument rules as :func:`fused_clik_step`."""
+    n = 1
+    warm = (
+        np.zeros((6, n)),
+        np.eye(4),
+        np.zeros(n),
+        np.arange(1, dtype=np.int64),
+        np.zeros(codes.CFG_VECTORS + 3 * n),
+        np.zeros((1, n)),
+        np.zeros(1),
+        np.zeros(6),
+    )
+    return _entry_point("frame_command", warm)
+
+
 def _entry_point(name: str, warm: tuple[Any, ...]) -> Callable[..., Any] | None:
     """The native entry point of kernel ``name`` for the types of ``warm`` (compiled or
     loaded from the disk cache by one warm-up call), the dispatcher if numba's internals

@@ -911,6 +911,51 @@ def _so3_log(M, out):  # type: ignore[no-untyped-def]
         out[i] *= f
 
 
+@_inline
+def _frame_command(J, H, q, rows, config, Jm, xd, e):  # type: ignore[no-untyped-def]
+    """Frame-task error and command of :func:`clik_step` into ``e`` (6), ``Jm`` (m x n)
+    and ``xd`` (m); returns a status."""
+    n = q.shape[0]
+    if J.shape[0] != 6 or J.shape[1] != n or H.shape[0] != 4 or H.shape[1] != 4:
+        return Q_SHAPE
+    if config.shape[0] != CFG_VECTORS + 3 * n or e.shape[0] != 6:
+        return Q_SHAPE
+    m = rows.shape[0]
+    if Jm.shape[0] != m or Jm.shape[1] != n or xd.shape[0] != m:
+        return Q_SHAPE
+    if not _finite_1d(q):
+        return Q_NONFINITE
+    bad = 0.0
+    for i in range(3):
+        for j in range(4):
+            bad += H[i, j] * 0.0
+    if bad != 0.0:
+        return POSE_NONFINITE
+    M = np.empty((3, 3))
+    for i in range(3):
+        e[i] = config[CFG_POSITION + i] - H[i, 3]
+        for j in range(3):
+            acc = 0.0
+            for k in range(3):
+                acc += config[CFG_ROTATION + 3 * i + k] * H[j, k]
+            M[i, j] = acc
+    _so3_log(M, e[3:])
+    for i in range(m):
+        r = rows[i]
+        xd[i] = config[CFG_TWIST + r] + config[CFG_GAIN + r] * e[r]
+        for j in range(n):
+            Jm[i, j] = J[r, j]
+    return OK
+
+
+@_jit
+def frame_command(J, H, q, rows, config, Jm, xd, e):  # type: ignore[no-untyped-def]
+    """The frame-task part of :func:`clik_step` alone (for schemes with their own step):
+    ``e = [p_d - p; log(R_d R^T)]`` into ``e``, the task rows of ``J`` into ``Jm`` and
+    ``xd = twist_d + gain * e`` into ``xd``. Returns a status."""
+    return _frame_command(J, H, q, rows, config, Jm, xd, e)
+
+
 @_jit
 def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
     """One fused CLIK step on a frame task: pose error, rate step, limits, integration.
@@ -931,36 +976,14 @@ def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
     ``max_j |qd_j| / qd_max_j`` before scaling (0 when limits are off).
     """
     n = q.shape[0]
-    if J.shape[0] != 6 or J.shape[1] != n or H.shape[0] != 4 or H.shape[1] != 4:
-        return Q_SHAPE, 0, 0.0, 0.0, 0.0, 0.0
-    if config.shape[0] != CFG_VECTORS + 3 * n or out.shape[0] != 2 * n + 6:
-        return Q_SHAPE, 0, 0.0, 0.0, 0.0, 0.0
-    if not _finite_1d(q):
-        return Q_NONFINITE, 0, 0.0, 0.0, 0.0, 0.0
-    bad = 0.0
-    for i in range(3):
-        for j in range(4):
-            bad += H[i, j] * 0.0
-    if bad != 0.0:
-        return POSE_NONFINITE, 0, 0.0, 0.0, 0.0, 0.0
-    e = out[2 * n : 2 * n + 6]
-    M = np.empty((3, 3))
-    for i in range(3):
-        e[i] = config[CFG_POSITION + i] - H[i, 3]
-        for j in range(3):
-            acc = 0.0
-            for k in range(3):
-                acc += config[CFG_ROTATION + 3 * i + k] * H[j, k]
-            M[i, j] = acc
-    _so3_log(M, e[3:])
     m = rows.shape[0]
+    if out.shape[0] != 2 * n + 6:
+        return Q_SHAPE, 0, 0.0, 0.0, 0.0, 0.0
     Jm = np.empty((m, n))
     xd = np.empty(m)
-    for i in range(m):
-        r = rows[i]
-        xd[i] = config[CFG_TWIST + r] + config[CFG_GAIN + r] * e[r]
-        for j in range(n):
-            Jm[i, j] = J[r, j]
+    status = _frame_command(J, H, q, rows, config, Jm, xd, out[2 * n : 2 * n + 6])
+    if status != OK:
+        return status, 0, 0.0, 0.0, 0.0, 0.0
     has_grad = config[CFG_HAS_GRAD] != 0.0
     grad = np.empty(n if has_grad else 0)
     if has_grad:

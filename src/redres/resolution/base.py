@@ -96,10 +96,31 @@ class Scheme(ABC):
 
     #: Stable identifier (``pinv``, ``dls``, ``gradient_projection``, ``wln``, ...).
     name: str = "scheme"
+    #: Whether every ``q̇`` already respects the joint position, velocity and
+    #: acceleration limits (the hard-limit schemes), so a loop need not scale it.
+    hard_limits: bool = False
 
     @abstractmethod
     def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         """Joint velocity for task Jacobian ``J`` and task velocity ``xd`` at ``q``."""
+
+    def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
+        """Hot-path form of :meth:`step`: the joint velocity only.
+
+        ``q``, ``J`` and ``xd`` must be float64, C-contiguous and of matching shapes (a
+        scheme may skip checking it); :meth:`last_result` gives the full
+        :class:`StepResult` of the call. Schemes with a compiled step override this to skip
+        building the result objects; the default calls :meth:`step`.
+        """
+        self._last: StepResult | None = self.step(robot, q, J, xd)
+        return self._last.qd
+
+    def last_result(self) -> StepResult:
+        """The :class:`StepResult` of the last :meth:`velocity` call."""
+        last: StepResult | None = getattr(self, "_last", None)
+        if last is None:
+            raise InvalidParameterError(f"{self.name}: no velocity() call yet")
+        return last
 
     def reset(self) -> None:  # noqa: B027 - stateless schemes need nothing
         """Forget any state kept between steps (called at the start of a run)."""

@@ -63,6 +63,7 @@ from .sns import (
     _solved,
     binding_list,
     input_error,
+    step_arrays,
     step_inputs,
 )
 
@@ -125,6 +126,7 @@ class QPScheme(Scheme):
     """
 
     name = "qp"
+    hard_limits = True
 
     def __init__(
         self,
@@ -163,6 +165,8 @@ class QPScheme(Scheme):
         self._infeasible_before = False
         self._robot: Any = None
         self._ws: Any = None
+        self._raw: Any = None
+        self._last: StepResult | None = None
 
     def reset(self) -> None:
         self.qd_prev = None
@@ -193,10 +197,22 @@ class QPScheme(Scheme):
         self._finish = fast_entry(k["_epilogue"], (J, xd, *out[:2], ws.M, ws.wm, True, False))
         self._sense = np.zeros(n + m, dtype=np.intc)
         self._sense[n:] = 5  # equality rows (DAQP's sense flags)
+        if self.solver == "daqp":
+            options, daqp = self.solver_options, self._module
+            self._exact_qp = WarmQP(daqp, options, H=self._eye, f=self._f, A=J, bupper=self._bu,
+                                    blower=self._bl, sense=self._sense)  # fmt: skip
+            self._box_qp = WarmQP(daqp, options, H=self._eye, f=self._f, A=self._A0,
+                                  bupper=self._bu[:n], blower=self._bl[:n],
+                                  sense=self._sense[:n])  # fmt: skip
         self._ws, self._robot = ws, robot
 
     def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        q, J, xd, ws, qd0, prev = step_inputs(self, robot, q, J, xd)
+        q, J, xd = step_arrays(q, J, xd, robot.n)
+        self.velocity(robot, q, J, xd)
+        return self.last_result()
+
+    def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
+        ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, sigma = ws.outputs()
         err, relaxed, rank, full, inside = self._begin(
             q, prev, self.dt, ws.lim, J, xd, qd0, out, codes, sigma, ws.M, ws.wm, self._bu,
@@ -204,27 +220,36 @@ class QPScheme(Scheme):
         )  # fmt: skip
         if err < 0:
             raise input_error(err, (q, J, xd, qd0))
+        residuals: list[float] = []
         if self.levels:
             qd, exact, residuals = self._solve(*self._stack(robot, q, J, xd), out[2], out[3], qd0)
             out[0] = qd
         else:
             exact = [bool(inside) or self._single(J, xd, qd0, out)]
         active, residual = self._finish(J, xd, out, codes, ws.M, ws.wm, full, False)
-        if not self.levels:
-            residuals = [residual]
         self.qd_prev = out[0]
-        extra = {
-            "feasible": all(exact),
-            "residual": residual,
-            "level_residuals": residuals,
-            "binding": binding_list(codes, relaxed > 0) if active else [],
-            "bounds": (out[2], out[3]),
-            "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
-            "solver": self.solver,
-        }
-        info = InverseInfo(rank, rank == sigma.shape[0], float(sigma[-1]), float(sigma[0]), 0.0,
-                           "qp")  # fmt: skip
-        return StepResult(out[0], info, out[1], extra)
+        self._raw = (exact, residual, residuals, active, relaxed, rank, out, codes, sigma)
+        self._last = None
+        return out[0]
+
+    def last_result(self) -> StepResult:
+        if self._last is None:
+            if self._raw is None:
+                return super().last_result()  # raises: no call yet
+            exact, residual, residuals, active, relaxed, rank, out, codes, sigma = self._raw
+            extra = {
+                "feasible": all(exact),
+                "residual": residual,
+                "level_residuals": residuals if self.levels else [residual],
+                "binding": binding_list(codes, relaxed > 0) if active else [],
+                "bounds": (out[2], out[3]),
+                "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
+                "solver": self.solver,
+            }
+            info = InverseInfo(rank, rank == sigma.shape[0], float(sigma[-1]), float(sigma[0]),
+                               0.0, "qp")  # fmt: skip
+            self._last = StepResult(out[0], info, out[1], extra)
+        return self._last
 
     def _single(self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray) -> bool:
         """One level, bounds active: the exact QP, else the least-violating one (writes
@@ -243,8 +268,7 @@ class QPScheme(Scheme):
             if x is not None and self._farkas(J, xd, out[2], out[3], x):
                 out[0] = x
                 return False
-        x, _, flag, _ = self._module.solve(self._eye, self._f, J, self._bu, self._bl,
-                                           self._sense, **self.solver_options)  # fmt: skip
+        x, flag = self._exact_qp.solve(f=self._f, A=J, bupper=self._bu, blower=self._bl)
         self._infeasible_before = flag <= 0
         if flag > 0:
             out[0] = x
@@ -258,9 +282,7 @@ class QPScheme(Scheme):
     ) -> FloatArray | None:
         lo, hi = out[2], out[3]
         self._normal(J, xd, self._w, self.damping**2, qd0, self._P, self._c)
-        sense = self._sense[: lo.shape[0]]
-        x, _, flag, _ = self._module.solve(self._P, self._c, self._A0, hi, lo, sense,
-                                           **self.solver_options)  # fmt: skip
+        x, flag = self._box_qp.solve(H=self._P, f=self._c, bupper=hi, blower=lo)
         return x if flag > 0 else None
 
     def _stack(
@@ -335,6 +357,47 @@ class QPScheme(Scheme):
         problem = self._module.Problem(P, c, None, None, A, b, lo, hi)
         solution = self._module.solve_problem(problem, solver=self.solver, **self.solver_options)
         return solution.x if solution.found else None
+
+
+class WarmQP:
+    """One DAQP problem of fixed size, solved again and again with new data (internal).
+
+    Through ``daqp.Model`` (DAQP ≥ 0.7): set up once, then each solve updates the data
+    and starts from the active set of the previous solve — about two microseconds less
+    per call than ``daqp.solve`` and fewer iterations in a control loop, where the
+    active set changes little from one step to the next. Falls back to ``daqp.solve``
+    when the installed DAQP has no ``Model``.
+
+    Args:
+        daqp: the DAQP module.
+        options: DAQP settings (``primal_tol``, ...).
+        data: the first problem: ``H``, ``f``, ``A``, ``bupper``, ``blower`` and ``sense``
+            (DAQP's arguments).
+    """
+
+    def __init__(self, daqp: Any, options: dict[str, Any], **data: Any) -> None:
+        self._daqp, self._options, self._data = daqp, options, data
+        self._model: Any = None
+        if hasattr(daqp, "Model"):
+            model = daqp.Model()
+            if model.setup(*(data[k] for k in _DAQP_ARGS))[0] >= 0:
+                model.settings = dict(options)
+                self._model = model
+
+    def solve(self, **data: FloatArray) -> tuple[FloatArray, int]:
+        """``(x, exitflag)`` for the problem with ``data`` (keywords ``H``, ``f``, ``A``,
+        ``bupper``, ``blower``) replacing the previous values."""
+        model = self._model
+        if model is not None and model.update(**data) >= 0:
+            x, _, flag, _ = model.solve()
+            return x, flag
+        self._data.update(data)
+        args = (self._data[k] for k in _DAQP_ARGS)
+        x, _, flag, _ = self._daqp.solve(*args, **self._options)
+        return x, flag
+
+
+_DAQP_ARGS = ("H", "f", "A", "bupper", "blower", "sense")
 
 
 def _sense(n: int, m: int) -> Any:

@@ -736,15 +736,14 @@ def input_error(code: int, values: tuple[Any, ...]) -> NonFiniteError:
 
 
 def step_inputs(
-    scheme: Any, robot: Robot, q: Any, J: Any, xd: Any
-) -> tuple[FloatArray, FloatArray, FloatArray, Workspace, FloatArray, FloatArray]:
+    scheme: Any, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray
+) -> tuple[Workspace, FloatArray, FloatArray]:
     """The prologue of a hard-limit scheme's step (shared by SNS and QP, internal).
 
-    Checks the arrays, (re)builds ``scheme``'s workspace when the robot or the task size
-    changes, and returns ``(q, J, xd, workspace, qd0, qd_prev)`` with ``qd0 = −k ΣwᵢDᵢ``
-    the secondary target (zeros without objectives).
+    For arrays already checked (:func:`step_arrays`): (re)builds ``scheme``'s workspace
+    when the robot or the task size changes, and returns ``(workspace, qd0, qd_prev)``
+    with ``qd0 = −k ΣwᵢDᵢ`` the secondary target (zeros without objectives).
     """
-    q, J, xd = step_arrays(q, J, xd, robot.n)
     if robot is not scheme._robot or scheme._ws.key[1] != xd.shape[0]:
         scheme._prepare(robot, q, J, xd)
     ws = scheme._ws
@@ -752,7 +751,7 @@ def step_inputs(
     if scheme.objectives:
         qd0 = np.ascontiguousarray(-scheme.gain * total_gradient(robot, q, scheme.objectives))
     prev = ws.zero if scheme.qd_prev is None else scheme.qd_prev
-    return q, J, xd, ws, qd0, prev
+    return ws, qd0, prev
 
 
 class BindingList(Sequence[Binding]):
@@ -852,6 +851,7 @@ class SNSScheme(Scheme):
     """
 
     name = "sns"
+    hard_limits = True
 
     def __init__(
         self,
@@ -871,6 +871,8 @@ class SNSScheme(Scheme):
         self.qd_prev: FloatArray | None = None
         self._robot: Any = None
         self._ws: Any = None
+        self._raw: Any = None
+        self._last: StepResult | None = None
 
     def reset(self) -> None:
         self.qd_prev = None
@@ -888,7 +890,12 @@ class SNSScheme(Scheme):
         self._ws, self._robot = ws, robot
 
     def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        q, J, xd, ws, qd0, prev = step_inputs(self, robot, q, J, xd)
+        q, J, xd = step_arrays(q, J, xd, robot.n)
+        self.velocity(robot, q, J, xd)
+        return self.last_result()
+
+    def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
+        ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, sigma = ws.outputs()
         status, s, relaxed, active, rank = self._kernel(
             q, prev, self.dt, ws.lim, J, xd, qd0, bool(self.objectives), self.tolerance,
@@ -896,18 +903,27 @@ class SNSScheme(Scheme):
         )  # fmt: skip
         if status < 0:
             raise input_error(status, (q, J, xd, qd0))
-        qd = out[0]
-        self.qd_prev = qd
-        if status == NEAREST:
-            s = 0.0
-        extra = {
-            "scale": s,
-            "feasible": s == 1.0,
-            "method": METHODS[status],
-            "binding": binding_list(codes, relaxed > 0) if active else [],
-            "bounds": (out[2], out[3]),
-            "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
-        }
-        info = InverseInfo(rank, rank == sigma.shape[0], float(sigma[-1]), float(sigma[0]), 0.0,
-                           "sns")  # fmt: skip
-        return StepResult(qd, info, out[1], extra)
+        self.qd_prev = out[0]
+        self._raw = (status, s, relaxed, active, rank, out, codes, sigma)
+        self._last = None
+        return out[0]
+
+    def last_result(self) -> StepResult:
+        if self._last is None:
+            if self._raw is None:
+                return super().last_result()  # raises: no call yet
+            status, s, relaxed, active, rank, out, codes, sigma = self._raw
+            if status == NEAREST:
+                s = 0.0
+            extra = {
+                "scale": s,
+                "feasible": s == 1.0,
+                "method": METHODS[status],
+                "binding": binding_list(codes, relaxed > 0) if active else [],
+                "bounds": (out[2], out[3]),
+                "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
+            }
+            info = InverseInfo(rank, rank == sigma.shape[0], float(sigma[-1]), float(sigma[0]),
+                               0.0, "sns")  # fmt: skip
+            self._last = StepResult(out[0], info, out[1], extra)
+        return self._last
