@@ -143,9 +143,11 @@ class ClikController:
         self.scheme = scheme
         self._front: Any = None
         self._kernel: Any = None
+        self._integrate: Any = None
         if scheme is not None:
             self._check_scheme(scheme)
             self._front = _kernel_for(robot, self.frame_id, be.fused_frame_command, "frame_command")
+            self._integrate = be.fused_integrate()
         else:
             self._kernel = _kernel_for(robot, self.frame_id, be.fused_clik_step, "clik_step")
         self._qd = self._e = self._out[:0]
@@ -281,7 +283,12 @@ class ClikController:
                 qd = qd / speed
         self._out, self._qd, self._e = None, qd, e
         self._diag = (0, 0.0, 0.0, 0.0, speed)
-        return q + qd * self.dt
+        integrate = self._integrate
+        if integrate is None or type(qd) is not np.ndarray or not qd.flags.c_contiguous:
+            return q + qd * self.dt
+        q_next = _empty(robot.n)
+        integrate(q, qd, self.dt, q_next)
+        return q_next
 
     def _composed_step(self, q: FloatArray) -> FloatArray:
         """The same step through FrameTask and rate_step (no compiled kernels)."""

@@ -124,6 +124,13 @@ def fused_frame_command() -> Callable[..., Any] | None:
     return _entry_point("frame_command", warm)
 
 
+def fused_integrate() -> Callable[..., Any] | None:
+    """Native entry point of ``_kernels.integrate`` (``out <- q + qd dt`` for float64
+    C-contiguous vectors and a float), or None."""
+    warm = (np.zeros(1), np.zeros(1), 0.0, np.zeros(1))
+    return _entry_point("integrate", warm)
+
+
 def _entry_point(name: str, warm: tuple[Any, ...]) -> Callable[..., Any] | None:
     """The native entry point of kernel ``name`` for the types of ``warm`` (compiled or
     loaded from the disk cache by one warm-up call), the dispatcher if numba's internals

@@ -49,7 +49,6 @@ from numpy.typing import ArrayLike
 
 from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError, MissingDependencyError, ShapeError
-from ..linalg import InverseInfo
 from ..tasks import Task, stack
 from .base import Scheme, StepResult
 from .gradient_projection import WeightedObjective, weighted_objectives
@@ -58,10 +57,12 @@ from .limits import JointLimits, fast_entry, kernel, register_kernels
 # Kernels shared with SNS (rebound to their compiled versions by :func:`_kernels`).
 from .sns import (
     Workspace,
+    _epilogue,
     _min_norm,
     _prologue,
     _solved,
     binding_list,
+    gram_info,
     input_error,
     step_arrays,
     step_inputs,
@@ -188,12 +189,12 @@ class QPScheme(Scheme):
             raise ShapeError(f"task_weights must have shape ({m},); got {self._w.shape}")
         k = _kernels()
         out = ws.outputs()
+        self._lam2 = self.damping**2
         self._begin = fast_entry(k["_qp_begin"], (q, ws.zero, self.dt, ws.lim, J, xd, ws.zero,
                                                   *out, ws.M, ws.wm, self._bu, self._bl,
-                                                  self._f))  # fmt: skip
-        self._farkas = fast_entry(k["_qp_farkas"], (J, xd, ws.zero, ws.zero, ws.zero))
-        self._normal = fast_entry(k["_qp_normal"], (J, xd, self._w, 1e-6, ws.zero, self._P,
-                                                    self._c))  # fmt: skip
+                                                  self._f, self._w, self._lam2, self._P,
+                                                  self._c))  # fmt: skip
+        self._end = fast_entry(k["_qp_end"], (J, xd, ws.zero, *out[:2], ws.M, ws.wm, True))
         self._finish = fast_entry(k["_epilogue"], (J, xd, *out[:2], ws.M, ws.wm, True, False))
         self._sense = np.zeros(n + m, dtype=np.intc)
         self._sense[n:] = 5  # equality rows (DAQP's sense flags)
@@ -213,22 +214,28 @@ class QPScheme(Scheme):
 
     def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
         ws, qd0, prev = step_inputs(self, robot, q, J, xd)
-        out, codes, sigma = ws.outputs()
-        err, relaxed, rank, full, inside = self._begin(
-            q, prev, self.dt, ws.lim, J, xd, qd0, out, codes, sigma, ws.M, ws.wm, self._bu,
-            self._bl, self._f,
+        out, codes, gram = ws.outputs()
+        err, relaxed, full, inside = self._begin(
+            q, prev, self.dt, ws.lim, J, xd, qd0, out, codes, gram, ws.M, ws.wm, self._bu,
+            self._bl, self._f, self._w, self._lam2, self._P, self._c,
         )  # fmt: skip
         if err < 0:
             raise input_error(err, (q, J, xd, qd0))
         residuals: list[float] = []
+        finished = None
         if self.levels:
             qd, exact, residuals = self._solve(*self._stack(robot, q, J, xd), out[2], out[3], qd0)
             out[0] = qd
+        elif inside:
+            exact = [True]
         else:
-            exact = [bool(inside) or self._single(J, xd, qd0, out)]
-        active, residual = self._finish(J, xd, out, codes, ws.M, ws.wm, full, False)
+            met, finished = self._single(J, xd, qd0, out, codes, full)
+            exact = [met]
+        if finished is None:
+            finished = self._finish(J, xd, out, codes, ws.M, ws.wm, full, False)
+        active, residual = finished
         self.qd_prev = out[0]
-        self._raw = (exact, residual, residuals, active, relaxed, rank, out, codes, sigma)
+        self._raw = (exact, residual, residuals, active, relaxed, out, codes, gram)
         self._last = None
         return out[0]
 
@@ -236,7 +243,7 @@ class QPScheme(Scheme):
         if self._last is None:
             if self._raw is None:
                 return super().last_result()  # raises: no call yet
-            exact, residual, residuals, active, relaxed, rank, out, codes, sigma = self._raw
+            exact, residual, residuals, active, relaxed, out, codes, gram = self._raw
             extra = {
                 "feasible": all(exact),
                 "residual": residual,
@@ -246,14 +253,16 @@ class QPScheme(Scheme):
                 "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
                 "solver": self.solver,
             }
-            info = InverseInfo(rank, rank == sigma.shape[0], float(sigma[-1]), float(sigma[0]),
-                               0.0, "qp")  # fmt: skip
-            self._last = StepResult(out[0], info, out[1], extra)
+            self._last = StepResult(out[0], gram_info(gram, "qp"), out[1], extra)
         return self._last
 
-    def _single(self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray) -> bool:
+    def _single(
+        self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray, codes: Any,
+        full: bool,
+    ) -> tuple[bool, tuple[int, float] | None]:  # fmt: skip
         """One level, bounds active: the exact QP, else the least-violating one (writes
-        ``out[0]``); True when the task is met exactly.
+        ``out[0]``). Returns whether the task is met exactly, and ``(#active, residual)``
+        when the step is already finished (else None: the caller finishes it).
 
         After an infeasible step the least-violating QP is solved first: if its residual
         ``r = ẋ − J q̇`` proves the task infeasible (Farkas: ``rᵀẋ > max over the box of
@@ -262,27 +271,27 @@ class QPScheme(Scheme):
         if self.solver != "daqp":
             qd, exact, _ = self._solve([J], [xd], out[2], out[3], qd0)
             out[0] = qd
-            return exact[0]
+            return exact[0], None
         if self._infeasible_before:
-            x = self._least_violating(J, xd, qd0, out)
-            if x is not None and self._farkas(J, xd, out[2], out[3], x):
-                out[0] = x
-                return False
-        x, flag = self._exact_qp.solve(f=self._f, A=J, bupper=self._bu, blower=self._bl)
+            x = self._least_violating(out)
+            if x is not None:
+                ws = self._ws
+                proved, active, residual = self._end(J, xd, x, out, codes, ws.M, ws.wm, full)
+                if proved:
+                    return False, (active, residual)
+        x, flag = self._exact_qp.solve(None, self._f, J, self._bu, self._bl)
         self._infeasible_before = flag <= 0
         if flag > 0:
             out[0] = x
-            return True
-        x = self._least_violating(J, xd, qd0, out)
+            return True, None
+        x = self._least_violating(out)
         out[0] = x if x is not None else np.clip(qd0, out[2], out[3])
-        return False
+        return False, None
 
-    def _least_violating(
-        self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray
-    ) -> FloatArray | None:
-        lo, hi = out[2], out[3]
-        self._normal(J, xd, self._w, self.damping**2, qd0, self._P, self._c)
-        x, flag = self._box_qp.solve(H=self._P, f=self._c, bupper=hi, blower=lo)
+    def _least_violating(self, out: FloatArray) -> FloatArray | None:
+        """The least-violating QP on the normal equations ``P``, ``c`` that ``_qp_begin``
+        built for this step."""
+        x, flag = self._box_qp.solve(self._P, self._c, None, out[3], out[2])
         return x if flag > 0 else None
 
     def _stack(
@@ -384,14 +393,22 @@ class WarmQP:
                 model.settings = dict(options)
                 self._model = model
 
-    def solve(self, **data: FloatArray) -> tuple[FloatArray, int]:
-        """``(x, exitflag)`` for the problem with ``data`` (keywords ``H``, ``f``, ``A``,
-        ``bupper``, ``blower``) replacing the previous values."""
+    def solve(
+        self,
+        H: FloatArray | None = None,
+        f: FloatArray | None = None,
+        A: FloatArray | None = None,
+        bupper: FloatArray | None = None,
+        blower: FloatArray | None = None,
+    ) -> tuple[FloatArray, int]:
+        """``(x, exitflag)`` for the problem with the given data replacing the previous
+        values (``None``: unchanged)."""
         model = self._model
-        if model is not None and model.update(**data) >= 0:
+        if model is not None and model.update(H, f, A, bupper, blower) >= 0:
             x, _, flag, _ = model.solve()
             return x, flag
-        self._data.update(data)
+        new = {"H": H, "f": f, "A": A, "bupper": bupper, "blower": blower}
+        self._data.update({k: v for k, v in new.items() if v is not None})
         args = (self._data[k] for k in _DAQP_ARGS)
         x, _, flag, _ = self._daqp.solve(*args, **self._options)
         return x, flag
@@ -410,14 +427,15 @@ def _sense(n: int, m: int) -> Any:
 
 
 @kernel
-def _qp_begin(q, prev, dt, lim, J, xd, qd0, out, codes, sigma, M, wm, bu, bl, f):  # type: ignore[no-untyped-def]
-    """Box, singular values, and the unconstrained optimum of the exact QP,
+def _qp_begin(q, prev, dt, lim, J, xd, qd0, out, codes, gram, M, wm, bu, bl, f, w, lam2, P, c):  # type: ignore[no-untyped-def]
+    """Box, ``G = J Jᵀ`` (into ``gram``) and the unconstrained optimum of the exact QP,
     ``q̇ = q̇_0 + J⁺(ẋ − J q̇_0)`` in ``out[0]``; fills DAQP's ``bu``, ``bl`` (box, then
-    ``ẋ``) and ``f = −q̇_0``. Returns ``(error, #relaxed, rank, full_rank, inside)``:
-    ``inside`` means that optimum is in the box, hence the QP's solution."""
-    err, relaxed, rank, full = _prologue(q, prev, dt, lim, J, xd, qd0, out, codes, sigma, M, wm)
+    ``ẋ``) and ``f = −q̇_0``, and, when that optimum is not in the box, the least-violating
+    QP's ``P``, ``c`` (:func:`_qp_normal`). Returns ``(error, #relaxed, full_rank,
+    inside)``: ``inside`` means the optimum is in the box, hence the QP's solution."""
+    err, relaxed, full = _prologue(q, prev, dt, lim, J, xd, qd0, out, codes, gram, M, wm)
     if err:
-        return err, 0, 0, False, False
+        return err, 0, False, False
     m, n = J.shape
     for k in range(n):
         bu[k], bl[k], f[k] = out[3, k], out[2, k], -qd0[k]
@@ -437,7 +455,9 @@ def _qp_begin(q, prev, dt, lim, J, xd, qd0, out, codes, sigma, M, wm, bu, bl, f)
         for k in range(n):
             out[0, k] += qd0[k]
             inside = inside and out[2, k] <= out[0, k] <= out[3, k]
-    return 0, relaxed, rank, full, inside
+    if not inside:
+        _qp_normal(J, xd, w, lam2, qd0, P, c)
+    return 0, relaxed, full, inside
 
 
 @kernel
@@ -466,6 +486,19 @@ def _qp_farkas(J, xd, lo, hi, x):  # type: ignore[no-untyped-def]
 
 
 @kernel
+def _qp_end(J, xd, x, out, codes, M, wm, full):  # type: ignore[no-untyped-def]
+    """If ``x`` (the least-violating QP's answer) proves the task infeasible
+    (:func:`_qp_farkas`), take it as ``q̇`` and finish the step (:func:`_epilogue`).
+    Returns ``(proved, #active, ‖J q̇ − ẋ‖)``."""
+    if not _qp_farkas(J, xd, out[2], out[3], x):
+        return False, 0, 0.0
+    for k in range(x.shape[0]):
+        out[0, k] = x[k]
+    active, residual = _epilogue(J, xd, out, codes, M, wm, full, False)
+    return True, active, residual
+
+
+@kernel
 def _qp_normal(J, xd, w, lam2, qd0, P, c):  # type: ignore[no-untyped-def]
     """The least-violating QP: ``P = Jᵀ W J + λ² I``, ``c = −Jᵀ W ẋ − λ² q̇_0``."""
     m, n = J.shape
@@ -490,5 +523,5 @@ def _kernels() -> dict[str, Any]:
     shared = sns.kernels()
     for name in ("_prologue", "_epilogue", "_min_norm", "_solved"):
         globals()[name] = shared[name]
-    register_kernels(globals(), ["_qp_begin", "_qp_farkas", "_qp_normal"])
+    register_kernels(globals(), ["_qp_farkas", "_qp_normal", "_qp_begin", "_qp_end"])
     return globals()

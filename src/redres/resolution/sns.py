@@ -574,28 +574,29 @@ def _finite(a):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _prologue(q, prev, dt, lim, J, xd, qd0, out, codes, sigma, M, wm):  # type: ignore[no-untyped-def]
+def _prologue(q, prev, dt, lim, J, xd, qd0, out, codes, gram, M, wm):  # type: ignore[no-untyped-def]
     """Input check, box (``out[2]``, ``out[3]``, ``codes[0:3]``), ``G = J Jᵀ`` and its
-    factor (``M[0]``, ``M[1]``), singular values of ``J``. Returns ``(error, #relaxed,
-    rank, full_rank)``; error -1/-2/-3/-4: ``q``/``J``/``xd``/secondary velocity not finite."""
+    factor (``M[0]``, ``M[1]``), a copy of ``G`` in ``gram`` (for the singular values of
+    the step's diagnostics, computed only when asked: :func:`gram_info`). Returns
+    ``(error, #relaxed, full_rank)``; error -1/-2/-3/-4: ``q``/``J``/``xd``/secondary
+    velocity not finite."""
     if not _finite(q):
-        return -1, 0, 0, False
+        return -1, 0, False
     if not _finite(J):
-        return -2, 0, 0, False
+        return -2, 0, False
     if not _finite(xd):
-        return -3, 0, 0, False
+        return -3, 0, False
     if not _finite(qd0):
-        return -4, 0, 0, False
+        return -4, 0, False
     relaxed = _bounds(q, prev, dt, lim[0], lim[1], lim[2], lim[3], out[2], out[3], codes[0],
                       codes[1], codes[2])  # fmt: skip
     every = np.ones(J.shape[1], np.bool_)
     full = _factor(J, every, M[0], M[1])  # fills G = J Jᵀ even when it fails
-    _gram_singular_values(M[0], M[2], sigma, wm[0])
-    rank = 0
-    for i in range(sigma.shape[0]):
-        if sigma[i] > 1e-6 * sigma[0]:
-            rank += 1
-    return 0, relaxed, rank, full
+    m = J.shape[0]
+    for i in range(m):
+        for j in range(m):
+            gram[i, j] = M[0, i, j]
+    return 0, relaxed, full
 
 
 @kernel
@@ -635,17 +636,17 @@ def _epilogue(J, xd, out, codes, M, wm, full, factored):  # type: ignore[no-unty
 
 
 @kernel
-def _scheme_step(q, prev, dt, lim, J, xd, qd0, use_qd0, tol, out, codes, sigma, M, wm, wn, wb):  # type: ignore[no-untyped-def]
+def _scheme_step(q, prev, dt, lim, J, xd, qd0, use_qd0, tol, out, codes, gram, M, wm, wn, wb):  # type: ignore[no-untyped-def]
     """Box and SNS step in one call. ``out`` rows: q̇, null term, lower, upper; ``codes``
-    rows: lower kind, upper kind, relaxed, active side. Returns ``(status or input error,
-    scale, #relaxed, #active, rank)``."""
-    err, relaxed, rank, full = _prologue(q, prev, dt, lim, J, xd, qd0, out, codes, sigma, M, wm)
+    rows: lower kind, upper kind, relaxed, active side; ``gram``: ``J Jᵀ``. Returns
+    ``(status or input error, scale, #relaxed, #active)``."""
+    err, relaxed, full = _prologue(q, prev, dt, lim, J, xd, qd0, out, codes, gram, M, wm)
     if err:
-        return err, 0.0, 0, 0, 0
+        return err, 0.0, 0, 0
     status, s, factored = _step(J, xd, out[2], out[3], qd0, use_qd0, tol, out[0], M[0], M[1],
                                 wm, wn, wb, full)  # fmt: skip
     active, _ = _epilogue(J, xd, out, codes, M, wm, full, factored)
-    return status, s, relaxed, active, rank
+    return status, s, relaxed, active
 
 
 _KERNEL_NAMES: list[str] = [
@@ -792,6 +793,16 @@ class BindingList(Sequence[Binding]):
         return repr(self._list())
 
 
+def gram_info(gram: FloatArray, method: str) -> InverseInfo:
+    """Diagnostics of a hard-limit step from ``G = J Jᵀ`` (internal): the singular values
+    of ``J`` (square roots of the eigenvalues of ``G``), rank ``σ > 1e-6 σ_max``."""
+    m = gram.shape[0]
+    sigma, scratch = np.empty(m), np.empty((m, m))
+    kernels()["_gram_singular_values"](gram, scratch, sigma, np.empty(m))
+    rank = int(np.count_nonzero(sigma > 1e-6 * sigma[0]))
+    return InverseInfo(rank, rank == m, float(sigma[-1]), float(sigma[0]), 0.0, method)
+
+
 def binding_list(codes: Any, relaxed: bool) -> BindingList:
     """The bounds a step's ``q̇`` sits on (internal; see :class:`BindingList`)."""
     return BindingList(codes, relaxed)
@@ -813,8 +824,10 @@ class Workspace:
         self.wb = np.zeros((3, n), np.bool_)
 
     def outputs(self) -> tuple[FloatArray, Any, FloatArray]:
+        """Fresh per-step outputs: ``out`` (q̇, null term, lower, upper), ``codes`` (bound
+        kinds, relaxed, active side) and ``gram`` (``J Jᵀ``)."""
         n, m = self.key
-        return np.empty((4, n)), np.empty((4, n), np.int8), np.empty(m)
+        return np.empty((4, n)), np.empty((4, n), np.int8), np.empty((m, m))
 
 
 class SNSScheme(Scheme):
@@ -896,15 +909,15 @@ class SNSScheme(Scheme):
 
     def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
         ws, qd0, prev = step_inputs(self, robot, q, J, xd)
-        out, codes, sigma = ws.outputs()
-        status, s, relaxed, active, rank = self._kernel(
+        out, codes, gram = ws.outputs()
+        status, s, relaxed, active = self._kernel(
             q, prev, self.dt, ws.lim, J, xd, qd0, bool(self.objectives), self.tolerance,
-            out, codes, sigma, ws.M, ws.wm, ws.wn, ws.wb,
+            out, codes, gram, ws.M, ws.wm, ws.wn, ws.wb,
         )  # fmt: skip
         if status < 0:
             raise input_error(status, (q, J, xd, qd0))
         self.qd_prev = out[0]
-        self._raw = (status, s, relaxed, active, rank, out, codes, sigma)
+        self._raw = (status, s, relaxed, active, out, codes, gram)
         self._last = None
         return out[0]
 
@@ -912,7 +925,7 @@ class SNSScheme(Scheme):
         if self._last is None:
             if self._raw is None:
                 return super().last_result()  # raises: no call yet
-            status, s, relaxed, active, rank, out, codes, sigma = self._raw
+            status, s, relaxed, active, out, codes, gram = self._raw
             if status == NEAREST:
                 s = 0.0
             extra = {
@@ -923,7 +936,5 @@ class SNSScheme(Scheme):
                 "bounds": (out[2], out[3]),
                 "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
             }
-            info = InverseInfo(rank, rank == sigma.shape[0], float(sigma[-1]), float(sigma[0]),
-                               0.0, "sns")  # fmt: skip
-            self._last = StepResult(out[0], info, out[1], extra)
+            self._last = StepResult(out[0], gram_info(gram, "sns"), out[1], extra)
         return self._last
