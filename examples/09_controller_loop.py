@@ -32,9 +32,14 @@ DT = 1e-3
 def controllers(robot: rr.Robot) -> dict[str, ClikController]:
     out = {
         "gradient projection (fused)": ClikController(
-            robot, gain=50.0, objectives=[JointLimitObjective()], k_null=5.0,
-            inverse="damped", damping=0.01, dt=DT,
-        ),  # fmt: skip
+            robot,
+            gain=50.0,
+            objectives=[JointLimitObjective()],
+            k_null=5.0,
+            inverse="damped",
+            damping=0.01,
+            dt=DT,
+        ),
         "SNS, hard limits": ClikController(robot, gain=50.0, dt=DT, scheme=SNSScheme(dt=DT)),
     }
     try:
