@@ -2,8 +2,10 @@
 
 The redres step is the full CLIK step of the redundancy-resolution issue, through the
 public API: forward kinematics and Jacobian of the TCP, the pose error (SO(3) log), the
-damped inverse with seed 003's joint-limit gradient projected into its null space, and
-the integration ``q + q̇ dt``. Peers do their equivalent step on the same Panda:
+damped inverse with seed 003's joint-limit gradient projected into its null space,
+velocity scaling and the integration ``q + q̇ dt`` — by ``ClikController`` (one Pinocchio
+call, one compiled kernel), and the same step composed from ``FrameTask``, the objective
+and ``rate_step`` (no velocity scaling). Peers do their equivalent step on the same Panda:
 
 * pink ``solve_ik`` and mink ``solve_ik``: a frame task plus a posture task, solved as a
   QP with joint-limit constraints (their only mode), then integration;
@@ -12,10 +14,11 @@ the integration ``q + q̇ dt``. Peers do their equivalent step on the same Panda
 
 The hard-limit rows (issue 8) do the same frame task under hard position, velocity and
 acceleration limits: ``QPScheme`` (a QP through DAQP) and ``SNSScheme`` (saturation in the
-null space, no QP), each from the state it reaches after the warm-up calls. On this
+null space, no QP) inside ``ClikController(scheme=...)``, and composed from ``FrameTask``
+and ``scheme.step``, each from the state it reaches after the warm-up calls. On this
 problem the command (gain 50 × a 2 cm, 2° error) exceeds the velocity limits, so every
-solver saturates; a second table times the same four QP-type steps on a tracking problem
-(target 0.4 mm away: the command is feasible and met exactly). The path taken is printed.
+solver saturates; a second table times the QP-type steps on a tracking problem (target
+0.4 mm away: the command is feasible and met exactly). The path taken is printed.
 
 Run: ``python benchmarks/step.py`` (or ``make bench``). Medians of interleaved batches;
 ratios are peer time / redres time (> 1: redres faster).

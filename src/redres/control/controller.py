@@ -134,6 +134,10 @@ class ClikController:
         config[v + n : v + 2 * n] = b
         config[v + 2 * n : v + 3 * n] = robot.qd_max
         self._config = config
+        # Views of the target's slots in config, written in place by set_target.
+        self._rotation = config[codes.CFG_ROTATION : codes.CFG_ROTATION + 9].reshape(3, 3)
+        self._position = config[codes.CFG_POSITION : codes.CFG_POSITION + 3]
+        self._twist = config[codes.CFG_TWIST : codes.CFG_TWIST + 6]
         self._mode = mode
         self._a, self._b = a, b
         self._has_target = False
@@ -194,13 +198,9 @@ class ClikController:
         if validate:
             pose = as_transform(pose, "pose")
             twist = None if twist is None else as_vector(twist, "twist", 6)
-        cfg = self._config
-        cfg[0:9] = pose[:3, :3].ravel()  # codes.CFG_ROTATION
-        cfg[9:12] = pose[:3, 3]  # codes.CFG_POSITION
-        if twist is None:
-            cfg[12:18] = 0.0
-        else:
-            cfg[12:18] = twist  # codes.CFG_TWIST
+        self._rotation[...] = pose[:3, :3]
+        self._position[...] = pose[:3, 3]
+        self._twist[...] = 0.0 if twist is None else twist
         self._has_target = True
 
     @property
@@ -209,8 +209,8 @@ class ClikController:
         if not self._has_target:
             return None
         T = np.eye(4)
-        T[:3, :3] = self._config[0:9].reshape(3, 3)
-        T[:3, 3] = self._config[9:12]
+        T[:3, :3] = self._rotation
+        T[:3, 3] = self._position
         return T
 
     # -- the step -----------------------------------------------------------------------
@@ -261,7 +261,7 @@ class ClikController:
                 raise NonFiniteError("q contains NaN or infinity")
             if not self._has_target:
                 self.set_target(robot.fk(q, self.task.frame), validate=False)
-            self.task.set_target(self.target, self._config[12:18].copy(), validate=False)
+            self.task.set_target(self.target, self._twist.copy(), validate=False)
             state = self.task.compute(robot, q)
             Jm, xd = state.jacobian, state.feedforward + self._gain[self.task.rows] * state.error
             assert self.task.last_error is not None
@@ -294,10 +294,10 @@ class ClikController:
         """The same step through FrameTask and rate_step (no compiled kernels)."""
         if not np.all(np.isfinite(q)):
             raise NonFiniteError("q contains NaN or infinity")
-        task, cfg, n = self.task, self._config, self.robot.n
+        task, n = self.task, self.robot.n
         if not self._has_target:
             self.set_target(self.robot.fk(q, task.frame), validate=False)
-        task.set_target(self.target, cfg[12:18].copy(), validate=False)
+        task.set_target(self.target, self._twist.copy(), validate=False)
         state = task.compute(self.robot, q)
         grad = self._a * q - self._b if self.objectives else None
         xd = state.feedforward + self._gain[self.task.rows] * state.error
