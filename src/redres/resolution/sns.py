@@ -492,6 +492,19 @@ def _gram_singular_values(G, A, out, e):  # type: ignore[no-untyped-def]
 
 
 @kernel
+def _gram_rank(G, sigma):  # type: ignore[no-untyped-def]
+    """Singular values of J (largest first) into ``sigma`` from ``G = J Jᵀ``; returns the
+    rank ``#{σ > 1e-6 σ_max}``."""
+    m = G.shape[0]
+    _gram_singular_values(G, np.empty((m, m)), sigma, np.empty(m))
+    rank = 0
+    for i in range(m):
+        if sigma[i] > 1e-6 * sigma[0]:
+            rank += 1
+    return rank
+
+
+@kernel
 def _tridiagonal_ql(d, e, m):  # type: ignore[no-untyped-def]
     """Eigenvalues of the symmetric tridiagonal (d, e) in place (implicit QL)."""
     for l in range(m):
@@ -652,7 +665,8 @@ def _scheme_step(q, prev, dt, lim, J, xd, qd0, use_qd0, tol, out, codes, gram, M
 _KERNEL_NAMES: list[str] = [
     "_factor", "_min_norm", "_solved", "_scale_interval", "_sns", "_solve", "_simplex",
     "_warm_start",
-    "_largest_scale", "_tridiagonal_ql", "_gram_singular_values", "_step", "_finite",
+    "_largest_scale", "_tridiagonal_ql", "_gram_singular_values", "_gram_rank", "_step",
+    "_finite",
     "_prologue", "_epilogue", "_scheme_step",
 ]  # fmt: skip
 
@@ -793,13 +807,18 @@ class BindingList(Sequence[Binding]):
         return repr(self._list())
 
 
+_GRAM_RANK: list[Any] = [None]  # the compiled _gram_rank's entry point, on first use
+
+
 def gram_info(gram: FloatArray, method: str) -> InverseInfo:
     """Diagnostics of a hard-limit step from ``G = J Jᵀ`` (internal): the singular values
     of ``J`` (square roots of the eigenvalues of ``G``), rank ``σ > 1e-6 σ_max``."""
     m = gram.shape[0]
-    sigma, scratch = np.empty(m), np.empty((m, m))
-    kernels()["_gram_singular_values"](gram, scratch, sigma, np.empty(m))
-    rank = int(np.count_nonzero(sigma > 1e-6 * sigma[0]))
+    sigma = np.empty(m)
+    entry = _GRAM_RANK[0]
+    if entry is None:
+        entry = _GRAM_RANK[0] = fast_entry(kernels()["_gram_rank"], (gram, sigma))
+    rank = entry(gram, sigma)
     return InverseInfo(rank, rank == m, float(sigma[-1]), float(sigma[0]), 0.0, method)
 
 
