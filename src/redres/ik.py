@@ -500,12 +500,11 @@ class _Solver:
             grad, k = self.limit_weight * (q - self.mid), self.o.k_limits * fade
         if blocked is not None:
             grad = np.where(blocked, 0.0, grad)
-        dq, info = rate_step(J, self.e, grad, k_null=k, damping=lam)
+        dq, info, null = rate_step(J, self.e, grad, k_null=k, damping=lam, return_null=True)
         self.sigma = info.sigma_min
         if not self.prefer:
             return dq, None
-        task = rate_step(J, self.e, damping=lam)[0]
-        return task, dq - task
+        return dq - null, null
 
     def arm_angle_step(
         self, J: FloatArray, arm: TaskState, lam: float, blocked: NDArray[np.bool_] | None

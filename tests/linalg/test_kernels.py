@@ -124,11 +124,12 @@ def test_fast_lane_entry_point_matches_dispatcher(rng: np.random.Generator) -> N
     entry = _backend.fast_step()
     J = rng.standard_normal((6, 7))
     xd, grad = rng.standard_normal(6), rng.standard_normal(7)
-    out1, out2 = np.empty(7), np.empty(7)
-    r1 = entry(J, xd, grad, out1, 0.5, 0.05, 1e-10)
-    r2 = kernels.step(J, xd, grad, out2, 0.5, 0.05, 1e-10)
+    out1, out2, null1, null2 = np.empty(7), np.empty(7), np.empty(7), np.empty(7)
+    r1 = entry(J, xd, grad, out1, null1, 0.5, 0.05, 1e-10)
+    r2 = kernels.step(J, xd, grad, out2, null2, 0.5, 0.05, 1e-10)
     assert r1 == r2
     np.testing.assert_array_equal(out1, out2)
+    np.testing.assert_array_equal(null1, null2)
 
 
 def test_cache_falls_back_when_no_location_is_writable() -> None:

@@ -212,3 +212,43 @@ def test_wrong_shapes(backend: str, J, xd, grad, match: str) -> None:
 def test_bad_parameters(backend: str, kwargs, error, match: str) -> None:
     with pytest.raises(error, match=match):
         rl.rate_step(np.ones((2, 3)), np.ones(2), np.ones(3), **kwargs)
+
+
+@PROPERTY
+@given(jac=jacobians(), data=st.data())
+def test_returned_null_term_is_the_secondary_part(jac: Jac, data: st.DataObject) -> None:
+    """``return_null``: ``null = qd − J# xd`` with ``J# xd`` the step without a gradient and
+    ``null`` the step of ``xd = 0`` alone (linearity), for every inverse and weighting."""
+    m, n = jac.J.shape
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    xd, grad = rng.standard_normal(m), rng.standard_normal(n)
+    damping = data.draw(
+        st.sampled_from([0.0, 0.05, rl.AdaptiveDamping(0.1, 0.2), rl.AdaptiveDamping(0.1, 0.2,
+                                                                                     True)])
+    )  # fmt: skip
+    weights = data.draw(st.sampled_from([None, "diagonal"]))
+    w = rng.uniform(0.5, 2.0, n) if weights else None
+    kwargs = {"damping": damping, "weights": w}
+    qd, info, null = rl.rate_step(jac.J, xd, grad, k_null=0.8, return_null=True, **kwargs)
+    qd_alone, info_alone = rl.rate_step(jac.J, xd, grad, k_null=0.8, **kwargs)
+    task, _ = rl.rate_step(jac.J, xd, **kwargs)
+    secondary, _ = rl.rate_step(jac.J, np.zeros(m), grad, k_null=0.8, **kwargs)
+    scale = 1.0 + np.abs(qd).max() + np.abs(task).max()
+    assert np.array_equal(qd, qd_alone) and info == info_alone
+    np.testing.assert_allclose(qd - null, task, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(null, secondary, rtol=0, atol=1e-9 * scale)
+
+
+def test_returned_null_term_on_every_path(backend: str, rng: np.random.Generator) -> None:
+    """Fast lane, general kernel and NumPy (also beyond the kernels' sizes), J = 0, no
+    gradient: the null term is ``qd − J# xd``."""
+    cases = [((6, 7), {}), ((6, 7), {"damping": 0.1}), ((3, 7), {"weights": np.ones(7) * 2}),
+             ((6, 60), {"damping": 0.05}), ((2, 4), {"zero": True})]  # fmt: skip
+    for (m, n), kwargs in cases:
+        J = np.zeros((m, n)) if kwargs.pop("zero", False) else rng.standard_normal((m, n))
+        xd, grad = rng.standard_normal(m), rng.standard_normal(n)
+        qd, _, null = rl.rate_step(J, xd, grad, k_null=1.5, return_null=True, **kwargs)
+        task, _ = rl.rate_step(J, xd, **kwargs)
+        np.testing.assert_allclose(qd - null, task, rtol=0, atol=1e-10)
+        _, _, none = rl.rate_step(J, xd, return_null=True, **kwargs)
+        assert np.array_equal(none, np.zeros(n))

@@ -83,7 +83,7 @@ def fast_step() -> Callable[..., Any] | None:
     arrays (``J`` 2-D, the rest 1-D) and Python floats. Falls back to the dispatcher if
     numba's internals differ, and returns None when the kernels are unavailable.
     """
-    warm = (np.zeros((1, 1)), np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0, 0.0)
+    warm = (np.zeros((1, 1)), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0, 0.0)
     return _entry_point("step", warm)
 
 

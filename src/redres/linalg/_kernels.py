@@ -662,16 +662,21 @@ def _factor_view(buffer, n, wmode):  # type: ignore[no-untyped-def]
 
 
 @_inline
-def _step(J, xd, grad, out, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
-    """``out <- J# xd - k_null (I - J# J) grad``; ``(status, rank, smin, smax, damping)``."""
+def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
+    """``out <- J# xd - k_null (I - J# J) grad``; ``(status, rank, smin, smax, damping)``.
+
+    When ``null`` has length n it receives the secondary part ``out - J# xd`` (the
+    null-space term), from the same factorisation; pass a length-0 array otherwise.
+    """
     m, n = J.shape
     has_grad = grad.shape[0] > 0
+    want_null = null.shape[0] == n
     if xd.shape[0] != m:
         return XD_SHAPE, 0, 0.0, 0.0, 0.0
     if has_grad and grad.shape[0] != n:
         return GRAD_SHAPE, 0, 0.0, 0.0, 0.0
     fsize = _factor_size(n, wmode)
-    work = np.empty(m * n + 3 * m * m + 7 * m + n + fsize)
+    work = np.empty(m * n + 3 * m * m + 8 * m + n + fsize)
     Lw = _factor_view(work[work.shape[0] - fsize :], n, wmode)
     Js = work[: m * n].reshape((m, n))
     C = work[m * n : m * n + m * m].reshape((m, m))
@@ -679,7 +684,8 @@ def _step(J, xd, grad, out, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, r
     r = work[base : base + m]
     dvec = work[base + m : base + 2 * m]
     g = work[base + 2 * m : base + 2 * m + n]
-    scratch = work[base + 2 * m + n : work.shape[0] - fsize]
+    rt = work[base + 2 * m + n : base + 3 * m + n]
+    scratch = work[base + 3 * m + n : work.shape[0] - fsize]
     if not _copy_finite_2d(J, Js):
         return J_NONFINITE, 0, 0.0, 0.0, 0.0
     if not _finite_1d(xd):
@@ -702,6 +708,9 @@ def _step(J, xd, grad, out, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, r
         for j in range(n):
             out[j] = -k_null * g[j]
         _weight_down(out, wmode, Lw)
+        if want_null:
+            for j in range(n):
+                null[j] = out[j]
         return OK, 0, 0.0, 0.0, lam_used
     use_chol, rank, smin, smax, lam_used = _core(
         Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, scratch
@@ -721,26 +730,37 @@ def _step(J, xd, grad, out, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, r
             for k in range(m):
                 task += C[i, k] * xd[k]
         r[i] = task * inv_scale + k_null * acc
+        rt[i] = task * inv_scale
     if use_chol:
         _cholesky_solve(C, r, m)
+        if want_null:
+            _cholesky_solve(C, rt, m)
     else:
         for i in range(m):
             r[i] *= dvec[i]
+            rt[i] *= dvec[i]
     for j in range(n):
         acc = -k_null * g[j]
+        task = 0.0
         for i in range(m):
             acc += Js[i, j] * r[i]
+            task += Js[i, j] * rt[i]
         out[j] = acc
+        if want_null:
+            null[j] = acc - task
     _weight_down(out, wmode, Lw)
+    if want_null:
+        _weight_down(null, wmode, Lw)
     return OK, rank, smin, smax, lam_used
 
 
 @_jit
-def step(J, xd, grad, out, k_null, damping, rcond):  # type: ignore[no-untyped-def]
+def step(J, xd, grad, out, null, k_null, damping, rcond):  # type: ignore[no-untyped-def]
     """Unweighted rate step with fixed damping (0: exact) into ``out`` (the fast lane).
 
     ``qd = J# xd - k_null (I - J# J) grad``; ``grad`` of length 0 means no secondary
-    objective. Scalars are validated here. Returns
+    objective; ``null`` of length n receives the secondary part (length 0: not wanted).
+    Scalars are validated here. Returns
     ``(status, rank, full_rank, sigma_min, sigma_max, damping, mode)``.
     """
     m, n = J.shape
@@ -758,22 +778,23 @@ def step(J, xd, grad, out, k_null, damping, rcond):  # type: ignore[no-untyped-d
         return RCOND_NEGATIVE, 0, False, 0.0, 0.0, 0.0, EXACT
     mode = FIXED if damping > 0.0 else EXACT
     status, rank, smin, smax, used = _step(
-        J, xd, grad, out, k_null, NO_WEIGHTS, xd[:0], J[:0, :0], mode, damping, 0.0, 1.0, rcond
-    )
+        J, xd, grad, out, null, k_null, NO_WEIGHTS, xd[:0], J[:0, :0], mode, damping, 0.0, 1.0,
+        rcond,
+    )  # fmt: skip
     return status, rank, rank == min(m, n), smin, smax, used, mode
 
 
 @_jit
-def step_general(J, xd, grad, wdiag, W, out, k_null, wmode, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
+def step_general(J, xd, grad, wdiag, W, out, null, k_null, wmode, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
     """Rate step with any weights and damping mode (scalars validated by the caller).
 
-    ``wmode`` selects ``wdiag`` (n,) or ``W`` (n, n); the other may be empty. Returns
-    ``(status, rank, sigma_min, sigma_max, damping)``.
+    ``wmode`` selects ``wdiag`` (n,) or ``W`` (n, n); the other may be empty; ``null`` as
+    for :func:`step`. Returns ``(status, rank, sigma_min, sigma_max, damping)``.
     """
     m, n = J.shape
     if m == 0 or n == 0:
         return J_EMPTY, 0, 0.0, 0.0, 0.0
-    return _step(J, xd, grad, out, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond)
+    return _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond)
 
 
 @_jit
@@ -991,7 +1012,7 @@ def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
             grad[j] = config[CFG_VECTORS + j] * q[j] - config[CFG_VECTORS + n + j]
     qd = out[n : 2 * n]
     status, rank, smin, smax, used = _step(
-        Jm, xd, grad, qd, config[CFG_K_NULL], NO_WEIGHTS, xd[:0], Jm[:0, :0],
+        Jm, xd, grad, qd, xd[:0], config[CFG_K_NULL], NO_WEIGHTS, xd[:0], Jm[:0, :0],
         int(config[CFG_MODE]), config[CFG_DAMPING], config[CFG_MAX_DAMPING],
         config[CFG_THRESHOLD], config[CFG_RCOND],
     )  # fmt: skip

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -53,6 +53,30 @@ def _reset_lane() -> None:
 be._on_switch.append(_reset_lane)
 
 
+@overload
+def rate_step(
+    J: ArrayLike,
+    xd: ArrayLike,
+    grad: ArrayLike | None = ...,
+    *,
+    k_null: float = ...,
+    damping: float | AdaptiveDamping = ...,
+    weights: ArrayLike | None = ...,
+    rcond: float = ...,
+    return_null: Literal[False] = ...,
+) -> tuple[FloatArray, InverseInfo]: ...
+@overload
+def rate_step(
+    J: ArrayLike,
+    xd: ArrayLike,
+    grad: ArrayLike | None = ...,
+    *,
+    k_null: float = ...,
+    damping: float | AdaptiveDamping = ...,
+    weights: ArrayLike | None = ...,
+    rcond: float = ...,
+    return_null: Literal[True],
+) -> tuple[FloatArray, InverseInfo, FloatArray]: ...
 def rate_step(
     J: ArrayLike,
     xd: ArrayLike,
@@ -62,7 +86,8 @@ def rate_step(
     damping: float | AdaptiveDamping = 0.0,
     weights: ArrayLike | None = None,
     rcond: float = RCOND,
-) -> tuple[FloatArray, InverseInfo]:
+    return_null: bool = False,
+) -> tuple[FloatArray, InverseInfo] | tuple[FloatArray, InverseInfo, FloatArray]:
     """Joint velocity ``qd = J# xd - k_null N grad`` of one rate-control step.
 
     ``N = I - J# J`` is built from the same inverse ``J#`` as the task term, so that:
@@ -92,10 +117,13 @@ def rate_step(
         weights: ``None``, ``(n,)`` diagonal joint weights (> 0), or an ``(n, n)`` SPD
             matrix.
         rcond: Relative rank tolerance used when no damping applies.
+        return_null: Also return the secondary part ``qd - J# xd = -k_null N grad`` (the
+            null-space term), from the same factorisation.
 
     Returns:
         ``(qd, info)``: joint velocity, shape ``(n,)`` in rad/s, and the
-        :class:`InverseInfo` of ``J#`` (rank, ``sigma_min``, ``sigma_max``, damping used).
+        :class:`InverseInfo` of ``J#`` (rank, ``sigma_min``, ``sigma_max``, damping used);
+        ``(qd, info, null_term)`` with ``return_null=True``.
 
     Raises:
         ShapeError: an array has the wrong shape.
@@ -118,17 +146,20 @@ def rate_step(
     if lane and weights is None and m <= 6 and n <= 50:  # be.FAST_MAX_ROWS, FAST_MAX_COLS
         if type(damping) is not AdaptiveDamping:
             qd = _empty(n)
+            null = _empty(n) if return_null else _NO_GRAD
             try:
                 status, rank, full, smin, smax, used, mode = lane(  # type: ignore[operator]
-                    Ja, xa, ga, qd, k_null, damping, rcond
+                    Ja, xa, ga, qd, null, k_null, damping, rcond
                 )
             except TypeError:  # a scalar that is not a number: the general path says which
                 status = -1
             if not status:
-                return qd, _new_info(InverseInfo, (rank, full, smin, smax, used, _LABELS[mode]))
+                info = _new_info(InverseInfo, (rank, full, smin, smax, used, _LABELS[mode]))
+                return (qd, info, null) if return_null else (qd, info)
             if status > 0:
                 _raise_for_status(status, Ja, xa, ga, grad is not None, k_null, damping, rcond)
-    return _general_step(Ja, xa, ga, grad is not None, k_null, damping, weights, rcond)
+    qd, info, null = _general_step(Ja, xa, ga, grad is not None, k_null, damping, weights, rcond)
+    return (qd, info, null) if return_null else (qd, info)
 
 
 def _general_step(
@@ -140,8 +171,9 @@ def _general_step(
     damping: float | AdaptiveDamping,
     weights: Any,
     rcond: Any,
-) -> tuple[FloatArray, InverseInfo]:
-    """Any options and sizes: the general kernel for small sizes, NumPy beyond."""
+) -> tuple[FloatArray, InverseInfo, FloatArray]:
+    """Any options and sizes: the general kernel for small sizes, NumPy beyond; returns
+    ``(qd, info, null_term)``."""
     m, n = J.shape
     if J.size == 0 or xd.shape != (m,) or (has_grad and grad.shape != (n,)):
         _raise_shape(J, xd, grad, has_grad)
@@ -151,18 +183,18 @@ def _general_step(
     labels = _LABELS if weights is None else _WEIGHTED_LABELS
     kern = be.use_fast_path(m, n)
     if kern is not None:
-        qd = np.empty(n)
+        qd, null = np.empty(n), np.empty(n)
         status, rank, smin, smax, used = kern.step_general(
-            J, xd, grad, wdiag, wfull, qd, k, wmode, mode, lam, lam_max, eps, rc
+            J, xd, grad, wdiag, wfull, qd, null, k, wmode, mode, lam, lam_max, eps, rc
         )
         if status:
             be.raise_status(status, _NAMES)
     else:
-        qd, rank, smin, smax, used = _numpy_step(
+        qd, null, rank, smin, smax, used = _numpy_step(
             J, xd, grad, k, wmode, wdiag, wfull, (mode, lam, lam_max, eps, rc)
         )
     full = rank == min(m, n)
-    return qd, InverseInfo(rank, full, smin, smax, used, labels[mode])
+    return qd, InverseInfo(rank, full, smin, smax, used, labels[mode]), null
 
 
 def _scalars(k_null: Any, rcond: Any) -> tuple[float, float]:
@@ -221,8 +253,9 @@ def _numpy_step(
     wdiag: FloatArray,
     wfull: FloatArray,
     spec: tuple[int, float, float, float, float],
-) -> tuple[FloatArray, int, float, float, float]:
-    """Reference implementation of the step (any size), same conventions as the kernel."""
+) -> tuple[FloatArray, FloatArray, int, float, float, float]:
+    """Reference implementation of the step (any size), same conventions as the kernel:
+    ``(qd, null_term, rank, sigma_min, sigma_max, damping)``."""
     for arr, name in ((J, "J"), (xd, "xd"), (grad, "grad")):
         if not np.isfinite(arr).all():
             raise NonFiniteError(f"{name} contains NaN or infinity")
@@ -231,8 +264,11 @@ def _numpy_step(
     if wmode != codes.NO_WEIGHTS:
         factor = be.weight_factor(wmode, wdiag, wfull, "weights")
     filt = be.Filtered(be.weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
-    qd = filt.apply(xd)
+    task = filt.apply(xd)
+    null = np.zeros_like(task)
     if grad.size:
-        qd = qd - k * filt.project(be.weigh_up(grad, wmode, factor))
-    qd = be.unweigh_rows(qd, wmode, factor)
-    return np.ascontiguousarray(qd), filt.rank, filt.sigma_min, filt.sigma_max, filt.damping
+        null = -k * filt.project(be.weigh_up(grad, wmode, factor))
+    qd = be.unweigh_rows(task + null, wmode, factor)
+    null = be.unweigh_rows(null, wmode, factor)
+    return (np.ascontiguousarray(qd), np.ascontiguousarray(null), filt.rank, filt.sigma_min,
+            filt.sigma_max, filt.damping)  # fmt: skip

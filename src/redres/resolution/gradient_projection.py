@@ -80,6 +80,7 @@ class GradientProjectionScheme(Scheme):
 
     def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         grad = total_gradient(robot, q, self.objectives)
-        qd_task, info = rate_step(J, xd, **self._kwargs)
-        null_term, _ = rate_step(J, np.zeros_like(xd), grad, k_null=self.gain, **self._kwargs)
-        return StepResult(qd_task + null_term, info, null_term, {"gradient": grad})
+        qd, info, null_term = rate_step(
+            J, xd, grad, k_null=self.gain, return_null=True, **self._kwargs
+        )
+        return StepResult(qd, info, null_term, {"gradient": grad})

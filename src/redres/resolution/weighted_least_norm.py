@@ -94,12 +94,8 @@ class WeightedLeastNormScheme(Scheme):
 
     def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         w = self.weights(robot, q)
-        qd, info = rate_step(J, xd, weights=w, **self._kwargs)
-        null_term = np.zeros_like(qd)
-        if self.objectives:
-            grad = total_gradient(robot, q, self.objectives)
-            null_term, _ = rate_step(
-                J, np.zeros_like(xd), grad, k_null=self.gain, weights=w, **self._kwargs
-            )
-            qd = qd + null_term
+        grad = total_gradient(robot, q, self.objectives) if self.objectives else None
+        qd, info, null_term = rate_step(
+            J, xd, grad, k_null=self.gain, weights=w, return_null=True, **self._kwargs
+        )
         return StepResult(qd, info, null_term, {"weights": w})
