@@ -109,3 +109,36 @@ def test_bad_mass_matrix(fn, M, error, match: str) -> None:
 def test_negative_damping_is_rejected() -> None:
     with pytest.raises(ValueError, match="damping"):
         rl.task_space_inertia(np.ones((2, 3)), np.eye(3), damping=-1.0)
+
+
+@PROPERTY
+@given(jac=jacobians(), data=st.data())
+def test_compiled_path_matches_the_lapack_reference(jac: Jac, data: st.DataObject) -> None:
+    """The kernel (one factorisation of J L^-T, Cholesky or Jacobi SVD) against the LAPACK
+    SVD reference, for every damping mode, wide, square and tall J, near-singular ones too."""
+    from redres.linalg.dynamics import _decompose, _decompose_svd
+
+    J = jac.J
+    M = data.draw(spd_matrices(J.shape[1]))
+    modes = [0.0, 0.05, rl.AdaptiveDamping(0.1, 0.2), rl.AdaptiveDamping(0.1, 0.2, True)]
+    damping = data.draw(st.sampled_from(modes))
+    Lam, J_bar, _, stats, method = _decompose(J, M, damping, 1e-10)
+    Lam_ref, J_bar_ref, _, stats_ref, method_ref = _decompose_svd(J, M, damping, 1e-10)
+    assert method == method_ref
+    assert stats[0] == stats_ref[0]  # rank
+    np.testing.assert_allclose(stats[1:], stats_ref[1:], rtol=1e-6, atol=1e-12)
+    # near-singular undamped: both amplify rounding by the condition number
+    loose = jac.kind == "near" and damping == 0.0
+    rtol = 1e-4 if loose else 1e-8
+    np.testing.assert_allclose(Lam, Lam_ref, rtol=0, atol=rtol * max(1.0, np.abs(Lam_ref).max()))
+    np.testing.assert_allclose(J_bar, J_bar_ref, rtol=0,
+                               atol=rtol * max(1.0, np.abs(J_bar_ref).max()))  # fmt: skip
+    np.testing.assert_array_equal(Lam, Lam.T)
+
+
+def test_large_problems_use_the_reference_path(rng: np.random.Generator) -> None:
+    J = rng.standard_normal((8, 60))  # beyond the kernels (m <= 6, n <= 50)
+    A = rng.standard_normal((60, 60))
+    M = A @ A.T + 60 * np.eye(60)
+    Lam = rl.task_space_inertia(J, M)
+    np.testing.assert_allclose(Lam, np.linalg.inv(J @ np.linalg.solve(M, J.T)), rtol=1e-9)

@@ -423,8 +423,9 @@ def invert(
         Jp = np.empty((n, m)) if want_pinv else EMPTY_2D
         N = np.empty((n, n)) if want_projector else EMPTY_2D
         status, rank, smin, smax, used = kern.inverse(
-            np.ascontiguousarray(J), wdiag, wfull, Jp, N, wmode, mode, lam, lam_max, eps, rcond
-        )
+            np.ascontiguousarray(J), wdiag, wfull, Jp, N, EMPTY_2D, wmode, mode, lam, lam_max,
+            eps, rcond,
+        )  # fmt: skip
         if status:
             raise_status(status, {"J": "J", "W": weights_name})
         return Jp, N, rank, smin, smax, used, mode
@@ -437,6 +438,39 @@ def invert(
     if want_projector:
         N = times_lt(unweigh_rows(filt.projector(), wmode, factor), wmode, factor)
     return Jp, N, filt.rank, filt.sigma_min, filt.sigma_max, filt.damping, mode
+
+
+def task_inertia(
+    J: FloatArray,
+    M: Any,
+    *,
+    damping: float | AdaptiveDamping,
+    rcond: float,
+    want_pinv: bool,
+) -> tuple[FloatArray, FloatArray, int, float, float, float, int] | None:
+    """``(Lambda, J_bar, rank, smin, smax, damping, mode)`` from one compiled factorisation
+    of ``J L^-T`` (``M = L L^T``), or None when the kernels do not cover this size.
+
+    ``Lambda = (J M^-1 J^T + lambda^2 I)^-1`` and ``J_bar = M^-1 J^T Lambda`` (the inverse
+    weighted by ``M``); ``J_bar`` is 0 x 0 unless ``want_pinv``. Errors name ``M``.
+    """
+    m, n = J.shape
+    kern = use_fast_path(m, n)
+    if kern is None:
+        return None
+    mode, lam, lam_max, eps = parse_damping(damping)
+    wmode, wdiag, wfull = parse_weights(M, n, "M")
+    if wmode != codes.FULL:  # a (n,) vector is not a mass matrix: let the caller say so
+        return None
+    Lam = np.empty((m, m))
+    Jp = np.empty((n, m)) if want_pinv else EMPTY_2D
+    status, rank, smin, smax, used = kern.inverse(
+        np.ascontiguousarray(J), wdiag, wfull, Jp, EMPTY_2D, Lam, wmode, mode, lam, lam_max,
+        eps, rcond,
+    )  # fmt: skip
+    if status:
+        raise_status(status, {"J": "J", "W": "M"})
+    return Lam, Jp, rank, smin, smax, used, mode
 
 
 def matrix_inverse(

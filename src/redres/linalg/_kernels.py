@@ -798,14 +798,17 @@ def step_general(J, xd, grad, wdiag, W, out, null, k_null, wmode, dmode, lam, la
 
 
 @_jit
-def inverse(J, wdiag, W, Jp, N, wmode, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
-    """Fill ``Jp`` (n x m) with J# and ``N`` (n x n) with I - J# J; either may be 0 x 0.
+def inverse(J, wdiag, W, Jp, N, Lam, wmode, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
+    """Fill ``Jp`` (n x m) with J#, ``N`` (n x n) with I - J# J and ``Lam`` (m x m) with
+    ``(J W^-1 J^T + lam^2 I)^-1`` (the task-space inertia for ``W = M``; its filtered
+    pseudo-inverse when J W^-1/2 is rank-deficient and undamped); any may be 0 x 0.
 
     Returns ``(status, rank, sigma_min, sigma_max, damping)``.
     """
     m, n = J.shape
     want_pinv = Jp.shape[0] > 0
     want_projector = N.shape[0] > 0
+    want_inertia = Lam.shape[0] > 0
     fsize = _factor_size(n, wmode)
     work = np.empty(2 * m * n + 3 * m * m + 6 * m + fsize)
     Lw = _factor_view(work[work.shape[0] - fsize :], n, wmode)
@@ -829,10 +832,15 @@ def inverse(J, wdiag, W, Jp, N, wmode, dmode, lam, lam_max, eps, rcond):  # type
             for b in range(n):
                 N[a, b] = 1.0 if a == b else 0.0
         lam_used = lam if dmode == FIXED else (lam_max if dmode != EXACT else 0.0)
+        for a in range(Lam.shape[0]):  # (0 + lam^2 I)^-1, or the pseudo-inverse 0
+            for b in range(m):
+                Lam[a, b] = 1.0 / (lam_used * lam_used) if a == b and lam_used > 0.0 else 0.0
         return OK, 0, 0.0, 0.0, lam_used
     use_chol, rank, smin, smax, lam_used = _core(
         Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, scratch
     )
+    if want_inertia:
+        _inertia(C, dvec, use_chol, scale, Lam)
     # X = (Js Js^T + lam^2)^-1 Js (Cholesky) or diag(d) B (SVD, Js holds B), so that
     # J# J = Js^T X and J# = X^T / s (Cholesky) or X^T G / s (SVD).
     for j in range(n):
@@ -874,6 +882,36 @@ def inverse(J, wdiag, W, Jp, N, wmode, dmode, lam, lam_max, eps, rcond):  # type
             for a in range(n):
                 _weight_up_row(N, a, wmode, Lw)
     return OK, rank, smin, smax, lam_used
+
+
+@_jit
+def _inertia(C, dvec, use_chol, scale, Lam):  # type: ignore[no-untyped-def]
+    """``Lam <- (Js Js^T + lam^2)^-1 / s^2`` from :func:`_core`'s factors: ``C^-T C^-1``
+    with C the Cholesky factor, or ``G^T diag(d) G`` with G the rotation of the SVD path
+    (``Js Js^T = G^T diag(sigma^2) G``)."""
+    m = C.shape[0]
+    inv2 = 1.0 / (scale * scale)
+    if use_chol:
+        Linv = np.zeros((m, m))  # C^-1, lower triangular, by forward substitution
+        for b in range(m):
+            for i in range(b, m):
+                acc = 1.0 if i == b else 0.0
+                for k in range(b, i):
+                    acc -= C[i, k] * Linv[k, b]
+                Linv[i, b] = acc / C[i, i]
+        for a in range(m):
+            for b in range(a + 1):
+                acc = 0.0
+                for k in range(max(a, b), m):
+                    acc += Linv[k, a] * Linv[k, b]
+                Lam[a, b] = Lam[b, a] = acc * inv2
+        return
+    for a in range(m):
+        for b in range(a + 1):
+            acc = 0.0
+            for k in range(m):
+                acc += C[k, a] * dvec[k] * C[k, b]
+            Lam[a, b] = Lam[b, a] = acc * inv2
 
 
 @_jit

@@ -10,8 +10,10 @@ where the null-space torque ``(I - J^T J_bar^T) tau_0`` produces no task acceler
 ``J M^-1 (I - J^T J_bar^T) = 0`` (seed 004, appendix B). ``J_bar`` is the weighted
 pseudo-inverse with ``W = M`` (the inverse that minimises kinetic energy), and it is
 computed the same way: ``M = L L^T`` by Cholesky, ``J_bar = L^-T (J L^-T)^+`` and
-``Lambda = (J L^-T (J L^-T)^T)^+`` from the SVD of ``J L^-T`` — triangular solves only,
-never an explicit ``M^-1``.
+``Lambda = (J L^-T (J L^-T)^T)^+`` from one factorisation of ``J L^-T`` — triangular
+solves only, never an explicit ``M^-1``. For ``m <= 6`` task rows and ``n <= 50`` joints
+this is one compiled kernel call (the weighted inverse's, ``W = M``); larger problems use
+LAPACK's SVD.
 
 Near a singularity ``J M^-1 J^T`` loses rank and ``Lambda`` grows without bound. With
 ``damping = lambda`` the functions use ``Lambda_lambda = (J M^-1 J^T + lambda^2 I)^-1``
@@ -66,10 +68,37 @@ def mass_matrix_factor(M: ArrayLike, n: int) -> FloatArray:
 
 
 def _decompose(
-    J: ArrayLike, M: ArrayLike, damping: float | AdaptiveDamping, rcond: float
+    J: ArrayLike,
+    M: ArrayLike,
+    damping: float | AdaptiveDamping,
+    rcond: float,
+    want_pinv: bool = True,
 ) -> tuple[FloatArray, FloatArray, FloatArray, tuple[int, float, float, float], str]:
-    """``(Lambda, J_bar, J, stats, method)`` from one SVD of ``J L^-T``."""
+    """``(Lambda, J_bar, J, stats, method)``: from the compiled kernel (one factorisation
+    of ``J L^-T``) for ``m <= 6``, ``n <= 50``, else from :func:`_decompose_svd`.
+    ``J_bar`` is 0 x 0 unless ``want_pinv``."""
     A = be.as_jacobian(J)
+    n = A.shape[1]
+    Mm = as_matrix(M, "M", (n, n))
+    try:
+        parts = be.task_inertia(A, Mm, damping=damping, rcond=be.as_rcond(rcond),
+                                want_pinv=want_pinv)  # fmt: skip
+    except NotPositiveDefiniteError as exc:
+        raise NotPositiveDefiniteError(
+            f"M must be a symmetric positive definite mass matrix ({exc})"
+        ) from exc
+    if parts is None:
+        return _decompose_svd(A, Mm, damping, rcond)
+    Lam, J_bar, rank, smin, smax, used, mode = parts
+    suffix = "" if mode == codes.EXACT else "-" + be.method_label(mode, False, "")
+    return Lam, J_bar, A, (rank, smin, smax, used), "dynamically-consistent" + suffix
+
+
+def _decompose_svd(
+    A: FloatArray, M: FloatArray, damping: float | AdaptiveDamping, rcond: float
+) -> tuple[FloatArray, FloatArray, FloatArray, tuple[int, float, float, float], str]:
+    """The reference path (any size; also the oracle of the kernel in the tests): one
+    LAPACK SVD of ``J L^-T``."""
     m, n = A.shape
     L = mass_matrix_factor(M, n)
     mode, lam, lam_max, eps = be.parse_damping(damping)
@@ -135,7 +164,7 @@ def task_space_inertia(
     Returns:
         ``Lambda``, shape ``(m, m)``, symmetric (kg for translational rows).
     """
-    Lam, _, A, stats, method = _decompose(J, M, damping, rcond)
+    Lam, _, A, stats, method = _decompose(J, M, damping, rcond, want_pinv=False)
     return be.finish(Lam, stats, method, A.shape, return_info)
 
 
