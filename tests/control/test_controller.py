@@ -316,16 +316,20 @@ def test_a_scheme_in_the_controller_reproduces_rr_run(name: str, jit: bool) -> N
     finally:
         _backend.set_jit_enabled(previous)
     result = controller.last_result()
-    assert result.qd is controller.scheme.last_result().qd  # type: ignore[union-attr]
-    assert controller.info == result.info
+    assert np.allclose(result.qd, log.qd[-1], rtol=0, atol=1e-8)
+    assert controller.info.rank == result.info.rank == 6
     assert np.isclose(np.linalg.norm(controller.error[:3]), log.position_error[-1], atol=1e-12)
 
 
 def test_scheme_arguments_are_checked() -> None:
     robot = rr.models.panda()
     sns = rr.resolution.SNSScheme(dt=1e-3)
-    with pytest.raises(InvalidParameterError, match="objectives to the scheme"):
+    with pytest.raises(InvalidParameterError, match="objectives, k_null and the inverse"):
         ClikController(robot, scheme=sns, objectives=[JointLimitObjective()])
+    with pytest.raises(InvalidParameterError, match="to the scheme"):
+        ClikController(robot, scheme=sns, inverse="damped", damping=0.1)
+    with pytest.raises(InvalidParameterError, match="to the scheme"):
+        ClikController(robot, scheme=sns, k_null=3.0)
     with pytest.raises(InvalidParameterError, match="dt = 0.001.*dt = 0.002"):
         ClikController(robot, scheme=sns, dt=2e-3)
     with pytest.raises(InvalidParameterError, match="Scheme"):
@@ -334,3 +338,46 @@ def test_scheme_arguments_are_checked() -> None:
         ClikController(robot).last_result()
     with pytest.raises(InvalidParameterError, match="no velocity"):
         ClikController(robot, scheme=sns).last_result()
+
+
+def test_settings_are_read_only_and_fixed_at_construction() -> None:
+    controller = ClikController(rr.models.panda(), dt=1e-3)
+    for name, value in (("dt", 2e-3), ("k_null", 2.0), ("limit_velocity", False),
+                        ("objectives", ()), ("inverse", "damped"), ("scheme", None)):  # fmt: skip
+        with pytest.raises(AttributeError):
+            setattr(controller, name, value)
+    assert controller.dt == 1e-3
+
+
+class _WrongSize(rr.resolution.PseudoInverseScheme):
+    """A scheme that returns a joint velocity of the wrong length."""
+
+    def velocity(self, robot: Any, q: Any, J: Any, xd: Any) -> np.ndarray:
+        return np.zeros(3)
+
+
+def test_a_scheme_returning_a_wrong_velocity_is_caught() -> None:
+    robot = rr.models.panda()
+    for limit in (True, False):
+        controller = ClikController(robot, scheme=_WrongSize(), limit_velocity=limit)
+        with pytest.raises(ShapeError, match=r"shape \(3,\); expected \(7,\)"):
+            controller.step(robot.neutral())
+
+
+def test_a_half_turn_error_through_the_kernel(rng: np.random.Generator) -> None:
+    """Target rotated by π about a random axis: ‖e_rot‖ = π and exp(e_rot) = R_d Rᵀ (either
+    axis is a valid logarithm there)."""
+    robot = rr.models.iiwa14()
+    for _ in range(10):
+        q = robot.random_configuration(rng, margin=0.2)
+        T = robot.fk(q)
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        target = T.copy()
+        target[:3, :3] = pin.exp3(np.pi * axis) @ T[:3, :3]
+        controller = ClikController(robot, limit_velocity=False)
+        controller.set_target(target)
+        controller.step(q)
+        e = controller.error[3:]
+        assert np.isclose(np.linalg.norm(e), np.pi, rtol=0, atol=1e-12)
+        assert np.allclose(pin.exp3(e), target[:3, :3] @ T[:3, :3].T, rtol=0, atol=1e-12)

@@ -242,7 +242,10 @@ def test_returned_null_term_is_the_secondary_part(jac: Jac, data: st.DataObject)
 def test_returned_null_term_on_every_path(backend: str, rng: np.random.Generator) -> None:
     """Fast lane, general kernel and NumPy (also beyond the kernels' sizes), J = 0, no
     gradient: the null term is ``qd − J# xd``."""
+    A = rng.standard_normal((7, 7))
+    full = A @ A.T + 7 * np.eye(7)  # a full SPD weight matrix
     cases = [((6, 7), {}), ((6, 7), {"damping": 0.1}), ((3, 7), {"weights": np.ones(7) * 2}),
+             ((6, 7), {"weights": full}), ((6, 7), {"weights": full, "damping": 0.05}),
              ((6, 60), {"damping": 0.05}), ((2, 4), {"zero": True})]  # fmt: skip
     for (m, n), kwargs in cases:
         J = np.zeros((m, n)) if kwargs.pop("zero", False) else rng.standard_normal((m, n))

@@ -20,6 +20,7 @@ from redres.errors import InvalidParameterError, MissingDependencyError
 from redres.objectives import JointLimitObjective
 from redres.resolution.limits import JointLimits, run_violation, step_violation
 from redres.resolution.qp import QPScheme
+from redres.resolution.sns import SNSScheme
 from redres.tasks import PostureTask
 from redres.testing import random_limit_states
 
@@ -268,3 +269,42 @@ def test_warm_started_daqp_model_agrees_with_cold_daqp_solves(rng: np.random.Gen
             assert np.allclose(x_warm, x_cold, rtol=0, atol=1e-9)
             assert np.all(np.abs(x_warm) <= hi + 1e-9) and np.allclose(J @ x_warm, xd, atol=1e-9)
     assert 40 < solved < 360  # both feasible and infeasible problems were met
+
+
+def test_a_failed_resize_leaves_the_scheme_usable(rng: np.random.Generator) -> None:
+    """task_weights of the wrong size for a new task: a clear error, and the scheme goes on
+    with the old size exactly as a fresh one would (nothing half-rebuilt)."""
+    robot = rr.models.panda()
+    q = robot.random_configuration(rng, margin=0.3)
+    J, xd = robot.jacobian(q), rng.uniform(-0.1, 0.1, 6)
+    used, fresh = QPScheme(dt=DT, task_weights=np.ones(6)), QPScheme(dt=DT, task_weights=np.ones(6))
+    used.step(robot, q, J, xd)
+    with pytest.raises(rr.errors.ShapeError, match="task_weights"):
+        used.step(robot, q, J[:3], xd[:3])
+    used.qd_prev = fresh.qd_prev = None
+    for _ in range(3):
+        a, b = used.step(robot, q, J, xd), fresh.step(robot, q, J, xd)
+        np.testing.assert_array_equal(a.qd, b.qd)
+
+
+def test_velocity_checks_its_inputs_like_step(rng: np.random.Generator) -> None:
+    robot = rr.models.panda()
+    q = robot.random_configuration(rng, margin=0.3)
+    J, xd = robot.jacobian(q), rng.uniform(-0.1, 0.1, 6)
+    for make in (QPScheme, SNSScheme):
+        a, b = make(dt=DT), make(dt=DT)
+        qd = a.velocity(robot, q, np.asfortranarray(J), xd.tolist())
+        np.testing.assert_allclose(qd, b.step(robot, q, J, xd).qd, rtol=0, atol=1e-15)
+        qd[:] = 99.0  # the caller's array: the scheme's state is its own copy
+        assert np.all(np.abs(a.qd_prev) < 99.0)
+        with pytest.raises(rr.errors.ShapeError):
+            a.velocity(robot, q, J[:, :5], xd)
+        a.reset()
+        with pytest.raises(InvalidParameterError, match="no velocity"):
+            a.last_result()
+
+
+def test_unknown_daqp_settings_are_refused() -> None:
+    pytest.importorskip("daqp")
+    with pytest.raises(InvalidParameterError, match="primal_tolerance"):
+        QPScheme(dt=DT, solver_options={"primal_tolerance": 1e-9})

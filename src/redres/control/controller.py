@@ -41,6 +41,7 @@ from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import InverseInfo, rate_step
 from ..linalg import _backend as be
 from ..linalg import _codes as codes
+from ..objectives import Objective
 from ..resolution.base import InverseChoice, Scheme, StepResult, as_inverse
 from ..resolution.gradient_projection import WeightedObjective, weighted_objectives
 from ..tasks import FrameTask
@@ -79,9 +80,15 @@ class ClikController:
             the same ``dt``).
 
     Use :meth:`set_target` (pose and twist, e.g. from a trajectory sample), then
-    ``q = controller.step(q)`` each period. After a step, :attr:`qd`, :attr:`error`,
-    :attr:`info` and :attr:`speed_ratio` describe it. Until a target is set, the target is
-    the pose at the first step (hold still).
+    ``q = controller.step(q)`` each period. After a step, :attr:`qd` (after velocity
+    scaling), :attr:`error`, :attr:`info` and :attr:`speed_ratio` describe it. Until a
+    target is set, the target is the pose at the first step (hold still). The settings are
+    fixed at construction (read-only attributes), and so is the choice between the compiled
+    kernels and the NumPy path.
+
+    At an orientation error of exactly 180° both rotation axes are valid logarithms; the
+    kernel and Pinocchio's ``log3`` (used by :class:`~redres.tasks.FrameTask`) may pick
+    opposite ones, and the two paths then part ways. Anywhere else they agree to rounding.
 
     Raises:
         InvalidParameterError: a bad gain, period, inverse, a cost without a quadratic
@@ -104,16 +111,22 @@ class ClikController:
         **inverse_params: Any,
     ) -> None:
         n = robot.n
-        self.robot = robot
+        # Settings are fixed at construction (the kernel's config vector holds them): the
+        # public names below are read-only properties.
+        self._robot = robot
         self.task = FrameTask(frame, rows)
         self.frame_id = robot.frame_id(frame)
         self.rows = np.array(self.task.rows, dtype=np.int64)
-        self.dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
-        self.k_null = as_scalar(k_null, "k_null", minimum=0.0)
-        self.limit_velocity = bool(limit_velocity)
-        self.inverse = as_inverse(inverse, **inverse_params)
-        self.objectives = weighted_objectives(objectives)
+        self._dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
+        self._k_null = as_scalar(k_null, "k_null", minimum=0.0)
+        self._limit_velocity = bool(limit_velocity)
+        self._inverse = as_inverse(inverse, **inverse_params)
+        self._objectives = tuple(weighted_objectives(objectives))
         self._gain = _row_gains(gain, self.task.rows)
+        self._scheme = scheme
+        if scheme is not None:
+            given = inverse != "exact" or inverse_params or k_null != 1.0
+            self._check_scheme(scheme, bool(given))
         a, b = self._quadratic(robot)
         self._rate_kwargs = self.inverse.rate_kwargs()
         mode, lam, lam_max, eps = be.parse_damping(self._rate_kwargs["damping"])
@@ -144,25 +157,23 @@ class ClikController:
         self._size = 2 * n + 6
         self._out: FloatArray | None = np.zeros(self._size)
         self._diag: tuple[int, float, float, float, float] = (0, 0.0, 0.0, 0.0, 0.0)
-        self.scheme = scheme
         self._front: Any = None
         self._kernel: Any = None
         self._integrate: Any = None
         if scheme is not None:
-            self._check_scheme(scheme)
             self._front = _kernel_for(robot, self.frame_id, be.fused_frame_command, "frame_command")
             self._integrate = be.fused_integrate()
         else:
             self._kernel = _kernel_for(robot, self.frame_id, be.fused_clik_step, "clik_step")
         self._qd = self._e = self._out[:0]
 
-    def _check_scheme(self, scheme: Scheme) -> None:
+    def _check_scheme(self, scheme: Scheme, inverse_given: bool) -> None:
         if not isinstance(scheme, Scheme):
             raise InvalidParameterError(f"scheme must be a redres Scheme; got {scheme!r}")
-        if self.objectives:
+        if self.objectives or inverse_given:
             raise InvalidParameterError(
-                "give the objectives to the scheme, not to the controller, when a scheme "
-                "resolves the task"
+                "give the objectives, k_null and the inverse to the scheme, not to the "
+                "controller, when a scheme resolves the task"
             )
         dt = getattr(scheme, "dt", None)
         if scheme.hard_limits and dt is not None and dt != self.dt:
@@ -186,6 +197,43 @@ class ClikController:
             a += weight * ai
             b += weight * ai * ri
         return a, b
+
+    # -- settings (read-only: the compiled step holds them) ------------------------------
+
+    @property
+    def robot(self) -> Robot:
+        """The robot."""
+        return self._robot
+
+    @property
+    def dt(self) -> float:
+        """Control period, s."""
+        return self._dt
+
+    @property
+    def k_null(self) -> float:
+        """Gain of the null-space term."""
+        return self._k_null
+
+    @property
+    def limit_velocity(self) -> bool:
+        """Whether commands are scaled down to the joint velocity limits."""
+        return self._limit_velocity
+
+    @property
+    def inverse(self) -> InverseChoice:
+        """The inverse of the fused step."""
+        return self._inverse
+
+    @property
+    def objectives(self) -> tuple[tuple[Objective, float], ...]:
+        """The weighted secondary costs of the fused step."""
+        return self._objectives
+
+    @property
+    def scheme(self) -> Scheme | None:
+        """The scheme resolving the task (``None``: the fused step)."""
+        return self._scheme
 
     # -- target -------------------------------------------------------------------------
 
@@ -276,18 +324,25 @@ class ClikController:
             if status:
                 _raise_for_status(status, robot.n)
         qd = self.scheme.velocity(robot, q, Jm, xd)
+        if type(qd) is not np.ndarray or qd.dtype != _F64 or not qd.flags.c_contiguous:
+            qd = np.ascontiguousarray(qd, dtype=_F64)
+        if qd.shape != (robot.n,):
+            raise ShapeError(
+                f"the {self.scheme.name} scheme returned a joint velocity of shape "
+                f"{qd.shape}; expected ({robot.n},)"
+            )
         speed = 0.0
-        if self.limit_velocity and not self.scheme.hard_limits:
+        if self._limit_velocity and not self.scheme.hard_limits:
             speed = float(np.max(np.abs(qd) / robot.qd_max))
             if speed > 1.0:
                 qd = qd / speed
         self._out, self._qd, self._e = None, qd, e
         self._diag = (0, 0.0, 0.0, 0.0, speed)
         integrate = self._integrate
-        if integrate is None or type(qd) is not np.ndarray or not qd.flags.c_contiguous:
-            return q + qd * self.dt
+        if integrate is None:
+            return q + qd * self._dt
         q_next = _empty(robot.n)
-        integrate(q, qd, self.dt, q_next)
+        integrate(q, qd, self._dt, q_next)
         return q_next
 
     def _composed_step(self, q: FloatArray) -> FloatArray:

@@ -105,12 +105,11 @@ class Scheme(ABC):
         """Joint velocity for task Jacobian ``J`` and task velocity ``xd`` at ``q``."""
 
     def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
-        """Hot-path form of :meth:`step`: the joint velocity only.
+        """Hot-path form of :meth:`step`: the joint velocity only (inputs checked alike).
 
-        ``q``, ``J`` and ``xd`` must be float64, C-contiguous and of matching shapes (a
-        scheme may skip checking it); :meth:`last_result` gives the full
-        :class:`StepResult` of the call. Schemes with a compiled step override this to skip
-        building the result objects; the default calls :meth:`step`.
+        :meth:`last_result` gives the full :class:`StepResult` of the call. Schemes with a
+        compiled step override this to skip building the result objects until asked; the
+        default calls :meth:`step`. The returned array belongs to the caller.
         """
         self._last: StepResult | None = self.step(robot, q, J, xd)
         return self._last.qd

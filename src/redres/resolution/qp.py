@@ -161,6 +161,8 @@ class QPScheme(Scheme):
         if self.solver == "daqp":
             self.solver_options.setdefault("primal_tol", 1e-10)
         self._module = _backend(self.solver)
+        if self.solver == "daqp":
+            check_daqp_options(self._module, self.solver_options)
         self._overrides = (qd_max, qdd_max)
         self.qd_prev: FloatArray | None = None
         self._infeasible_before = False
@@ -172,6 +174,7 @@ class QPScheme(Scheme):
     def reset(self) -> None:
         self.qd_prev = None
         self._infeasible_before = False
+        self._raw, self._last = None, None
 
     def limits(self, robot: Robot) -> JointLimits:
         """The limits this scheme enforces on ``robot``."""
@@ -180,19 +183,20 @@ class QPScheme(Scheme):
 
     def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
         n, m = robot.n, J.shape[0]
+        w = np.ones(m) if self.task_weights is None else self.task_weights
+        if w.shape != (m,):  # before anything changes: the old workspace stays consistent
+            raise ShapeError(f"task_weights must have shape ({m},); got {w.shape}")
+        self._robot = None  # rebuilt from scratch on the next call if anything below fails
         ws = Workspace(self.limits(robot), m)
         self._eye = np.eye(n)
         self._bu, self._bl, self._f = np.empty(n + m), np.empty(n + m), np.empty(n)
         self._P, self._c, self._A0 = np.empty((n, n)), np.empty(n), np.zeros((0, n))
-        self._w = np.ones(m) if self.task_weights is None else self.task_weights
-        if self._w.shape != (m,):
-            raise ShapeError(f"task_weights must have shape ({m},); got {self._w.shape}")
+        self._w = w
         k = _kernels()
         out = ws.outputs()
-        self._lam2 = self.damping**2
         self._begin = fast_entry(k["_qp_begin"], (q, ws.zero, self.dt, ws.lim, J, xd, ws.zero,
                                                   *out, ws.M, ws.wm, self._bu, self._bl,
-                                                  self._f, self._w, self._lam2, self._P,
+                                                  self._f, self._w, 1e-6, self._P,
                                                   self._c))  # fmt: skip
         self._end = fast_entry(k["_qp_end"], (J, xd, ws.zero, *out[:2], ws.M, ws.wm, True))
         self._finish = fast_entry(k["_epilogue"], (J, xd, *out[:2], ws.M, ws.wm, True, False))
@@ -208,16 +212,16 @@ class QPScheme(Scheme):
         self._ws, self._robot = ws, robot
 
     def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        q, J, xd = step_arrays(q, J, xd, robot.n)
         self.velocity(robot, q, J, xd)
         return self.last_result()
 
     def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
+        q, J, xd = step_arrays(q, J, xd, robot.n)
         ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, gram = ws.outputs()
         err, relaxed, full, inside = self._begin(
             q, prev, self.dt, ws.lim, J, xd, qd0, out, codes, gram, ws.M, ws.wm, self._bu,
-            self._bl, self._f, self._w, self._lam2, self._P, self._c,
+            self._bl, self._f, self._w, self.damping * self.damping, self._P, self._c,
         )  # fmt: skip
         if err < 0:
             raise input_error(err, (q, J, xd, qd0))
@@ -234,7 +238,7 @@ class QPScheme(Scheme):
         if finished is None:
             finished = self._finish(J, xd, out, codes, ws.M, ws.wm, full, False)
         active, residual = finished
-        self.qd_prev = out[0]
+        self.qd_prev = out[0].copy()  # the scheme's own: q̇ itself belongs to the caller
         self._raw = (exact, residual, residuals, active, relaxed, out, codes, gram)
         self._last = None
         return out[0]
@@ -368,6 +372,18 @@ class QPScheme(Scheme):
         return solution.x if solution.found else None
 
 
+def check_daqp_options(daqp: Any, options: dict[str, Any]) -> None:
+    """Refuse settings DAQP does not know (``daqp.Model`` would ignore them silently)."""
+    if not hasattr(daqp, "Model"):
+        return  # daqp.solve raises on unknown keywords itself
+    known = set(daqp.Model().settings)
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise InvalidParameterError(
+            f"unknown DAQP setting(s) {unknown}; DAQP's settings are {sorted(known)}"
+        )
+
+
 class WarmQP:
     """One DAQP problem of fixed size, solved again and again with new data (internal).
 
@@ -390,6 +406,7 @@ class WarmQP:
         if hasattr(daqp, "Model"):
             model = daqp.Model()
             if model.setup(*(data[k] for k in _DAQP_ARGS))[0] >= 0:
+                check_daqp_options(daqp, options)
                 model.settings = dict(options)
                 self._model = model
 

@@ -908,6 +908,7 @@ class SNSScheme(Scheme):
 
     def reset(self) -> None:
         self.qd_prev = None
+        self._raw, self._last = None, None
 
     def limits(self, robot: Robot) -> JointLimits:
         """The limits this scheme enforces on ``robot``."""
@@ -922,11 +923,11 @@ class SNSScheme(Scheme):
         self._ws, self._robot = ws, robot
 
     def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        q, J, xd = step_arrays(q, J, xd, robot.n)
         self.velocity(robot, q, J, xd)
         return self.last_result()
 
     def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
+        q, J, xd = step_arrays(q, J, xd, robot.n)
         ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, gram = ws.outputs()
         status, s, relaxed, active = self._kernel(
@@ -935,7 +936,7 @@ class SNSScheme(Scheme):
         )  # fmt: skip
         if status < 0:
             raise input_error(status, (q, J, xd, qd0))
-        self.qd_prev = out[0]
+        self.qd_prev = out[0].copy()  # the scheme's own: q̇ itself belongs to the caller
         self._raw = (status, s, relaxed, active, out, codes, gram)
         self._last = None
         return out[0]
