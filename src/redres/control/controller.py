@@ -22,8 +22,9 @@ pointer to the general path.
 With ``scheme=`` (any :class:`~redres.resolution.Scheme`, e.g. the hard-limit
 :class:`~redres.resolution.SNSScheme` and :class:`~redres.resolution.QPScheme`), the
 compiled kernel computes the task error and command only and the scheme's
-:meth:`~redres.resolution.Scheme.velocity` resolves them; the step is then that of
-:func:`run` with that scheme.
+:meth:`~redres.resolution.Scheme.resolve` (``velocity`` without the input checks:
+the kernel's arrays are known good) resolves them; the step is then that of :func:`run`
+with that scheme.
 
 Without the compiled kernels (numba missing or disabled) the same step runs through
 :class:`~redres.tasks.FrameTask` and :func:`redres.linalg.rate_step` (or the scheme).
@@ -52,6 +53,7 @@ if TYPE_CHECKING:
 __all__ = ["ClikController"]
 
 _F64 = np.float64
+_ndarray = np.ndarray
 _empty = np.empty
 _contiguous = np.ascontiguousarray
 _LABELS = ("pinv", "damped", "adaptive", "selective")  # by damping mode, as rate_step
@@ -113,7 +115,7 @@ class ClikController:
         n = robot.n
         # Settings are fixed at construction (the kernel's config vector holds them): the
         # public names below are read-only properties.
-        self._robot = robot
+        self._robot, self._n = robot, n
         self.task = FrameTask(frame, rows)
         self.frame_id = robot.frame_id(frame)
         self.rows = np.array(self.task.rows, dtype=np.int64)
@@ -270,28 +272,29 @@ class ClikController:
             ShapeError: ``q`` does not have shape ``(n,)``.
             NonFiniteError: ``q`` contains NaN or infinity.
         """
+        n = self._n
         try:
             qa = _contiguous(q, _F64)
         except (TypeError, ValueError) as exc:
-            raise ShapeError(f"q must be an array of {self.robot.n} numbers: {exc}") from exc
-        if qa.ndim != 1 or qa.shape[0] != self.robot.n:
-            raise ShapeError(f"q must have shape ({self.robot.n},); got {qa.shape}")
-        if self.scheme is not None:
+            raise ShapeError(f"q must be an array of {n} numbers: {exc}") from exc
+        if qa.ndim != 1 or qa.shape[0] != n:
+            raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
+        if self._scheme is not None:
             return self._scheme_step(qa)
         kernel = self._kernel
         if kernel is None:
             return self._composed_step(qa)
-        placement, J = self.robot.placement_jacobian(qa, self.frame_id)
+        placement, J = self._robot.placement_jacobian(qa, self.frame_id)
         H = placement.homogeneous
         if not self._has_target:
             self._hold(qa, H)
         out = _empty(self._size)
         status, rank, smin, smax, used, speed = kernel(J, H, qa, self.rows, self._config, out)
         if status:
-            _raise_for_status(status, self.robot.n)
+            _raise_for_status(status, n)
         self._out = out
         self._diag = (rank, smin, smax, used, speed)
-        return out[: self.robot.n]
+        return out[:n]
 
     def _hold(self, q: FloatArray, H: FloatArray) -> None:
         """Target the pose ``H`` at ``q`` (first step without a target)."""
@@ -301,8 +304,8 @@ class ClikController:
 
     def _scheme_step(self, q: FloatArray) -> FloatArray:
         """Task command by the kernel (or FrameTask), joint velocity by the scheme."""
-        assert self.scheme is not None
-        robot, m = self.robot, self.rows.shape[0]
+        robot, scheme, n = self._robot, self._scheme, self._n
+        assert scheme is not None
         front = self._front
         if front is None:
             if not np.all(np.isfinite(q)):
@@ -314,25 +317,27 @@ class ClikController:
             Jm, xd = state.jacobian, state.feedforward + self._gain[self.task.rows] * state.error
             assert self.task.last_error is not None
             e = self.task.last_error
+            qd = scheme.velocity(robot, q, Jm, xd)
         else:
             placement, J = robot.placement_jacobian(q, self.frame_id)
             H = placement.homogeneous
             if not self._has_target:
                 self._hold(q, H)
-            Jm, xd, e = _empty((m, robot.n)), _empty(m), _empty(6)
+            m = self.rows.shape[0]
+            Jm, xd, e = _empty((m, n)), _empty(m), _empty(6)
             status = front(J, H, q, self.rows, self._config, Jm, xd, e)
             if status:
-                _raise_for_status(status, robot.n)
-        qd = self.scheme.velocity(robot, q, Jm, xd)
-        if type(qd) is not np.ndarray or qd.dtype != _F64 or not qd.flags.c_contiguous:
+                _raise_for_status(status, n)
+            qd = scheme.resolve(robot, q, Jm, xd)  # the kernel's own arrays: no re-check
+        if type(qd) is not _ndarray or qd.dtype != _F64 or not qd.flags.c_contiguous:
             qd = np.ascontiguousarray(qd, dtype=_F64)
-        if qd.shape != (robot.n,):
+        if qd.shape != (n,):
             raise ShapeError(
-                f"the {self.scheme.name} scheme returned a joint velocity of shape "
-                f"{qd.shape}; expected ({robot.n},)"
+                f"the {scheme.name} scheme returned a joint velocity of shape {qd.shape}; "
+                f"expected ({n},)"
             )
         speed = 0.0
-        if self._limit_velocity and not self.scheme.hard_limits:
+        if self._limit_velocity and not scheme.hard_limits:
             speed = float(np.max(np.abs(qd) / robot.qd_max))
             if speed > 1.0:
                 qd = qd / speed
@@ -341,7 +346,7 @@ class ClikController:
         integrate = self._integrate
         if integrate is None:
             return q + qd * self._dt
-        q_next = _empty(robot.n)
+        q_next = _empty(n)
         integrate(q, qd, self._dt, q_next)
         return q_next
 

@@ -928,6 +928,9 @@ class SNSScheme(Scheme):
 
     def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
         q, J, xd = step_arrays(q, J, xd, robot.n)
+        return self.resolve(robot, q, J, xd)
+
+    def resolve(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
         ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, gram = ws.outputs()
         status, s, relaxed, active = self._kernel(
