@@ -40,12 +40,19 @@ def weighted_objectives(objectives: Sequence[WeightedObjective]) -> list[tuple[O
 def total_gradient(
     robot: Robot, q: FloatArray, objectives: Sequence[tuple[Objective, float]]
 ) -> FloatArray:
-    """``Σ wᵢ ∇Dᵢ(q)``, checked to have shape ``(n,)``."""
-    grad = np.zeros(robot.n)
+    """``Σ wᵢ ∇Dᵢ(q)``, checked to have shape ``(n,)`` (a new array)."""
+    n = robot.n
+    if len(objectives) == 1:  # the common case, without the accumulator
+        obj, weight = objectives[0]
+        g = np.asarray(obj.gradient(robot, q), dtype=np.float64)
+        if g.shape != (n,):
+            raise ShapeError(f"gradient of {obj.name} has shape {g.shape}; expected ({n},)")
+        return weight * g
+    grad = np.zeros(n)
     for obj, weight in objectives:
         g = obj.gradient(robot, q)
-        if g.shape != (robot.n,):
-            raise ShapeError(f"gradient of {obj.name} has shape {g.shape}; expected ({robot.n},)")
+        if g.shape != (n,):
+            raise ShapeError(f"gradient of {obj.name} has shape {g.shape}; expected ({n},)")
         grad += weight * g
     return grad
 

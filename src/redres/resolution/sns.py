@@ -764,7 +764,7 @@ def step_inputs(
     ws = scheme._ws
     qd0 = ws.zero
     if scheme.objectives:
-        qd0 = np.ascontiguousarray(-scheme.gain * total_gradient(robot, q, scheme.objectives))
+        qd0 = (-scheme.gain) * total_gradient(robot, q, scheme.objectives)  # new, C order
     prev = ws.zero if scheme.qd_prev is None else scheme.qd_prev
     return ws, qd0, prev
 
