@@ -57,6 +57,14 @@ class Trajectory(ABC):
         acc[:3] = accel
         return Sample(T, twist, acc)
 
+    def _planar(self, origin: FloatArray, coefficients: Any, basis: FloatArray) -> Sample:
+        """A sample of a path in a plane with orientation held: ``coefficients`` (3 x 2)
+        are the position offset, velocity and acceleration in the plane's ``basis``
+        (2 x 3, rows e₁, e₂); one matrix product gives all three (the per-step cost of a
+        run)."""
+        pva = np.array(coefficients) @ basis
+        return self._fixed(origin + pva[0], pva[1], pva[2])
+
 
 def _plane_axes(normal: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Two orthonormal axes spanning the plane normal to ``normal``."""
@@ -123,14 +131,15 @@ class Circle(Trajectory):
     def sample(self, t: float) -> Sample:
         a, da, dda = self._angle(t)
         c, s = math.cos(a), math.sin(a)
-        basis = self._basis  # rows e1, e2
-        radial = (c, s) @ basis
-        tangent = (-s, c) @ basis
         r = self.radius
-        return self._fixed(
-            self.center + r * radial,
-            (r * da) * tangent,
-            (r * dda) * tangent - (r * da * da) * radial,
+        # radial = c e1 + s e2, tangent = -s e1 + c e2: position r·radial, velocity
+        # r·da·tangent, acceleration r·dda·tangent − r·da²·radial.
+        v, w = r * da, r * dda
+        centripetal = r * da * da
+        return self._planar(
+            self.center,
+            ((r * c, r * s), (-v * s, v * c), (-w * s - centripetal * c, w * c - centripetal * s)),
+            self._basis,
         )
 
 
@@ -160,16 +169,21 @@ class FigureEight(Trajectory):
         self.height = as_scalar(height, "height", minimum=0.0)
         self.period = as_scalar(period, "period", minimum=0.0, strict=True)
         self._e1, self._e2 = _plane_axes(as_vector(normal, "normal", 3))
+        self._basis = np.vstack([self._e1, self._e2])
+        self._origin = self.start_pose[:3, 3].copy()
         self.duration = float(turns) * self.period
 
     def sample(self, t: float) -> Sample:
-        w = 2.0 * np.pi / self.period
+        w = 2.0 * math.pi / self.period
         th = w * t
         a, b = self.width, self.height / 2.0
-        p = self.start_pose[:3, 3] + a * np.sin(th) * self._e1 + b * np.sin(2 * th) * self._e2
-        v = a * w * np.cos(th) * self._e1 + 2 * b * w * np.cos(2 * th) * self._e2
-        acc = -a * w * w * np.sin(th) * self._e1 - 4 * b * w * w * np.sin(2 * th) * self._e2
-        return self._fixed(p, v, acc)
+        s1, c1, s2, c2 = math.sin(th), math.cos(th), math.sin(2.0 * th), math.cos(2.0 * th)
+        return self._planar(
+            self._origin,
+            ((a * s1, b * s2), (a * w * c1, 2.0 * b * w * c2),
+             (-a * w * w * s1, -4.0 * b * w * w * s2)),
+            self._basis,
+        )  # fmt: skip
 
 
 class MinimumJerk(Trajectory):
