@@ -11,8 +11,8 @@ secondary costs (joint-limit mid-range, posture), what one iteration of
     q  ← q + q̇ dt
 
 in one Pinocchio call (frame placement and Jacobian, one forward pass) and one compiled
-kernel (pose error, inverse, null-space term, scaling, integration) — no NumPy temporaries,
-no per-step Python objects. It is the loop for a 1 kHz controller; :func:`run` stays the
+kernel (pose error, inverse, null-space term, scaling, integration) writing one fresh
+output array per step. It is the loop for a 1 kHz controller; :func:`run` stays the
 general path (any task, scheme and objective, with a full run log).
 
 The costs must declare :meth:`~redres.objectives.Objective.quadratic_form` (their gradient
@@ -46,6 +46,7 @@ from ..objectives import Objective
 from ..resolution.base import InverseChoice, Scheme, StepResult, as_inverse
 from ..resolution.gradient_projection import WeightedObjective, weighted_objectives
 from ..tasks import FrameTask
+from ._fused import fused_config, kernel_for, quadratic_coefficients, raise_for_status, row_gains
 
 if TYPE_CHECKING:
     from ..robot import Robot
@@ -124,30 +125,16 @@ class ClikController:
         self._limit_velocity = bool(limit_velocity)
         self._inverse = as_inverse(inverse, **inverse_params)
         self._objectives = tuple(weighted_objectives(objectives))
-        self._gain = _row_gains(gain, self.task.rows)
+        self._gain = row_gains(gain, self.task.rows)
         self._scheme = scheme
         if scheme is not None:
             given = inverse != "exact" or inverse_params or k_null != 1.0
             self._check_scheme(scheme, bool(given))
-        a, b = self._quadratic(robot)
-        self._rate_kwargs = self.inverse.rate_kwargs()
-        mode, lam, lam_max, eps = be.parse_damping(self._rate_kwargs["damping"])
-        config = np.zeros(codes.CFG_VECTORS + 3 * n)
-        config[codes.CFG_ROTATION : codes.CFG_ROTATION + 9] = np.eye(3).ravel()
-        config[codes.CFG_GAIN : codes.CFG_GAIN + 6] = self._gain
-        config[codes.CFG_K_NULL] = self.k_null
-        config[codes.CFG_DAMPING] = lam
-        config[codes.CFG_MAX_DAMPING] = lam_max
-        config[codes.CFG_THRESHOLD] = eps
-        config[codes.CFG_MODE] = mode
-        config[codes.CFG_DT] = self.dt
-        config[codes.CFG_RCOND] = self._rate_kwargs.get("rcond", 1e-10)
-        config[codes.CFG_LIMIT] = 1.0 if self.limit_velocity else 0.0
-        config[codes.CFG_HAS_GRAD] = 1.0 if self.objectives else 0.0
-        v = codes.CFG_VECTORS
-        config[v : v + n] = a
-        config[v + n : v + 2 * n] = b
-        config[v + 2 * n : v + 3 * n] = robot.qd_max
+        a, b = quadratic_coefficients(robot, self._objectives)
+        self._rate_kwargs = self._inverse.rate_kwargs()
+        quadratic = (a, b) if self._objectives else None
+        config, mode = fused_config(robot, self._gain, self._k_null, self._rate_kwargs,
+                                    self._dt, self._limit_velocity, quadratic)  # fmt: skip
         self._config = config
         # Views of the target's slots in config, written in place by set_target.
         self._rotation = config[codes.CFG_ROTATION : codes.CFG_ROTATION + 9].reshape(3, 3)
@@ -163,10 +150,10 @@ class ClikController:
         self._kernel: Any = None
         self._integrate: Any = None
         if scheme is not None:
-            self._front = _kernel_for(robot, self.frame_id, be.fused_frame_command, "frame_command")
+            self._front = kernel_for(robot, self.frame_id, be.fused_frame_command, "frame_command")
             self._integrate = be.fused_integrate()
         else:
-            self._kernel = _kernel_for(robot, self.frame_id, be.fused_clik_step, "clik_step")
+            self._kernel = kernel_for(robot, self.frame_id, be.fused_clik_step, "clik_step")
         self._qd = self._e = self._out[:0]
 
     def _check_scheme(self, scheme: Scheme, inverse_given: bool) -> None:
@@ -183,22 +170,6 @@ class ClikController:
                 f"the {scheme.name} scheme was built for dt = {dt}, the controller runs at "
                 f"dt = {self.dt}: its limits hold only at its own period"
             )
-
-    def _quadratic(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
-        """``(a, b)`` with ``Σ wᵢ ∇Dᵢ(q) = a ∘ q − b`` for the weighted costs."""
-        a, b = np.zeros(robot.n), np.zeros(robot.n)
-        for obj, weight in self.objectives:
-            form = obj.quadratic_form(robot)
-            if form is None:
-                raise InvalidParameterError(
-                    f"ClikController fuses only diagonal quadratic costs (joint limits, "
-                    f"posture); {obj.name!r} is not one: use redres.control.run with a "
-                    f"GradientProjectionScheme for it"
-                )
-            ai, ri = (as_vector(x, f"quadratic form of {obj.name}", robot.n) for x in form)
-            a += weight * ai
-            b += weight * ai * ri
-        return a, b
 
     # -- settings (read-only: the compiled step holds them) ------------------------------
 
@@ -291,7 +262,7 @@ class ClikController:
         out = _empty(self._size)
         status, rank, smin, smax, used, speed = kernel(J, H, qa, self.rows, self._config, out)
         if status:
-            _raise_for_status(status, n)
+            raise_for_status(status, n)
         self._out = out
         self._diag = (rank, smin, smax, used, speed)
         return out[:n]
@@ -327,7 +298,7 @@ class ClikController:
             Jm, xd, e = _empty((m, n)), _empty(m), _empty(6)
             status = front(J, H, q, self.rows, self._config, Jm, xd, e)
             if status:
-                _raise_for_status(status, n)
+                raise_for_status(status, n)
             qd = scheme.resolve(robot, q, Jm, xd)  # the kernel's own arrays: no re-check
         if type(qd) is not _ndarray or qd.dtype != _F64 or not qd.flags.c_contiguous:
             qd = np.ascontiguousarray(qd, dtype=_F64)
@@ -424,42 +395,3 @@ class ClikController:
             f"rows={self.task.rows}, inverse={self.inverse.kind!r}, "
             f"objectives={[obj.name for obj, _ in self.objectives]})"
         )
-
-
-def _row_gains(gain: Any, rows: list[int]) -> FloatArray:
-    """Six per-row gains (unused rows 0) from a scalar or one value per task row."""
-    g = np.asarray(gain, dtype=float) if not isinstance(gain, (int, float)) else None
-    full = np.zeros(6)
-    if g is None or g.ndim == 0:
-        full[rows] = as_scalar(gain, "gain", minimum=0.0)
-        return full
-    values = as_vector(g, "gain", len(rows))
-    if np.any(values < 0.0):
-        raise InvalidParameterError(f"gain must be >= 0 on every row; got {values}")
-    full[rows] = values
-    return full
-
-
-def _kernel_for(robot: Robot, frame_id: int, entry_point: Any, name: str) -> Any:
-    """A fused kernel's native entry point (from ``entry_point()``) when the arrays
-    Pinocchio returns have the layout it was compiled for (float64, C order), numba's
-    dispatcher ``name`` if not, None without compiled kernels."""
-    entry = entry_point()
-    if entry is None:
-        return None
-    placement, J = robot.placement_jacobian(robot.neutral(), frame_id)
-    H = placement.homogeneous
-    if all(x.dtype == _F64 and x.flags.c_contiguous for x in (J, H)):
-        return entry
-    kernels = be.kernels()  # pragma: no cover - a Pinocchio build returning other layouts
-    return None if kernels is None else getattr(kernels, name)  # pragma: no cover
-
-
-def _raise_for_status(status: int, n: int) -> None:
-    if status == codes.Q_NONFINITE:
-        raise NonFiniteError("q contains NaN or infinity")
-    if status == codes.Q_SHAPE:
-        raise ShapeError(f"q must have shape ({n},)")
-    if status == codes.POSE_NONFINITE:
-        raise NonFiniteError("the frame placement is not finite (is q astronomically large?)")
-    be.raise_status(status, {"J": "the frame Jacobian", "xd": "the task command"})
