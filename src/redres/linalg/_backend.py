@@ -94,34 +94,23 @@ def fused_clik_step() -> Callable[..., Any] | None:
     int64 ``rows (m,)``, float64 ``config`` and ``out`` (see the kernel); a mismatched
     type is not detected by the entry point, so callers check their arrays once.
     """
-    n = 1
-    warm = (
-        np.zeros((6, n)),
-        np.eye(4),
-        np.zeros(n),
-        np.arange(1, dtype=np.int64),
-        np.zeros(codes.CFG_VECTORS + 3 * n),
-        np.zeros(2 * n + 6),
-    )
-    return _entry_point("clik_step", warm)
+    return _entry_point("clik_step", (*_frame_warm(), np.zeros(2 + 6)))
 
 
 def fused_frame_command() -> Callable[..., Any] | None:
     """Native entry point of ``_kernels.frame_command`` (the frame-task part of the fused
     step: ``J (6, n)``, ``H``, ``q``, ``rows``, ``config``, then ``Jm (m, n)``, ``xd (m,)``
     and ``e (6,)`` to fill), or None; same argument rules as :func:`fused_clik_step`."""
-    n = 1
-    warm = (
-        np.zeros((6, n)),
-        np.eye(4),
-        np.zeros(n),
-        np.arange(1, dtype=np.int64),
-        np.zeros(codes.CFG_VECTORS + 3 * n),
-        np.zeros((1, n)),
-        np.zeros(1),
-        np.zeros(6),
+    return _entry_point(
+        "frame_command", (*_frame_warm(), np.zeros((1, 1)), np.zeros(1), np.zeros(6))
     )
-    return _entry_point("frame_command", warm)
+
+
+def _frame_warm() -> tuple[Any, ...]:
+    """Warm-up arguments shared by the fused kernels, for one joint: ``J``, ``H``, ``q``,
+    ``rows``, ``config``."""
+    return (np.zeros((6, 1)), np.eye(4), np.zeros(1), np.arange(1, dtype=np.int64),
+            np.zeros(codes.CFG_VECTORS + 3))  # fmt: skip
 
 
 def fused_integrate() -> Callable[..., Any] | None:

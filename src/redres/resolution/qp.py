@@ -50,12 +50,13 @@ from numpy.typing import ArrayLike
 from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError, MissingDependencyError, ShapeError
 from ..tasks import Task, stack
-from .base import Scheme, StepResult
+from .base import StepResult
 from .gradient_projection import WeightedObjective, weighted_objectives
-from .limits import JointLimits, fast_entry, kernel, register_kernels
+from .limits import fast_entry, kernel, register_kernels
 
 # Kernels shared with SNS (rebound to their compiled versions by :func:`_kernels`).
 from .sns import (
+    BoxScheme,
     Workspace,
     _epilogue,
     _min_norm,
@@ -64,7 +65,6 @@ from .sns import (
     binding_list,
     gram_info,
     input_error,
-    step_arrays,
     step_inputs,
 )
 
@@ -96,7 +96,7 @@ def _backend(solver: str) -> Any:
     return qpsolvers
 
 
-class QPScheme(Scheme):
+class QPScheme(BoxScheme):
     """Joint velocity by a sequence of QPs inside hard position, velocity, acceleration limits.
 
     Args:
@@ -127,7 +127,6 @@ class QPScheme(Scheme):
     """
 
     name = "qp"
-    hard_limits = True
 
     def __init__(
         self,
@@ -144,7 +143,7 @@ class QPScheme(Scheme):
         qd_max: ArrayLike | None = None,
         qdd_max: ArrayLike | None = None,
     ) -> None:
-        self.dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
+        self._init_box(dt, qd_max, qdd_max)
         self.objectives = weighted_objectives(objectives)
         self.gain = as_scalar(gain, "gain", minimum=0.0)
         self.levels = [[lv] if isinstance(lv, Task) else list(lv) for lv in levels]
@@ -163,23 +162,11 @@ class QPScheme(Scheme):
         self._module = _backend(self.solver)
         if self.solver == "daqp":
             check_daqp_options(self._module, self.solver_options)
-        self._overrides = (qd_max, qdd_max)
-        self.qd_prev: FloatArray | None = None
         self._infeasible_before = False
-        self._robot: Any = None
-        self._ws: Any = None
-        self._raw: Any = None
-        self._last: StepResult | None = None
 
     def reset(self) -> None:
-        self.qd_prev = None
+        super().reset()
         self._infeasible_before = False
-        self._raw, self._last = None, None
-
-    def limits(self, robot: Robot) -> JointLimits:
-        """The limits this scheme enforces on ``robot``."""
-        return JointLimits.from_robot(robot, qd_max=self._overrides[0],
-                                      qdd_max=self._overrides[1])  # fmt: skip
 
     def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
         n, m = robot.n, J.shape[0]
@@ -211,14 +198,6 @@ class QPScheme(Scheme):
                                   sense=self._sense[:n])  # fmt: skip
         self._ws, self._robot = ws, robot
 
-    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        self.velocity(robot, q, J, xd)
-        return self.last_result()
-
-    def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
-        q, J, xd = step_arrays(q, J, xd, robot.n)
-        return self.resolve(robot, q, J, xd)
-
     def resolve(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
         ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, gram = ws.outputs()
@@ -241,27 +220,20 @@ class QPScheme(Scheme):
         if finished is None:
             finished = self._finish(J, xd, out, codes, ws.M, ws.wm, full, False)
         active, residual = finished
-        self.qd_prev = out[0].copy()  # the scheme's own: q̇ itself belongs to the caller
-        self._raw = (exact, residual, residuals, active, relaxed, out, codes, gram)
-        self._last = None
-        return out[0]
+        return self._keep(out, (exact, residual, residuals, active, relaxed, out, codes, gram))
 
-    def last_result(self) -> StepResult:
-        if self._last is None:
-            if self._raw is None:
-                return super().last_result()  # raises: no call yet
-            exact, residual, residuals, active, relaxed, out, codes, gram = self._raw
-            extra = {
-                "feasible": all(exact),
-                "residual": residual,
-                "level_residuals": residuals if self.levels else [residual],
-                "binding": binding_list(codes, relaxed > 0) if active else [],
-                "bounds": (out[2], out[3]),
-                "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
-                "solver": self.solver,
-            }
-            self._last = StepResult(out[0], gram_info(gram, "qp"), out[1], extra)
-        return self._last
+    def _result(self, raw: Any) -> StepResult:
+        exact, residual, residuals, active, relaxed, out, codes, gram = raw
+        extra = {
+            "feasible": all(exact),
+            "residual": residual,
+            "level_residuals": residuals if self.levels else [residual],
+            "binding": binding_list(codes, relaxed > 0) if active else [],
+            "bounds": (out[2], out[3]),
+            "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
+            "solver": self.solver,
+        }
+        return StepResult(out[0], gram_info(gram, "qp"), out[1], extra)
 
     def _single(
         self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray, codes: Any,

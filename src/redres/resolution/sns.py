@@ -849,7 +849,60 @@ class Workspace:
         return np.empty((4, n)), np.empty((4, n), np.int8), np.empty((m, m))
 
 
-class SNSScheme(Scheme):
+class BoxScheme(Scheme):
+    """What the hard-limit schemes share (internal): the velocity box of their limits, the
+    previous joint velocity it is built from, checked :meth:`step` / :meth:`velocity`
+    around their compiled :meth:`resolve`, and a :class:`StepResult` built on demand."""
+
+    hard_limits = True
+
+    def _init_box(self, dt: float, qd_max: ArrayLike | None, qdd_max: ArrayLike | None) -> None:
+        self.dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
+        self._overrides = (qd_max, qdd_max)
+        #: The previous joint velocity (``None`` = at rest); the scheme's own copy.
+        self.qd_prev: FloatArray | None = None
+        self._robot: Any = None
+        self._ws: Any = None
+        self._raw: Any = None
+        self._last: StepResult | None = None
+
+    def reset(self) -> None:
+        self.qd_prev = None
+        self._raw, self._last = None, None
+
+    def limits(self, robot: Robot) -> JointLimits:
+        """The limits this scheme enforces on ``robot``."""
+        return JointLimits.from_robot(robot, qd_max=self._overrides[0],
+                                      qdd_max=self._overrides[1])  # fmt: skip
+
+    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+        self.velocity(robot, q, J, xd)
+        return self.last_result()
+
+    def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
+        q, J, xd = step_arrays(q, J, xd, robot.n)
+        return self.resolve(robot, q, J, xd)
+
+    def last_result(self) -> StepResult:
+        if self._last is None:
+            if self._raw is None:
+                return super().last_result()  # raises: no call yet
+            self._last = self._result(self._raw)
+        return self._last
+
+    def _result(self, raw: Any) -> StepResult:
+        """The :class:`StepResult` from what :meth:`resolve` kept (``_keep``)."""
+        raise NotImplementedError  # pragma: no cover - each scheme builds its own
+
+    def _keep(self, out: FloatArray, raw: tuple[Any, ...]) -> FloatArray:
+        """End of :meth:`resolve`: remember ``q̇ = out[0]`` for the next box and what the
+        result will be built from; return ``q̇`` (the caller's)."""
+        self.qd_prev = out[0].copy()  # the scheme's own copy
+        self._raw, self._last = raw, None
+        return out[0]
+
+
+class SNSScheme(BoxScheme):
     """Saturation in the null space (Flacco, De Luca, Khatib 2015) within hard limits.
 
     Every step the joint-velocity box of :func:`~redres.resolution.limits.velocity_bounds`
@@ -883,7 +936,6 @@ class SNSScheme(Scheme):
     """
 
     name = "sns"
-    hard_limits = True
 
     def __init__(
         self,
@@ -895,25 +947,10 @@ class SNSScheme(Scheme):
         qdd_max: ArrayLike | None = None,
         tolerance: float = 1e-12,
     ) -> None:
-        self.dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
+        self._init_box(dt, qd_max, qdd_max)
         self.objectives = weighted_objectives(objectives)
         self.gain = as_scalar(gain, "gain", minimum=0.0)
         self.tolerance = as_scalar(tolerance, "tolerance", minimum=0.0)
-        self._overrides = (qd_max, qdd_max)
-        self.qd_prev: FloatArray | None = None
-        self._robot: Any = None
-        self._ws: Any = None
-        self._raw: Any = None
-        self._last: StepResult | None = None
-
-    def reset(self) -> None:
-        self.qd_prev = None
-        self._raw, self._last = None, None
-
-    def limits(self, robot: Robot) -> JointLimits:
-        """The limits this scheme enforces on ``robot``."""
-        return JointLimits.from_robot(robot, qd_max=self._overrides[0],
-                                      qdd_max=self._overrides[1])  # fmt: skip
 
     def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
         ws = Workspace(self.limits(robot), J.shape[0])
@@ -921,14 +958,6 @@ class SNSScheme(Scheme):
                 *ws.outputs(), ws.M, ws.wm, ws.wn, ws.wb)  # fmt: skip
         self._kernel = fast_entry(kernels()["_scheme_step"], args)
         self._ws, self._robot = ws, robot
-
-    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        self.velocity(robot, q, J, xd)
-        return self.last_result()
-
-    def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
-        q, J, xd = step_arrays(q, J, xd, robot.n)
-        return self.resolve(robot, q, J, xd)
 
     def resolve(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
         ws, qd0, prev = step_inputs(self, robot, q, J, xd)
@@ -939,25 +968,18 @@ class SNSScheme(Scheme):
         )  # fmt: skip
         if status < 0:
             raise input_error(status, (q, J, xd, qd0))
-        self.qd_prev = out[0].copy()  # the scheme's own: q̇ itself belongs to the caller
-        self._raw = (status, s, relaxed, active, out, codes, gram)
-        self._last = None
-        return out[0]
+        return self._keep(out, (status, s, relaxed, active, out, codes, gram))
 
-    def last_result(self) -> StepResult:
-        if self._last is None:
-            if self._raw is None:
-                return super().last_result()  # raises: no call yet
-            status, s, relaxed, active, out, codes, gram = self._raw
-            if status == NEAREST:
-                s = 0.0
-            extra = {
-                "scale": s,
-                "feasible": s == 1.0,
-                "method": METHODS[status],
-                "binding": binding_list(codes, relaxed > 0) if active else [],
-                "bounds": (out[2], out[3]),
-                "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
-            }
-            self._last = StepResult(out[0], gram_info(gram, "sns"), out[1], extra)
-        return self._last
+    def _result(self, raw: Any) -> StepResult:
+        status, s, relaxed, active, out, codes, gram = raw
+        if status == NEAREST:
+            s = 0.0
+        extra = {
+            "scale": s,
+            "feasible": s == 1.0,
+            "method": METHODS[status],
+            "binding": binding_list(codes, relaxed > 0) if active else [],
+            "bounds": (out[2], out[3]),
+            "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
+        }
+        return StepResult(out[0], gram_info(gram, "sns"), out[1], extra)
