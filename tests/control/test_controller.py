@@ -231,14 +231,22 @@ def test_a_closed_loop_run_reproduces_rr_run(objectives: list[Any]) -> None:
     controller = ClikController(
         robot, objectives=objectives, k_null=5.0, inverse="damped", damping=0.01, gain=50.0
     )
-    q = scenario.q0.copy()
+    q = follow(controller, trajectory, scenario.q0, log)
+    assert np.allclose(q, rr.control.final_configuration(log), rtol=0, atol=1e-9)
+
+
+def follow(controller: ClikController, trajectory: Any, q0: np.ndarray, log: Any) -> np.ndarray:
+    """Run ``controller`` along ``trajectory`` from ``q0``, checking each step against the
+    ``rr.run`` log (configuration, velocity, scaling); returns the final configuration."""
+    q = q0.copy()
     for k in range(len(log.t)):
         assert np.allclose(q, log.q[k], rtol=0, atol=1e-9), f"step {k}"
         sample = trajectory.sample(k * 1e-3)
         controller.set_target(sample.pose, sample.twist, validate=False)
         q = controller.step(q)
+        assert np.allclose(controller.qd, log.qd[k], rtol=0, atol=1e-8), f"step {k}"
         assert controller.scaled == log.scaled[k]
-    assert np.allclose(q, rr.control.final_configuration(log), rtol=0, atol=1e-9)
+    return q
 
 
 def test_bad_input_is_refused_with_a_clear_error(rng: np.random.Generator) -> None:
@@ -305,14 +313,7 @@ def test_a_scheme_in_the_controller_reproduces_rr_run(name: str, jit: bool) -> N
     previous = _backend.set_jit_enabled(jit)
     try:
         controller = ClikController(robot, scheme=_scheme(name))
-        q = scenario.q0.copy()
-        for k in range(len(log.t)):
-            assert np.allclose(q, log.q[k], rtol=0, atol=1e-9), f"step {k}"
-            sample = trajectory.sample(k * 1e-3)
-            controller.set_target(sample.pose, sample.twist, validate=False)
-            q = controller.step(q)
-            assert np.allclose(controller.qd, log.qd[k], rtol=0, atol=1e-8), f"step {k}"
-            assert controller.scaled == log.scaled[k]
+        follow(controller, trajectory, scenario.q0, log)
     finally:
         _backend.set_jit_enabled(previous)
     result = controller.last_result()
