@@ -382,3 +382,30 @@ def test_a_half_turn_error_through_the_kernel(rng: np.random.Generator) -> None:
         e = controller.error[3:]
         assert np.isclose(np.linalg.norm(e), np.pi, rtol=0, atol=1e-12)
         assert np.allclose(pin.exp3(e), target[:3, :3] @ T[:3, :3].T, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("jit", [True, False])
+def test_command_is_the_frame_task_evaluated(jit: bool, rng: np.random.Generator) -> None:
+    """``command(q)``: the Jacobian rows, ``ẋ_d + K e``, the error and the pose, as
+    FrameTask computes them."""
+    robot = rr.models.iiwa14()
+    previous = _backend.set_jit_enabled(jit)
+    try:
+        for rows in (None, ["x", "y", "rz"]):
+            gains = np.array([5.0, 6.0, 7.0] * 2 if rows is None else [5.0, 6.0, 7.0])
+            controller = ClikController(robot, rows=rows, gain=gains)
+            q = robot.random_configuration(rng, margin=0.2)
+            target, twist = _target_near(robot, q, rng), rng.normal(size=6)
+            controller.set_target(target, twist)
+            cmd = controller.command(q)
+            task = FrameTask(rows=rows)
+            task.set_target(target, twist)
+            state = task.compute(robot, q)
+            assert np.allclose(cmd.jacobian, state.jacobian, rtol=0, atol=1e-14)
+            assert np.allclose(cmd.command, state.feedforward + gains * state.error, atol=1e-13)
+            assert np.allclose(cmd.error, task.last_error, rtol=0, atol=1e-14)
+            assert np.allclose(cmd.pose, robot.fk(q), rtol=0, atol=1e-14)
+    finally:
+        _backend.set_jit_enabled(previous)
+    with pytest.raises(ShapeError):
+        controller.command(np.zeros(3))

@@ -33,7 +33,7 @@ Without the compiled kernels (numba missing or disabled) the same step runs thro
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -51,7 +51,7 @@ from ._fused import fused_config, kernel_for, quadratic_coefficients, raise_for_
 if TYPE_CHECKING:
     from ..robot import Robot
 
-__all__ = ["ClikController"]
+__all__ = ["ClikController", "FrameCommand"]
 
 _F64 = np.float64
 _ndarray = np.ndarray
@@ -59,6 +59,22 @@ _empty = np.empty
 _contiguous = np.ascontiguousarray
 _LABELS = ("pinv", "damped", "adaptive", "selective")  # by damping mode, as rate_step
 _new_info = tuple.__new__
+
+
+class FrameCommand(NamedTuple):
+    """A frame task evaluated for a solver (:meth:`ClikController.command`).
+
+    Attributes:
+        jacobian: the task rows of the world-aligned Jacobian, ``(m, n)``.
+        command: ``ẋ_d + K e`` on those rows, ``(m,)`` (m/s, rad/s).
+        error: the six-row error ``[p_d − p; log(R_d Rᵀ)]`` (m, rad).
+        pose: the frame's pose, 4x4.
+    """
+
+    jacobian: FloatArray
+    command: FloatArray
+    error: FloatArray
+    pose: FloatArray
 
 
 class ClikController:
@@ -149,8 +165,8 @@ class ClikController:
         self._front: Any = None
         self._kernel: Any = None
         self._integrate: Any = None
+        self._front = kernel_for(robot, self.frame_id, be.fused_frame_command, "frame_command")
         if scheme is not None:
-            self._front = kernel_for(robot, self.frame_id, be.fused_frame_command, "frame_command")
             self._integrate = be.fused_integrate()
         else:
             self._kernel = kernel_for(robot, self.frame_id, be.fused_clik_step, "clik_step")
@@ -244,12 +260,7 @@ class ClikController:
             NonFiniteError: ``q`` contains NaN or infinity.
         """
         n = self._n
-        try:
-            qa = _contiguous(q, _F64)
-        except (TypeError, ValueError) as exc:
-            raise ShapeError(f"q must be an array of {n} numbers: {exc}") from exc
-        if qa.ndim != 1 or qa.shape[0] != n:
-            raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
+        qa = self._checked(q)
         if self._scheme is not None:
             return self._scheme_step(qa)
         kernel = self._kernel
@@ -273,11 +284,29 @@ class ClikController:
             raise NonFiniteError("q contains NaN or infinity")
         self.set_target(H, validate=False)
 
-    def _scheme_step(self, q: FloatArray) -> FloatArray:
-        """Task command by the kernel (or FrameTask), joint velocity by the scheme."""
-        robot, scheme, n = self._robot, self._scheme, self._n
-        assert scheme is not None
-        front = self._front
+    def command(self, q: Any) -> FrameCommand:
+        """The frame task at ``q`` without resolving it: its Jacobian rows, the command
+        ``ẋ_d + K e``, the six-row error and the frame's pose, from the compiled front end
+        (for a solver of your own; :meth:`step` with ``scheme=`` uses the same).
+
+        Raises:
+            ShapeError, NonFiniteError: as :meth:`step`.
+        """
+        return self._command(self._checked(q))
+
+    def _checked(self, q: Any) -> FloatArray:
+        n = self._n
+        try:
+            qa = _contiguous(q, _F64)
+        except (TypeError, ValueError) as exc:
+            raise ShapeError(f"q must be an array of {n} numbers: {exc}") from exc
+        if qa.ndim != 1 or qa.shape[0] != n:
+            raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
+        return qa
+
+    def _command(self, q: FloatArray) -> FrameCommand:
+        """:meth:`command` for a checked ``q``: the kernel, or FrameTask without numba."""
+        robot, n, front = self._robot, self._n, self._front
         if front is None:
             if not np.all(np.isfinite(q)):
                 raise NonFiniteError("q contains NaN or infinity")
@@ -285,20 +314,29 @@ class ClikController:
                 self.set_target(robot.fk(q, self.task.frame), validate=False)
             self.task.set_target(self.target, self._twist.copy(), validate=False)
             state = self.task.compute(robot, q)
-            Jm, xd = state.jacobian, state.feedforward + self._gain[self.task.rows] * state.error
-            assert self.task.last_error is not None
-            e = self.task.last_error
+            xd = state.feedforward + self._gain[self.task.rows] * state.error
+            assert self.task.last_error is not None and self.task.last_pose is not None
+            pose = self.task.last_pose.homogeneous
+            return FrameCommand(state.jacobian, xd, self.task.last_error, pose)
+        placement, J = robot.placement_jacobian(q, self.frame_id)
+        H = placement.homogeneous
+        if not self._has_target:
+            self._hold(q, H)
+        m = self.rows.shape[0]
+        Jm, xd, e = _empty((m, n)), _empty(m), _empty(6)
+        status = front(J, H, q, self.rows, self._config, Jm, xd, e)
+        if status:
+            raise_for_status(status, n)
+        return FrameCommand(Jm, xd, e, H)
+
+    def _scheme_step(self, q: FloatArray) -> FloatArray:
+        """Task command by the kernel (or FrameTask), joint velocity by the scheme."""
+        robot, scheme, n = self._robot, self._scheme, self._n
+        assert scheme is not None
+        Jm, xd, e, _ = self._command(q)
+        if self._front is None:
             qd = scheme.velocity(robot, q, Jm, xd)
         else:
-            placement, J = robot.placement_jacobian(q, self.frame_id)
-            H = placement.homogeneous
-            if not self._has_target:
-                self._hold(q, H)
-            m = self.rows.shape[0]
-            Jm, xd, e = _empty((m, n)), _empty(m), _empty(6)
-            status = front(J, H, q, self.rows, self._config, Jm, xd, e)
-            if status:
-                raise_for_status(status, n)
             qd = scheme.resolve(robot, q, Jm, xd)  # the kernel's own arrays: no re-check
         if type(qd) is not _ndarray or qd.dtype != _F64 or not qd.flags.c_contiguous:
             qd = np.ascontiguousarray(qd, dtype=_F64)
