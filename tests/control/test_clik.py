@@ -150,3 +150,42 @@ def test_iiwa_holds_its_arm_angle_with_the_augmented_jacobian() -> None:
     assert not aug.extra["algorithmic_singularity"].any()
     drift = np.array([arm.value(sc.robot, q) for q in logs["pinv"].q[::50]])
     assert np.max(np.abs(drift - phi0)) > 1e-3  # without the extra row, φ wanders
+
+
+class _OffsetTask(FrameTask):
+    """A frame task with its own ``compute`` (target shifted 1 cm along x)."""
+
+    def compute(self, robot: rr.Robot, q: np.ndarray) -> rr.tasks.TaskState:
+        state = super().compute(robot, q)
+        error = state.error.copy()
+        error[0] += 0.01
+        return rr.tasks.TaskState(error, state.jacobian, state.feedforward)
+
+
+def test_run_takes_the_compiled_front_end_only_for_a_plain_frame_task() -> None:
+    """``rr.run`` evaluates a FrameTask in the compiled kernel: same run as the task's own
+    ``compute`` (a subclass overriding it keeps the general path), and the task is left as
+    if it had computed the last step."""
+    scenario = panda_joint_limit_circle()
+    robot, q0 = scenario.robot, scenario.q0
+    T = robot.fk(q0)
+    T[:3, 3] += [0.01, 0.0, -0.01]
+    twist = np.array([0.0, 0.0, 0.01, 0.0, 0.0, 0.0])
+    fast, plain = FrameTask(), FrameTask()
+    fast.set_target(T, twist)
+    plain.set_target(T, twist)
+    log = rr.run(robot, fast, None, PseudoInverseScheme(), duration=0.2, q0=q0)
+    previous = rr.linalg._backend.set_jit_enabled(False)  # the composed path
+    try:
+        ref = rr.run(robot, plain, None, PseudoInverseScheme(), duration=0.2, q0=q0)
+    finally:
+        rr.linalg._backend.set_jit_enabled(previous)
+    np.testing.assert_allclose(log.q, ref.q, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(log.position_error, ref.position_error, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(log.target, ref.target, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(fast.last_error, plain.last_error, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(fast.target, T, rtol=0, atol=0)
+    np.testing.assert_allclose(fast.twist, twist, rtol=0, atol=0)
+    offset = rr.run(robot, _OffsetTask(), None, PseudoInverseScheme(), duration=0.2, q0=q0)
+    held = rr.run(robot, FrameTask(), None, PseudoInverseScheme(), duration=0.2, q0=q0)
+    assert offset.position_error[-1] > 1e-3 > 1e-9 > held.position_error[-1]

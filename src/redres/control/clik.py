@@ -14,6 +14,7 @@ exactly; ``K·dt`` must stay well below 2 for the discrete loop to be stable.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
@@ -26,6 +27,7 @@ from ..objectives import Objective
 from ..resolution import GradientProjectionScheme, Scheme, WeightedLeastNormScheme
 from ..tasks import FrameTask, Task
 from .analysis import analyse_run, progress_bar
+from .controller import ClikController
 from .runlog import RunLog
 from .trajectories import Trajectory
 
@@ -110,6 +112,7 @@ def run(
     algorithmic = np.zeros(steps, dtype=bool)
 
     frame_task = task if isinstance(task, FrameTask) else None
+    front = _compiled_front(robot, frame_task, gain, dt)
     bar = progress_bar(steps, progress, f"{robot.name} {label or scheme.name}")
     clock = time.perf_counter_ns
     try:
@@ -117,9 +120,14 @@ def run(
             t0 = clock()
             if trajectory is not None and frame_task is not None:
                 sample = trajectory.sample(k * dt)
-                frame_task.set_target(sample.pose, sample.twist, validate=False)
-            state = task.compute(robot, q)
-            result = scheme.step(robot, q, state.jacobian, state.command(gain))
+                target = front if front is not None else frame_task
+                target.set_target(sample.pose, sample.twist, validate=False)
+            if front is not None:  # the frame task through the compiled kernel
+                J, xd, frame_error, pose = front.command(q)
+            else:
+                state = task.compute(robot, q)
+                J, xd = state.jacobian, state.command(gain)
+            result = scheme.step(robot, q, J, xd)
             qd = result.qd
             speed = float(np.max(np.abs(qd) / qd_max))
             if limit_velocity and speed > 1.0:
@@ -139,7 +147,12 @@ def run(
             damping[k] = result.info.damping
             rank[k] = result.info.rank
             algorithmic[k] = bool(result.extra.get("algorithmic_singularity", False))
-            if frame_task is not None and frame_task.last_error is not None:
+            if front is not None:
+                pos_err[k] = math.sqrt(float(frame_error[:3] @ frame_error[:3]))
+                rot_err[k] = math.sqrt(float(frame_error[3:] @ frame_error[3:]))
+                pos_log[k] = pose[:3, 3]
+                target_log[k] = front.target_position
+            elif frame_task is not None and frame_task.last_error is not None:
                 e = frame_task.last_error
                 pos_err[k] = float(np.linalg.norm(e[:3]))
                 rot_err[k] = float(np.linalg.norm(e[3:]))
@@ -153,6 +166,8 @@ def run(
     finally:
         if bar is not None:
             bar.close()
+        if front is not None and frame_task is not None and steps:
+            _leave_task_as_computed(frame_task, front, q_log[steps - 1])
 
     log = RunLog(
         robot=robot.name,
@@ -188,6 +203,29 @@ def run(
         objectives=[*_scheme_objectives(scheme), *log_objectives],
     )
     return log
+
+
+def _compiled_front(
+    robot: Robot, task: FrameTask | None, gain: float, dt: float
+) -> ClikController | None:
+    """A controller whose compiled front end evaluates ``task`` (the frame error and
+    command ``ẋ_d + K e``) in one kernel call, starting from the task's target; None for
+    other tasks, a FrameTask subclass with its own ``compute``, or without the kernels."""
+    if task is None or type(task).compute is not FrameTask.compute:
+        return None
+    front = ClikController(robot, task.frame, task.rows, gain=gain, dt=dt, limit_velocity=False)
+    if not front.compiled:
+        return None
+    if task.target is not None:
+        front.set_target(task.target, task.twist, validate=False)
+    return front
+
+
+def _leave_task_as_computed(task: FrameTask, front: ClikController, q: FloatArray) -> None:
+    """Leave ``task`` (target, last pose and error) as if it had computed the last step."""
+    assert front.target is not None
+    task.set_target(front.target, front.twist, validate=False)
+    task.compute(front.robot, q)
 
 
 def _scheme_objectives(scheme: Scheme) -> list[Objective]:

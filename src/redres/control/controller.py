@@ -241,6 +241,21 @@ class ClikController:
         self._has_target = True
 
     @property
+    def twist(self) -> FloatArray:
+        """The target's feedforward twist ``[v; ω]`` (a copy)."""
+        return self._twist.copy()
+
+    @property
+    def target_position(self) -> FloatArray:
+        """The target's position (a copy; zeros before the first target)."""
+        return self._position.copy()
+
+    @property
+    def compiled(self) -> bool:
+        """Whether the step runs in the compiled kernels (else through NumPy)."""
+        return self._front is not None
+
+    @property
     def target(self) -> FloatArray | None:
         """The target pose (4x4), ``None`` before the first target or step."""
         if not self._has_target:

@@ -92,6 +92,11 @@ class FrameTask(Task):
         """The current target pose (4x4) or ``None`` before the first target."""
         return None if self._T_target is None else self._T_target.copy()
 
+    @property
+    def twist(self) -> FloatArray:
+        """The desired twist ``[v; ω]`` of the target (a copy; zeros by default)."""
+        return np.array(self._twist, dtype=float)
+
     def full_error(self, T: FloatArray) -> FloatArray:
         """Six-row error ``[p_d − p; log(R_d Rᵀ)]`` of pose ``T`` against the target."""
         if self._T_target is None:
