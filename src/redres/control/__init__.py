@@ -2,7 +2,7 @@
 
 from .analysis import analyse_run, progress_bar
 from .clik import final_configuration, run
-from .controller import ClikController
+from .controller import ClikController, FrameCommand
 from .runlog import RunLog
 from .scenarios import SCENARIOS, Scenario, iiwa_arm_angle_eight, panda_joint_limit_circle
 from .trajectories import (
@@ -21,6 +21,7 @@ __all__ = [
     "Circle",
     "ClikController",
     "FigureEight",
+    "FrameCommand",
     "Hold",
     "Line",
     "MinimumJerk",
