@@ -118,3 +118,13 @@ def test_bad_usage_exits_2() -> None:
         [sys.executable, "-m", "redres", "fly"], capture_output=True, text=True, check=False
     )
     assert proc.returncode == 2 and "invalid choice" in proc.stderr
+
+
+def test_demo_ends_with_the_compiled_loop(quick_demo: tuple[dict, Path]) -> None:
+    rows = {row["loop"]: row for row in quick_demo[0]["compiled_loop"]}
+    assert "gradient projection (fused kernel)" in rows
+    for row in rows.values():
+        assert 0.0 < row["median_us"] < 1e4
+        assert row["max_error_mm"] < 10.0  # the first 0.1 s of the circle, from rest
+    # the fused step tracks like rr.run's gradient projection (0.0073 mm over the 10 s)
+    assert rows["gradient projection (fused kernel)"]["max_error_mm"] < 0.02

@@ -1,4 +1,4 @@
-"""Compile the numba kernels of the hard-limit schemes ahead of use (internal).
+"""Compile the numba kernels of the hard-limit schemes and the controller ahead of use.
 
 ``redres demo`` starts this in a second process on a cold start, so that the JIT work of
 the QP/SNS kernels overlaps with the first runs on the other core; the compiled code lands
@@ -23,5 +23,15 @@ def compile_hard_limit_kernels() -> None:
         scheme.step(robot, q, J, np.zeros(6))
 
 
+def compile_controller_kernels() -> None:
+    """One step of the compiled CLIK controller (the fused kernel the demo ends with)."""
+    from .control import ClikController
+    from .models import panda
+
+    robot = panda()
+    ClikController(robot).step(robot.neutral())
+
+
 if __name__ == "__main__":
     compile_hard_limit_kernels()
+    compile_controller_kernels()
