@@ -220,14 +220,22 @@ def test_home_outside_the_limits_is_rejected() -> None:
         rr.Robot.from_dh(links, home=[2.0])
 
 
+@pytest.mark.parametrize("jit", [True, False])
 @pytest.mark.parametrize("name", ROBOTS)
 def test_jacobian_derivatives_are_the_partials(
-    name: str, builtin_robots: dict[str, rr.Robot], rng: np.random.Generator
+    name: str, jit: bool, builtin_robots: dict[str, rr.Robot], rng: np.random.Generator
 ) -> None:
-    """∂J/∂qᵢ from one Jacobian equals J̇ along eᵢ and central differences of J."""
+    """∂J/∂qᵢ from one Jacobian (compiled kernel or NumPy) equals J̇ along eᵢ and central
+    differences of J."""
+    from redres.linalg import _backend
+
     robot = builtin_robots[name]
     q = robot.random_configuration(rng)
-    D = robot.jacobian_derivatives(q)
+    previous = _backend.set_jit_enabled(jit)
+    try:
+        D = robot.jacobian_derivatives(q)
+    finally:
+        _backend.set_jit_enabled(previous)
     eye = np.eye(robot.n)
     for i in range(robot.n):
         assert np.allclose(D[i], robot.jacobian_dot(q, eye[i]), atol=1e-12)

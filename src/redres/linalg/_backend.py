@@ -120,6 +120,12 @@ def fused_integrate() -> Callable[..., Any] | None:
     return _entry_point("integrate", warm)
 
 
+def fused_jacobian_derivatives() -> Callable[..., Any] | None:
+    """Native entry point of ``_kernels.revolute_jacobian_derivatives`` (``J (6, n)`` and
+    ``out (n, 6, n)``, float64 C order), or None."""
+    return _entry_point("revolute_jacobian_derivatives", (np.zeros((6, 1)), np.zeros((1, 6, 1))))
+
+
 def _entry_point(name: str, warm: tuple[Any, ...]) -> Callable[..., Any] | None:
     """The native entry point of kernel ``name`` for the types of ``warm`` (compiled or
     loaded from the disk cache by one warm-up call), the dispatcher if numba's internals

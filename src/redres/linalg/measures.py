@@ -123,6 +123,12 @@ def manipulability_gradient(J: ArrayLike, dJ_dq: ArrayLike) -> FloatArray:
     if m > n:
         return np.zeros(n)
     U, sigma, Vt = np.linalg.svd(A, full_matrices=False)
-    cof = np.array([np.prod(np.delete(sigma, i)) for i in range(m)])
-    C = (Vt.T * cof) @ U.T  # (n, m)
-    return np.asarray(np.einsum("ba,kab->k", C, D))
+    # cof_i = prod_{j != i} sigma_j from prefix and suffix products (no division: exact
+    # at singular values of zero).
+    before = np.ones(m)
+    after = np.ones(m)
+    before[1:] = np.cumprod(sigma[:-1])
+    after[:-1] = np.cumprod(sigma[:0:-1])[::-1]
+    C = (Vt.T * (before * after)) @ U.T  # (n, m)
+    # trace(C dJ/dq_k) = sum_ab C[b, a] dJ_k[a, b]: one product over the flattened (m, n)
+    return np.ascontiguousarray(D.reshape(n, m * n) @ C.T.reshape(m * n))

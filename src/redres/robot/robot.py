@@ -362,6 +362,11 @@ class Robot:
             eye = np.eye(self.n)
             return np.stack([self.jacobian_dot(qv, eye[i], frame) for i in range(self.n)])
         J = self.jacobian(qv, frame)
+        kernel = _jacobian_derivatives_kernel()
+        if kernel is not None:
+            out = np.empty((self.n, 6, self.n))
+            kernel(np.ascontiguousarray(J), out)
+            return out
         Jv, z = J[:3].T, J[3:].T  # (n, 3) each
         n = self.n
         # cross[i, j] = z_i × Jv_j and zz[i, j] = z_i × z_j for every pair.
@@ -450,6 +455,20 @@ class Robot:
                 f"{name}[{j}] = {q[j]} is outside the limits of joint "
                 f"{self.joint_names[j]!r}: [{self._q_min[j]}, {self._q_max[j]}]"
             )
+
+
+def _jacobian_derivatives_kernel() -> Any:
+    """The compiled ``∂J/∂qᵢ`` kernel (redres.linalg), None without the kernels."""
+    from ..linalg import _backend
+
+    if _backend.kernels() is None:
+        return None
+    if _DERIVATIVES[0] is None:
+        _DERIVATIVES[0] = _backend.fused_jacobian_derivatives()
+    return _DERIVATIVES[0]
+
+
+_DERIVATIVES: list[Any] = [None]
 
 
 def _pairwise_cross(a: FloatArray, b: FloatArray) -> FloatArray:
