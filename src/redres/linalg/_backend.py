@@ -13,7 +13,7 @@ Nakamura & Hanafusa 1986 and Wampler 1986 for ``f = sigma / (sigma^2 + lambda^2)
 * damped: ``f = sigma / (sigma^2 + lambda^2)`` (equals ``J^T (J J^T + lambda^2 I)^-1``);
 * adaptive / selective: the same with ``lambda`` from :class:`AdaptiveDamping`.
 
-For ``m <= 6`` rows and ``n <= 50`` columns the compiled kernels of
+For ``m <= 6`` rows (12 when ``m <= n``) and ``n <= 50`` columns the compiled kernels of
 :mod:`redres.linalg._kernels` compute the same quantities (by a Cholesky solve when the
 matrix is well conditioned); otherwise NumPy's SVD does. Set the environment variable
 ``REDRES_DISABLE_JIT=1`` to always use NumPy.
@@ -42,7 +42,8 @@ from ._info import AdaptiveDamping, InverseInfo
 
 FloatArray = NDArray[np.float64]
 
-FAST_MAX_ROWS = 6
+FAST_MAX_ROWS = 6  # any shape up to this many rows ...
+FAST_MAX_SQUARE_ROWS = 12  # ... and wide or square Jacobians (m <= n) up to this many
 FAST_MAX_COLS = 50
 
 # Zero-size placeholders passed to the kernels for absent arguments (never written to;
@@ -164,10 +165,18 @@ _on_switch: list[Callable[[], None]] = []
 
 
 def use_fast_path(m: int, n: int) -> ModuleType | None:
-    """Kernels if ``m x n`` is small enough for them and they are available."""
-    if m <= FAST_MAX_ROWS and n <= FAST_MAX_COLS and m > 0 and n > 0:
+    """Kernels if ``m x n`` is small enough for them and they are available: up to 6 rows,
+    or up to 12 rows when ``m <= n`` (stacked and augmented Jacobians); at most 50 columns."""
+    if fast_size(m, n):
         return kernels()
     return None
+
+
+def fast_size(m: int, n: int) -> bool:
+    """Whether the kernels cover an ``m x n`` problem (see :func:`use_fast_path`)."""
+    if m <= 0 or n <= 0 or n > FAST_MAX_COLS:
+        return False
+    return m <= FAST_MAX_ROWS or (m <= FAST_MAX_SQUARE_ROWS and m <= n)
 
 
 def parse_damping(damping: float | AdaptiveDamping) -> tuple[int, float, float, float]:

@@ -1,7 +1,7 @@
 """Compiled kernels for the small matrices of robotics (internal).
 
-The public functions of :mod:`redres.linalg` call these for ``m <= 6`` task rows and
-``n <= 50`` joints. This module imports numba, so it is imported lazily (by
+The public functions of :mod:`redres.linalg` call these for ``m <= 6`` task rows (up to 12
+when ``m <= n``) and ``n <= 50`` joints. This module imports numba, so it is imported lazily (by
 :mod:`redres.linalg._backend`) on the first call that needs it: ``import redres`` never pays
 for numba. The kernels are compiled on first use and cached on disk next to this file (or
 in numba's user-wide cache directory); where no cache location is writable, they are

@@ -9,8 +9,8 @@ with ``J#`` the exact, damped, adaptively damped or weighted inverse selected by
 options, ``N`` the projector *of that same inverse*, and diagnostics of the inverse, all
 from one factorisation. ``D(q)`` is a cost to minimise (DESIGN.md convention), so
 ``-k_null grad D`` is a descent direction; a quantity to maximise is passed as its
-negative. For ``m <= 6`` task rows and ``n <= 50`` joints the whole step is one compiled
-kernel call.
+negative. For ``m <= 6`` task rows (12 when ``m <= n``) and ``n <= 50`` joints the whole
+step is one compiled kernel call.
 """
 
 from __future__ import annotations
@@ -143,7 +143,8 @@ def rate_step(
     lane = _lane[0]
     if lane is None:
         lane = _lane[0] = be.fast_step() or False
-    if lane and weights is None and m <= 6 and n <= 50:  # be.FAST_MAX_ROWS, FAST_MAX_COLS
+    # be.fast_size(m, n), inlined (the hot path): up to 6 rows, or 12 when m <= n.
+    if lane and weights is None and (m <= 6 or (m <= 12 and m <= n)) and n <= 50:
         if type(damping) is not AdaptiveDamping:
             qd = _empty(n)
             null = _empty(n) if return_null else _NO_GRAD
