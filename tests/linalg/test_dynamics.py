@@ -142,3 +142,20 @@ def test_large_problems_use_the_reference_path(rng: np.random.Generator) -> None
     M = A @ A.T + 60 * np.eye(60)
     Lam = rl.task_space_inertia(J, M)
     np.testing.assert_allclose(Lam, np.linalg.inv(J @ np.linalg.solve(M, J.T)), rtol=1e-9)
+
+
+@pytest.mark.parametrize("shape", [(8, 9), (12, 12), (10, 20)])
+@pytest.mark.parametrize("damping", [0.0, 0.05])
+def test_stacked_sizes_match_the_reference(shape, damping, rng: np.random.Generator) -> None:
+    """7–12 rows with m <= n also run in the kernel; it agrees with the LAPACK reference."""
+    from redres.linalg.dynamics import _decompose, _decompose_svd
+
+    m, n = shape
+    J = rng.standard_normal(shape)
+    A = rng.standard_normal((n, n))
+    M = A @ A.T + n * np.eye(n)
+    Lam, J_bar, _, stats, _ = _decompose(J, M, damping, 1e-10)
+    Lam_ref, J_bar_ref, _, stats_ref, _ = _decompose_svd(J, M, damping, 1e-10)
+    np.testing.assert_allclose(Lam, Lam_ref, rtol=0, atol=1e-9 * np.abs(Lam_ref).max())
+    np.testing.assert_allclose(J_bar, J_bar_ref, rtol=0, atol=1e-9 * np.abs(J_bar_ref).max())
+    assert stats[0] == stats_ref[0] == m

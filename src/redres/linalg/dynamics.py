@@ -11,9 +11,9 @@ where the null-space torque ``(I - J^T J_bar^T) tau_0`` produces no task acceler
 pseudo-inverse with ``W = M`` (the inverse that minimises kinetic energy), and it is
 computed the same way: ``M = L L^T`` by Cholesky, ``J_bar = L^-T (J L^-T)^+`` and
 ``Lambda = (J L^-T (J L^-T)^T)^+`` from one factorisation of ``J L^-T`` — triangular
-solves only, never an explicit ``M^-1``. For ``m <= 6`` task rows and ``n <= 50`` joints
-this is one compiled kernel call (the weighted inverse's, ``W = M``); larger problems use
-LAPACK's SVD.
+solves only, never an explicit ``M^-1``. For ``m <= 6`` task rows (12 when ``m <= n``)
+and ``n <= 50`` joints this is one compiled kernel call (the weighted inverse's,
+``W = M``); larger problems use LAPACK's SVD.
 
 Near a singularity ``J M^-1 J^T`` loses rank and ``Lambda`` grows without bound. With
 ``damping = lambda`` the functions use ``Lambda_lambda = (J M^-1 J^T + lambda^2 I)^-1``
@@ -75,7 +75,7 @@ def _decompose(
     want_pinv: bool = True,
 ) -> tuple[FloatArray, FloatArray, FloatArray, tuple[int, float, float, float], str]:
     """``(Lambda, J_bar, J, stats, method)``: from the compiled kernel (one factorisation
-    of ``J L^-T``) for ``m <= 6``, ``n <= 50``, else from :func:`_decompose_svd`.
+    of ``J L^-T``) within the kernels' sizes, else from :func:`_decompose_svd`.
     ``J_bar`` is 0 x 0 unless ``want_pinv``."""
     A = be.as_jacobian(J)
     n = A.shape[1]
