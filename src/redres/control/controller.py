@@ -59,6 +59,7 @@ _empty = np.empty
 _contiguous = np.ascontiguousarray
 _LABELS = ("pinv", "damped", "adaptive", "selective")  # by damping mode, as rate_step
 _new_info = tuple.__new__
+_PENDING = object()  # a kernel not loaded yet
 
 
 class FrameCommand(NamedTuple):
@@ -162,14 +163,11 @@ class ClikController:
         self._size = 2 * n + 6
         self._out: FloatArray | None = np.zeros(self._size)
         self._diag: tuple[int, float, float, float, float] = (0, 0.0, 0.0, 0.0, 0.0)
-        self._front: Any = None
-        self._kernel: Any = None
-        self._integrate: Any = None
         self._front = kernel_for(robot, self.frame_id, be.fused_frame_command, "frame_command")
-        if scheme is not None:
-            self._integrate = be.fused_integrate()
-        else:
-            self._kernel = kernel_for(robot, self.frame_id, be.fused_clik_step, "clik_step")
+        # The fused step's kernel is loaded at the first fused step (rr.run, which only
+        # uses command(), never compiles it); None then means the NumPy path.
+        self._kernel: Any = _PENDING if scheme is None and self._front is not None else None
+        self._integrate: Any = be.fused_integrate() if scheme is not None else None
         self._qd = self._e = self._out[:0]
 
     def _check_scheme(self, scheme: Scheme, inverse_given: bool) -> None:
@@ -279,12 +277,13 @@ class ClikController:
         if self._scheme is not None:
             return self._scheme_step(qa)
         kernel = self._kernel
+        if kernel is _PENDING:
+            kernel = self._kernel = kernel_for(
+                self._robot, self.frame_id, be.fused_clik_step, "clik_step"
+            )
         if kernel is None:
             return self._composed_step(qa)
-        placement, J = self._robot.placement_jacobian(qa, self.frame_id)
-        H = placement.homogeneous
-        if not self._has_target:
-            self._hold(qa, H)
+        J, H = self._frame(qa)
         out = _empty(self._size)
         status, rank, smin, smax, used, speed = kernel(J, H, qa, self.rows, self._config, out)
         if status:
@@ -293,11 +292,16 @@ class ClikController:
         self._diag = (rank, smin, smax, used, speed)
         return out[:n]
 
-    def _hold(self, q: FloatArray, H: FloatArray) -> None:
-        """Target the pose ``H`` at ``q`` (first step without a target)."""
-        if not np.all(np.isfinite(q)):
-            raise NonFiniteError("q contains NaN or infinity")
-        self.set_target(H, validate=False)
+    def _frame(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The frame's world-aligned Jacobian and pose at ``q`` (one Pinocchio pass); the
+        pose becomes the target at the first call without one (hold still)."""
+        placement, J = self._robot.placement_jacobian(q, self.frame_id)
+        H = placement.homogeneous
+        if not self._has_target:
+            if not np.all(np.isfinite(q)):
+                raise NonFiniteError("q contains NaN or infinity")
+            self.set_target(H, validate=False)
+        return J, H
 
     def command(self, q: Any) -> FrameCommand:
         """The frame task at ``q`` without resolving it: its Jacobian rows, the command
@@ -321,28 +325,30 @@ class ClikController:
 
     def _command(self, q: FloatArray) -> FrameCommand:
         """:meth:`command` for a checked ``q``: the kernel, or FrameTask without numba."""
-        robot, n, front = self._robot, self._n, self._front
+        n, front = self._n, self._front
         if front is None:
-            if not np.all(np.isfinite(q)):
-                raise NonFiniteError("q contains NaN or infinity")
-            if not self._has_target:
-                self.set_target(robot.fk(q, self.task.frame), validate=False)
-            self.task.set_target(self.target, self._twist.copy(), validate=False)
-            state = self.task.compute(robot, q)
-            xd = state.feedforward + self._gain[self.task.rows] * state.error
-            assert self.task.last_error is not None and self.task.last_pose is not None
-            pose = self.task.last_pose.homogeneous
-            return FrameCommand(state.jacobian, xd, self.task.last_error, pose)
-        placement, J = robot.placement_jacobian(q, self.frame_id)
-        H = placement.homogeneous
-        if not self._has_target:
-            self._hold(q, H)
+            return self._task_command(q)
+        J, H = self._frame(q)
         m = self.rows.shape[0]
         Jm, xd, e = _empty((m, n)), _empty(m), _empty(6)
         status = front(J, H, q, self.rows, self._config, Jm, xd, e)
         if status:
             raise_for_status(status, n)
         return FrameCommand(Jm, xd, e, H)
+
+    def _task_command(self, q: FloatArray) -> FrameCommand:
+        """:meth:`command` through :class:`~redres.tasks.FrameTask` (NumPy and Pinocchio's
+        ``log3``: the path without compiled kernels)."""
+        if not np.all(np.isfinite(q)):
+            raise NonFiniteError("q contains NaN or infinity")
+        task = self.task
+        if not self._has_target:
+            self.set_target(self._robot.fk(q, task.frame), validate=False)
+        task.set_target(self.target, self._twist.copy(), validate=False)
+        state = task.compute(self._robot, q)
+        xd = state.feedforward + self._gain[task.rows] * state.error
+        assert task.last_error is not None and task.last_pose is not None
+        return FrameCommand(state.jacobian, xd, task.last_error, task.last_pose.homogeneous)
 
     def _scheme_step(self, q: FloatArray) -> FloatArray:
         """Task command by the kernel (or FrameTask), joint velocity by the scheme."""
@@ -376,24 +382,17 @@ class ClikController:
 
     def _composed_step(self, q: FloatArray) -> FloatArray:
         """The same step through FrameTask and rate_step (no compiled kernels)."""
-        if not np.all(np.isfinite(q)):
-            raise NonFiniteError("q contains NaN or infinity")
-        task, n = self.task, self.robot.n
-        if not self._has_target:
-            self.set_target(self.robot.fk(q, task.frame), validate=False)
-        task.set_target(self.target, self._twist.copy(), validate=False)
-        state = task.compute(self.robot, q)
-        grad = self._a * q - self._b if self.objectives else None
-        xd = state.feedforward + self._gain[self.task.rows] * state.error
-        qd, info = rate_step(state.jacobian, xd, grad, k_null=self.k_null, **self._rate_kwargs)
-        speed = float(np.max(np.abs(qd) / self.robot.qd_max)) if self.limit_velocity else 0.0
+        n = self._n
+        J, xd, error, _ = self._task_command(q)
+        grad = self._a * q - self._b if self._objectives else None
+        qd, info = rate_step(J, xd, grad, k_null=self._k_null, **self._rate_kwargs)
+        speed = float(np.max(np.abs(qd) / self._robot.qd_max)) if self._limit_velocity else 0.0
         if speed > 1.0:
             qd = qd / speed
         out = np.empty(self._size)
-        out[:n] = q + qd * self.dt
+        out[:n] = q + qd * self._dt
         out[n : 2 * n] = qd
-        assert task.last_error is not None
-        out[2 * n :] = task.last_error
+        out[2 * n :] = error
         self._out = out
         self._diag = (info.rank, info.sigma_min, info.sigma_max, info.damping, speed)
         return out[:n]
