@@ -16,7 +16,8 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from ..errors import InvalidParameterError, NonFiniteError
+from .._validate import as_scalar
+from ..errors import InvalidParameterError
 
 __all__ = ["RCOND", "AdaptiveDamping", "InverseInfo", "adaptive_damping"]
 
@@ -115,14 +116,7 @@ class AdaptiveDamping:
 
     def __post_init__(self) -> None:
         for name in ("max_damping", "threshold"):
-            value = getattr(self, name)
-            try:
-                number = float(value)
-            except (TypeError, ValueError) as exc:
-                raise InvalidParameterError(f"{name} must be a number; got {value!r}") from exc
-            if not math.isfinite(number):
-                raise NonFiniteError(f"{name} must be finite; got {number}")
-            object.__setattr__(self, name, number)
+            object.__setattr__(self, name, as_scalar(getattr(self, name), name))
         if self.max_damping < 0.0:
             raise InvalidParameterError(
                 f"max_damping must be >= 0; got {self.max_damping}. "

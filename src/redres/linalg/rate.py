@@ -15,14 +15,14 @@ step is one compiled kernel call.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import InvalidParameterError, NonFiniteError, ShapeError
+from .._validate import as_scalar
+from ..errors import NonFiniteError, ShapeError
 from . import _backend as be
 from . import _codes as codes
 from ._backend import FloatArray
@@ -200,18 +200,7 @@ def _general_step(
 
 def _scalars(k_null: Any, rcond: Any) -> tuple[float, float]:
     """Validated ``(k_null, rcond)``."""
-    values = []
-    for value, name in ((k_null, "k_null"), (rcond, "rcond")):
-        try:
-            x = float(value)
-        except (TypeError, ValueError) as exc:
-            raise InvalidParameterError(f"{name} must be a number; got {value!r}") from exc
-        if not math.isfinite(x):
-            raise NonFiniteError(f"{name} must be finite; got {x}")
-        values.append(x)
-    if values[1] < 0.0:
-        raise InvalidParameterError(f"rcond must be >= 0; got {values[1]}")
-    return values[0], values[1]
+    return as_scalar(k_null, "k_null"), as_scalar(rcond, "rcond", minimum=0.0)
 
 
 def _raise_for_status(

@@ -42,19 +42,13 @@ def total_gradient(
 ) -> FloatArray:
     """``Σ wᵢ ∇Dᵢ(q)``, checked to have shape ``(n,)`` (a new array)."""
     n = robot.n
-    if len(objectives) == 1:  # the common case, without the accumulator
-        obj, weight = objectives[0]
+    grad: FloatArray | None = None
+    for obj, weight in objectives:
         g = np.asarray(obj.gradient(robot, q), dtype=np.float64)
         if g.shape != (n,):
             raise ShapeError(f"gradient of {obj.name} has shape {g.shape}; expected ({n},)")
-        return weight * g
-    grad = np.zeros(n)
-    for obj, weight in objectives:
-        g = obj.gradient(robot, q)
-        if g.shape != (n,):
-            raise ShapeError(f"gradient of {obj.name} has shape {g.shape}; expected ({n},)")
-        grad += weight * g
-    return grad
+        grad = weight * g if grad is None else grad + weight * g
+    return np.zeros(n) if grad is None else grad
 
 
 class GradientProjectionScheme(Scheme):
