@@ -151,3 +151,15 @@ def random_limit_states(
             xd *= rng.choice([1.0, 1.5, 3.0])
         out.append((q, prev, J, xd))
     return out
+
+
+def step_from_states(
+    scheme: Any, robot: Robot, states: list[tuple[FloatArray, FloatArray, FloatArray, FloatArray]]
+) -> list[Any]:
+    """``scheme.step`` from each ``(q, q̇_prev, J, ẋ)`` of :func:`random_limit_states`, the
+    previous velocity set first (``scheme.qd_prev``); the list of ``StepResult``."""
+    results = []
+    for q, prev, J, xd in states:
+        scheme.qd_prev = prev
+        results.append(scheme.step(robot, q, J, xd))
+    return results

@@ -22,7 +22,7 @@ from redres.resolution.limits import JointLimits, run_violation, step_violation
 from redres.resolution.qp import QPScheme
 from redres.resolution.sns import SNSScheme
 from redres.tasks import PostureTask
-from redres.testing import random_limit_states
+from redres.testing import random_limit_states, step_from_states
 
 DT = 1e-3
 STEPS = 2000  # the full 10,000 run in benchmarks/hard_limits.py
@@ -57,10 +57,7 @@ def panda_steps() -> tuple:
     robot = rr.models.panda()
     states = random_limit_states(robot, np.random.default_rng(11), STEPS)
     scheme = QPScheme(dt=DT)
-    results = []
-    for q, prev, J, xd in states:
-        scheme.qd_prev = prev
-        results.append(scheme.step(robot, q, J, xd))
+    results = step_from_states(scheme, robot, states)
     return robot, JointLimits.from_robot(robot), list(zip(states, results))
 
 

@@ -21,7 +21,7 @@ from redres.objectives import JointLimitObjective
 from redres.resolution import PseudoInverseScheme
 from redres.resolution.limits import JointLimits, run_violation, step_violation
 from redres.resolution.sns import SNSScheme, largest_scale
-from redres.testing import random_limit_states
+from redres.testing import random_limit_states, step_from_states
 
 DT = 1e-3
 STEPS = 10_000
@@ -95,10 +95,7 @@ def panda_steps() -> tuple[rr.Robot, JointLimits, list]:
     robot = rr.models.panda()
     states = random_limit_states(robot, np.random.default_rng(8), STEPS)
     scheme = SNSScheme(dt=DT)
-    results = []
-    for q, prev, J, xd in states:
-        scheme.qd_prev = prev
-        results.append(scheme.step(robot, q, J, xd))
+    results = step_from_states(scheme, robot, states)
     return robot, JointLimits.from_robot(robot), list(zip(states, results))
 
 
