@@ -22,9 +22,8 @@ pointer to the general path.
 With ``scheme=`` (any :class:`~redres.resolution.Scheme`, e.g. the hard-limit
 :class:`~redres.resolution.SNSScheme` and :class:`~redres.resolution.QPScheme`), the
 compiled kernel computes the task error and command only and the scheme's
-:meth:`~redres.resolution.Scheme.resolve` (``velocity`` without the input checks:
-the kernel's arrays are known good) resolves them; the step is then that of :func:`run`
-with that scheme.
+:meth:`~redres.resolution.Scheme.velocity` (without its input checks: the kernel's arrays
+are known good) resolves them; the step is then that of :func:`run` with that scheme.
 
 Without the compiled kernels (numba missing or disabled) the same step runs through
 :class:`~redres.tasks.FrameTask` and :func:`redres.linalg.rate_step` (or the scheme).
@@ -358,7 +357,7 @@ class ClikController:
         if self._front is None:
             qd = scheme.velocity(robot, q, Jm, xd)
         else:
-            qd = scheme.resolve(robot, q, Jm, xd)  # the kernel's own arrays: no re-check
+            qd = scheme._velocity_unchecked(robot, q, Jm, xd)  # kernel arrays: no re-check
         if type(qd) is not _ndarray or qd.dtype != _F64 or not qd.flags.c_contiguous:
             qd = np.ascontiguousarray(qd, dtype=_F64)
         if qd.shape != (n,):

@@ -114,10 +114,13 @@ class Scheme(ABC):
         self._last: StepResult | None = self.step(robot, q, J, xd)
         return self._last.qd
 
-    def resolve(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
+    def _velocity_unchecked(
+        self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray
+    ) -> FloatArray:
         """:meth:`velocity` for arrays already known to be float64, C-contiguous and of
-        matching shapes (``q (n,)``, ``J (m, n)``, ``xd (m,)``), as a compiled loop makes
-        them: the schemes with compiled steps skip the checks. The default calls
+        matching shapes (``q (n,)``, ``J (m, n)``, ``xd (m,)``), as the package's compiled
+        loop (:class:`~redres.control.ClikController`) makes them: the schemes with
+        compiled steps skip the checks. Internal (unchecked input); the default calls
         :meth:`velocity`."""
         return self.velocity(robot, q, J, xd)
 

@@ -198,7 +198,9 @@ class QPScheme(BoxScheme):
                                   sense=self._sense[:n])  # fmt: skip
         self._ws, self._robot = ws, robot
 
-    def resolve(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
+    def _velocity_unchecked(
+        self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray
+    ) -> FloatArray:
         ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, gram = ws.outputs()
         err, relaxed, full, inside = self._begin(

@@ -852,7 +852,7 @@ class Workspace:
 class BoxScheme(Scheme):
     """What the hard-limit schemes share (internal): the velocity box of their limits, the
     previous joint velocity it is built from, checked :meth:`step` / :meth:`velocity`
-    around their compiled :meth:`resolve`, and a :class:`StepResult` built on demand."""
+    around their compiled ``_velocity_unchecked``, and a :class:`StepResult` built on demand."""
 
     hard_limits = True
 
@@ -881,7 +881,7 @@ class BoxScheme(Scheme):
 
     def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
         q, J, xd = step_arrays(q, J, xd, robot.n)
-        return self.resolve(robot, q, J, xd)
+        return self._velocity_unchecked(robot, q, J, xd)
 
     def last_result(self) -> StepResult:
         if self._last is None:
@@ -891,12 +891,12 @@ class BoxScheme(Scheme):
         return self._last
 
     def _result(self, raw: Any) -> StepResult:
-        """The :class:`StepResult` from what :meth:`resolve` kept (``_keep``)."""
+        """The :class:`StepResult` from what ``_velocity_unchecked`` kept (``_keep``)."""
         raise NotImplementedError  # pragma: no cover - each scheme builds its own
 
     def _keep(self, out: FloatArray, raw: tuple[Any, ...]) -> FloatArray:
-        """End of :meth:`resolve`: remember ``q̇ = out[0]`` for the next box and what the
-        result will be built from; return ``q̇`` (the caller's)."""
+        """End of ``_velocity_unchecked``: remember ``q̇ = out[0]`` for the next box and
+        what the result will be built from; return ``q̇`` (the caller's)."""
         self.qd_prev = out[0].copy()  # the scheme's own copy
         self._raw, self._last = raw, None
         return out[0]
@@ -959,7 +959,9 @@ class SNSScheme(BoxScheme):
         self._kernel = fast_entry(kernels()["_scheme_step"], args)
         self._ws, self._robot = ws, robot
 
-    def resolve(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
+    def _velocity_unchecked(
+        self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray
+    ) -> FloatArray:
         ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, gram = ws.outputs()
         status, s, relaxed, active = self._kernel(
