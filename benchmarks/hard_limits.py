@@ -69,15 +69,15 @@ def random_steps(robot: rr.Robot) -> None:
         worst, residual, scale_err, mismatch = 0.0, 0.0, 0.0, 0
         paths: dict[str, list[float]] = {}
         for (q, prev, J, xd), (r, elapsed) in zip(states, runs):
-            path = r.extra.get("method", "exact" if r.extra["feasible"] else "least violating")
+            path = getattr(r.details, "method", "exact" if r.feasible else "least violating")
             paths.setdefault(path, []).append(elapsed)
             worst = max(worst, step_violation(lim, q, r.qd, prev, DT).worst)
-            s_ref = highs_scale(J, xd, *r.extra["bounds"])
-            mismatch += (s_ref is not None and s_ref >= 1.0 - 1e-9) != r.extra["feasible"]
-            if r.extra["feasible"]:
+            s_ref = highs_scale(J, xd, *r.details.bounds)
+            mismatch += (s_ref is not None and s_ref >= 1.0 - 1e-9) != r.feasible
+            if r.feasible:
                 residual = max(residual, float(np.linalg.norm(J @ r.qd - xd)))
             if isinstance(scheme, SNSScheme) and s_ref is not None:
-                scale_err = max(scale_err, abs(r.extra["scale"] - s_ref))
+                scale_err = max(scale_err, abs(r.details.scale - s_ref))
         every = [t for _, t in runs]
         timing = ", ".join(f"{p} {len(t)} × {np.median(t):.1f}" for p, t in paths.items())
         sns = isinstance(scheme, SNSScheme)

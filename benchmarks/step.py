@@ -204,7 +204,7 @@ def report(hard: dict[str, Callable[[], object]], times: dict[str, np.ndarray]) 
             for peer in peers
             if peer in times
         ]
-        path = "exact" if last.extra["feasible"] else "least violating / scaled"
+        path = "exact" if last.feasible else "least violating / scaled"
         print(f"{name}: path {path}; {', '.join(ratios) or 'no QP peers installed'}")
 
 

@@ -61,12 +61,12 @@ def main() -> None:
     qp_step = QPScheme(dt=DT).step(robot, q, J, xd)
     sns_step = SNSScheme(dt=DT).step(robot, q, J, xd)
     print("\n1 m/s along x from rest (the acceleration limits allow a few mm/s in 1 ms):")
-    print(f"  qp : feasible={qp_step.extra['feasible']}, residual "
-          f"{qp_step.extra['residual']:.3f} m/s, binding {len(qp_step.extra['binding'])} "
-          f"bounds, e.g. {qp_step.extra['binding'][0]}")  # fmt: skip
+    print(f"  qp : feasible={qp_step.feasible}, residual "
+          f"{qp_step.details.residual:.3f} m/s, binding {len(qp_step.binding)} "
+          f"bounds, e.g. {qp_step.binding[0]}")  # fmt: skip
     print(
-        f"  sns: same direction, scaled by {sns_step.extra['scale']:.4f} "
-        f"(J q̇ = s ẋ to {np.abs(J @ sns_step.qd - sns_step.extra['scale'] * xd).max():.1e})"
+        f"  sns: same direction, scaled by {sns_step.details.scale:.4f} "
+        f"(J q̇ = s ẋ to {np.abs(J @ sns_step.qd - sns_step.details.scale * xd).max():.1e})"
     )
 
 

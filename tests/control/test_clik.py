@@ -79,7 +79,7 @@ def test_a_scheme_returning_nan_stops_the_run_with_the_step() -> None:
     class Broken(Scheme):
         name = "broken"
 
-        def step(self, robot, q, J, xd):  # type: ignore[no-untyped-def]
+        def _step(self, robot, q, J, xd):  # type: ignore[no-untyped-def]
             qd = np.zeros(robot.n)
             if self.calls == 3:
                 qd[0] = np.nan

@@ -19,7 +19,7 @@ from redres.control import ClikController
 from redres.errors import InvalidParameterError, NonFiniteError, ShapeError
 from redres.linalg import _backend
 from redres.objectives import JointLimitObjective, ManipulabilityObjective, PostureObjective
-from redres.resolution import GradientProjectionScheme, PseudoInverseScheme
+from redres.resolution import GradientProjectionScheme, PseudoInverseScheme, StepResult
 from redres.resolution.gradient_projection import total_gradient, weighted_objectives
 from redres.tasks import FrameTask
 
@@ -337,7 +337,7 @@ def test_scheme_arguments_are_checked() -> None:
         ClikController(robot, scheme="sns")  # type: ignore[arg-type]
     with pytest.raises(InvalidParameterError, match="scheme="):
         ClikController(robot).last_result()
-    with pytest.raises(InvalidParameterError, match="no velocity"):
+    with pytest.raises(InvalidParameterError, match="after a step"):
         ClikController(robot, scheme=sns).last_result()
 
 
@@ -353,8 +353,9 @@ def test_settings_are_read_only_and_fixed_at_construction() -> None:
 class _WrongSize(rr.resolution.PseudoInverseScheme):
     """A scheme that returns a joint velocity of the wrong length."""
 
-    def velocity(self, robot: Any, q: Any, J: Any, xd: Any) -> np.ndarray:
-        return np.zeros(3)
+    def _step(self, robot: Any, q: Any, J: Any, xd: Any) -> StepResult:
+        result = super()._step(robot, q, J, xd)
+        return StepResult(np.zeros(3), result.info, np.zeros(3))
 
 
 def test_a_scheme_returning_a_wrong_velocity_is_caught() -> None:

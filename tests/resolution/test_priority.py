@@ -341,11 +341,11 @@ def test_scheme_step_reports_levels(builtin_robots: dict, rng: np.random.Generat
     assert scheme.name == "priority"
     J, xd = robot.jacobian(q)[:3], rng.normal(size=3) * 0.1
     result = scheme.step(robot, q, J, xd)
-    levels = result.extra["levels"]
+    levels = result.details.levels
     assert [info.level for info in levels] == [1, 2, 3]
     assert np.allclose(J @ result.qd, xd, atol=1e-12)
     assert np.linalg.norm(J @ result.null_term) < 1e-12 and np.linalg.norm(result.null_term) > 0
-    assert result.info.rank == 3 and not result.extra["algorithmic_singularity"]
+    assert result.info.rank == 3 and not result.algorithmic_singularity
     Js = [J, robot.jacobian(q, "elbow")[2:3], np.eye(7)]
     xs = [xd, 5.0 * elbow.compute(robot, q).error, robot.neutral() - q]
     assert np.allclose(result.qd, oracle_exact(Js, xs), atol=1e-10)

@@ -71,13 +71,13 @@ def test_feasible_tasks_are_executed_exactly_and_only_those(panda_steps: tuple) 
     _, _, steps = panda_steps
     exact = 0
     for (_, _, J, xd), r in steps:
-        lo, hi = r.extra["bounds"]
-        assert r.extra["feasible"] == task_feasible(J, xd, lo, hi)
-        if r.extra["feasible"]:
+        lo, hi = r.details.bounds
+        assert r.feasible == task_feasible(J, xd, lo, hi)
+        if r.feasible:
             exact += 1
             assert np.linalg.norm(J @ r.qd - xd) <= 1e-9 * (1 + np.linalg.norm(xd))
         else:
-            assert r.extra["binding"]  # an infeasible answer always names its bounds
+            assert r.binding  # an infeasible answer always names its bounds
     assert 200 <= exact <= STEPS - 200  # both cases really exercised
 
 
@@ -87,8 +87,8 @@ def test_both_qps_are_optimal(panda_steps: tuple) -> None:
     _, _, steps = panda_steps
     lam2 = 1e-6
     for (_, _, J, xd), r in steps:
-        lo, hi = r.extra["bounds"]
-        if r.extra["feasible"]:
+        lo, hi = r.details.bounds
+        if r.feasible:
             assert kkt_residual(r.qd, r.qd, lo, hi, J) <= 1e-8
         else:
             grad = J.T @ (J @ r.qd - xd) + lam2 * r.qd
@@ -104,8 +104,8 @@ def test_proxqp_backend_agrees(panda_steps: tuple) -> None:
     for (q, prev, J, xd), r in steps[:60]:
         scheme.qd_prev = prev
         other = scheme.step(robot, q, J, xd)
-        assert other.extra["feasible"] == r.extra["feasible"]
-        if r.extra["feasible"]:
+        assert other.feasible == r.feasible
+        if r.feasible:
             assert np.linalg.norm(r.qd) <= np.linalg.norm(other.qd) * (1 + 1e-6)
         else:
             mine, theirs = (np.sum((J @ x - xd) ** 2) + 1e-6 * np.sum(x**2)
@@ -132,7 +132,7 @@ def test_without_active_bounds_it_is_gradient_projection(rng: np.random.Generato
         xd = rng.normal(size=6) * 0.02
         Jp = np.linalg.pinv(J)
         r = plain.step(robot, q, J, xd)
-        assert r.extra["feasible"] and np.allclose(r.qd, Jp @ xd, atol=1e-10)
+        assert r.feasible and np.allclose(r.qd, Jp @ xd, atol=1e-10)
         r = secondary.step(robot, q, J, xd)
         expected = Jp @ xd - 2.0 * (np.eye(7) - Jp @ J) @ objective.gradient(robot, q)
         assert np.allclose(r.qd, expected, atol=1e-10)
@@ -159,7 +159,7 @@ def test_levels_are_a_sequence_of_qps(rng: np.random.Generator) -> None:
         expected = Jp @ xd + np.linalg.pinv(N) @ (x2 - Jp @ xd)  # J2 = I
         if np.all(np.abs(expected) < 1.0):  # no bound active
             assert np.allclose(r.qd, expected, atol=1e-5)
-            assert r.extra["level_residuals"][1] == pytest.approx(
+            assert r.details.level_residuals[1] == pytest.approx(
                 np.linalg.norm(expected - x2), rel=1e-4
             )
 
@@ -170,8 +170,8 @@ def test_infeasible_step_is_reported_not_raised() -> None:
     J = robot.jacobian(q)
     scheme = QPScheme(dt=DT)
     r = scheme.step(robot, q, J, np.array([1.0, 0, 0, 0, 0, 0]))  # from rest: impossible
-    assert not r.extra["feasible"] and r.extra["residual"] > 0.5
-    kinds = {b.kind for b in r.extra["binding"]}
+    assert not r.feasible and r.details.residual > 0.5
+    kinds = {b.kind for b in r.binding}
     assert kinds == {"acceleration"}
     assert np.all(np.abs(r.qd) <= robot.qdd_max * DT + 1e-15)
 
@@ -182,10 +182,10 @@ def test_singular_jacobian_gives_finite_bounded_output() -> None:
     J = robot.jacobian(q)[[0, 1, 5]]
     scheme = QPScheme(dt=DT, qd_max=1.0, qdd_max=50.0)
     r = scheme.step(robot, q, J, np.array([0.3, 0.0, 0.0]))
-    assert np.all(np.isfinite(r.qd)) and not r.extra["feasible"]
+    assert np.all(np.isfinite(r.qd)) and not r.feasible
     assert r.info.rank == 2 and not r.info.full_rank
     assert step_violation(scheme.limits(robot), q, r.qd, None, DT).worst == 0.0
-    assert r.extra["residual"] == pytest.approx(0.3, rel=1e-3)  # nothing moves along x
+    assert r.details.residual == pytest.approx(0.3, rel=1e-3)  # nothing moves along x
 
 
 def test_task_weights_shift_the_least_violating_answer() -> None:
@@ -284,21 +284,18 @@ def test_a_failed_resize_leaves_the_scheme_usable(rng: np.random.Generator) -> N
         np.testing.assert_array_equal(a.qd, b.qd)
 
 
-def test_velocity_checks_its_inputs_like_step(rng: np.random.Generator) -> None:
+def test_step_checks_its_inputs(rng: np.random.Generator) -> None:
     robot = rr.models.panda()
     q = robot.random_configuration(rng, margin=0.3)
     J, xd = robot.jacobian(q), rng.uniform(-0.1, 0.1, 6)
     for make in (QPScheme, SNSScheme):
         a, b = make(dt=DT), make(dt=DT)
-        qd = a.velocity(robot, q, np.asfortranarray(J), xd.tolist())
+        qd = a.step(robot, q, np.asfortranarray(J), xd.tolist()).qd
         np.testing.assert_allclose(qd, b.step(robot, q, J, xd).qd, rtol=0, atol=1e-15)
         qd[:] = 99.0  # the caller's array: the scheme's state is its own copy
         assert np.all(np.abs(a.qd_prev) < 99.0)
         with pytest.raises(rr.errors.ShapeError):
-            a.velocity(robot, q, J[:, :5], xd)
-        a.reset()
-        with pytest.raises(InvalidParameterError, match="no velocity"):
-            a.last_result()
+            a.step(robot, q, J[:, :5], xd)
 
 
 def test_unknown_daqp_settings_are_refused() -> None:

@@ -71,7 +71,7 @@ def test_weighted_least_norm_solves_its_optimisation(rng: np.random.Generator) -
     scheme.step(robot, q, J, xd)  # remembers |h|
     q2 = q + 0.01 * np.sign(q - (robot.q_min + robot.q_max) / 2)  # every joint moves outward
     res = scheme.step(robot, q2, J, xd)
-    w = res.extra["weights"]
+    w = res.details.weights
     assert np.all(w > 1.0)
     assert np.allclose(J @ res.qd, xd, atol=1e-10)
     lam = np.linalg.lstsq(J.T, w * res.qd, rcond=None)[0]
@@ -109,11 +109,11 @@ def test_augmented_jacobian_tracks_task_and_arm_angle(rng: np.random.Generator) 
     scheme = AugmentedJacobianScheme(gain=0.0)
     q, J, xd = random_state(robot, rng)
     res = scheme.step(robot, q, J, xd)
-    arm = scheme.extra_tasks[0]
+    arm = scheme.tasks[0]
     _, row = arm.evaluate(robot, q)  # type: ignore[attr-defined]
     assert np.allclose(J @ res.qd, xd, atol=1e-10)
     assert abs(row @ res.qd) < 1e-10  # the arm angle is held
-    assert not res.extra["algorithmic_singularity"]
+    assert not res.algorithmic_singularity
 
 
 def test_augmented_jacobian_reports_an_algorithmic_singularity() -> None:
@@ -130,9 +130,9 @@ def test_augmented_jacobian_reports_an_algorithmic_singularity() -> None:
     q_near[1] += 1e-4  # just off the singular configuration
     xd = np.array([0.0, 0.05, 0.0, 0.0, 0.0, 0.0])  # sideways: turns the reference plane
     res = AugmentedJacobianScheme().step(robot, q_near, robot.jacobian(q_near), xd)
-    assert res.extra["algorithmic_singularity"]
+    assert res.algorithmic_singularity
     assert np.all(np.isfinite(res.qd)) and np.linalg.norm(res.qd) < 20.0
-    task = AugmentedJacobianScheme().extra_tasks[0]
+    task = AugmentedJacobianScheme().tasks[0]
     _, row = task.evaluate(robot, q_near)  # type: ignore[attr-defined]
     J_ext = np.vstack([robot.jacobian(q_near), row])
     exact = np.linalg.solve(J_ext, np.append(xd, 0.0))

@@ -109,9 +109,9 @@ def test_feasible_tasks_are_executed_exactly(panda_steps: tuple) -> None:
     _, _, steps = panda_steps
     count = 0
     for (_, _, J, xd), r in steps:
-        if r.extra["feasible"]:
+        if r.feasible:
             count += 1
-            assert r.extra["scale"] == 1.0
+            assert r.details.scale == 1.0
             assert np.linalg.norm(J @ r.qd - xd) <= 1e-9 * (1 + np.linalg.norm(xd))
     assert count >= 1000  # the sample really exercises the feasible case
 
@@ -123,11 +123,11 @@ def test_infeasible_tasks_keep_their_direction_at_the_largest_scale(panda_steps:
     _, _, steps = panda_steps
     methods: dict[str, int] = {}
     for (_, _, J, xd), r in steps:
-        method = r.extra["method"]
+        method = r.details.method
         methods[method] = methods.get(method, 0) + 1
-        lo, hi = r.extra["bounds"]
+        lo, hi = r.details.bounds
         gap, line, vertex = scale_oracle(J, xd, lo, hi)
-        s = r.extra["scale"]
+        s = r.details.scale
         if method == "nearest":
             assert line is None and vertex is None
             continue
@@ -178,7 +178,7 @@ def test_without_active_bounds_sns_is_the_pseudo_inverse(rng: np.random.Generato
         xd = rng.normal(size=6) * 0.02
         scheme.reset()
         r = scheme.step(robot, q, J, xd)
-        assert r.extra["method"] == "sns" and r.extra["binding"] == []
+        assert r.details.method == "sns" and not r.binding
         assert np.allclose(r.qd, np.linalg.pinv(J) @ xd, atol=1e-12)
         assert np.allclose(r.null_term, 0.0, atol=1e-12)
         s = np.linalg.svd(J, compute_uv=False)
@@ -198,7 +198,7 @@ def test_with_objectives_and_no_active_bound_it_is_gradient_projection(
         r = scheme.step(robot, q, J, xd)
         Jp = np.linalg.pinv(J)
         expected = Jp @ xd - 2.0 * (np.eye(7) - Jp @ J) @ objective.gradient(robot, q)
-        assert r.extra["method"] == "sns"
+        assert r.details.method == "sns"
         assert np.allclose(r.qd, expected, atol=1e-10)
         assert np.allclose(r.null_term, r.qd - Jp @ (J @ r.qd), atol=1e-12)
 
@@ -219,9 +219,9 @@ def test_saturated_joint_sits_on_its_bound_and_the_task_is_still_met(
     assert (np.linalg.pinv(J) @ xd)[4] > 1e-3  # the minimum-norm solution crosses the limit
     scheme = SNSScheme(dt=DT, qdd_max=np.inf)
     r = scheme.step(robot, q, J, xd)
-    assert r.extra["feasible"] and np.allclose(J @ r.qd, xd, atol=1e-12)
+    assert r.feasible and np.allclose(J @ r.qd, xd, atol=1e-12)
     assert r.qd[4] == pytest.approx(1e-3, rel=1e-9)  # 1 µrad in one 1 ms step
-    assert (4, "upper", "position") in [b[:3] for b in r.extra["binding"]]
+    assert (4, "upper", "position") in [b[:3] for b in r.binding]
 
 
 def test_state_and_reset() -> None:
@@ -233,7 +233,7 @@ def test_state_and_reset() -> None:
     assert np.all(np.abs(first.qd) <= robot.qdd_max * DT + 1e-15)  # from rest
     second = scheme.step(robot, q, J, xd)
     assert np.all(np.abs(second.qd - first.qd) <= robot.qdd_max * DT + 1e-12)
-    assert second.extra["scale"] > first.extra["scale"]  # accelerating toward the task
+    assert second.details.scale > first.details.scale  # accelerating toward the task
     scheme.reset()
     assert scheme.qd_prev is None
     assert np.allclose(scheme.step(robot, q, J, xd).qd, first.qd, atol=1e-15)
@@ -245,7 +245,7 @@ def test_singular_jacobian_gives_finite_bounded_output() -> None:
     J = robot.jacobian(q)[[0, 1, 5]]
     scheme = SNSScheme(dt=DT, qd_max=1.0, qdd_max=50.0)
     r = scheme.step(robot, q, J, np.array([0.3, 0.0, 0.0]))
-    assert np.all(np.isfinite(r.qd)) and r.extra["scale"] == 0.0
+    assert np.all(np.isfinite(r.qd)) and r.details.scale == 0.0
     assert r.info.rank == 2 and not r.info.full_rank
     assert step_violation(scheme.limits(robot), q, r.qd, None, DT).worst == 0.0
 

@@ -146,7 +146,7 @@ def run(
             inv_sigma[k] = result.info.sigma_min
             damping[k] = result.info.damping
             rank[k] = result.info.rank
-            algorithmic[k] = bool(result.extra.get("algorithmic_singularity", False))
+            algorithmic[k] = result.algorithmic_singularity
             if front is not None:
                 pos_err[k] = math.sqrt(float(frame_error[:3] @ frame_error[:3]))
                 rot_err[k] = math.sqrt(float(frame_error[3:] @ frame_error[3:]))

@@ -22,8 +22,9 @@ pointer to the general path.
 With ``scheme=`` (any :class:`~redres.resolution.Scheme`, e.g. the hard-limit
 :class:`~redres.resolution.SNSScheme` and :class:`~redres.resolution.QPScheme`), the
 compiled kernel computes the task error and command only and the scheme's
-:meth:`~redres.resolution.Scheme.velocity` (without its input checks: the kernel's arrays
-are known good) resolves them; the step is then that of :func:`run` with that scheme.
+:meth:`~redres.resolution.Scheme._step` (without the input checks of ``step``: the
+kernel's arrays are known good) resolves them; the step is then that of :func:`run` with
+that scheme.
 
 Without the compiled kernels (numba missing or disabled) the same step runs through
 :class:`~redres.tasks.FrameTask` and :func:`redres.linalg.rate_step` (or the scheme).
@@ -168,6 +169,7 @@ class ClikController:
         self._kernel: Any = _PENDING if scheme is None and self._front is not None else None
         self._integrate: Any = be.fused_integrate() if scheme is not None else None
         self._qd = self._e = self._out[:0]
+        self._result: StepResult | None = None
 
     def _check_scheme(self, scheme: Scheme, inverse_given: bool) -> None:
         if not isinstance(scheme, Scheme):
@@ -355,9 +357,11 @@ class ClikController:
         assert scheme is not None
         Jm, xd, e, _ = self._command(q)
         if self._front is None:
-            qd = scheme.velocity(robot, q, Jm, xd)
-        else:
-            qd = scheme._velocity_unchecked(robot, q, Jm, xd)  # kernel arrays: no re-check
+            result = scheme.step(robot, q, Jm, xd)
+        else:  # the kernel's own arrays: no re-check
+            result = scheme._step(robot, q, Jm, xd)
+        self._result = result
+        qd = result.qd
         if type(qd) is not _ndarray or qd.dtype != _F64 or not qd.flags.c_contiguous:
             qd = np.ascontiguousarray(qd, dtype=_F64)
         if qd.shape != (n,):
@@ -428,7 +432,7 @@ class ClikController:
     def info(self) -> InverseInfo:
         """Diagnostics of the inverse at the last step (rank, σ_min, σ_max, damping)."""
         if self.scheme is not None:
-            return self.scheme.last_result().info
+            return self.last_result().info
         rank, smin, smax, used, _ = self._diag
         full = rank == min(len(self.rows), self.robot.n)
         return _new_info(InverseInfo, (rank, full, smin, smax, used, _LABELS[self._mode]))
@@ -436,9 +440,12 @@ class ClikController:
     def last_result(self) -> StepResult:
         """The scheme's full :class:`~redres.resolution.StepResult` of the last step (only
         with ``scheme=``; the fused step has :attr:`qd` and :attr:`info`)."""
-        if self.scheme is None:
-            raise InvalidParameterError("last_result() needs a controller built with scheme=")
-        return self.scheme.last_result()
+        result = self._result
+        if result is None:
+            raise InvalidParameterError(
+                "last_result() needs a controller built with scheme=, after a step"
+            )
+        return result
 
     def __repr__(self) -> str:
         return (

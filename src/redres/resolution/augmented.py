@@ -11,6 +11,7 @@ the inverse away from singularities.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -25,6 +26,18 @@ if TYPE_CHECKING:
     from ..robot import Robot
 
 
+@dataclass(frozen=True)
+class AugmentedDetails:
+    """What an augmented-Jacobian step adds to its :class:`StepResult`.
+
+    Attributes:
+        extra_error: the errors of the extra tasks, shape ``(n - m,)`` (rad for the arm
+            angle).
+    """
+
+    extra_error: FloatArray
+
+
 class AugmentedJacobianScheme(Scheme):
     """Square the task with extra rows (default: hold the arm angle) and invert it.
 
@@ -35,8 +48,9 @@ class AugmentedJacobianScheme(Scheme):
         threshold: smallest singular value of ``J_ext`` below which damping starts.
         max_damping: damping at the singularity.
 
-    Identifier ``augmented``. ``extra["algorithmic_singularity"]`` is true on steps where
-    ``J_ext`` is near-singular while ``J`` alone is not.
+    Identifier ``augmented``. ``StepResult.algorithmic_singularity`` is true on steps where
+    ``J_ext`` is near-singular while ``J`` alone is not; the extra tasks are the scheme's
+    :attr:`tasks`.
     """
 
     name = "augmented"
@@ -48,19 +62,13 @@ class AugmentedJacobianScheme(Scheme):
         threshold: float = 0.02,
         max_damping: float = 0.05,
     ) -> None:
-        self.extra_tasks = list(extra_tasks) if extra_tasks is not None else [ArmAngleTask()]
+        self.tasks = tuple(extra_tasks) if extra_tasks is not None else (ArmAngleTask(),)
         self.gain = as_scalar(gain, "gain", minimum=0.0)
         self.threshold = as_scalar(threshold, "threshold", minimum=0.0, strict=True)
         self._damping = AdaptiveDamping(max_damping, self.threshold)
-        self._initial_targets = [getattr(t, "target", None) for t in self.extra_tasks]
 
-    def reset(self) -> None:
-        for task, target in zip(self.extra_tasks, self._initial_targets):
-            if isinstance(task, ArmAngleTask):
-                task.target = target
-
-    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        states = [task.compute(robot, q) for task in self.extra_tasks]
+    def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+        states = [task.compute(robot, q) for task in self.tasks]
         rows = J.shape[0] + sum(s.jacobian.shape[0] for s in states)
         if rows != robot.n:
             raise ShapeError(
@@ -72,8 +80,7 @@ class AugmentedJacobianScheme(Scheme):
         qd, info = rate_step(J_ext, x_ext, damping=self._damping)
         # Classify only near a singularity (one extra SVD there, none elsewhere).
         algorithmic = bool(info.sigma_min < self.threshold and sigma_min(J) >= self.threshold)
-        extra = {
-            "algorithmic_singularity": algorithmic,
-            "extra_error": np.concatenate([s.error for s in states]),
-        }
-        return StepResult(qd, info, np.zeros_like(qd), extra)
+        details = AugmentedDetails(np.concatenate([s.error for s in states]))
+        return StepResult(
+            qd, info, np.zeros_like(qd), algorithmic_singularity=algorithmic, details=details
+        )

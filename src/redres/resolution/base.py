@@ -4,39 +4,76 @@ velocity and diagnostics out."""
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
 from .._validate import FloatArray, as_scalar
-from ..errors import InvalidParameterError
+from ..errors import InvalidParameterError, ShapeError
 from ..linalg import AdaptiveDamping, InverseInfo
 
 if TYPE_CHECKING:
+    from ..objectives import Objective
     from ..robot import Robot
+    from ..tasks import Task
 
 InverseKind = Literal["exact", "svd", "damped", "adaptive"]
 INVERSES: tuple[str, ...] = ("exact", "svd", "damped", "adaptive")
 
 
-@dataclass(frozen=True)
 class StepResult:
     """What a scheme returns for one control step.
 
     Attributes:
         qd: joint velocity, shape ``(n,)``, rad/s.
         info: diagnostics of the inverse used (``rank``, ``sigma_min``, ``sigma_max``,
-            ``damping``, ``method``), from :mod:`redres.linalg`.
+            ``damping``, ``method``), from :mod:`redres.linalg`; the hard-limit schemes
+            compute it on first read.
         null_term: the secondary (null-space) part of ``qd``, shape ``(n,)`` (zeros when
             the scheme has none).
-        extra: scheme-specific diagnostics (joint weights, algorithmic singularity, ...).
+        feasible: whether the task is met exactly within the scheme's constraints (always
+            true for schemes without hard limits).
+        algorithmic_singularity: whether an added task row (augmented Jacobian, priority
+            level) became dependent on the task while the task alone is not singular.
+        binding: the joint-velocity bounds ``qd`` sits on
+            (:class:`~redres.resolution.hard_limits.Binding`; empty without hard limits).
+        details: the scheme's own typed diagnostics (e.g. :class:`SNSDetails`), or None.
     """
 
-    qd: FloatArray
-    info: InverseInfo
-    null_term: FloatArray
-    extra: dict[str, Any] = field(default_factory=dict)
+    __slots__ = ("_info", "algorithmic_singularity", "binding", "details", "feasible", "null_term",
+                 "qd")  # fmt: skip
+
+    def __init__(
+        self,
+        qd: FloatArray,
+        info: InverseInfo | Callable[[], InverseInfo],
+        null_term: FloatArray,
+        *,
+        feasible: bool = True,
+        algorithmic_singularity: bool = False,
+        binding: Sequence[Any] = (),
+        details: Any = None,
+    ) -> None:
+        self.qd, self._info, self.null_term = qd, info, null_term
+        self.feasible, self.algorithmic_singularity = feasible, algorithmic_singularity
+        self.binding, self.details = binding, details
+
+    @property
+    def info(self) -> InverseInfo:
+        """Diagnostics of the inverse (computed on first read where that is costly)."""
+        info = self._info
+        if not isinstance(info, InverseInfo):
+            info = self._info = info()
+        return info
+
+    def __repr__(self) -> str:
+        return (
+            f"StepResult(qd={self.qd!r}, feasible={self.feasible}, "
+            f"algorithmic_singularity={self.algorithmic_singularity}, "
+            f"binding={list(self.binding)!r}, details={self.details!r})"
+        )
 
 
 @dataclass(frozen=True)
@@ -91,7 +128,14 @@ class Scheme(ABC):
     """A redundancy-resolution scheme: ``step(robot, q, J, xd) -> StepResult``.
 
     ``J`` (``m x n``) and ``xd`` (``m``, the closed-loop task velocity ``ẋ_d + K e``) come
-    from the primary task; the scheme adds what it resolves the redundancy with.
+    from the primary task; the scheme adds what it resolves the redundancy with: its
+    :attr:`objectives` (secondary costs) and :attr:`tasks` (tasks it evaluates itself, such
+    as priority levels or the augmented Jacobian's extra rows).
+
+    :meth:`step` checks its inputs once and calls the scheme's own :meth:`_step`, which a
+    subclass implements for arrays known to be good. The controller
+    (:class:`~redres.control.Controller`) calls :meth:`_step` directly on the arrays it
+    builds itself; that is the one lean path.
     """
 
     #: Stable identifier (``pinv``, ``dls``, ``gradient_projection``, ``wln``, ...).
@@ -99,45 +143,68 @@ class Scheme(ABC):
     #: Whether every ``q̇`` already respects the joint position, velocity and
     #: acceleration limits (the hard-limit schemes), so a loop need not scale it.
     hard_limits: bool = False
+    #: The control period the scheme plans over, s (hard-limit schemes), else None: a loop
+    #: must run at this period.
+    dt: float | None = None
+    #: Weighted secondary costs ``(objective, weight)`` the scheme descends (empty: none).
+    objectives: tuple[tuple[Objective, float], ...] = ()
+    #: Tasks the scheme evaluates itself at ``q`` (empty: none); reset with the scheme.
+    tasks: tuple[Task, ...] = ()
+
+    def step(self, robot: Robot, q: Any, J: Any, xd: Any) -> StepResult:
+        """Joint velocity for task Jacobian ``J`` and task velocity ``xd`` at ``q``.
+
+        Args:
+            robot: the robot.
+            q: joint positions, shape ``(n,)``, rad.
+            J: task Jacobian, shape ``(m, n)``.
+            xd: task velocity, shape ``(m,)`` (m/s, rad/s).
+
+        Raises:
+            ShapeError: the shapes do not match ``robot.n`` and each other.
+            NonFiniteError: an input contains NaN or infinity.
+        """
+        q, J, xd = step_arrays(q, J, xd, robot.n)
+        return self._step(robot, q, J, xd)
 
     @abstractmethod
-    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        """Joint velocity for task Jacobian ``J`` and task velocity ``xd`` at ``q``."""
+    def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+        """:meth:`step` for float64 C-contiguous ``q (n,)``, ``J (m, n)``, ``xd (m,)``."""
 
-    def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
-        """Hot-path form of :meth:`step`: the joint velocity only (inputs checked alike).
+    def reset(self) -> None:
+        """Forget any state kept between steps (called at the start of a run), the
+        scheme's own (:meth:`_reset`) and that of its :attr:`tasks`."""
+        for task in self.tasks:
+            task.reset()
+        self._reset()
 
-        :meth:`last_result` gives the full :class:`StepResult` of the call. Schemes with a
-        compiled step override this to skip building the result objects until asked; the
-        default calls :meth:`step`. The returned array belongs to the caller.
-        """
-        self._last: StepResult | None = self.step(robot, q, J, xd)
-        return self._last.qd
-
-    def _velocity_unchecked(
-        self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray
-    ) -> FloatArray:
-        """:meth:`velocity` for arrays already known to be float64, C-contiguous and of
-        matching shapes (``q (n,)``, ``J (m, n)``, ``xd (m,)``), as the package's compiled
-        loop (:class:`~redres.control.ClikController`) makes them: the schemes with
-        compiled steps skip the checks. Internal (unchecked input); the default calls
-        :meth:`velocity`."""
-        return self.velocity(robot, q, J, xd)
-
-    def last_result(self) -> StepResult:
-        """The :class:`StepResult` of the last :meth:`velocity` call."""
-        last: StepResult | None = getattr(self, "_last", None)
-        if last is None:
-            raise InvalidParameterError(f"{self.name}: no velocity() call yet")
-        return last
-
-    def reset(self) -> None:  # noqa: B027 - stateless schemes need nothing
-        """Forget any state kept between steps (called at the start of a run)."""
+    def _reset(self) -> None:  # noqa: B027 - stateless schemes need nothing
+        """The scheme's own part of :meth:`reset`."""
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r})"
 
 
-def zeros_like_qd(n: int) -> FloatArray:
-    """A zero joint-velocity vector."""
-    return np.zeros(n)
+def step_arrays(q: Any, J: Any, xd: Any, n: int) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``q``, ``J``, ``xd`` as C-contiguous float64 arrays of matching shapes, or a
+    :class:`~redres.errors.ShapeError` (finiteness is checked where they are used)."""
+    arrays = []
+    for value, name in ((q, "q"), (J, "J"), (xd, "xd")):
+        if type(value) is np.ndarray and value.dtype == np.float64 and value.flags.c_contiguous:
+            arrays.append(value)
+            continue
+        try:
+            arrays.append(np.ascontiguousarray(value, dtype=np.float64))
+        except (TypeError, ValueError) as exc:
+            raise ShapeError(f"{name} must be an array of numbers; got {value!r}") from exc
+    q, J, xd = arrays
+    if q.shape != (n,):
+        raise ShapeError(f"q must have shape ({n},); got shape {q.shape}")
+    if xd.ndim != 1 or xd.shape[0] == 0:
+        raise ShapeError(f"xd must be a non-empty vector; got shape {xd.shape}")
+    if J.shape != (xd.shape[0], n):
+        raise ShapeError(
+            f"J must have shape ({xd.shape[0]}, {n}) to match xd and the robot's {n} joints; "
+            f"got {J.shape}"
+        )
+    return q, J, xd

@@ -8,6 +8,7 @@ can leak into the task by at most ``λ/2`` per unit, see :mod:`redres.linalg.rat
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -51,6 +52,17 @@ def total_gradient(
     return np.zeros(n) if grad is None else grad
 
 
+@dataclass(frozen=True)
+class GradientDetails:
+    """What a gradient-projection step adds to its :class:`StepResult`.
+
+    Attributes:
+        gradient: ``Σ wᵢ ∇Dᵢ(q)``, shape ``(n,)``, cost per rad.
+    """
+
+    gradient: FloatArray
+
+
 class GradientProjectionScheme(Scheme):
     """Task by the inverse, secondary costs descended in its null space.
 
@@ -72,16 +84,16 @@ class GradientProjectionScheme(Scheme):
         inverse: InverseChoice | str = "exact",
         **inverse_params: Any,
     ) -> None:
-        self.objectives = weighted_objectives(objectives)
+        self.objectives = tuple(weighted_objectives(objectives))
         if not self.objectives:
             raise InvalidParameterError("gradient projection needs at least one objective")
         self.gain = as_scalar(gain, "gain", minimum=0.0)
         self.inverse = as_inverse(inverse, **inverse_params)
         self._kwargs = self.inverse.rate_kwargs()
 
-    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+    def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         grad = total_gradient(robot, q, self.objectives)
         qd, info, null_term = rate_step(
             J, xd, grad, k_null=self.gain, return_null=True, **self._kwargs
         )
-        return StepResult(qd, info, null_term, {"gradient": grad})
+        return StepResult(qd, info, null_term, details=GradientDetails(grad))

@@ -61,7 +61,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, Literal, NamedTuple
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -76,7 +77,7 @@ from ..linalg import (
     sigma_min,
     singular_values,
 )
-from ..tasks import ArmAngleTask, Task, stack
+from ..tasks import Task, stack
 from .base import Scheme, StepResult
 
 if TYPE_CHECKING:
@@ -295,6 +296,19 @@ def _validate(
     return Js, xs
 
 
+@dataclass(frozen=True)
+class PriorityDetails:
+    """What a priority step adds to its :class:`StepResult`.
+
+    Attributes:
+        levels: one :class:`LevelInfo` per level, the loop's task first.
+        level_errors: the task errors of the scheme's own levels (level 2 on).
+    """
+
+    levels: list[LevelInfo]
+    level_errors: list[FloatArray]
+
+
 class PriorityScheme(Scheme):
     """Strict priorities in :func:`redres.control.run`: the loop's task first, then levels.
 
@@ -313,9 +327,8 @@ class PriorityScheme(Scheme):
         threshold: singular value below which a level is reported singular.
 
     Identifier ``priority``. ``StepResult.info`` is the inverse of level 1,
-    ``null_term`` what the lower levels add, ``extra["levels"]`` the
-    :class:`LevelInfo` list, ``extra["algorithmic_singularity"]`` whether any level is at
-    one, and ``extra["level_errors"]`` the task errors of the scheme's own levels.
+    ``null_term`` what the lower levels add, ``algorithmic_singularity`` whether any level
+    is at one, and ``details`` a :class:`PriorityDetails`.
     """
 
     name = "priority"
@@ -345,16 +358,11 @@ class PriorityScheme(Scheme):
                 as_scalar(d, "damping", minimum=0.0)
         self.rcond = as_scalar(rcond, "rcond", minimum=0.0)
         self.threshold = as_scalar(threshold, "threshold", minimum=0.0)
-        tasks = [t for level in self.levels for t in level]
-        self._initial = [(t, t.target) for t in tasks if isinstance(t, ArmAngleTask)]
+        self.tasks = tuple(t for level in self.levels for t in level)
 
-    def reset(self) -> None:
-        for task, target in self._initial:
-            task.target = target
-
-    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        jacobians = [np.asarray(J, dtype=np.float64)]
-        velocities = [np.asarray(xd, dtype=np.float64)]
+    def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+        jacobians = [J]
+        velocities = [xd]
         errors = []
         for level, gain in zip(self.levels, self.gains):
             states = [task.compute(robot, q) for task in level]
@@ -365,9 +373,10 @@ class PriorityScheme(Scheme):
         qd, infos = _resolve(
             jacobians, velocities, self.method, self.dampings, self.rcond, self.threshold
         )
-        extra: dict[str, Any] = {
-            "levels": infos,
-            "algorithmic_singularity": any(i.algorithmic_singularity for i in infos),
-            "level_errors": errors,
-        }
-        return StepResult(qd, infos[0].inverse, qd - infos[0].contribution, extra)
+        return StepResult(
+            qd,
+            infos[0].inverse,
+            qd - infos[0].contribution,
+            algorithmic_singularity=any(i.algorithmic_singularity for i in infos),
+            details=PriorityDetails(infos, errors),
+        )

@@ -34,6 +34,6 @@ class PseudoInverseScheme(Scheme):
         self.name = "dls" if self.inverse.kind in ("damped", "adaptive") else "pinv"
         self._kwargs = self.inverse.rate_kwargs()
 
-    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+    def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         qd, info = rate_step(J, xd, **self._kwargs)
         return StepResult(qd, info, np.zeros(qd.shape[0]))

@@ -13,7 +13,7 @@ QPs (Kanoun, Lamiraux, Wieber 2011; Escande, Mansard, Wieber 2014):
    limits, or ``J`` is singular) — ``min ½‖J q̇ − ẋ‖²_W + ½λ²‖q̇ − q̇_0‖²  s.t.  the box``: the
    weighted task residual plus a small regularisation ``λ`` (``damping``). The box is
    never empty (see :mod:`~redres.resolution.limits`), so this QP is always feasible and
-   the step never raises inside a control loop; ``extra["binding"]`` lists the bounds the
+   the step never raises inside a control loop; ``StepResult.binding`` lists the bounds the
    answer sits on. After an infeasible step this QP is tried first, and the exact one is
    skipped when the residual ``r = ẋ − J q̇`` proves the task infeasible (Farkas' lemma:
    ``rᵀẋ > max_box rᵀJ q̇``).
@@ -42,6 +42,7 @@ References:
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -65,6 +66,7 @@ from .sns import (
     binding_list,
     gram_info,
     input_error,
+    relaxed_joints,
     step_inputs,
 )
 
@@ -96,6 +98,25 @@ def _backend(solver: str) -> Any:
     return qpsolvers
 
 
+@dataclass(frozen=True)
+class QPDetails:
+    """What a QP step adds to its :class:`~redres.resolution.StepResult`.
+
+    Attributes:
+        residual: ``‖J q̇ − ẋ‖`` of the loop's task.
+        level_residuals: the same for every level, the loop's task first.
+        bounds: the joint-velocity box ``(lower, upper)``, two ``(n,)`` arrays, rad/s.
+        relaxed: joints whose box had to give up a limit.
+        solver: the QP backend.
+    """
+
+    residual: float
+    level_residuals: list[float]
+    bounds: tuple[FloatArray, FloatArray]
+    relaxed: list[int]
+    solver: str
+
+
 class QPScheme(BoxScheme):
     """Joint velocity by a sequence of QPs inside hard position, velocity, acceleration limits.
 
@@ -120,9 +141,9 @@ class QPScheme(BoxScheme):
             ``qp`` extra).
 
     Identifier ``qp``. State: the previous joint velocity :attr:`qd_prev` (:meth:`reset`
-    clears it). ``StepResult.extra``: ``feasible`` (every level met exactly),
-    ``residual`` (``‖J q̇ − ẋ‖`` of the loop's task), ``binding`` (bounds ``q̇`` sits on),
-    ``bounds``, ``relaxed``, ``solver``, ``level_residuals``. ``info`` gives the
+    clears it). ``StepResult.feasible``: every level met exactly; ``binding``: the bounds
+    ``q̇`` sits on; ``details``: a :class:`QPDetails` (residuals, box, relaxed joints,
+    solver). ``info`` gives the
     singular values of ``J``; ``null_term`` the component of ``q̇`` in its null space.
     """
 
@@ -144,11 +165,12 @@ class QPScheme(BoxScheme):
         qdd_max: ArrayLike | None = None,
     ) -> None:
         self._init_box(dt, qd_max, qdd_max)
-        self.objectives = weighted_objectives(objectives)
+        self.objectives = tuple(weighted_objectives(objectives))
         self.gain = as_scalar(gain, "gain", minimum=0.0)
         self.levels = [[lv] if isinstance(lv, Task) else list(lv) for lv in levels]
         if any(not lv or not all(isinstance(t, Task) for t in lv) for lv in self.levels):
             raise InvalidParameterError("each level must be a Task or a non-empty list of Tasks")
+        self.tasks = tuple(t for level in self.levels for t in level)
         self.level_gain = as_scalar(level_gain, "level_gain", minimum=0.0)
         self.task_weights = None if task_weights is None else as_vector(task_weights,
                                                                         "task_weights")  # fmt: skip
@@ -164,8 +186,8 @@ class QPScheme(BoxScheme):
             check_daqp_options(self._module, self.solver_options)
         self._infeasible_before = False
 
-    def reset(self) -> None:
-        super().reset()
+    def _reset(self) -> None:
+        super()._reset()
         self._infeasible_before = False
 
     def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
@@ -198,9 +220,7 @@ class QPScheme(BoxScheme):
                                   sense=self._sense[:n])  # fmt: skip
         self._ws, self._robot = ws, robot
 
-    def _velocity_unchecked(
-        self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray
-    ) -> FloatArray:
+    def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, gram = ws.outputs()
         err, relaxed, full, inside = self._begin(
@@ -222,20 +242,14 @@ class QPScheme(BoxScheme):
         if finished is None:
             finished = self._finish(J, xd, out, codes, ws.M, ws.wm, full, False)
         active, residual = finished
-        return self._keep(out, (exact, residual, residuals, active, relaxed, out, codes, gram))
-
-    def _result(self, raw: Any) -> StepResult:
-        exact, residual, residuals, active, relaxed, out, codes, gram = raw
-        extra = {
-            "feasible": all(exact),
-            "residual": residual,
-            "level_residuals": residuals if self.levels else [residual],
-            "binding": binding_list(codes, relaxed > 0) if active else [],
-            "bounds": (out[2], out[3]),
-            "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
-            "solver": self.solver,
-        }
-        return StepResult(out[0], gram_info(gram, "qp"), out[1], extra)
+        self.qd_prev = out[0].copy()  # the scheme's own copy
+        levels = residuals if self.levels else [residual]
+        bounds, gave_up = (out[2], out[3]), relaxed_joints(codes, relaxed)
+        details = QPDetails(residual, levels, bounds, gave_up, self.solver)
+        return StepResult(
+            out[0], lambda: gram_info(gram, "qp"), out[1], feasible=all(exact),
+            binding=binding_list(codes, relaxed > 0) if active else (), details=details,
+        )  # fmt: skip
 
     def _single(
         self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray, codes: Any,

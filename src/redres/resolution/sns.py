@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -67,7 +68,7 @@ from .limits import (
 if TYPE_CHECKING:
     from ..robot import Robot
 
-#: Status codes of a step (``StepResult.extra["method"]`` gives the name).
+#: Status codes of a step (``SNSDetails.method`` gives the name).
 FEASIBLE, SCALED, LP_SCALED, NEAREST, FAILED = 0, 1, 2, 3, 4
 METHODS: tuple[str, ...] = ("sns", "sns-scaled", "lp", "nearest", "failed")
 _CAP = 1e6  # stands in for an infinite velocity bound inside the simplex, rad/s
@@ -722,28 +723,6 @@ def kernels() -> dict[str, Any]:
 _INPUTS = ("q", "J", "xd", "the secondary velocity (objective gradients)")
 
 
-def step_arrays(q: Any, J: Any, xd: Any, n: int) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """``q``, ``J``, ``xd`` as C-contiguous float64 arrays of matching shapes (internal;
-    finiteness is checked by the kernels, which report the argument)."""
-    arrays = []
-    for value, name in ((q, "q"), (J, "J"), (xd, "xd")):
-        if type(value) is np.ndarray and value.dtype == np.float64 and value.flags.c_contiguous:
-            arrays.append(value)
-            continue
-        try:
-            arrays.append(np.ascontiguousarray(value, dtype=np.float64))
-        except (TypeError, ValueError) as exc:
-            raise ShapeError(f"{name} must be an array of numbers; got {value!r}") from exc
-    q, J, xd = arrays
-    if q.shape != (n,):
-        raise ShapeError(f"q must have shape ({n},); got shape {q.shape}")
-    if xd.ndim != 1 or xd.shape[0] == 0:
-        raise ShapeError(f"xd must be a non-empty vector; got shape {xd.shape}")
-    if J.shape != (xd.shape[0], n):
-        raise ShapeError(f"J must have shape ({xd.shape[0]}, {n}) to match xd; got {J.shape}")
-    return q, J, xd
-
-
 def input_error(code: int, values: tuple[Any, ...]) -> NonFiniteError:
     """The error for a kernel's input-check code (-1 .. -4) (internal)."""
     name = _INPUTS[-code - 1]
@@ -850,9 +829,8 @@ class Workspace:
 
 
 class BoxScheme(Scheme):
-    """What the hard-limit schemes share (internal): the velocity box of their limits, the
-    previous joint velocity it is built from, checked :meth:`step` / :meth:`velocity`
-    around their compiled ``_velocity_unchecked``, and a :class:`StepResult` built on demand."""
+    """What the hard-limit schemes share (internal): the velocity box of their limits and
+    the previous joint velocity it is built from (:attr:`qd_prev`)."""
 
     hard_limits = True
 
@@ -863,43 +841,39 @@ class BoxScheme(Scheme):
         self.qd_prev: FloatArray | None = None
         self._robot: Any = None
         self._ws: Any = None
-        self._raw: Any = None
-        self._last: StepResult | None = None
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         self.qd_prev = None
-        self._raw, self._last = None, None
 
     def limits(self, robot: Robot) -> JointLimits:
         """The limits this scheme enforces on ``robot``."""
         return JointLimits.from_robot(robot, qd_max=self._overrides[0],
                                       qdd_max=self._overrides[1])  # fmt: skip
 
-    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        self.velocity(robot, q, J, xd)
-        return self.last_result()
 
-    def velocity(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> FloatArray:
-        q, J, xd = step_arrays(q, J, xd, robot.n)
-        return self._velocity_unchecked(robot, q, J, xd)
+def relaxed_joints(codes: Any, relaxed: int) -> list[int]:
+    """The joints whose box had to give up a limit (internal; ``relaxed`` counts them)."""
+    return np.flatnonzero(codes[2]).tolist() if relaxed else []
 
-    def last_result(self) -> StepResult:
-        if self._last is None:
-            if self._raw is None:
-                return super().last_result()  # raises: no call yet
-            self._last = self._result(self._raw)
-        return self._last
 
-    def _result(self, raw: Any) -> StepResult:
-        """The :class:`StepResult` from what ``_velocity_unchecked`` kept (``_keep``)."""
-        raise NotImplementedError  # pragma: no cover - each scheme builds its own
+@dataclass(frozen=True)
+class SNSDetails:
+    """What an SNS step adds to its :class:`~redres.resolution.StepResult`.
 
-    def _keep(self, out: FloatArray, raw: tuple[Any, ...]) -> FloatArray:
-        """End of ``_velocity_unchecked``: remember ``q̇ = out[0]`` for the next box and
-        what the result will be built from; return ``q̇`` (the caller's)."""
-        self.qd_prev = out[0].copy()  # the scheme's own copy
-        self._raw, self._last = raw, None
-        return out[0]
+    Attributes:
+        scale: ``s`` with ``J q̇ = s ẋ`` (1: the task is met; 0 when no scale is feasible).
+        method: ``"sns"`` (Algorithm 1 met the task), ``"sns-scaled"`` (its scaled
+            solution has the largest scale), ``"lp"`` (the simplex vertex, when the greedy
+            saturation missed the largest scale), ``"nearest"`` (no scale in ``[0, 1]`` is
+            feasible) or ``"failed"``.
+        bounds: the joint-velocity box ``(lower, upper)``, two ``(n,)`` arrays, rad/s.
+        relaxed: joints whose box had to give up a limit.
+    """
+
+    scale: float
+    method: str
+    bounds: tuple[FloatArray, FloatArray]
+    relaxed: list[int]
 
 
 class SNSScheme(BoxScheme):
@@ -923,14 +897,10 @@ class SNSScheme(BoxScheme):
             clipped into the exact box).
 
     Identifier ``sns``. State: the previous joint velocity :attr:`qd_prev` (``None`` = at
-    rest; :meth:`reset` clears it, so a run starts at rest). ``StepResult.extra``:
-    ``scale`` (``J q̇ = s ẋ``; 0 when no scale is feasible), ``feasible`` (``s = 1``: the
-    task is met exactly), ``method`` (``sns``: Algorithm 1 met the task; ``sns-scaled``:
-    its scaled solution has the largest scale; ``lp``: the simplex vertex, when the greedy
-    saturation missed the largest scale; ``nearest``: no scale in ``[0, 1]`` is feasible,
-    module docstring), ``binding`` (the
-    :class:`~redres.resolution.limits.Binding` bounds ``q̇`` sits on), ``bounds`` (the
-    box, two ``(n,)`` arrays) and ``relaxed`` (joints whose box had to give up a limit).
+    rest; :meth:`reset` clears it, so a run starts at rest). ``StepResult.feasible``:
+    ``s = 1``, the task is met exactly; ``binding``: the
+    :class:`~redres.resolution.limits.Binding` bounds ``q̇`` sits on; ``details``: an
+    :class:`SNSDetails` (scale, method, box, relaxed joints).
     ``null_term`` is the component of ``q̇`` in the null space of ``J``; ``info`` gives the
     singular values of ``J`` (rank: ``σ > 1e-6 σ_max``).
     """
@@ -948,7 +918,7 @@ class SNSScheme(BoxScheme):
         tolerance: float = 1e-12,
     ) -> None:
         self._init_box(dt, qd_max, qdd_max)
-        self.objectives = weighted_objectives(objectives)
+        self.objectives = tuple(weighted_objectives(objectives))
         self.gain = as_scalar(gain, "gain", minimum=0.0)
         self.tolerance = as_scalar(tolerance, "tolerance", minimum=0.0)
 
@@ -959,9 +929,7 @@ class SNSScheme(BoxScheme):
         self._kernel = fast_entry(kernels()["_scheme_step"], args)
         self._ws, self._robot = ws, robot
 
-    def _velocity_unchecked(
-        self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray
-    ) -> FloatArray:
+    def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         ws, qd0, prev = step_inputs(self, robot, q, J, xd)
         out, codes, gram = ws.outputs()
         status, s, relaxed, active = self._kernel(
@@ -970,18 +938,11 @@ class SNSScheme(BoxScheme):
         )  # fmt: skip
         if status < 0:
             raise input_error(status, (q, J, xd, qd0))
-        return self._keep(out, (status, s, relaxed, active, out, codes, gram))
-
-    def _result(self, raw: Any) -> StepResult:
-        status, s, relaxed, active, out, codes, gram = raw
+        self.qd_prev = out[0].copy()  # the scheme's own copy
         if status == NEAREST:
             s = 0.0
-        extra = {
-            "scale": s,
-            "feasible": s == 1.0,
-            "method": METHODS[status],
-            "binding": binding_list(codes, relaxed > 0) if active else [],
-            "bounds": (out[2], out[3]),
-            "relaxed": np.flatnonzero(codes[2]).tolist() if relaxed else [],
-        }
-        return StepResult(out[0], gram_info(gram, "sns"), out[1], extra)
+        details = SNSDetails(s, METHODS[status], (out[2], out[3]), relaxed_joints(codes, relaxed))
+        return StepResult(
+            out[0], lambda: gram_info(gram, "sns"), out[1], feasible=s == 1.0,
+            binding=binding_list(codes, relaxed > 0) if active else (), details=details,
+        )  # fmt: skip

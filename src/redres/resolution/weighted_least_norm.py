@@ -18,6 +18,7 @@ manipulators", IEEE Trans. Robotics and Automation 11(2), 1995.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -40,6 +41,17 @@ def joint_limit_gradient(q: FloatArray, q_min: FloatArray, q_max: FloatArray, c:
     to_max = np.maximum(q_max - q, 1e-12)
     to_min = np.maximum(q - q_min, 1e-12)
     return span * (2.0 * q - q_max - q_min) / (c * to_max**2 * to_min**2)
+
+
+@dataclass(frozen=True)
+class WeightDetails:
+    """What a weighted least-norm step adds to its :class:`StepResult`.
+
+    Attributes:
+        weights: the diagonal joint weights ``wᵢ`` used, shape ``(n,)``.
+    """
+
+    weights: FloatArray
 
 
 class WeightedLeastNormScheme(Scheme):
@@ -76,13 +88,13 @@ class WeightedLeastNormScheme(Scheme):
         if not np.all(np.isfinite(c_arr)) or np.any(c_arr <= 0):
             raise InvalidParameterError(f"c must be positive; got {c}")
         self.c = c_arr
-        self.objectives = weighted_objectives(objectives)
+        self.objectives = tuple(weighted_objectives(objectives))
         self.gain = float(gain)
         self.inverse = as_inverse(inverse, **inverse_params)
         self._kwargs = self.inverse.rate_kwargs()
         self._previous: FloatArray | None = None
 
-    def reset(self) -> None:
+    def _reset(self) -> None:
         self._previous = None
 
     def weights(self, robot: Robot, q: FloatArray) -> FloatArray:
@@ -92,10 +104,10 @@ class WeightedLeastNormScheme(Scheme):
         self._previous = h
         return np.where(growing, np.minimum(1.0 + h, _MAX_WEIGHT), 1.0)
 
-    def step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+    def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         w = self.weights(robot, q)
         grad = total_gradient(robot, q, self.objectives) if self.objectives else None
         qd, info, null_term = rate_step(
             J, xd, grad, k_null=self.gain, weights=w, return_null=True, **self._kwargs
         )
-        return StepResult(qd, info, null_term, {"weights": w})
+        return StepResult(qd, info, null_term, details=WeightDetails(w))

@@ -138,9 +138,14 @@ class ArmAngleTask(Task):
             raise InvalidParameterError("reference must be a non-zero 3-vector")
         self.reference = v / np.linalg.norm(v)
         self.target = target
+        self._initial_target = target
         self.rate = 0.0
         self.name = name
         self.last: ArmAngle | None = None
+
+    def reset(self) -> None:
+        """Back to the target given at construction (``None``: hold the next first angle)."""
+        self.target, self.rate, self.last = self._initial_target, 0.0, None
 
     def set_target(self, phi: float, rate: float = 0.0) -> None:
         """Desired arm angle (rad) and its rate (rad/s)."""

@@ -49,6 +49,10 @@ class Task(ABC):
     def compute(self, robot: Robot, q: FloatArray) -> TaskState:
         """Error, Jacobian and feedforward velocity at configuration ``q``."""
 
+    def reset(self) -> None:  # noqa: B027 - most tasks keep no state between runs
+        """Forget what the task learnt during a run (e.g. a target taken at the first
+        call), so that the next run starts as the first did."""
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r}, dim={self.dim})"
 
