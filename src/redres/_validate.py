@@ -7,15 +7,20 @@ the public API, including inside control loops.
 
 from __future__ import annotations
 
+import difflib
+import functools
+import inspect
 import math
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import InvalidParameterError, NonFiniteError, ShapeError
+from .errors import InvalidParameterError, NonFiniteError, ShapeError, UnknownParameterError
 
 FloatArray = NDArray[np.float64]
+_F = TypeVar("_F", bound=Callable[..., Any])
 _EYE3 = np.eye(3)
 
 
@@ -80,3 +85,37 @@ def as_scalar(
         relation = ">" if strict else ">="
         raise InvalidParameterError(f"{name} must be {relation} {minimum}; got {x}")
     return x
+
+
+def checked_keywords(func: _F) -> _F:
+    """Make a misspelt or unknown keyword argument of ``func`` an
+    :class:`~redres.errors.UnknownParameterError` (a ``RedresError`` and a ``TypeError``)
+    that lists the valid names and the nearest one, instead of Python's bare ``TypeError``.
+
+    Use on constructors that take settings by keyword (schemes, controllers): only the
+    failed call pays for the check.
+    """
+    signature = inspect.signature(func)
+    names = [
+        p.name for p in signature.parameters.values()
+        if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY) and p.name != "self"
+    ]  # fmt: skip
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            signature.bind(*args, **kwargs)
+        except TypeError as exc:
+            owner = func.__qualname__.removesuffix(".__init__")
+            for key in kwargs:
+                if key not in names:
+                    near = difflib.get_close_matches(key, names, n=1)
+                    hint = f"; did you mean {near[0]!r}?" if near else ""
+                    raise UnknownParameterError(
+                        f"{owner}() has no parameter {key!r}{hint} "
+                        f"(its parameters: {', '.join(names)})"
+                    ) from None
+            raise UnknownParameterError(f"{owner}(): {exc}") from None
+        return func(*args, **kwargs)
+
+    return wrapper  # type: ignore[return-value]

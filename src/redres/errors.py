@@ -41,6 +41,11 @@ class InvalidParameterError(RedresError, ValueError):
     """A scalar parameter is out of its domain (a negative damping, a non-positive dt, ...)."""
 
 
+class UnknownParameterError(RedresError, TypeError):
+    """A keyword argument is not one the callable takes (message lists the valid names and
+    the nearest match)."""
+
+
 class NotPositiveDefiniteError(RedresError, ValueError):
     """A matrix that must be symmetric positive definite (weights, mass matrix) is not."""
 

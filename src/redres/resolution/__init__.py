@@ -1,7 +1,16 @@
 """Redundancy-resolution schemes: one step from task velocity to joint velocity."""
 
 from .augmented import AugmentedJacobianScheme
-from .base import INVERSES, InverseChoice, InverseKind, Scheme, StepResult, as_inverse
+from .base import (
+    INVERSES,
+    Inverse,
+    InverseChoice,
+    InverseKind,
+    Scheme,
+    StepResult,
+    as_inverse,
+    make_inverse,
+)
 from .gradient_projection import GradientProjectionScheme, total_gradient
 from .limits import (
     Binding,
@@ -23,6 +32,7 @@ __all__ = [
     "AugmentedJacobianScheme",
     "Binding",
     "GradientProjectionScheme",
+    "Inverse",
     "InverseChoice",
     "InverseKind",
     "JointLimits",
@@ -38,6 +48,7 @@ __all__ = [
     "braking_velocity",
     "joint_limit_gradient",
     "largest_scale",
+    "make_inverse",
     "prioritized_velocity",
     "run_violation",
     "step_violation",

@@ -12,7 +12,7 @@ import numpy as np
 
 from .._validate import FloatArray, as_scalar
 from ..errors import InvalidParameterError, ShapeError
-from ..linalg import AdaptiveDamping, InverseInfo
+from ..linalg import RCOND, AdaptiveDamping, InverseInfo
 
 if TYPE_CHECKING:
     from ..objectives import Objective
@@ -115,6 +115,66 @@ class InverseChoice:
             return {"damping": AdaptiveDamping(self.max_damping, self.threshold)}
         rcond = self.rcond if self.kind == "svd" else 1e-10
         return {"damping": 0.0, "rcond": float(max(rcond, 1e-10))}
+
+
+@dataclass(frozen=True)
+class Inverse:
+    """The inverse a scheme or controller uses, in the vocabulary of :mod:`redres.linalg`.
+
+    Attributes:
+        damping: ``0`` for the exact (truncated SVD) pseudo-inverse, ``λ > 0`` for damped
+            least squares ``Jᵀ(JJᵀ + λ²I)⁻¹`` (units of ``J``), or an
+            :class:`~redres.linalg.AdaptiveDamping` (zero away from singularities).
+        rcond: relative rank cut of the exact inverse: singular values at or below
+            ``rcond·σ_max`` are skipped (seed 002's SVD inverse). Only the exact inverse
+            uses it; giving it with a damping is refused.
+
+    Raises:
+        InvalidParameterError: a negative or non-finite value, or ``rcond`` with a damping.
+    """
+
+    damping: float | AdaptiveDamping = 0.0
+    rcond: float = RCOND
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.damping, AdaptiveDamping):
+            object.__setattr__(self, "damping", as_scalar(self.damping, "damping", minimum=0.0))
+        object.__setattr__(self, "rcond", as_scalar(self.rcond, "rcond", minimum=0.0))
+        if self.damping != 0.0 and self.rcond != RCOND:
+            raise InvalidParameterError(
+                f"rcond = {self.rcond} is used only by the exact inverse (damping = 0); "
+                f"the damped inverse with damping = {self.damping!r} has no rank cut: drop rcond"
+            )
+
+    @property
+    def kind(self) -> Literal["exact", "damped", "adaptive", "selective"]:
+        """``"exact"``, ``"damped"``, ``"adaptive"`` or ``"selective"``."""
+        if isinstance(self.damping, AdaptiveDamping):
+            return "selective" if self.damping.selective else "adaptive"
+        return "damped" if self.damping > 0.0 else "exact"
+
+    def rate_kwargs(self) -> dict[str, Any]:
+        """Keyword arguments of :func:`redres.linalg.rate_step` for this inverse."""
+        return {"damping": self.damping, "rcond": self.rcond}
+
+
+def make_inverse(
+    inverse: Inverse | None = None,
+    damping: float | AdaptiveDamping | None = None,
+    rcond: float | None = None,
+) -> Inverse:
+    """The :class:`Inverse` of a constructor that takes ``inverse=`` or the keywords
+    ``damping=`` / ``rcond=`` (not both)."""
+    if inverse is None:
+        return Inverse(0.0 if damping is None else damping, RCOND if rcond is None else rcond)
+    if not isinstance(inverse, Inverse):
+        raise InvalidParameterError(
+            f"inverse must be a redres.resolution.Inverse, e.g. Inverse(damping=0.05); "
+            f"got {inverse!r}"
+        )
+    if damping is not None or rcond is not None:
+        raise InvalidParameterError("give inverse= or damping=/rcond=, not both")
+    return inverse
 
 
 def as_inverse(inverse: InverseChoice | str, **kwargs: Any) -> InverseChoice:
