@@ -132,15 +132,6 @@ def test_fast_lane_entry_point_matches_dispatcher(rng: np.random.Generator) -> N
     np.testing.assert_array_equal(null1, null2)
 
 
-def test_cache_falls_back_when_no_location_is_writable() -> None:
-    # A function compiled from a string has no source file, so numba cannot cache it:
-    # njit(cache=True) raises RuntimeError, which _jit turns into an in-memory compile.
-    namespace: dict[str, object] = {}
-    exec("def twice(x):\n    return 2.0 * x\n", namespace)
-    compiled = kernels._jit(namespace["twice"])
-    assert compiled(1.5) == 3.0
-
-
 def test_import_redres_does_not_import_numba() -> None:
     out = run_python(
         """

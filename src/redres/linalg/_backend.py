@@ -15,14 +15,13 @@ Nakamura & Hanafusa 1986 and Wampler 1986 for ``f = sigma / (sigma^2 + lambda^2)
 
 For ``m <= 6`` rows (12 when ``m <= n``) and ``n <= 50`` columns the compiled kernels of
 :mod:`redres.linalg._kernels` compute the same quantities (by a Cholesky solve when the
-matrix is well conditioned); otherwise NumPy's SVD does. Set the environment variable
-``REDRES_DISABLE_JIT=1`` to always use NumPy.
+matrix is well conditioned); otherwise NumPy's SVD does. The environment variable
+``REDRES_DISABLE_JIT=1`` (read by :mod:`redres._jit`) makes every call use NumPy.
 """
 
 from __future__ import annotations
 
 import math
-import os
 import warnings
 from collections.abc import Callable
 from types import ModuleType
@@ -31,6 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .. import _jit
 from .._validate import as_matrix, as_scalar
 from ..errors import (
     NonFiniteError,
@@ -51,7 +51,7 @@ FAST_MAX_COLS = 50
 EMPTY_1D: FloatArray = np.zeros(0)
 EMPTY_2D: FloatArray = np.zeros((0, 0))
 
-_state: dict[str, Any] = {"enabled": os.environ.get("REDRES_DISABLE_JIT", "") in ("", "0")}
+_state: dict[str, Any] = {"enabled": _jit.enabled()}
 
 loaded: ModuleType | None = None
 """The kernel module once imported and enabled (read by the hot path without a call)."""
@@ -62,18 +62,27 @@ def kernels() -> ModuleType | None:
     global loaded
     if loaded is not None or not _state["enabled"] or _state.get("failed"):
         return loaded
-    try:
-        from . import _kernels
-    except Exception as exc:  # numba missing or broken: keep working on NumPy
+    module = _jit.load("redres.linalg._kernels")
+    if module is None:  # numba missing or broken: keep working on NumPy
         _state["failed"] = True
         warnings.warn(
-            f"redres.linalg: compiled kernels unavailable ({exc!r}); using NumPy",
+            "redres.linalg: compiled kernels unavailable (numba cannot be imported); using NumPy",
             UserWarning,
             stacklevel=3,
         )
         return None
-    loaded = _kernels
+    loaded = module
     return loaded
+
+
+def entry(module: str, name: str, warm: tuple[Any, ...]) -> Callable[..., Any] | None:
+    """The native entry point of kernel ``name`` of kernel module ``module`` for the types
+    of ``warm`` (see :func:`redres._jit.entry_point`); None when the kernels are disabled
+    (:func:`set_jit_enabled`) or unavailable, so that the caller takes its NumPy path."""
+    if kernels() is None:
+        return None
+    kern = _jit.load(module)
+    return None if kern is None else _jit.entry_point(getattr(kern, name), warm)
 
 
 def fast_step() -> Callable[..., Any] | None:
@@ -81,30 +90,29 @@ def fast_step() -> Callable[..., Any] | None:
 
     Returns the native entry point of ``_kernels.step`` for exactly those argument types,
     which skips numba's per-call type dispatch; callers must pass float64 C-contiguous
-    arrays (``J`` 2-D, the rest 1-D) and Python floats. Falls back to the dispatcher if
-    numba's internals differ, and returns None when the kernels are unavailable.
+    arrays (``J`` 2-D, the rest 1-D) and Python floats. None when the kernels are
+    unavailable.
     """
     warm = (np.zeros((1, 1)), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0, 0.0)
-    return _entry_point("step", warm)
+    return entry("redres.linalg._kernels", "step", warm)
 
 
 def fused_clik_step() -> Callable[..., Any] | None:
-    """Native entry point of ``_kernels.clik_step`` (the fused CLIK step), or None.
+    """Native entry point of the fused CLIK step (:mod:`redres.control._kernels`), or None.
 
     Arguments must be float64 C-contiguous arrays ``J (6, n)``, ``H (4, 4)``, ``q (n,)``,
     int64 ``rows (m,)``, float64 ``config`` and ``out`` (see the kernel); a mismatched
     type is not detected by the entry point, so callers check their arrays once.
     """
-    return _entry_point("clik_step", (*_frame_warm(), np.zeros(2 + 6)))
+    return entry("redres.control._kernels", "clik_step", (*_frame_warm(), np.zeros(2 + 6)))
 
 
 def fused_frame_command() -> Callable[..., Any] | None:
-    """Native entry point of ``_kernels.frame_command`` (the frame-task part of the fused
-    step: ``J (6, n)``, ``H``, ``q``, ``rows``, ``config``, then ``Jm (m, n)``, ``xd (m,)``
-    and ``e (6,)`` to fill), or None; same argument rules as :func:`fused_clik_step`."""
-    return _entry_point(
-        "frame_command", (*_frame_warm(), np.zeros((1, 1)), np.zeros(1), np.zeros(6))
-    )
+    """Native entry point of ``frame_command`` (the frame-task part of the fused step:
+    ``J (6, n)``, ``H``, ``q``, ``rows``, ``config``, then ``Jm (m, n)``, ``xd (m,)`` and
+    ``e (6,)`` to fill), or None; same argument rules as :func:`fused_clik_step`."""
+    warm = (*_frame_warm(), np.zeros((1, 1)), np.zeros(1), np.zeros(6))
+    return entry("redres.control._kernels", "frame_command", warm)
 
 
 def _frame_warm() -> tuple[Any, ...]:
@@ -115,44 +123,19 @@ def _frame_warm() -> tuple[Any, ...]:
 
 
 def fused_integrate() -> Callable[..., Any] | None:
-    """Native entry point of ``_kernels.integrate`` (``out <- q + qd dt`` for float64
-    C-contiguous vectors and a float), or None."""
+    """Native entry point of ``integrate`` (``out <- q + qd dt`` for float64 C-contiguous
+    vectors and a float), or None."""
     warm = (np.zeros(1), np.zeros(1), 0.0, np.zeros(1))
-    return _entry_point("integrate", warm)
-
-
-def fused_jacobian_derivatives() -> Callable[..., Any] | None:
-    """Native entry point of ``_kernels.revolute_jacobian_derivatives`` (``J (6, n)`` and
-    ``out (n, 6, n)``, float64 C order), or None."""
-    return _entry_point("revolute_jacobian_derivatives", (np.zeros((6, 1)), np.zeros((1, 6, 1))))
-
-
-def _entry_point(name: str, warm: tuple[Any, ...]) -> Callable[..., Any] | None:
-    """The native entry point of kernel ``name`` for the types of ``warm`` (compiled or
-    loaded from the disk cache by one warm-up call), the dispatcher if numba's internals
-    differ, None when the kernels are unavailable."""
-    kern = kernels()
-    if kern is None:
-        return None
-    dispatcher = getattr(kern, name)
-    dispatcher(*warm)  # compile, or load from the disk cache
-    try:
-        import numba
-
-        typeof: Callable[[object], Any] = numba.typeof
-        signature = tuple(typeof(arg) for arg in warm)
-        entry: Callable[..., Any] = dispatcher.overloads[signature].entry_point
-        entry(*warm)
-    except Exception:  # pragma: no cover - numba internals changed: use the dispatcher
-        return dispatcher  # type: ignore[no-any-return]
-    return entry
+    return entry("redres.control._kernels", "integrate", warm)
 
 
 def set_jit_enabled(enabled: bool) -> bool:
-    """Enable or disable the compiled kernels (for tests and comparisons); returns the old value."""
+    """Route :mod:`redres.linalg` and the controller to the compiled kernels or to their
+    NumPy paths (for tests and comparisons); returns the old value. Without compiled
+    kernels at all (``REDRES_DISABLE_JIT=1``) enabling changes nothing."""
     global loaded
     previous = bool(_state["enabled"])
-    _state["enabled"] = bool(enabled)
+    _state["enabled"] = bool(enabled) and _jit.enabled()
     if not enabled:
         loaded = None
     for hook in _on_switch:

@@ -1,11 +1,9 @@
 """Compiled kernels for the small matrices of robotics (internal).
 
 The public functions of :mod:`redres.linalg` call these for ``m <= 6`` task rows (up to 12
-when ``m <= n``) and ``n <= 50`` joints. This module imports numba, so it is imported lazily (by
-:mod:`redres.linalg._backend`) on the first call that needs it: ``import redres`` never pays
-for numba. The kernels are compiled on first use and cached on disk next to this file (or
-in numba's user-wide cache directory); where no cache location is writable, they are
-compiled in memory instead.
+when ``m <= n``) and ``n <= 50`` joints. They are compiled through
+:mod:`redres._jit` (switch, cache, messages) and imported lazily by
+:mod:`redres.linalg._backend`: ``import redres`` never pays for numba.
 
 Every kernel works on a *weighted* Jacobian ``Js = J W^{-1/2}`` (``J L^-T`` for a full
 ``W = L L^T``), divided by its largest entry when that entry is outside ``[1e-100, 1e100]``
@@ -23,44 +21,26 @@ matrix ``A = Js Js^T`` (Householder tridiagonalisation, then Laguerre's method) 
   tiny, so the rank and ``sigma_min`` reported near a singularity are those of the SVD.
 
 Status codes (returned first by each kernel, turned into errors by the caller) name the
-offending argument; the kernels never raise. The small helpers are inlined into the entry
-kernels (``_inline``): calls between separately compiled numba functions cost more than
-the few dozen flops each does. All compiled code lives in this one file on purpose: numba
-invalidates its disk cache per source file, so a helper inlined from another file could
-leave stale compiled code behind after an edit.
+offending argument; the kernels never raise. The small helpers live in
+:mod:`~redres.linalg._dense_kernels` (Cholesky, weights, scaling) and
+:mod:`~redres.linalg._eigen_kernels` (eigenvalues, Jacobi SVD); calls between them are safe
+for numba's disk cache because :mod:`redres._jit` stamps every kernel with all their
+sources.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any
 
-import numba
 import numpy as np
 
+from .._jit import kernel
 from ._codes import (
     ADAPTIVE,
-    CFG_DAMPING,
-    CFG_DT,
-    CFG_GAIN,
-    CFG_HAS_GRAD,
-    CFG_K_NULL,
-    CFG_LIMIT,
-    CFG_MAX_DAMPING,
-    CFG_MODE,
-    CFG_POSITION,
-    CFG_RCOND,
-    CFG_ROTATION,
-    CFG_THRESHOLD,
-    CFG_TWIST,
-    CFG_VECTORS,
     DAMPING_NEGATIVE,
     DAMPING_NONFINITE,
-    DIAGONAL,
     EXACT,
     FIXED,
-    FULL,
     GRAD_NONFINITE,
     GRAD_SHAPE,
     J_EMPTY,
@@ -68,348 +48,34 @@ from ._codes import (
     K_NONFINITE,
     NO_WEIGHTS,
     OK,
-    POSE_NONFINITE,
-    Q_NONFINITE,
-    Q_SHAPE,
     RCOND_NEGATIVE,
     RCOND_NONFINITE,
     SELECTIVE,
-    W_ASYMMETRIC,
-    W_NONFINITE,
-    W_NOT_SPD,
-    W_SHAPE,
     XD_NONFINITE,
     XD_SHAPE,
 )
+from ._dense_kernels import (
+    _cholesky,
+    _cholesky_solve,
+    _copy_finite_2d,
+    _factor_size,
+    _factor_view,
+    _finite_1d,
+    _scale,
+    _weigh,
+    _weight_down,
+    _weight_up,
+    _weight_up_row,
+)
+from ._eigen_kernels import _EPS, _count_below, _extreme_eigenvalues, _jacobi_rows, _tridiagonalize
 
 # Below this ratio sigma_min / sigma_max, J J^T (kappa > 1e6) is too ill-conditioned for a
 # Cholesky solve accurate to 2e-10 and its eigenvalues give sigma_min to less than that:
 # switch to the Jacobi SVD of J itself.
 _CHOLESKY_MIN_RATIO = 1e-3
-_EPS = 2.220446049250313e-16
-_SYMMETRY_RTOL = 1e-9
 
 
-def _jit(func: Callable[..., Any]) -> Any:
-    """Compile ``func`` with numba, cached on disk when a cache location is writable."""
-    return _compile(func, inline="never")
-
-
-def _inline(func: Callable[..., Any]) -> Any:
-    """Helpers called from several kernels. Numba IR inlining (``inline="always"``) saved
-    ~0.35 µs per rate step but compiled every helper once per caller: ~50 s of JIT on a
-    cold start instead of ~24 s. Cold start matters more (``redres demo`` < 60 s), so
-    helpers are compiled once and called."""
-    return _compile(func, inline="never")
-
-
-def _compile(func: Callable[..., Any], inline: str) -> Any:
-    njit: Callable[..., Any] = numba.njit
-    options: dict[str, Any] = {"nogil": True, "error_model": "numpy", "inline": inline}
-    try:
-        return njit(cache=True, **options)(func)
-    except RuntimeError:  # no writable cache directory (read-only install)
-        return njit(cache=False, **options)(func)
-
-
-@_inline
-def _finite_1d(a):  # type: ignore[no-untyped-def]
-    for i in range(a.shape[0]):
-        if not math.isfinite(a[i]):
-            return False
-    return True
-
-
-@_jit
-def _finite_2d(a):  # type: ignore[no-untyped-def]
-    for i in range(a.shape[0]):
-        for j in range(a.shape[1]):
-            if not math.isfinite(a[i, j]):
-                return False
-    return True
-
-
-@_inline
-def _cholesky(A, L, size, shift):  # type: ignore[no-untyped-def]
-    """Lower Cholesky factor of ``A + shift I`` (lower triangle of A read) into L.
-
-    Returns False if a pivot is not positive (the matrix is not positive definite).
-    """
-    for j in range(size):
-        acc = A[j, j] + shift
-        for k in range(j):
-            acc -= L[j, k] * L[j, k]
-        if not acc > 0.0:
-            return False
-        ljj = math.sqrt(acc)
-        L[j, j] = ljj
-        for i in range(j + 1, size):
-            acc = A[i, j]
-            for k in range(j):
-                acc -= L[i, k] * L[j, k]
-            L[i, j] = acc / ljj
-        for i in range(j):
-            L[i, j] = 0.0
-    return True
-
-
-@_inline
-def _cholesky_solve(L, b, size):  # type: ignore[no-untyped-def]
-    """Solve ``L L^T x = b`` in place of ``b``."""
-    for i in range(size):
-        acc = b[i]
-        for k in range(i):
-            acc -= L[i, k] * b[k]
-        b[i] = acc / L[i, i]
-    for i in range(size - 1, -1, -1):
-        acc = b[i]
-        for k in range(i + 1, size):
-            acc -= L[k, i] * b[k]
-        b[i] = acc / L[i, i]
-
-
-@_inline
-def _tridiagonalize(A, size, d, e, v, p):  # type: ignore[no-untyped-def]
-    """Householder reduction of the symmetric A (lower triangle, destroyed) to (d, e).
-
-    ``d[i]`` is the diagonal and ``e[i]`` the entry (i+1, i) of ``Q^T A Q`` (Golub &
-    Van Loan, Matrix Computations, 4th ed., Alg. 8.3.1). ``v``, ``p``: scratch of ``size``.
-    """
-    for k in range(size - 2):
-        # Householder vector of x = A[k+1:, k], so that H x = alpha e_1. Only the lower
-        # triangle of A is read and updated.
-        norm2 = 0.0
-        for i in range(k + 1, size):
-            norm2 += A[i, k] * A[i, k]
-        d[k] = A[k, k]
-        if norm2 == 0.0:
-            e[k] = 0.0
-            continue
-        x0 = A[k + 1, k]
-        alpha = -math.sqrt(norm2) if x0 > 0.0 else math.sqrt(norm2)
-        for i in range(k + 1, size):
-            v[i] = A[i, k]
-        v[k + 1] = x0 - alpha
-        beta = 1.0 / (alpha * (alpha - x0))  # 2 / ||v||^2, ||v||^2 = 2 alpha (alpha - x0)
-        # Trailing block S <- H S H = S - v w^T - w v^T with p = beta S v,
-        # w = p - (beta/2)(p.v) v.
-        pv = 0.0
-        for i in range(k + 1, size):
-            acc = 0.0
-            for j in range(k + 1, i + 1):
-                acc += A[i, j] * v[j]
-            for j in range(i + 1, size):
-                acc += A[j, i] * v[j]
-            p[i] = beta * acc
-            pv += p[i] * v[i]
-        half = 0.5 * beta * pv
-        for i in range(k + 1, size):
-            p[i] -= half * v[i]
-        for i in range(k + 1, size):
-            vi = v[i]
-            pi = p[i]
-            for j in range(k + 1, i + 1):
-                A[i, j] -= vi * p[j] + pi * v[j]
-        e[k] = alpha
-    if size >= 2:
-        d[size - 2] = A[size - 2, size - 2]
-        e[size - 2] = A[size - 1, size - 2]
-    d[size - 1] = A[size - 1, size - 1]
-
-
-@_inline
-def _charpoly(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
-    """``p(x), p'(x), p''(x)`` for ``p = det(T - x I)`` of the block ``lo..hi`` of (d, e).
-
-    Three-term recurrence of the leading principal minors (the Sturm sequence).
-    """
-    p0 = 1.0
-    d0 = 0.0
-    dd0 = 0.0
-    p1 = d[lo] - x
-    d1 = -1.0
-    dd1 = 0.0
-    for k in range(lo + 1, hi + 1):
-        t = d[k] - x
-        b2 = e[k - 1] * e[k - 1]
-        p2 = t * p1 - b2 * p0
-        d2 = t * d1 - p1 - b2 * d0
-        dd2 = t * dd1 - 2.0 * d1 - b2 * dd0
-        p0, d0, dd0 = p1, d1, dd1
-        p1, d1, dd1 = p2, d2, dd2
-    return p1, d1, dd1
-
-
-@_inline
-def _laguerre_step(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
-    """One Laguerre step ``x -> x - step`` on ``det(T - x I)`` of the block; 0 at a root."""
-    degree = hi - lo + 1
-    p, dp, ddp = _charpoly(d, e, lo, hi, x)
-    if p == 0.0:
-        return 0.0
-    inv_p = 1.0 / p
-    G = dp * inv_p
-    H = G * G - ddp * inv_p
-    disc = (degree - 1) * (degree * H - G * G)
-    root = math.sqrt(disc) if disc > 0.0 else 0.0
-    den = G - root if G < 0.0 else G + root
-    if den == 0.0:
-        return 0.0
-    return degree / den
-
-
-@_inline
-def _laguerre_pair(d, e, lo, hi, below, above):  # type: ignore[no-untyped-def]
-    """Smallest and largest eigenvalue of an unreduced tridiagonal block (Laguerre).
-
-    Started outside the spectrum (``below`` under it, ``above`` over it), Laguerre's
-    iteration on a polynomial with real roots moves monotonically to the nearest root,
-    cubically for the simple roots of an unreduced block (Wilkinson, The Algebraic
-    Eigenvalue Problem, 1965, ch. 7). Both searches run in one loop so that the processor
-    can overlap their dependency chains. Each stops when rounding turns its step back or
-    when :func:`_converged` says the next step would be below rounding.
-    """
-    low_done = False
-    high_done = False
-    low_step = math.inf
-    high_step = math.inf
-    for _ in range(60):
-        if not low_done:
-            step = _laguerre_step(d, e, lo, hi, below)
-            x = below - step
-            if x <= below:
-                low_done = True
-            else:
-                below = x
-                low_done = _converged(step, low_step, x)
-                low_step = abs(step)
-        if not high_done:
-            step = _laguerre_step(d, e, lo, hi, above)
-            x = above - step
-            if x >= above:
-                high_done = True
-            else:
-                above = x
-                high_done = _converged(step, high_step, x)
-                high_step = abs(step)
-        if low_done and high_done:
-            break
-    return below, above
-
-
-@_inline
-def _converged(step, previous, x):  # type: ignore[no-untyped-def]
-    """True once a cubically converging iteration's next step is below rounding.
-
-    A step under ``1e-6 |x|`` that is also under ``1e-3`` of the previous one shows the
-    asymptotic (cubic) regime: the error left is about ``(1e-6)^3 |x|``. Slow, linear
-    convergence (clustered roots) never passes the second test, so it goes on until
-    rounding turns the step back.
-    """
-    size = abs(step)
-    return size <= 1e-6 * abs(x) and size <= 1e-3 * previous
-
-
-@_inline
-def _extreme_eigenvalues(d, e, size, nonnegative):  # type: ignore[no-untyped-def]
-    """Smallest and largest eigenvalue of the symmetric tridiagonal (d, e).
-
-    The matrix is split where an off-diagonal entry is negligible; each unreduced block is
-    started from its Gershgorin bounds, tightened to ``[-1e-12, 1] ||T||_F`` when the
-    caller knows the matrix is positive semi-definite up to rounding (a Gram matrix, whose
-    eigenvalues are perturbed by far less than ``1e-12 ||T||``).
-    """
-    frobenius2 = 0.0
-    for i in range(size):
-        frobenius2 += d[i] * d[i]
-        if i < size - 1:
-            frobenius2 += 2.0 * e[i] * e[i]
-    frobenius = math.sqrt(frobenius2)
-    lo = 0
-    smallest = math.inf
-    largest = -math.inf
-    while lo < size:
-        hi = lo
-        while hi < size - 1 and abs(e[hi]) > _EPS * (abs(d[hi]) + abs(d[hi + 1])):
-            hi += 1
-        if hi == lo:
-            smallest = min(smallest, d[lo])
-            largest = max(largest, d[lo])
-        else:
-            below = math.inf
-            above = -math.inf
-            for i in range(lo, hi + 1):
-                radius = 0.0
-                if i > lo:
-                    radius += abs(e[i - 1])
-                if i < hi:
-                    radius += abs(e[i])
-                below = min(below, d[i] - radius)
-                above = max(above, d[i] + radius)
-            if nonnegative:  # a Gram matrix: the spectrum lies in [-rounding, ||T||_F]
-                below = max(below, -1e-12 * frobenius)
-                above = min(above, frobenius * (1.0 + 1e-12))
-            low, high = _laguerre_pair(d, e, lo, hi, below, above)
-            smallest = min(smallest, low)
-            largest = max(largest, high)
-        lo = hi + 1
-    return smallest, largest
-
-
-@_jit
-def _count_below(d, e, size, tau):  # type: ignore[no-untyped-def]
-    """Number of eigenvalues of the tridiagonal (d, e) below ``tau`` (Sylvester inertia)."""
-    count = 0
-    q = 1.0
-    for k in range(size):
-        b2 = e[k - 1] * e[k - 1] if k > 0 else 0.0
-        q = d[k] - tau - (b2 / q if k > 0 else 0.0)
-        if q == 0.0:
-            q = -_EPS * (abs(d[k]) + abs(tau) + 1e-300)
-        if q < 0.0:
-            count += 1
-    return count
-
-
-@_jit
-def _jacobi_rows(R, m, n):  # type: ignore[no-untyped-def]
-    """One-sided Jacobi (Hestenes): rotate the rows of R until R[:, :n] has orthogonal rows.
-
-    Every column of R is rotated, so extra columns carry the accumulated rotation G.
-    """
-    width = R.shape[1]
-    for _sweep in range(60):
-        rotated = False
-        for p in range(m - 1):
-            for q in range(p + 1, m):
-                a = 0.0
-                b = 0.0
-                c = 0.0
-                for j in range(n):
-                    x = R[p, j]
-                    y = R[q, j]
-                    a += x * x
-                    b += y * y
-                    c += x * y
-                if c == 0.0 or abs(c) <= 1e-15 * math.sqrt(a * b):
-                    continue
-                rotated = True
-                zeta = (b - a) / (2.0 * c)
-                t = 1.0 / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
-                if zeta < 0.0:
-                    t = -t
-                cs = 1.0 / math.sqrt(1.0 + t * t)
-                sn = cs * t
-                for j in range(width):
-                    x = R[p, j]
-                    y = R[q, j]
-                    R[p, j] = cs * x - sn * y
-                    R[q, j] = sn * x + cs * y
-        if not rotated:
-            break
-
-
-@_inline
+@kernel
 def _damping_squared(sigma, dmode, lam, lam_max, eps):  # type: ignore[no-untyped-def]
     """Damping lambda^2 for a singular value ``sigma`` (unscaled units).
 
@@ -426,7 +92,7 @@ def _damping_squared(sigma, dmode, lam, lam_max, eps):  # type: ignore[no-untype
     return 0.0
 
 
-@_inline
+@kernel
 def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, work):  # type: ignore[no-untyped-def]
     """Factor the inverse of the scaled matrix Js (m x n).
 
@@ -481,7 +147,7 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, work):  # type: i
     return _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec)
 
 
-@_jit
+@kernel
 def _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec):  # type: ignore[no-untyped-def]
     """Near-singular branch of :func:`_core`: one-sided Jacobi SVD of ``[Js | I]``."""
     m, n = Js.shape
@@ -534,134 +200,7 @@ def _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec):  # type: ign
     return False, rank, smin_s * scale, smax_s * scale, math.sqrt(used)
 
 
-@_inline
-def _copy_finite_2d(src, dst):  # type: ignore[no-untyped-def]
-    """dst <- src; False if src has a NaN or an infinity (x * 0 is NaN exactly then)."""
-    bad = 0.0
-    for i in range(src.shape[0]):
-        for j in range(src.shape[1]):
-            x = src[i, j]
-            bad += x * 0.0
-            dst[i, j] = x
-    return bad == 0.0
-
-
-@_jit
-def _weigh(Js, wmode, wdiag, W, Lw):  # type: ignore[no-untyped-def]
-    """Js <- Js W^{-1/2} (diagonal) or Js L^-T (full, W = L L^T into Lw), in place; status."""
-    m, n = Js.shape
-    if wmode == NO_WEIGHTS:
-        return OK
-    if wmode == DIAGONAL:
-        if wdiag.shape[0] != n:
-            return W_SHAPE
-        if not _finite_1d(wdiag):
-            return W_NONFINITE
-        for j in range(n):
-            if not wdiag[j] > 0.0:
-                return W_NOT_SPD
-            Lw[j, 0] = math.sqrt(wdiag[j])
-        for i in range(m):
-            for j in range(n):
-                Js[i, j] /= Lw[j, 0]
-        return OK
-    if W.shape[0] != n or W.shape[1] != n:
-        return W_SHAPE
-    if not _finite_2d(W):
-        return W_NONFINITE
-    biggest = 0.0
-    for i in range(n):
-        for j in range(n):
-            biggest = max(biggest, abs(W[i, j]))
-    for i in range(n):
-        for j in range(i):
-            if abs(W[i, j] - W[j, i]) > _SYMMETRY_RTOL * biggest:
-                return W_ASYMMETRIC
-    if not _cholesky(W, Lw, n, 0.0):
-        return W_NOT_SPD
-    for i in range(m):  # row i of J L^-T is L^-1 (row i of J)^T: forward substitution
-        for j in range(n):
-            acc = Js[i, j]
-            for k in range(j):
-                acc -= Lw[j, k] * Js[i, k]
-            Js[i, j] = acc / Lw[j, j]
-    return OK
-
-
-@_inline
-def _scale(Js):  # type: ignore[no-untyped-def]
-    """Largest absolute entry s of Js; Js is divided by s unless s is in [1e-100, 1e100].
-
-    Returns the factor applied (1.0 when the entries are already safe to square and sum,
-    0.0 for a zero matrix).
-    """
-    m, n = Js.shape
-    s = 0.0
-    for i in range(m):
-        for j in range(n):
-            s = max(s, abs(Js[i, j]))
-    if s == 0.0:
-        return 0.0
-    if 1e-100 <= s <= 1e100:
-        return 1.0
-    inv = 1.0 / s
-    for i in range(m):
-        for j in range(n):
-            Js[i, j] *= inv
-    return s
-
-
-@_inline
-def _weight_up(v, wmode, Lw):  # type: ignore[no-untyped-def]
-    """v <- W^{1/2}-side map L^T v (diagonal: sqrt(w) v), in place."""
-    n = v.shape[0]
-    if wmode == DIAGONAL:
-        for j in range(n):
-            v[j] *= Lw[j, 0]
-    elif wmode == FULL:
-        for j in range(n):
-            acc = 0.0
-            for k in range(j, n):
-                acc += Lw[k, j] * v[k]
-            v[j] = acc
-
-
-@_inline
-def _weight_down(v, wmode, Lw):  # type: ignore[no-untyped-def]
-    """v <- L^-T v (diagonal: v / sqrt(w)), in place."""
-    n = v.shape[0]
-    if wmode == DIAGONAL:
-        for j in range(n):
-            v[j] /= Lw[j, 0]
-    elif wmode == FULL:
-        for j in range(n - 1, -1, -1):
-            acc = v[j]
-            for k in range(j + 1, n):
-                acc -= Lw[k, j] * v[k]
-            v[j] = acc / Lw[j, j]
-
-
-@_inline
-def _factor_size(n, wmode):  # type: ignore[no-untyped-def]
-    """Floats needed for the weight factor: n x n (full), n (diagonal) or 0."""
-    if wmode == FULL:
-        return n * n
-    if wmode == DIAGONAL:
-        return n
-    return 0
-
-
-@_inline
-def _factor_view(buffer, n, wmode):  # type: ignore[no-untyped-def]
-    """The weight factor's storage carved from ``buffer``: (n, n), (n, 1) or (0, 0)."""
-    if wmode == FULL:
-        return buffer[: n * n].reshape((n, n))
-    if wmode == DIAGONAL:
-        return buffer[:n].reshape((n, 1))
-    return buffer[:0].reshape((0, 0))
-
-
-@_inline
+@kernel
 def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
     """``out <- J# xd - k_null (I - J# J) grad``; ``(status, rank, smin, smax, damping)``.
 
@@ -754,7 +293,7 @@ def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, 
     return OK, rank, smin, smax, lam_used
 
 
-@_jit
+@kernel
 def step(J, xd, grad, out, null, k_null, damping, rcond):  # type: ignore[no-untyped-def]
     """Unweighted rate step with fixed damping (0: exact) into ``out`` (the fast lane).
 
@@ -784,7 +323,7 @@ def step(J, xd, grad, out, null, k_null, damping, rcond):  # type: ignore[no-unt
     return status, rank, rank == min(m, n), smin, smax, used, mode
 
 
-@_jit
+@kernel
 def step_general(J, xd, grad, wdiag, W, out, null, k_null, wmode, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
     """Rate step with any weights and damping mode (scalars validated by the caller).
 
@@ -797,7 +336,7 @@ def step_general(J, xd, grad, wdiag, W, out, null, k_null, wmode, dmode, lam, la
     return _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond)
 
 
-@_jit
+@kernel
 def inverse(J, wdiag, W, Jp, N, Lam, wmode, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
     """Fill ``Jp`` (n x m) with J#, ``N`` (n x n) with I - J# J and ``Lam`` (m x m) with
     ``(J W^-1 J^T + lam^2 I)^-1`` (the task-space inertia for ``W = M``; its filtered
@@ -884,7 +423,7 @@ def inverse(J, wdiag, W, Jp, N, Lam, wmode, dmode, lam, lam_max, eps, rcond):  #
     return OK, rank, smin, smax, lam_used
 
 
-@_jit
+@kernel
 def _inertia(C, dvec, use_chol, scale, Lam):  # type: ignore[no-untyped-def]
     """``Lam <- (Js Js^T + lam^2)^-1 / s^2`` from :func:`_core`'s factors: ``C^-T C^-1``
     with C the Cholesky factor, or ``G^T diag(d) G`` with G the rotation of the SVD path
@@ -912,195 +451,3 @@ def _inertia(C, dvec, use_chol, scale, Lam):  # type: ignore[no-untyped-def]
             for k in range(m):
                 acc += C[k, a] * dvec[k] * C[k, b]
             Lam[a, b] = Lam[b, a] = acc * inv2
-
-
-@_jit
-def _weight_up_row(N, a, wmode, Lw):  # type: ignore[no-untyped-def]
-    """Row a of N <- row a of (N L^T)."""
-    n = N.shape[1]
-    if wmode == DIAGONAL:
-        for j in range(n):
-            N[a, j] *= Lw[j, 0]
-    elif wmode == FULL:
-        # (N L^T)[a, j] = sum_k N[a, k] L[j, k], k <= j
-        for j in range(n - 1, -1, -1):
-            acc = 0.0
-            for k in range(j + 1):
-                acc += N[a, k] * Lw[j, k]
-            N[a, j] = acc
-
-
-@_inline
-def _so3_log(M, out):  # type: ignore[no-untyped-def]
-    """``out[:3] <- log(M)`` for a rotation matrix M: the rotation vector ``theta u``.
-
-    ``theta = atan2(sin, cos)`` from the skew and trace parts, accurate at every angle;
-    below ``cos = -0.9`` (``theta > 2.69``) the axis comes from the symmetric part
-    ``(M + M^T)/2 - cos I = (1 - cos) u u^T`` (its largest diagonal entry), with the sign
-    of the skew part, since ``sin`` alone loses the axis near ``pi``.
-    """
-    wx = M[2, 1] - M[1, 2]
-    wy = M[0, 2] - M[2, 0]
-    wz = M[1, 0] - M[0, 1]
-    s = 0.5 * math.sqrt(wx * wx + wy * wy + wz * wz)
-    c = 0.5 * (M[0, 0] + M[1, 1] + M[2, 2] - 1.0)
-    theta = math.atan2(s, c)
-    if c > -0.9:
-        # theta / (2 sin theta), by its series where sin theta is tiny (theta < 1e-4).
-        f = 0.5 * theta / s if s > 1e-4 else 0.5 + theta * theta / 12.0
-        out[0] = f * wx
-        out[1] = f * wy
-        out[2] = f * wz
-        return
-    one_minus_c = 1.0 - c
-    k = 0
-    for i in range(1, 3):
-        if M[i, i] > M[k, k]:
-            k = i
-    bkk = M[k, k] - c
-    norm = math.sqrt(bkk * one_minus_c)
-    skew = (wx, wy, wz)
-    sign = 0.0
-    for i in range(3):
-        u = (0.5 * (M[i, k] + M[k, i]) - (c if i == k else 0.0)) / norm
-        out[i] = u
-        sign += u * skew[i]
-    f = -theta if sign < 0.0 else theta
-    for i in range(3):
-        out[i] *= f
-
-
-@_inline
-def _frame_command(J, H, q, rows, config, Jm, xd, e):  # type: ignore[no-untyped-def]
-    """Frame-task error and command of :func:`clik_step` into ``e`` (6), ``Jm`` (m x n)
-    and ``xd`` (m); returns a status."""
-    n = q.shape[0]
-    if J.shape[0] != 6 or J.shape[1] != n or H.shape[0] != 4 or H.shape[1] != 4:
-        return Q_SHAPE
-    if config.shape[0] != CFG_VECTORS + 3 * n or e.shape[0] != 6:
-        return Q_SHAPE
-    m = rows.shape[0]
-    if Jm.shape[0] != m or Jm.shape[1] != n or xd.shape[0] != m:
-        return Q_SHAPE
-    if not _finite_1d(q):
-        return Q_NONFINITE
-    bad = 0.0
-    for i in range(3):
-        for j in range(4):
-            bad += H[i, j] * 0.0
-    if bad != 0.0:
-        return POSE_NONFINITE
-    M = np.empty((3, 3))
-    for i in range(3):
-        e[i] = config[CFG_POSITION + i] - H[i, 3]
-        for j in range(3):
-            acc = 0.0
-            for k in range(3):
-                acc += config[CFG_ROTATION + 3 * i + k] * H[j, k]
-            M[i, j] = acc
-    _so3_log(M, e[3:])
-    for i in range(m):
-        r = rows[i]
-        xd[i] = config[CFG_TWIST + r] + config[CFG_GAIN + r] * e[r]
-        for j in range(n):
-            Jm[i, j] = J[r, j]
-    return OK
-
-
-@_jit
-def frame_command(J, H, q, rows, config, Jm, xd, e):  # type: ignore[no-untyped-def]
-    """The frame-task part of :func:`clik_step` alone (for schemes with their own step):
-    ``e = [p_d - p; log(R_d R^T)]`` into ``e``, the task rows of ``J`` into ``Jm`` and
-    ``xd = twist_d + gain * e`` into ``xd``. Returns a status."""
-    return _frame_command(J, H, q, rows, config, Jm, xd, e)
-
-
-@_jit
-def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
-    """One fused CLIK step on a frame task: pose error, rate step, limits, integration.
-
-    Inputs: ``J`` the frame's 6 x n world-aligned Jacobian, ``H`` its 4 x 4 placement,
-    ``q`` (n,), ``rows`` the task rows (indices into ``[x, y, z, rx, ry, rz]``) and
-    ``config`` laid out as the ``CFG_*`` offsets say, with ``a, b, qd_max`` (n each) from
-    ``CFG_VECTORS`` on. Computes::
-
-        e  = [p_d - p; log(R_d R^T)]                      (six rows)
-        xd = twist_d + gain * e                          (the selected rows)
-        qd = J# xd - k_null (I - J# J) (a * q - b)       (damping mode CFG_MODE)
-        qd <- qd / max(1, max_j |qd_j| / qd_max_j)        (when CFG_LIMIT is 1)
-        q+ = q + qd dt
-
-    and writes ``out[:n] = q+``, ``out[n:2n] = qd``, ``out[2n:2n+6] = e``. Returns
-    ``(status, rank, sigma_min, sigma_max, damping, speed)`` where ``speed`` is
-    ``max_j |qd_j| / qd_max_j`` before scaling (0 when limits are off).
-    """
-    n = q.shape[0]
-    m = rows.shape[0]
-    if out.shape[0] != 2 * n + 6:
-        return Q_SHAPE, 0, 0.0, 0.0, 0.0, 0.0
-    Jm = np.empty((m, n))
-    xd = np.empty(m)
-    status = _frame_command(J, H, q, rows, config, Jm, xd, out[2 * n : 2 * n + 6])
-    if status != OK:
-        return status, 0, 0.0, 0.0, 0.0, 0.0
-    has_grad = config[CFG_HAS_GRAD] != 0.0
-    grad = np.empty(n if has_grad else 0)
-    if has_grad:
-        for j in range(n):
-            grad[j] = config[CFG_VECTORS + j] * q[j] - config[CFG_VECTORS + n + j]
-    qd = out[n : 2 * n]
-    status, rank, smin, smax, used = _step(
-        Jm, xd, grad, qd, xd[:0], config[CFG_K_NULL], NO_WEIGHTS, xd[:0], Jm[:0, :0],
-        int(config[CFG_MODE]), config[CFG_DAMPING], config[CFG_MAX_DAMPING],
-        config[CFG_THRESHOLD], config[CFG_RCOND],
-    )  # fmt: skip
-    if status != OK:
-        return status, rank, smin, smax, used, 0.0
-    speed = 0.0
-    if config[CFG_LIMIT] != 0.0:
-        limits = config[CFG_VECTORS + 2 * n : CFG_VECTORS + 3 * n]
-        for j in range(n):
-            speed = max(speed, abs(qd[j]) / limits[j])
-        if speed > 1.0:
-            inv = 1.0 / speed
-            for j in range(n):
-                qd[j] *= inv
-    dt = config[CFG_DT]
-    for j in range(n):
-        out[j] = q[j] + qd[j] * dt
-    return OK, rank, smin, smax, used, speed
-
-
-@_jit
-def integrate(q, qd, dt, out):  # type: ignore[no-untyped-def]
-    """``out <- q + qd dt`` (one compiled call instead of two NumPy temporaries)."""
-    for j in range(q.shape[0]):
-        out[j] = q[j] + qd[j] * dt
-
-
-@_jit
-def revolute_jacobian_derivatives(J, out):  # type: ignore[no-untyped-def]
-    """``out[i] = ∂J/∂qᵢ`` (n x 6 x n) of a serial chain of revolute joints from its
-    world-aligned Jacobian ``J = [Jᵥ; J_ω]`` (6 x n): column j of ``∂J/∂qᵢ`` is
-    ``[zᵢ × Jᵥ,ⱼ; zᵢ × zⱼ]`` for ``i < j`` and ``[zⱼ × Jᵥ,ᵢ; 0]`` for ``i ≥ j``
-    (Bruyninckx and De Schutter; zⱼ = J_ω,ⱼ)."""
-    n = J.shape[1]
-    for i in range(n):
-        zi0, zi1, zi2 = J[3, i], J[4, i], J[5, i]
-        for j in range(n):
-            if i < j:
-                a0, a1, a2 = zi0, zi1, zi2
-                v0, v1, v2 = J[0, j], J[1, j], J[2, j]
-                w0, w1, w2 = J[3, j], J[4, j], J[5, j]
-                out[i, 3, j] = a1 * w2 - a2 * w1
-                out[i, 4, j] = a2 * w0 - a0 * w2
-                out[i, 5, j] = a0 * w1 - a1 * w0
-            else:
-                a0, a1, a2 = J[3, j], J[4, j], J[5, j]
-                v0, v1, v2 = J[0, i], J[1, i], J[2, i]
-                out[i, 3, j] = 0.0
-                out[i, 4, j] = 0.0
-                out[i, 5, j] = 0.0
-            out[i, 0, j] = a1 * v2 - a2 * v1
-            out[i, 1, j] = a2 * v0 - a0 * v2
-            out[i, 2, j] = a0 * v1 - a1 * v0

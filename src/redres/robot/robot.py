@@ -458,13 +458,16 @@ class Robot:
 
 
 def _jacobian_derivatives_kernel() -> Any:
-    """The compiled ``∂J/∂qᵢ`` kernel (redres.linalg), None without the kernels."""
+    """The compiled ``∂J/∂qᵢ`` kernel (:mod:`redres.robot._kernels`), None without the
+    kernels."""
     from ..linalg import _backend
 
     if _backend.kernels() is None:
         return None
     if _DERIVATIVES[0] is None:
-        _DERIVATIVES[0] = _backend.fused_jacobian_derivatives()
+        warm = (np.zeros((6, 1)), np.zeros((1, 6, 1)))
+        _DERIVATIVES[0] = _backend.entry("redres.robot._kernels",
+                                         "revolute_jacobian_derivatives", warm)  # fmt: skip
     return _DERIVATIVES[0]
 
 

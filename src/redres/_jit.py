@@ -1,0 +1,283 @@
+"""The one owner of numba in redres (internal): compile switch, cache, warm-up, messages.
+
+Every compiled function of the package is written as plain Python in one of the kernel
+modules listed in :data:`KERNEL_MODULES` and marked with :func:`kernel`. Nothing else in
+redres imports numba, and nothing imports a kernel module but through :func:`load`, so
+``import redres`` never pays for numba.
+
+**Switch.** ``REDRES_DISABLE_JIT=1`` in the environment (read once, at import) turns every
+kernel into the plain Python function it is written as: same results, much slower, and
+numba is never imported. :mod:`redres.linalg` then takes its NumPy paths.
+
+**Cache.** Compiled code is cached on disk so that a process loads, rather than
+compiles, what an earlier one compiled. The cache lives in ``REDRES_CACHE_DIR`` if set,
+else in ``__pycache__/numba`` inside the installed package when that is writable, else
+in the per-user cache directory (``$XDG_CACHE_HOME/redres/numba``, by default
+``~/.cache/redres/numba``). Where none is writable the kernels are compiled in memory.
+
+**Staleness.** numba checks a cached function against the source file that defines it,
+so a compiled function that calls a compiled function of *another* file would keep
+running the callee's old code after an edit (numba issue 1833). Here the freshness stamp
+of every kernel is one digest of *all* kernel modules (and the redres version): an edit
+to any of them invalidates every cached kernel, and kernels may call kernels of other
+kernel modules safely. ``tests/test_jit.py`` checks that every compiled call crosses
+only between modules of :data:`KERNEL_MODULES` and that an edited callee in another file
+is recompiled.
+
+**Messages.** The first time a kernel module is compiled into a cache (a fresh install,
+an edit, a new Python), :func:`load` prints one line on standard error saying what is
+being compiled, about how long it takes and where it is cached — never in silence.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from types import ModuleType
+from typing import Any, ClassVar
+
+__all__ = [
+    "KERNEL_MODULES",
+    "cache_dir",
+    "enabled",
+    "entry_point",
+    "kernel",
+    "load",
+    "warmup",
+]
+
+#: Every module of redres with compiled code (dotted names). The cache stamp covers them
+#: all; a kernel module missing here fails ``tests/test_jit.py``.
+KERNEL_MODULES: tuple[str, ...] = (
+    "redres.linalg._dense_kernels",
+    "redres.linalg._eigen_kernels",
+    "redres.linalg._kernels",
+    "redres.control._kernels",
+    "redres.robot._kernels",
+    "redres.resolution.sns",
+    "redres.resolution.qp",
+    "redres.resolution.limits",
+)
+
+#: Rough cold compile time of each module on a 2-core machine, s (for the message).
+_COLD_SECONDS: dict[str, float] = {
+    "redres.linalg._kernels": 20.0,
+    "redres.control._kernels": 8.0,
+    "redres.robot._kernels": 2.0,
+}
+
+_ENABLED = os.environ.get("REDRES_DISABLE_JIT", "") in ("", "0")
+_OPTIONS: dict[str, Any] = {"nogil": True, "error_model": "numpy"}
+_PACKAGE = Path(__file__).resolve().parent
+_state: dict[str, Any] = {}
+
+
+def enabled() -> bool:
+    """Whether kernels are compiled (``REDRES_DISABLE_JIT`` unset or ``0``)."""
+    return _ENABLED
+
+
+# --------------------------------------------------------------------------- cache
+
+
+def cache_dir() -> Path | None:
+    """The directory compiled kernels are cached in (module docstring), or None when no
+    candidate is writable (then they are compiled in memory, every process)."""
+    if "cache_dir" in _state:
+        found: Path | None = _state["cache_dir"]
+        return found
+    candidates = []
+    if os.environ.get("REDRES_CACHE_DIR"):
+        candidates.append(Path(os.environ["REDRES_CACHE_DIR"]))
+    else:
+        candidates.append(_PACKAGE / "__pycache__" / "numba")
+        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+        candidates.append(Path(base) / "redres" / "numba")
+    _state["cache_dir"] = next((p for p in candidates if _writable(p)), None)
+    return _state["cache_dir"]  # type: ignore[no-any-return]
+
+
+def _writable(path: Path) -> bool:
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=path).close()
+    except OSError:
+        return False
+    return True
+
+
+def _module_file(name: str) -> Path:
+    """Source file of kernel module ``name`` (found without importing it)."""
+    parts = name.split(".")[1:]
+    return _PACKAGE.joinpath(*parts[:-1], parts[-1] + ".py")
+
+
+def stamp() -> str:
+    """The freshness stamp of every cached kernel: a digest of the redres version and the
+    sources of all :data:`KERNEL_MODULES`."""
+    if "stamp" not in _state:
+        from . import __version__
+
+        digest = hashlib.sha256(__version__.encode())
+        for name in KERNEL_MODULES:
+            digest.update(name.encode())
+            digest.update(_module_file(name).read_bytes())
+        _state["stamp"] = digest.hexdigest()
+    return _state["stamp"]  # type: ignore[no-any-return]
+
+
+def _cache_class() -> Any:
+    """numba's per-function cache with this module's locator (built on first use)."""
+    if "cache_class" in _state:
+        return _state["cache_class"]
+    from numba.core import caching
+
+    class Locator(caching._CacheLocator):  # type: ignore[misc]
+        """Cache files under :func:`cache_dir`, fresh while :func:`stamp` is unchanged."""
+
+        def __init__(self, py_func: Any, py_file: str) -> None:
+            self._py_file = py_file
+            self._lineno = py_func.__code__.co_firstlineno
+            self._path = str(_cache_root() / py_func.__module__)
+
+        def get_cache_path(self) -> str:
+            return self._path
+
+        def get_source_stamp(self) -> str:
+            return stamp()
+
+        def get_disambiguator(self) -> str:
+            return str(self._lineno)
+
+        @classmethod
+        def from_function(cls, py_func: Any, py_file: str) -> Locator:
+            return cls(py_func, py_file)
+
+    class Impl(caching.CompileResultCacheImpl):  # type: ignore[misc]
+        _locator_classes: ClassVar[list[Any]] = [Locator]
+
+    class Cache(caching.FunctionCache):  # type: ignore[misc]
+        _impl_class = Impl
+
+    _state["cache_class"] = Cache
+    return Cache
+
+
+def _cache_root() -> Path:
+    root = cache_dir()
+    assert root is not None  # only called when caching
+    return root
+
+
+# --------------------------------------------------------------------------- kernels
+
+
+def kernel(func: Callable[..., Any]) -> Any:
+    """Mark ``func`` as a kernel: compiled by numba (``nogil``, NumPy error model, cached
+    as the module docstring says) on its first call, or left as plain Python when the
+    switch is off. Typed ``Any`` so that kernels calling kernels type-check."""
+    if not _ENABLED:
+        return func
+    import numba
+
+    dispatcher = numba.njit(**_OPTIONS)(func)
+    if cache_dir() is not None:
+        try:
+            dispatcher._cache = _cache_class()(dispatcher.py_func)
+        except Exception:  # pragma: no cover - numba's caching internals changed
+            pass  # compiled in memory: correct, only slower to start
+    _state.setdefault("kernels", {}).setdefault(func.__module__, []).append(dispatcher)
+    return dispatcher
+
+
+def load(name: str) -> ModuleType | None:
+    """Kernel module ``name`` (of :data:`KERNEL_MODULES`), imported on first use; None
+    when it cannot be imported (numba missing or broken: the caller says what it falls
+    back to). Announces a first compilation on standard error (module docstring)."""
+    if name not in KERNEL_MODULES:
+        raise ValueError(f"{name} is not a kernel module of redres._jit.KERNEL_MODULES")
+    if name in sys.modules:
+        return sys.modules[name]
+    try:
+        module = importlib.import_module(name)
+    except ImportError:
+        return None
+    if _ENABLED and cache_dir() is not None and not _marker(name).exists():
+        _announce(name)
+    return module
+
+
+def _marker(name: str) -> Path:
+    """File that says module ``name`` has been compiled into the cache at this stamp."""
+    return _cache_root() / name / f"compiled-{stamp()[:16]}"
+
+
+def _announce(name: str) -> None:
+    """One line on standard error before a module's first compilation into this cache;
+    the marker is written once this process has compiled something of it."""
+    seconds = _COLD_SECONDS.get(name)
+    about = f", about {seconds:.0f} s" if seconds else ""
+    print(
+        f"redres: compiling {name.removeprefix('redres.')} kernels on first use{about}; "
+        f"cached in {cache_dir()} for later runs",
+        file=sys.stderr,
+        flush=True,
+    )
+    pending = _state.setdefault("pending", set())
+    if not pending:
+        import atexit
+
+        atexit.register(_write_markers)
+    pending.add(name)
+
+
+def _write_markers() -> None:
+    for name in _state.get("pending", ()):
+        if any(d.signatures for d in _state.get("kernels", {}).get(name, ())):
+            try:
+                _marker(name).parent.mkdir(parents=True, exist_ok=True)
+                _marker(name).touch()
+            except OSError:  # pragma: no cover - the cache went read-only meanwhile
+                pass
+
+
+def entry_point(dispatcher: Any, args: tuple[Any, ...]) -> Callable[..., Any]:
+    """The native entry point of a kernel for exactly the types of ``args``.
+
+    Calls ``dispatcher(*args)`` once (compiling, or loading from the cache), then returns
+    the compiled function for those types, which skips numba's per-call type dispatch
+    (about 1–2 µs for a dozen arguments). Callers must then pass arguments of the same
+    types and layouts (C-contiguous float64 arrays, Python floats, ints and bools). Returns
+    the kernel itself when it is plain Python or numba's internals differ.
+    """
+    dispatcher(*args)
+    if not _ENABLED:
+        return dispatcher  # type: ignore[no-any-return]
+    try:
+        import numba
+
+        signature = tuple(numba.typeof(arg) for arg in args)  # type: ignore[no-untyped-call]
+        entry: Callable[..., Any] = dispatcher.overloads[signature].entry_point
+    except Exception:  # pragma: no cover - numba internals changed: use the dispatcher
+        return dispatcher  # type: ignore[no-any-return]
+    return entry
+
+
+def warmup(tasks: Iterable[tuple[str, Callable[[], object]]], *, quiet: bool = False) -> float:
+    """Run warm-up calls (``(label, call)`` pairs that compile what they touch), printing
+    what each compiled and how long it took unless ``quiet``; returns the total, s."""
+    total = 0.0
+    for label, call in tasks:
+        start = time.perf_counter()
+        call()
+        seconds = time.perf_counter() - start
+        total += seconds
+        if not quiet:
+            print(f"redres: {label}: {seconds:.1f} s", file=sys.stderr, flush=True)
+    return total

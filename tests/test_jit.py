@@ -1,0 +1,206 @@
+"""The compiled plumbing (redres._jit): one owner of numba, a cache that cannot go stale.
+
+numba checks a cached function against its own source file only, so a compiled function
+calling a compiled function of another file keeps the callee's old code after an edit
+(numba issue 1833). redres stamps every kernel with a digest of all kernel modules; these
+tests walk the kernel sources, and show with a real edit in a copy of the package that
+the caller is recompiled.
+"""
+
+from __future__ import annotations
+
+import ast
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+import redres
+from redres import _jit
+
+PACKAGE = Path(redres.__file__).parent
+
+
+def _modules() -> dict[str, ast.Module]:
+    out = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        name = ".".join(("redres", *path.relative_to(PACKAGE).with_suffix("").parts))
+        out[name.removesuffix(".__init__")] = ast.parse(path.read_text(encoding="utf-8"))
+    return out
+
+
+def _kernels(tree: ast.Module) -> set[str]:
+    """Names of the functions of a module decorated with ``@kernel``."""
+    return {
+        node.name
+        for node in tree.body
+        if isinstance(node, ast.FunctionDef)
+        and any(isinstance(d, ast.Name) and d.id == "kernel" for d in node.decorator_list)
+    }
+
+
+def _imported(name: str, tree: ast.Module) -> dict[str, str]:
+    """Local name -> module it is imported from (``from x import y``), absolute."""
+    out = {}
+    package = name.rsplit(".", 1)[0] if not name.endswith("__init__") else name
+    for node in tree.body:
+        if isinstance(node, ast.ImportFrom) and node.module is not None:
+            base = package.split(".")
+            if node.level:
+                base = base[: len(base) - node.level + 1]
+                source = ".".join([*base, node.module])
+            else:
+                source = node.module
+            for alias in node.names:
+                out[alias.asname or alias.name] = source
+    return out
+
+
+def test_every_compiled_function_is_in_a_stamped_kernel_module() -> None:
+    modules = _modules()
+    with_kernels = {name for name, tree in modules.items() if _kernels(tree)}
+    missing = sorted(with_kernels - set(_jit.KERNEL_MODULES))
+    assert not missing, (
+        "these modules define @kernel functions but are not in redres._jit.KERNEL_MODULES "
+        f"(their edits would not invalidate the cache): {missing}"
+    )
+    for name in _jit.KERNEL_MODULES:
+        assert _jit._module_file(name).exists(), f"{name} is listed but has no source file"
+
+
+def test_compiled_calls_cross_files_only_between_stamped_kernel_modules() -> None:
+    """Walk every kernel's body: a call to a kernel defined in another file is allowed only
+    when both files are covered by the one cache stamp."""
+    modules = _modules()
+    kernels = {name: _kernels(tree) for name, tree in modules.items()}
+    crossings = []
+    for name, tree in modules.items():
+        imported = _imported(name, tree)
+        for node in tree.body:
+            if not (isinstance(node, ast.FunctionDef) and node.name in kernels[name]):
+                continue
+            for call in ast.walk(node):
+                if isinstance(call, ast.Call) and isinstance(call.func, ast.Name):
+                    source = imported.get(call.func.id)
+                    if source is not None and call.func.id in kernels.get(source, set()):
+                        crossings.append((name, node.name, source, call.func.id))
+    assert crossings, "the walk found no cross-file kernel call: it is not looking"
+    stamped = set(_jit.KERNEL_MODULES)
+    outside = [c for c in crossings if c[0] not in stamped or c[2] not in stamped]
+    assert not outside, f"compiled calls into files the cache stamp does not cover: {outside}"
+
+
+def test_only_the_plumbing_imports_numba() -> None:
+    offenders = []
+    for name, tree in _modules().items():
+        for node in ast.walk(tree):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module]
+            if any(n == "numba" or n.startswith("numba.") for n in names):
+                offenders.append(name)
+    # The hard-limit kernels still compile themselves until they move to redres._jit.
+    allowed = {"redres._jit", "redres.resolution.limits"}
+    assert set(offenders) <= allowed, f"numba imported outside redres._jit: {offenders}"
+
+
+_CALLER = """
+from ._jit import kernel
+from ._probe_callee import inner
+
+
+@kernel
+def outer(x):
+    return inner(x) * 10.0
+"""
+_CALLEE = """
+from ._jit import kernel
+
+
+@kernel
+def inner(x):
+    return x + {value}
+"""
+_RUN = """
+import redres._jit as jit
+jit.KERNEL_MODULES += ("redres._probe_caller", "redres._probe_callee")
+module = jit.load("redres._probe_caller")
+print(module.outer(1.0), module.outer.stats.cache_hits.get(module.outer.signatures[0], 0))
+"""
+
+
+@pytest.mark.skipif(not _jit.enabled(), reason="the compiled kernels are disabled")
+def test_an_edit_to_a_callee_in_another_file_recompiles_the_caller(tmp_path: Path) -> None:
+    """A copy of the package with a caller and a callee in two kernel files: after the
+    callee is edited, a new process computes with the new callee (numba's own cache would
+    return the old result), and an unchanged package loads from the cache."""
+    copy = tmp_path / "redres"
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    (copy / "_probe_caller.py").write_text(_CALLER)
+    callee = copy / "_probe_callee.py"
+    env = {**os.environ, "PYTHONPATH": str(tmp_path), "REDRES_CACHE_DIR": str(tmp_path / "c")}
+
+    def run() -> tuple[float, int]:
+        out = subprocess.run(
+            [sys.executable, "-c", textwrap.dedent(_RUN)],
+            capture_output=True, text=True, env=env, timeout=300, check=True,
+        ).stdout.split()  # fmt: skip
+        return float(out[0]), int(out[1])
+
+    callee.write_text(_CALLEE.format(value="1.0"))
+    assert run() == (20.0, 0)  # compiled
+    assert run() == (20.0, 1)  # loaded from the cache
+    callee.write_text(_CALLEE.format(value="2.0"))
+    assert run() == (30.0, 0)  # the edited callee, recompiled
+
+
+def test_the_cache_falls_back_to_the_user_directory(tmp_path: Path) -> None:
+    """A read-only install: the cache goes to $XDG_CACHE_HOME/redres/numba."""
+    out = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent("""
+            from pathlib import Path
+            import redres._jit as jit
+            jit._PACKAGE = Path("/proc/redres-read-only")  # not writable
+            print(jit.cache_dir())
+        """)],
+        capture_output=True, text=True, timeout=120, check=True,
+        env={**os.environ, "XDG_CACHE_HOME": str(tmp_path)},
+    ).stdout.strip()  # fmt: skip
+    assert out == str(tmp_path / "redres" / "numba")
+
+
+@pytest.mark.skipif(not _jit.enabled(), reason="the compiled kernels are disabled")
+def test_a_first_compilation_is_announced_once(tmp_path: Path) -> None:
+    env = {**os.environ, "REDRES_CACHE_DIR": str(tmp_path)}
+    code = "import redres, numpy as np; redres.linalg.rate_step(np.eye(2, 3), np.ones(2))"
+
+    def stderr() -> str:
+        return subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, env=env,
+            timeout=300, check=True,
+        ).stderr  # fmt: skip
+
+    first = stderr()
+    assert "redres: compiling linalg._kernels kernels on first use" in first
+    assert str(tmp_path) in first
+    assert "compiling" not in stderr()  # cached: silent
+
+
+@pytest.mark.skipif(not _jit.enabled(), reason="the compiled kernels are disabled")
+def test_without_a_writable_cache_the_kernels_compile_in_memory() -> None:
+    out = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent("""
+            import numpy as np
+            import redres._jit as jit, redres.linalg as rl
+            print(jit.cache_dir(), round(rl.damped_pinv(np.eye(2), 1.0)[0, 0], 12))
+        """)],
+        capture_output=True, text=True, timeout=300, check=True,
+        env={**os.environ, "REDRES_CACHE_DIR": "/proc/redres-read-only"},
+    ).stdout.split()  # fmt: skip
+    assert out == ["None", "0.5"]
