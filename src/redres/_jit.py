@@ -160,7 +160,7 @@ def _cache_class() -> Any:
             return cls(py_func, py_file)
 
     class Impl(caching.CompileResultCacheImpl):  # type: ignore[misc]
-        _locator_classes: ClassVar[list[Any]] = [Locator]
+        _locator_classes: ClassVar[list[Any]] = [Locator]  # type: ignore[misc]
 
     class Cache(caching.FunctionCache):  # type: ignore[misc]
         _impl_class = Impl
