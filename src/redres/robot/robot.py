@@ -17,6 +17,7 @@ import pinocchio as pin
 
 from .._validate import FloatArray, as_transform, as_vector
 from ..errors import FrameNotFoundError, InvalidParameterError, JointLimitError, ShapeError
+from .derivatives import revolute_jacobian_derivatives
 
 if TYPE_CHECKING:
     from .capsules import Capsule
@@ -351,34 +352,14 @@ class Robot:
     def jacobian_derivatives(self, q: Any, frame: str | None = None) -> FloatArray:
         """Partial derivatives ``∂J/∂qᵢ`` of the world-aligned Jacobian, shape ``(n, 6, n)``.
 
-        For a serial chain of revolute joints with axes ``zⱼ`` and ``J = [Jᵥ; J_ω]``
-        (Bruyninckx and De Schutter; also the form Pinocchio's kinematic Hessian takes):
-        ``∂Jᵥ,ⱼ/∂qᵢ = zᵢ × Jᵥ,ⱼ`` for ``i < j`` and ``zⱼ × Jᵥ,ᵢ`` for ``i ≥ j``;
-        ``∂J_ω,ⱼ/∂qᵢ = zᵢ × zⱼ`` for ``i < j`` and 0 otherwise — all from one Jacobian. Chains
+        For revolute chains all from one Jacobian (:mod:`redres.robot.derivatives`); chains
         with prismatic joints fall back to ``n`` calls of :meth:`jacobian_dot`.
         """
         qv = self._q(q)
         if not self._all_revolute:
             eye = np.eye(self.n)
             return np.stack([self.jacobian_dot(qv, eye[i], frame) for i in range(self.n)])
-        J = self.jacobian(qv, frame)
-        kernel = _jacobian_derivatives_kernel()
-        if kernel is not None:
-            out = np.empty((self.n, 6, self.n))
-            kernel(np.ascontiguousarray(J), out)
-            return out
-        Jv, z = J[:3].T, J[3:].T  # (n, 3) each
-        n = self.n
-        # cross[i, j] = z_i × Jv_j and zz[i, j] = z_i × z_j for every pair.
-        cross_v = _pairwise_cross(z, Jv)
-        cross_w = _pairwise_cross(z, z)
-        upper = np.triu(np.ones((n, n), dtype=bool), 1)[:, :, None]  # i < j
-        dv = np.where(upper, cross_v, cross_v.transpose(1, 0, 2))  # i ≥ j: zⱼ × Jᵥ,ᵢ
-        dw = np.where(upper, cross_w, 0.0)
-        out = np.empty((n, 6, n))
-        out[:, :3, :] = dv.transpose(0, 2, 1)
-        out[:, 3:, :] = dw.transpose(0, 2, 1)
-        return out
+        return revolute_jacobian_derivatives(self.jacobian(qv, frame))
 
     def jacobian_dot(
         self, q: Any, qd: Any, frame: str | None = None, reference: Reference = "world"
@@ -455,30 +436,6 @@ class Robot:
                 f"{name}[{j}] = {q[j]} is outside the limits of joint "
                 f"{self.joint_names[j]!r}: [{self._q_min[j]}, {self._q_max[j]}]"
             )
-
-
-def _jacobian_derivatives_kernel() -> Any:
-    """The compiled ``∂J/∂qᵢ`` kernel (:mod:`redres.robot._kernels`), None without the
-    kernels."""
-    from ..linalg import _backend
-
-    if _backend.kernels() is None:
-        return None
-    if _DERIVATIVES[0] is None:
-        warm = (np.zeros((6, 1)), np.zeros((1, 6, 1)))
-        _DERIVATIVES[0] = _backend.entry("redres.robot._kernels",
-                                         "revolute_jacobian_derivatives", warm)  # fmt: skip
-    return _DERIVATIVES[0]
-
-
-_DERIVATIVES: list[Any] = [None]
-
-
-def _pairwise_cross(a: FloatArray, b: FloatArray) -> FloatArray:
-    """``out[i, j] = a[i] × b[j]`` for ``(n, 3)`` arrays (np.cross is slow on small sizes)."""
-    ax, ay, az = a[:, 0:1], a[:, 1:2], a[:, 2:3]
-    bx, by, bz = b[:, 0], b[:, 1], b[:, 2]
-    return np.stack((ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx), axis=-1)
 
 
 def _limit_vector(value: Any, n: int) -> FloatArray:
