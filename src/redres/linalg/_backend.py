@@ -25,7 +25,7 @@ import math
 import warnings
 from collections.abc import Callable
 from types import ModuleType
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -288,13 +288,13 @@ def times_lt(X: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
 Result = FloatArray | tuple[FloatArray, InverseInfo]
 
 
-Parts = tuple[FloatArray, tuple[int, float, float, float], str]
-"""``(matrix, (rank, sigma_min, sigma_max, damping), method)`` before packaging."""
+Parts = tuple[FloatArray, "Stats", str]
+"""``(matrix, stats, method)`` before packaging."""
 
 
 def finish(
     X: FloatArray,
-    stats: tuple[int, float, float, float],
+    stats: Stats,
     method: str,
     shape: tuple[int, ...],
     return_info: bool,
@@ -388,6 +388,25 @@ class Filtered:
         return np.asarray(g - self.Vt.T @ (self.p * (self.Vt @ g)))
 
 
+class Stats(NamedTuple):
+    """What a factorisation says about the matrix it inverted (internal)."""
+
+    rank: int
+    sigma_min: float
+    sigma_max: float
+    damping: float
+
+
+class Factored(NamedTuple):
+    """The outputs of the shared engine (internal): the wanted matrices (0 x 0 when not
+    wanted), the statistics of the factorisation and the damping mode used."""
+
+    first: FloatArray  # J# (invert) or Lambda (task_inertia)
+    second: FloatArray  # N (invert) or J_bar (task_inertia)
+    stats: Stats
+    mode: int
+
+
 def invert(
     J: FloatArray,
     *,
@@ -397,8 +416,8 @@ def invert(
     rcond: float,
     want_pinv: bool,
     want_projector: bool,
-) -> tuple[FloatArray, FloatArray, int, float, float, float, int]:
-    """Shared engine of the matrix functions: ``(J#, N, rank, smin, smax, damping, mode)``.
+) -> Factored:
+    """Shared engine of the matrix functions: ``Factored(J#, N, stats, mode)``.
 
     ``J`` must already be a validated finite float64 matrix. Outputs not wanted are 0 x 0.
     """
@@ -415,7 +434,7 @@ def invert(
         )  # fmt: skip
         if status:
             raise_status(status, {"J": "J", "W": weights_name})
-        return Jp, N, rank, smin, smax, used, mode
+        return Factored(Jp, N, Stats(rank, smin, smax, used), mode)
     factor = (
         EMPTY_2D if wmode == codes.NO_WEIGHTS else weight_factor(wmode, wdiag, wfull, weights_name)
     )
@@ -424,7 +443,7 @@ def invert(
     N = EMPTY_2D
     if want_projector:
         N = times_lt(unweigh_rows(filt.projector(), wmode, factor), wmode, factor)
-    return Jp, N, filt.rank, filt.sigma_min, filt.sigma_max, filt.damping, mode
+    return Factored(Jp, N, Stats(filt.rank, filt.sigma_min, filt.sigma_max, filt.damping), mode)
 
 
 def task_inertia(
@@ -434,8 +453,8 @@ def task_inertia(
     damping: float | AdaptiveDamping,
     rcond: float,
     want_pinv: bool,
-) -> tuple[FloatArray, FloatArray, int, float, float, float, int] | None:
-    """``(Lambda, J_bar, rank, smin, smax, damping, mode)`` from one compiled factorisation
+) -> Factored | None:
+    """``Factored(Lambda, J_bar, stats, mode)`` from one compiled factorisation
     of ``J L^-T`` (``M = L L^T``), or None when the kernels do not cover this size.
 
     ``Lambda = (J M^-1 J^T + lambda^2 I)^-1`` and ``J_bar = M^-1 J^T Lambda`` (the inverse
@@ -457,7 +476,7 @@ def task_inertia(
     )  # fmt: skip
     if status:
         raise_status(status, {"J": "J", "W": "M"})
-    return Lam, Jp, rank, smin, smax, used, mode
+    return Factored(Lam, Jp, Stats(rank, smin, smax, used), mode)
 
 
 def matrix_inverse(
@@ -468,13 +487,13 @@ def matrix_inverse(
     damping: float | AdaptiveDamping,
     rcond: float,
     exact_label: str,
-) -> tuple[FloatArray, tuple[int, float, float, float], str]:
-    """``(J#, (rank, sigma_min, sigma_max, damping), method)`` for the matrix functions.
+) -> Parts:
+    """``(J#, stats, method)`` for the matrix functions.
 
     An exact unweighted inverse of a rank-deficient ``J`` is labelled ``"pinv"`` (the
     truncated SVD pseudo-inverse it falls back to) instead of ``exact_label``.
     """
-    Jp, _, rank, smin, smax, used, mode = invert(
+    Jp, _, stats, mode = invert(
         J,
         weights=weights,
         weights_name=weights_name,
@@ -484,6 +503,6 @@ def matrix_inverse(
         want_projector=False,
     )
     method = method_label(mode, weights is not None, exact_label)
-    if weights is None and mode == codes.EXACT and rank < min(J.shape):
+    if weights is None and mode == codes.EXACT and stats.rank < min(J.shape):
         method = "pinv"
-    return Jp, (rank, smin, smax, used), method
+    return Jp, stats, method

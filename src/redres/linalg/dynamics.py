@@ -73,7 +73,7 @@ def _decompose(
     damping: float | AdaptiveDamping,
     rcond: float,
     want_pinv: bool = True,
-) -> tuple[FloatArray, FloatArray, FloatArray, tuple[int, float, float, float], str]:
+) -> tuple[FloatArray, FloatArray, FloatArray, be.Stats, str]:
     """``(Lambda, J_bar, J, stats, method)``: from the compiled kernel (one factorisation
     of ``J L^-T``) within the kernels' sizes, else from :func:`_decompose_svd`.
     ``J_bar`` is 0 x 0 unless ``want_pinv``."""
@@ -89,14 +89,14 @@ def _decompose(
         ) from exc
     if parts is None:
         return _decompose_svd(A, Mm, damping, rcond)
-    Lam, J_bar, rank, smin, smax, used, mode = parts
+    Lam, J_bar, stats, mode = parts
     suffix = "" if mode == codes.EXACT else "-" + be.method_label(mode, False, "")
-    return Lam, J_bar, A, (rank, smin, smax, used), "dynamically-consistent" + suffix
+    return Lam, J_bar, A, stats, "dynamically-consistent" + suffix
 
 
 def _decompose_svd(
     A: FloatArray, M: FloatArray, damping: float | AdaptiveDamping, rcond: float
-) -> tuple[FloatArray, FloatArray, FloatArray, tuple[int, float, float, float], str]:
+) -> tuple[FloatArray, FloatArray, FloatArray, be.Stats, str]:
     """The reference path (any size; also the oracle of the kernel in the tests): one
     LAPACK SVD of ``J L^-T``."""
     m, n = A.shape
@@ -120,7 +120,7 @@ def _decompose_svd(
     Lam = 0.5 * (Lam + Lam.T)
     J_bar = solve_triangular(L, (Vt[:k].T * f) @ U[:, :k].T, lower=True, trans="T")
     smin = float(sigma[-1]) if m <= n else float(sigma[k - 1])
-    stats = (rank, smin, float(sigma[0]), used)
+    stats = be.Stats(rank, smin, float(sigma[0]), used)
     suffix = "" if mode == codes.EXACT else "-" + be.method_label(mode, False, "")
     return Lam, np.asarray(J_bar), A, stats, "dynamically-consistent" + suffix
 

@@ -70,7 +70,7 @@ def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Re
     """
     A = be.as_jacobian(J)
     filt = be.Filtered(A, 0, 0.0, 0.0, 1.0, be.as_rcond(rcond))
-    stats = (filt.rank, filt.sigma_min, filt.sigma_max, 0.0)
+    stats = be.Stats(filt.rank, filt.sigma_min, filt.sigma_max, 0.0)
     return be.finish(filt.pinv(), stats, "pinv", A.shape, return_info)
 
 

@@ -101,7 +101,7 @@ def nullspace_projector(
             )
         X = as_matrix(J_pinv, "J_pinv", (n, m))
         return np.eye(n) - X @ A
-    _, N, rank, smin, smax, used, mode = be.invert(
+    _, N, stats, mode = be.invert(
         A,
         weights=weights,
         weights_name="weights",
@@ -111,7 +111,7 @@ def nullspace_projector(
         want_projector=True,
     )
     method = be.method_label(mode, weights is not None, "pinv")
-    return be.finish(N, (rank, smin, smax, used), method, A.shape, return_info)
+    return be.finish(N, stats, method, A.shape, return_info)
 
 
 def nullspace_basis(J: ArrayLike, rcond: float = RCOND) -> FloatArray:
