@@ -77,7 +77,7 @@ def redres_schemes() -> dict[str, tuple[Any, float]]:
     found: dict[str, tuple[Any, float]] = {
         "redres pinv (seeds' minimum norm)": (PseudoInverseScheme(), GAIN),
         "redres gradient projection (joint limits)": (
-            GradientProjectionScheme([limits()], gain=K_NULL), GAIN),
+            GradientProjectionScheme([limits()], k_null=K_NULL), GAIN),
         "redres weighted least norm": (WeightedLeastNormScheme(), GAIN),
     }  # fmt: skip
     for module, cls in (("qp", "QPScheme"), ("sns", "SNSScheme")):
@@ -87,7 +87,7 @@ def redres_schemes() -> dict[str, tuple[Any, float]]:
             found[f"redres {cls} (hard limits + joint-limit cost)"] = (scheme, GAIN)
         except (ImportError, AttributeError) as exc:
             peers.note(f"redres {cls} skipped: {exc}")
-    tuned = GradientProjectionScheme([limits()], gain=TUNED_NULL_GAIN)
+    tuned = GradientProjectionScheme([limits()], k_null=TUNED_NULL_GAIN)
     found["redres gradient projection, K = 1/dt, k = 50 (tuned like pink/mink)"] = (
         tuned, TUNED_GAIN)  # fmt: skip
     return found

@@ -20,7 +20,7 @@ def main() -> None:
     steps = int(os.environ.get("REDRES_EXAMPLE_STEPS", "10000"))
     schemes = [
         PseudoInverseScheme(),
-        GradientProjectionScheme([JointLimitObjective()], gain=5.0),
+        GradientProjectionScheme([JointLimitObjective()], k_null=5.0),
         WeightedLeastNormScheme(),
     ]
     print(scenario.description)

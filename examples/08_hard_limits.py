@@ -31,7 +31,7 @@ def main() -> None:
     limits = JointLimits.from_robot(robot)
     schemes = [
         PseudoInverseScheme(),
-        GradientProjectionScheme([JointLimitObjective()], gain=5.0),
+        GradientProjectionScheme([JointLimitObjective()], k_null=5.0),
         QPScheme(dt=DT),  # the loop's dt: the bounds look one step ahead
         SNSScheme(dt=DT),
     ]

@@ -21,6 +21,7 @@ import pinocchio as pin
 
 from . import models
 from .errors import RedresError
+from .linalg import AdaptiveDamping
 from .objectives import (
     CapsuleObstacle,
     JointLimitObjective,
@@ -34,11 +35,13 @@ from .objectives import (
 from .resolution import (
     AugmentedJacobianScheme,
     GradientProjectionScheme,
+    Inverse,
     PriorityScheme,
     PseudoInverseScheme,
     QPScheme,
     SNSScheme,
     WeightedLeastNormScheme,
+    make_inverse,
 )
 from .robot import Robot
 from .tasks import ArmAngleTask, FrameTask, LookAtTask, PostureTask, Task
@@ -316,11 +319,28 @@ def _hard_limits(
     return lambda: cls(dt=dt, objectives=objectives, gain=gain)
 
 
+def _inverse(r: _Reader, kind: str) -> Inverse:
+    """The scheme's inverse: ``damping = λ``, or ``max_damping`` and ``threshold`` (the
+    adaptive law), or ``rcond`` (exact); ``dls`` defaults to ``damping = 0.05``."""
+    keys = ("damping", "max_damping", "threshold", "rcond")
+    given = {k: r.positive(k) for k in keys if k in r.table}
+    damping: float | AdaptiveDamping | None = given.get("damping")
+    if "max_damping" in given or "threshold" in given:
+        if damping is not None:
+            raise r.fail("damping", "give damping = λ or max_damping and threshold, not both")
+        damping = AdaptiveDamping(given.get("max_damping", 0.1), given.get("threshold", 0.05))
+    if damping is None and kind == "dls" and "rcond" not in given:
+        damping = 0.05
+    try:
+        return make_inverse(None, damping, given.get("rcond"))
+    except RedresError as exc:
+        raise r.fail("rcond" if "rcond" in given else "damping", str(exc)) from None
+
+
 def _scheme(r: _Reader, obstacles: list[Obstacle], n: int, file: str, run_dt: float) -> SchemeSpec:
     kind = r.get("type", "string")
     label = r.get("label", "string", kind)
-    inverse = r.get("inverse", "string", "damped" if kind == "dls" else "exact")
-    params = {k: r.positive(k) for k in ("damping", "threshold", "max_damping") if k in r.table}
+    inverse = _inverse(r, kind)
     objectives = [
         _objective(_Reader(t, f"{r.path}.objectives[{i}]", file), obstacles, n)
         for i, t in enumerate(r.get("objectives", "tables", []))
@@ -330,14 +350,14 @@ def _scheme(r: _Reader, obstacles: list[Obstacle], n: int, file: str, run_dt: fl
         raise r.fail("gain", f"must be >= 0; got {gain}")
     try:
         if kind in ("pinv", "dls"):
-            PseudoInverseScheme(inverse, **params)  # validate now, build per run
-            build: Callable[[], Any] = lambda: PseudoInverseScheme(inverse, **params)  # noqa: E731
+            PseudoInverseScheme(inverse)  # validate now, build per run
+            build: Callable[[], Any] = lambda: PseudoInverseScheme(inverse)  # noqa: E731
         elif kind == "gradient_projection":
-            GradientProjectionScheme(objectives, gain, inverse, **params)
-            build = lambda: GradientProjectionScheme(objectives, gain, inverse, **params)  # noqa: E731
+            GradientProjectionScheme(objectives, k_null=gain, inverse=inverse)
+            build = lambda: GradientProjectionScheme(objectives, k_null=gain, inverse=inverse)  # noqa: E731
         elif kind == "wln":
             c = r.positive("c", 1.0)
-            build = lambda: WeightedLeastNormScheme(c, objectives, gain, inverse, **params)  # noqa: E731
+            build = lambda: WeightedLeastNormScheme(c, objectives, k_null=gain, inverse=inverse)  # noqa: E731
         elif kind == "augmented":
             build = lambda: AugmentedJacobianScheme(gain=gain if "gain" in r.table else 10.0)  # noqa: E731
         elif kind == "osc":

@@ -122,7 +122,7 @@ def test_panda_circle_pinv_hits_a_limit_and_self_motion_avoids_it() -> None:
     results = {}
     for scheme in (
         PseudoInverseScheme(),
-        GradientProjectionScheme([JointLimitObjective()], gain=5.0),
+        GradientProjectionScheme([JointLimitObjective()], k_null=5.0),
         WeightedLeastNormScheme(),
     ):
         log = rr.run(sc.robot, FrameTask(), sc.trajectory, scheme, q0=sc.q0, dt=1e-3, gain=50.0)

@@ -223,9 +223,9 @@ def test_a_closed_loop_run_reproduces_rr_run(objectives: list[Any]) -> None:
     robot, trajectory = scenario.robot, scenario.trajectory
     assert trajectory is not None
     scheme = (
-        GradientProjectionScheme(objectives, gain=5.0, inverse="damped", damping=0.01)
+        GradientProjectionScheme(objectives, k_null=5.0, damping=0.01)
         if objectives
-        else PseudoInverseScheme(inverse="damped", damping=0.01)
+        else PseudoInverseScheme(damping=0.01)
     )
     log = rr.run(robot, FrameTask(), trajectory, scheme, duration=1.0, q0=scenario.q0, gain=50.0)
     controller = ClikController(

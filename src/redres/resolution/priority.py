@@ -67,7 +67,7 @@ from typing import TYPE_CHECKING, Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._validate import FloatArray, as_matrix, as_scalar, as_vector
+from .._validate import FloatArray, as_matrix, as_scalar, as_vector, checked_keywords
 from ..errors import InvalidParameterError, ShapeError
 from ..linalg import (
     RCOND,
@@ -78,7 +78,7 @@ from ..linalg import (
     singular_values,
 )
 from ..tasks import Task, stack
-from .base import Scheme, StepResult
+from .base import Inverse, Scheme, StepResult, make_inverse
 
 if TYPE_CHECKING:
     from ..robot import Robot
@@ -321,26 +321,40 @@ class PriorityScheme(Scheme):
         levels: lower-priority levels, highest first.
         method: ``"exact"``, ``"robust"`` or ``"damped"`` (module docstring).
         gain: CLIK gain of the scheme's own levels, 1/s (one for all, or one per level).
-        damping: damping of the ``"robust"``/``"damped"`` inverses: one for all levels, or
-            one per level (level 1, the loop's task, first).
-        rcond: relative rank tolerance.
+        inverse: the :class:`~redres.resolution.Inverse` of every level; or give
+            ``damping``/``rcond``. ``"exact"`` takes an exact inverse only (its ``rcond``
+            is the rank tolerance); ``"robust"`` and ``"damped"`` default to
+            ``AdaptiveDamping(0.05, 0.05)``.
+        damping: damping of the ``"robust"``/``"damped"`` inverses, a ``λ ≥ 0`` in the
+            units of ``J`` or an :class:`~redres.linalg.AdaptiveDamping`.
+        rcond: relative rank tolerance of the exact inverses and null-space projectors
+            (refused next to a damping).
         threshold: singular value below which a level is reported singular.
 
     Identifier ``priority``. ``StepResult.info`` is the inverse of level 1,
     ``null_term`` what the lower levels add, ``algorithmic_singularity`` whether any level
     is at one, and ``details`` a :class:`PriorityDetails`.
+
+    Raises:
+        InvalidParameterError: an unknown method, a damping with ``method="exact"``, bad
+            levels or gains.
+        UnknownParameterError: a misspelt keyword (the message names the valid ones).
     """
 
     name = "priority"
+    #: No gradient term: the lower levels are tasks (:attr:`gains`), not costs.
+    k_null: float = 0.0
 
+    @checked_keywords
     def __init__(
         self,
         levels: Sequence[Task | Sequence[Task]] = (),
         *,
         method: PriorityMethod = "exact",
         gain: float | Sequence[float] = 10.0,
-        damping: Damping | Sequence[Damping] = DEFAULT_DAMPING,
-        rcond: float = RCOND,
+        inverse: Inverse | None = None,
+        damping: Damping | None = None,
+        rcond: float | None = None,
         threshold: float = 1e-2,
     ) -> None:
         _check_method(method)
@@ -352,13 +366,17 @@ class PriorityScheme(Scheme):
             raise InvalidParameterError(f"give one gain per level ({len(self.levels)}); got {gain}")
         self.gains = [as_scalar(g, "gain", minimum=0.0) for g in gains]
         self.method: PriorityMethod = method
-        self.dampings = _per_level(damping, len(self.levels) + 1)
-        for d in self.dampings:
-            if not isinstance(d, AdaptiveDamping):
-                as_scalar(d, "damping", minimum=0.0)
-        self.rcond = as_scalar(rcond, "rcond", minimum=0.0)
+        if method != "exact" and inverse is None and damping is None and rcond is None:
+            damping = DEFAULT_DAMPING
+        self.inverse = make_inverse(inverse, damping, rcond)
+        if method == "exact" and self.inverse.kind != "exact":
+            raise InvalidParameterError(
+                f"method 'exact' inverts every level exactly and does not use damping = "
+                f"{self.inverse.damping!r}: choose method='damped' or 'robust', or drop it"
+            )
         self.threshold = as_scalar(threshold, "threshold", minimum=0.0)
         self.tasks = tuple(t for level in self.levels for t in level)
+        self._dampings = [self.inverse.damping] * (len(self.levels) + 1)
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         jacobians = [J]
@@ -371,7 +389,7 @@ class PriorityScheme(Scheme):
             velocities.append(state.command(gain))
             errors.append(state.error)
         qd, infos = _resolve(
-            jacobians, velocities, self.method, self.dampings, self.rcond, self.threshold
+            jacobians, velocities, self.method, self._dampings, self.inverse.rcond, self.threshold
         )
         return StepResult(
             qd,
