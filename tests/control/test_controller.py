@@ -21,6 +21,7 @@ from redres.linalg import _backend
 from redres.objectives import JointLimitObjective, ManipulabilityObjective, PostureObjective
 from redres.resolution import GradientProjectionScheme, PseudoInverseScheme, StepResult
 from redres.resolution.gradient_projection import total_gradient, weighted_objectives
+from redres.scenario import builtin
 from redres.tasks import FrameTask
 
 INVERSES: list[tuple[str, dict[str, Any]]] = [
@@ -219,7 +220,7 @@ def test_the_kernel_and_the_numpy_fallback_agree(rng: np.random.Generator) -> No
 @pytest.mark.parametrize("objectives", [[], [(JointLimitObjective(), 1.0)]])
 def test_a_closed_loop_run_reproduces_rr_run(objectives: list[Any]) -> None:
     """One second of the Panda joint-limit circle, step for step."""
-    scenario = rr.control.panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot, trajectory = scenario.robot, scenario.trajectory
     assert trajectory is not None
     scheme = (
@@ -306,7 +307,7 @@ def _scheme(name: str) -> Any:
 @pytest.mark.parametrize("name", ["sns", "qp", "wln"])
 def test_a_scheme_in_the_controller_reproduces_rr_run(name: str, jit: bool) -> None:
     """Half a second of the Panda circle: kernel front end + the scheme's velocity()."""
-    scenario = rr.control.panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot, trajectory = scenario.robot, scenario.trajectory
     assert trajectory is not None
     log = rr.run(robot, FrameTask(), trajectory, _scheme(name), duration=0.5, q0=scenario.q0)

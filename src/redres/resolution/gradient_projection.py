@@ -20,6 +20,7 @@ from ..objectives import Objective
 from .base import Inverse, Scheme, StepResult, make_inverse
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 WeightedObjective = Objective | tuple[Objective, float]
@@ -85,6 +86,7 @@ class GradientProjectionScheme(Scheme):
     """
 
     name = "gradient_projection"
+    scenario_types = ("gradient_projection",)
 
     @checked_keywords
     def __init__(
@@ -102,6 +104,12 @@ class GradientProjectionScheme(Scheme):
         self.k_null = as_scalar(k_null, "k_null", minimum=0.0)
         self.inverse = make_inverse(inverse, damping, rcond)
         self._kwargs = self.inverse.rate_kwargs()
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> GradientProjectionScheme:
+        """The scheme of a scenario table: ``objectives``, ``k_null`` and the inverse."""
+        k_null = params.nonnegative("k_null", 1.0)
+        return cls(params.objectives(), k_null=k_null, inverse=params.inverse())
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         grad = total_gradient(robot, q, self.objectives)

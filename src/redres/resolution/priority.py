@@ -81,6 +81,7 @@ from ..tasks import Task, stack
 from .base import Inverse, Scheme, StepResult, make_inverse
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 PriorityMethod = Literal["exact", "robust", "damped"]
@@ -342,6 +343,7 @@ class PriorityScheme(Scheme):
     """
 
     name = "priority"
+    scenario_types = ("priority",)
     #: No gradient term: the lower levels are tasks (:attr:`gains`), not costs.
     k_null: float = 0.0
 
@@ -377,6 +379,13 @@ class PriorityScheme(Scheme):
         self.threshold = as_scalar(threshold, "threshold", minimum=0.0)
         self.tasks = tuple(t for level in self.levels for t in level)
         self._dampings = [self.inverse.damping] * (len(self.levels) + 1)
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> PriorityScheme:
+        """The scheme of a scenario table: ``levels``, ``method``, ``gain``, the inverse."""
+        method = params.string("method", "exact")
+        gain = params.nonnegative("gain", 10.0)
+        return cls(params.levels(), method=method, gain=gain, inverse=params.inverse())  # type: ignore[arg-type]
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         jacobians = [J]

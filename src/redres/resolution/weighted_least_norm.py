@@ -30,6 +30,7 @@ from .base import Inverse, Scheme, StepResult, make_inverse
 from .gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 _MAX_WEIGHT = 1e12
@@ -72,6 +73,7 @@ class WeightedLeastNormScheme(Scheme):
     """
 
     name = "wln"
+    scenario_types = ("wln",)
 
     @checked_keywords
     def __init__(
@@ -98,6 +100,13 @@ class WeightedLeastNormScheme(Scheme):
         self.inverse = make_inverse(inverse, damping, rcond)
         self._kwargs = self.inverse.rate_kwargs()
         self._previous: FloatArray | None = None
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> WeightedLeastNormScheme:
+        """The scheme of a scenario table: ``c``, ``objectives``, ``k_null``, the inverse."""
+        c, objectives = params.positive("c", 1.0), params.objectives()
+        k_null = params.nonnegative("k_null", 1.0)
+        return cls(c, objectives, k_null=k_null, inverse=params.inverse())
 
     def _reset(self) -> None:
         self._previous = None
