@@ -89,7 +89,7 @@ def composed_step(
     state = task.compute(robot, q)
     pairs = weighted_objectives(objectives)
     grad = total_gradient(robot, q, pairs) if pairs else None
-    qd, _ = rr.linalg.rate_step(
+    qd, _, _ = rr.linalg.rate_step(
         state.jacobian, state.command(gain), grad, k_null=0.7, **inverse.rate_kwargs()
     )
     speed = np.max(np.abs(qd) / robot.qd_max)
@@ -158,7 +158,7 @@ def test_info_and_scaling_describe_the_last_step(rng: np.random.Generator) -> No
     task = FrameTask()
     task.set_target(controller.target)
     state = task.compute(robot, q)
-    _, info = rr.linalg.rate_step(state.jacobian, state.command(500.0), damping=0.05)
+    _, info, _ = rr.linalg.rate_step(state.jacobian, state.command(500.0), damping=0.05)
     assert controller.info.rank == info.rank == 6 and controller.info.full_rank
     assert controller.info.method == "damped" and controller.info.damping == 0.05
     assert np.isclose(controller.info.sigma_min, info.sigma_min, rtol=1e-12)
@@ -193,7 +193,7 @@ def test_per_row_gains(rng: np.random.Generator) -> None:
     task = FrameTask()
     task.set_target(target)
     state = task.compute(robot, q)
-    qd, _ = rr.linalg.rate_step(state.jacobian, gains * state.error)
+    qd, _, _ = rr.linalg.rate_step(state.jacobian, gains * state.error)
     assert np.allclose(controller.qd, qd, rtol=0, atol=1e-11)
 
 

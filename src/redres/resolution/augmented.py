@@ -105,7 +105,7 @@ class AugmentedJacobianScheme(Scheme):
             )
         J_ext = np.vstack([J, *(s.jacobian for s in states)])
         x_ext = np.concatenate([xd, *(s.command(self.gain) for s in states)])
-        qd, info = rate_step(J_ext, x_ext, **self._kwargs)
+        qd, info, _ = rate_step(J_ext, x_ext, **self._kwargs)
         # Classify only near a singularity (one extra SVD there, none elsewhere).
         algorithmic = bool(info.sigma_min < self.threshold and sigma_min(J) >= self.threshold)
         details = AugmentedDetails(np.concatenate([s.error for s in states]))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -113,7 +113,6 @@ class GradientProjectionScheme(Scheme):
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         grad = total_gradient(robot, q, self.objectives)
-        qd, info, null_term = rate_step(
-            J, xd, grad, k_null=self.k_null, return_null=True, **self._kwargs
-        )
-        return StepResult(qd, info, null_term, details=GradientDetails(grad))
+        step = rate_step(J, xd, grad, k_null=self.k_null, return_null=True, **self._kwargs)
+        null_term = cast("FloatArray", step.null_term)  # computed: return_null=True
+        return StepResult(step.qd, step.info, null_term, details=GradientDetails(grad))

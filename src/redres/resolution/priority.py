@@ -133,6 +133,18 @@ class LevelInfo(NamedTuple):
         return float(np.linalg.norm(self.achieved - self.requested))
 
 
+class PriorityResult(NamedTuple):
+    """The result of :func:`prioritized_velocity`.
+
+    Attributes:
+        qd: joint velocity of the whole hierarchy, shape ``(n,)``, rad/s.
+        levels: one :class:`LevelInfo` per level, highest priority first.
+    """
+
+    qd: FloatArray
+    levels: list[LevelInfo]
+
+
 def prioritized_velocity(
     jacobians: Sequence[ArrayLike],
     velocities: Sequence[ArrayLike],
@@ -141,7 +153,7 @@ def prioritized_velocity(
     damping: Damping | Sequence[Damping] = DEFAULT_DAMPING,
     rcond: float = RCOND,
     threshold: float = 1e-2,
-) -> tuple[FloatArray, list[LevelInfo]]:
+) -> PriorityResult:
     """Joint velocity of a strict priority hierarchy (module docstring for the formulas).
 
     Args:
@@ -158,8 +170,8 @@ def prioritized_velocity(
             reported singular (:attr:`LevelInfo.algorithmic_singularity`).
 
     Returns:
-        ``(qd, levels)``: joint velocity, shape ``(n,)``, rad/s, and one
-        :class:`LevelInfo` per level.
+        A :class:`PriorityResult` ``(qd, levels)``: joint velocity, shape ``(n,)``, rad/s,
+        and one :class:`LevelInfo` per level.
 
     Raises:
         ShapeError: a Jacobian or velocity has the wrong shape, or the levels disagree on
@@ -186,7 +198,7 @@ def _resolve(
     dampings: list[Damping],
     rcond: float,
     threshold: float,
-) -> tuple[FloatArray, list[LevelInfo]]:
+) -> PriorityResult:
     """:func:`prioritized_velocity` on validated input."""
     n = Js[0].shape[1]
     qd = np.zeros(n)
@@ -219,7 +231,7 @@ def _resolve(
         if k + 1 < len(Js):
             P = (np.eye(n) if P is None else P) - A_pinv @ A
             freedom = max(freedom - exact.rank, 0)
-    return qd, [_info(Js, xs, qd, *entry) for entry in levels]
+    return PriorityResult(qd, [_info(Js, xs, qd, *entry) for entry in levels])
 
 
 _NO_FREEDOM = InverseInfo(0, False, 0.0, 0.0, 0.0, "none")

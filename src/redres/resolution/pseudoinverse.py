@@ -60,7 +60,7 @@ class PseudoInverseScheme(Scheme):
         return cls(params.inverse(default_damping=0.05 if params.type == "dls" else None))
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        qd, info = rate_step(J, xd, **self._kwargs)
+        qd, info, _ = rate_step(J, xd, **self._kwargs)
         return StepResult(qd, info, np.zeros(qd.shape[0]))
 
     def __repr__(self) -> str:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -121,7 +121,8 @@ class WeightedLeastNormScheme(Scheme):
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         w = self.weights(robot, q)
         grad = total_gradient(robot, q, self.objectives) if self.objectives else None
-        qd, info, null_term = rate_step(
+        step = rate_step(
             J, xd, grad, k_null=self.k_null, weights=w, return_null=True, **self._kwargs
         )
-        return StepResult(qd, info, null_term, details=WeightDetails(w))
+        null_term = cast("FloatArray", step.null_term)  # computed: return_null=True
+        return StepResult(step.qd, step.info, null_term, details=WeightDetails(w))
