@@ -70,6 +70,10 @@ class WeightedLeastNormScheme(Scheme):
 
     Identifier ``wln``. The scheme keeps ``|h|`` of the previous step; :meth:`reset`
     forgets it (the first step of a run uses unit weights for joints not yet moving).
+
+    Raises:
+        InvalidParameterError: a non-positive ``c``, a negative ``k_null``, a bad inverse.
+        UnknownParameterError: a misspelt keyword (the message names the valid ones).
     """
 
     name = "wln"
