@@ -9,7 +9,7 @@ pose error ``[p_d − p; log(R_d Rᵀ)]`` with gain 50/s, the joint velocity, th
   ``ChainIkSolverVel_pinv``; robotics-toolbox ``ets.eval`` + ``ets.jacob0`` + ``p_servo``
   + ``numpy.linalg.pinv`` (its resolved-rate examples); pink / mink ``solve_ik`` with the
   frame task only, no limits, damping 1e-12 (a Tikhonov-regularised least-squares step).
-* ``damped``: damped least squares, λ = 0.05. redres ``PseudoInverseScheme("damped")``;
+* ``damped``: damped least squares, λ = 0.05. redres ``PseudoInverseScheme(damping=0.05)``;
   KDL ``ChainIkSolverVel_wdls`` (setLambda); rtb with ``Jᵀ(JJᵀ + λ²I)⁻¹`` in NumPy; pink /
   mink ``solve_ik(damping=λ²)`` (the same normal equations), no limits.
 * ``secondary``: the step plus a joint-limit (mid-range) objective. redres
@@ -84,8 +84,8 @@ def redres_steps(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray) -> di
     objective = JointLimitObjective()
     schemes: dict[str, Any] = {
         "pinv": PseudoInverseScheme(),
-        "damped": PseudoInverseScheme("damped", damping=DAMPING),
-        "secondary": GradientProjectionScheme([objective], gain=K_NULL),
+        "damped": PseudoInverseScheme(damping=DAMPING),
+        "secondary": GradientProjectionScheme([objective], k_null=K_NULL),
     }
     try:
         from redres.resolution.qp import QPScheme
@@ -139,7 +139,7 @@ def redres_bare(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray) -> dic
         def step() -> np.ndarray:
             state = task.compute(robot, q)
             grad = objective.gradient(robot, q) if secondary else None
-            qd, _ = rate_step(state.jacobian, state.command(GAIN), grad, k_null=K_NULL,
+            qd, _, _ = rate_step(state.jacobian, state.command(GAIN), grad, k_null=K_NULL,
                               damping=damping)  # fmt: skip
             return q + qd * DT
 

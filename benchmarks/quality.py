@@ -1,8 +1,8 @@
 """Quality on the seeds' problem: the Panda circle that drives plain pseudo-inverse control
 into a joint limit, tracked by each library's best equivalent configuration.
 
-The scenario is ``redres.control.panda_joint_limit_circle()``: the TCP on a 10 cm circle,
-2.5 s per turn, four turns (10 s at 1 kHz, 10,000 steps), from the same start
+The scenario is ``redres.scenario.builtin("panda_joint_limit_circle")``: the TCP on a 10 cm
+circle, 2.5 s per turn, four turns (10 s at 1 kHz, 10,000 steps), from the same start
 configuration. Every contender closes the same loop at dt = 1 ms and every figure below is
 computed here, with redres forward kinematics, from the configuration at the start of
 each step: the largest TCP position and orientation errors against the reference, the
@@ -56,13 +56,13 @@ import peers
 from _common import table
 
 import redres as rr
-from redres.control import panda_joint_limit_circle
 from redres.objectives import JointLimitObjective
 from redres.resolution import (
     GradientProjectionScheme,
     PseudoInverseScheme,
     WeightedLeastNormScheme,
 )
+from redres.scenario import builtin
 
 DT, GAIN, K_NULL, SETTLE = 1e-3, 50.0, 5.0, 0.25
 POSTURE_COST, POSTURE_GAIN = 1e-3, 1e-2
@@ -77,7 +77,7 @@ def redres_schemes() -> dict[str, tuple[Any, float]]:
     found: dict[str, tuple[Any, float]] = {
         "redres pinv (seeds' minimum norm)": (PseudoInverseScheme(), GAIN),
         "redres gradient projection (joint limits)": (
-            GradientProjectionScheme([limits()], gain=K_NULL), GAIN),
+            GradientProjectionScheme([limits()], k_null=K_NULL), GAIN),
         "redres weighted least norm": (WeightedLeastNormScheme(), GAIN),
     }  # fmt: skip
     for module, cls in (("qp", "QPScheme"), ("sns", "SNSScheme")):
@@ -87,7 +87,7 @@ def redres_schemes() -> dict[str, tuple[Any, float]]:
             found[f"redres {cls} (hard limits + joint-limit cost)"] = (scheme, GAIN)
         except (ImportError, AttributeError) as exc:
             peers.note(f"redres {cls} skipped: {exc}")
-    tuned = GradientProjectionScheme([limits()], gain=TUNED_NULL_GAIN)
+    tuned = GradientProjectionScheme([limits()], k_null=TUNED_NULL_GAIN)
     found["redres gradient projection, K = 1/dt, k = 50 (tuned like pink/mink)"] = (
         tuned, TUNED_GAIN)  # fmt: skip
     return found
@@ -236,12 +236,12 @@ def main() -> int:
     parser.add_argument("--json", type=Path, help="also write the figures to this file")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    scenario = panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot, trajectory, q0 = scenario.robot, scenario.trajectory, scenario.q0
     steps = round(trajectory.duration / DT)
     runs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for label, (scheme, gain) in redres_schemes().items():
-        log = rr.run(robot, scenario.task, trajectory, scheme, dt=DT, q0=q0, gain=gain,
+        log = rr.run(robot, scenario.task(), trajectory, scheme, dt=DT, q0=q0, gain=gain,
                      label=label, progress=False)  # fmt: skip
         runs[label] = (log.q, log.step_time_ns / 1e3)
     with TemporaryDirectory() as tmp:

@@ -22,9 +22,10 @@ import time
 import numpy as np
 
 import redres as rr
-from redres.control import ClikController, panda_joint_limit_circle
+from redres.control import ClikController
 from redres.objectives import JointLimitObjective
 from redres.resolution import QPScheme, SNSScheme
+from redres.scenario import builtin
 
 DT = 1e-3
 
@@ -50,7 +51,7 @@ def controllers(robot: rr.Robot) -> dict[str, ClikController]:
 
 
 def main() -> None:
-    scenario = panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot, trajectory = scenario.robot, scenario.trajectory
     assert trajectory is not None
     steps = int(os.environ.get("REDRES_EXAMPLE_STEPS", 6000))

@@ -22,6 +22,7 @@ from redres.linalg import _backend
 from redres.objectives import JointLimitObjective, ManipulabilityObjective, PostureObjective
 from redres.resolution import GradientProjectionScheme, PseudoInverseScheme, StepResult
 from redres.resolution.gradient_projection import total_gradient, weighted_objectives
+from redres.scenario import builtin
 from redres.tasks import FrameTask
 
 INVERSES: list[tuple[str, dict[str, Any]]] = [
@@ -88,7 +89,7 @@ def composed_step(
     state = task.compute(robot, q)
     pairs = weighted_objectives(objectives)
     grad = total_gradient(robot, q, pairs) if pairs else None
-    qd, _ = rr.linalg.rate_step(
+    qd, _, _ = rr.linalg.rate_step(
         state.jacobian, state.command(gain), grad, k_null=0.7, **inverse.rate_kwargs()
     )
     speed = np.max(np.abs(qd) / robot.qd_max)
@@ -157,7 +158,7 @@ def test_info_and_scaling_describe_the_last_step(rng: np.random.Generator) -> No
     task = FrameTask()
     task.set_target(controller.target)
     state = task.compute(robot, q)
-    _, info = rr.linalg.rate_step(state.jacobian, state.command(500.0), damping=0.05)
+    _, info, _ = rr.linalg.rate_step(state.jacobian, state.command(500.0), damping=0.05)
     assert controller.info.rank == info.rank == 6 and controller.info.full_rank
     assert controller.info.method == "damped" and controller.info.damping == 0.05
     assert np.isclose(controller.info.sigma_min, info.sigma_min, rtol=1e-12)
@@ -192,7 +193,7 @@ def test_per_row_gains(rng: np.random.Generator) -> None:
     task = FrameTask()
     task.set_target(target)
     state = task.compute(robot, q)
-    qd, _ = rr.linalg.rate_step(state.jacobian, gains * state.error)
+    qd, _, _ = rr.linalg.rate_step(state.jacobian, gains * state.error)
     assert np.allclose(controller.qd, qd, rtol=0, atol=1e-11)
 
 
@@ -219,13 +220,13 @@ def test_the_kernel_and_the_numpy_fallback_agree(rng: np.random.Generator) -> No
 @pytest.mark.parametrize("objectives", [[], [(JointLimitObjective(), 1.0)]])
 def test_a_closed_loop_run_reproduces_rr_run(objectives: list[Any]) -> None:
     """One second of the Panda joint-limit circle, step for step."""
-    scenario = rr.control.panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot, trajectory = scenario.robot, scenario.trajectory
     assert trajectory is not None
     scheme = (
-        GradientProjectionScheme(objectives, gain=5.0, inverse="damped", damping=0.01)
+        GradientProjectionScheme(objectives, k_null=5.0, damping=0.01)
         if objectives
-        else PseudoInverseScheme(inverse="damped", damping=0.01)
+        else PseudoInverseScheme(damping=0.01)
     )
     log = rr.run(robot, FrameTask(), trajectory, scheme, duration=1.0, q0=scenario.q0, gain=50.0)
     controller = ClikController(
@@ -306,7 +307,7 @@ def _scheme(name: str) -> Any:
 @pytest.mark.parametrize("name", ["sns", "qp", "wln"])
 def test_a_scheme_in_the_controller_reproduces_rr_run(name: str, jit: bool) -> None:
     """Half a second of the Panda circle: kernel front end + the scheme's velocity()."""
-    scenario = rr.control.panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot, trajectory = scenario.robot, scenario.trajectory
     assert trajectory is not None
     log = rr.run(robot, FrameTask(), trajectory, _scheme(name), duration=0.5, q0=scenario.q0)

@@ -112,7 +112,7 @@ def self_motion_costs(robot: rr.Robot, obj: Objective, q0: np.ndarray, gain: flo
     """Hold the end-effector pose, descend ``obj`` in the null space for 0.5 s; returns
     the cost at every step and the largest pose change."""
     T0 = robot.fk(q0)
-    scheme = GradientProjectionScheme([obj], gain=gain)
+    scheme = GradientProjectionScheme([obj], k_null=gain)
     log = rr.run(robot, FrameTask(), Hold(T0, 0.5), scheme, dt=2e-3, q0=q0, gain=20.0)
     q1 = rr.control.final_configuration(log)
     costs = np.append(log.objectives[obj.name], obj.cost(robot, q1))

@@ -11,7 +11,6 @@ from redres.objectives import JointLimitObjective, ManipulabilityObjective, Obje
 from redres.resolution import (
     AugmentedJacobianScheme,
     GradientProjectionScheme,
-    InverseChoice,
     PseudoInverseScheme,
     WeightedLeastNormScheme,
     joint_limit_gradient,
@@ -36,7 +35,7 @@ def test_pinv_scheme_is_the_right_pseudo_inverse(rng: np.random.Generator) -> No
 def test_damped_scheme_is_damped_least_squares(rng: np.random.Generator) -> None:
     robot = rr.models.iiwa14()
     q, J, xd = random_state(robot, rng)
-    scheme = PseudoInverseScheme("damped", damping=0.1)
+    scheme = PseudoInverseScheme(damping=0.1)
     assert scheme.name == "dls"
     qd = scheme.step(robot, q, J, xd).qd
     assert np.allclose(qd, J.T @ np.linalg.solve(J @ J.T + 0.01 * np.eye(6), xd), atol=1e-12)
@@ -49,7 +48,7 @@ def test_null_space_term_never_disturbs_the_task(
     """‖J q̇_null‖ ≤ 1e-10 with the exact inverse, and J q̇ = ẋ."""
     robot = builtin_robots[name]
     objectives: list[Objective] = [JointLimitObjective(), (ManipulabilityObjective(), 10.0)]  # type: ignore[list-item]
-    scheme = GradientProjectionScheme(objectives, gain=3.0)
+    scheme = GradientProjectionScheme(objectives, k_null=3.0)
     for _ in range(20):
         q, J, xd = random_state(robot, rng)
         res = scheme.step(robot, q, J, xd)
@@ -148,17 +147,17 @@ def test_augmented_needs_a_square_jacobian() -> None:
 
 
 def test_bad_scheme_parameters() -> None:
-    with pytest.raises(InvalidParameterError, match="inverse must be one of"):
-        PseudoInverseScheme("magic")
+    with pytest.raises(InvalidParameterError, match="inverse must be a redres.resolution.Inverse"):
+        PseudoInverseScheme("magic")  # type: ignore[arg-type]
     with pytest.raises(InvalidParameterError, match="damping must be >= 0"):
-        PseudoInverseScheme("damped", damping=-0.1)
+        PseudoInverseScheme(damping=-0.1)
     with pytest.raises(InvalidParameterError, match="at least one objective"):
         GradientProjectionScheme([])
     with pytest.raises(InvalidParameterError, match="Objective instances"):
         GradientProjectionScheme(["joint_limits"])  # type: ignore[list-item]
     with pytest.raises(InvalidParameterError, match="c must be positive"):
         WeightedLeastNormScheme(c=0.0)
-    assert InverseChoice("svd", rcond=1e-3).rate_kwargs()["rcond"] == 1e-3
+    assert PseudoInverseScheme(rcond=1e-3).inverse.rate_kwargs()["rcond"] == 1e-3
 
 
 def test_gradient_of_wrong_size_is_a_clear_error() -> None:

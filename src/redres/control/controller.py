@@ -388,7 +388,7 @@ class ClikController:
         n = self._n
         J, xd, error, _ = self._task_command(q)
         grad = self._a * q - self._b if self._objectives else None
-        qd, info = rate_step(J, xd, grad, k_null=self._k_null, **self._rate_kwargs)
+        qd, info, _ = rate_step(J, xd, grad, k_null=self._k_null, **self._rate_kwargs)
         speed = float(np.max(np.abs(qd) / self._robot.qd_max)) if self._limit_velocity else 0.0
         if speed > 1.0:
             qd = qd / speed

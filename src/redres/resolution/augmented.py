@@ -4,8 +4,8 @@
 of a 7-DOF arm (seed 000 §2.1, eq. 7). ``J_ext`` can be singular where ``J`` is not (an
 *algorithmic* singularity: the extra row becomes dependent on the task rows, e.g. the arm
 stretched, where the arm angle is undefined). The step detects it from the smallest
-singular values and falls back to the adaptively damped inverse there, which is exactly
-the inverse away from singularities.
+singular values; the default inverse is adaptively damped, exact away from
+singularities and bounded at them.
 """
 
 from __future__ import annotations
@@ -16,13 +16,17 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar
+from .._validate import FloatArray, as_scalar, checked_keywords
 from ..errors import ShapeError
 from ..linalg import AdaptiveDamping, rate_step, sigma_min
 from ..tasks import ArmAngleTask, Task
-from .base import Scheme, StepResult
+from .base import Inverse, Scheme, StepResult, make_inverse
+
+#: Damping at the singularity of the default inverse, units of ``J_ext``.
+DEFAULT_MAX_DAMPING = 0.05
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 
@@ -44,28 +48,52 @@ class AugmentedJacobianScheme(Scheme):
     Args:
         extra_tasks: tasks whose rows complete the Jacobian (default: one
             :class:`~redres.tasks.ArmAngleTask` holding the initial arm angle).
-        gain: CLIK gain of the extra tasks, 1/s.
-        threshold: smallest singular value of ``J_ext`` below which damping starts.
-        max_damping: damping at the singularity.
+        gain: CLIK gain of the extra tasks, 1/s (≥ 0).
+        inverse: the :class:`~redres.resolution.Inverse` of ``J_ext``; or give
+            ``damping``/``rcond``. Default: ``AdaptiveDamping(0.05, threshold)``, exact
+            while ``σ_min(J_ext) ≥ threshold``.
+        damping: ``λ ≥ 0`` (units of ``J``) or an :class:`~redres.linalg.AdaptiveDamping`.
+        rcond: relative rank cut of the exact inverse (refused next to a damping).
+        threshold: smallest singular value of ``J_ext`` below which a step is reported
+            an algorithmic singularity (and the default damping starts), units of ``J``.
 
     Identifier ``augmented``. ``StepResult.algorithmic_singularity`` is true on steps where
     ``J_ext`` is near-singular while ``J`` alone is not; the extra tasks are the scheme's
     :attr:`tasks`.
+
+    Raises:
+        InvalidParameterError: a negative gain, a non-positive threshold, a bad inverse.
+        UnknownParameterError: a misspelt keyword (the message names the valid ones).
     """
 
     name = "augmented"
+    scenario_types = ("augmented",)
+    #: No null-space term: the extra rows use up the redundancy.
+    k_null: float = 0.0
 
+    @checked_keywords
     def __init__(
         self,
         extra_tasks: Sequence[Task] | None = None,
+        *,
         gain: float = 10.0,
+        inverse: Inverse | None = None,
+        damping: float | AdaptiveDamping | None = None,
+        rcond: float | None = None,
         threshold: float = 0.02,
-        max_damping: float = 0.05,
     ) -> None:
         self.tasks = tuple(extra_tasks) if extra_tasks is not None else (ArmAngleTask(),)
         self.gain = as_scalar(gain, "gain", minimum=0.0)
         self.threshold = as_scalar(threshold, "threshold", minimum=0.0, strict=True)
-        self._damping = AdaptiveDamping(max_damping, self.threshold)
+        if inverse is None and damping is None and rcond is None:
+            damping = AdaptiveDamping(DEFAULT_MAX_DAMPING, self.threshold)
+        self.inverse = make_inverse(inverse, damping, rcond)
+        self._kwargs = self.inverse.rate_kwargs()
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> AugmentedJacobianScheme:
+        """The scheme of a scenario table: the arm-angle row, its ``gain`` and the inverse."""
+        return cls(gain=params.nonnegative("gain", 10.0), inverse=params.inverse())
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         states = [task.compute(robot, q) for task in self.tasks]
@@ -77,7 +105,7 @@ class AugmentedJacobianScheme(Scheme):
             )
         J_ext = np.vstack([J, *(s.jacobian for s in states)])
         x_ext = np.concatenate([xd, *(s.command(self.gain) for s in states)])
-        qd, info = rate_step(J_ext, x_ext, damping=self._damping)
+        qd, info, _ = rate_step(J_ext, x_ext, **self._kwargs)
         # Classify only near a singularity (one extra SVD there, none elsewhere).
         algorithmic = bool(info.sigma_min < self.threshold and sigma_min(J) >= self.threshold)
         details = AugmentedDetails(np.concatenate([s.error for s in states]))

@@ -9,17 +9,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar
+from .._validate import FloatArray, as_scalar, checked_keywords
 from ..errors import InvalidParameterError, ShapeError
-from ..linalg import rate_step
+from ..linalg import AdaptiveDamping, rate_step
 from ..objectives import Objective
-from .base import InverseChoice, Scheme, StepResult, as_inverse
+from .base import Inverse, Scheme, StepResult, make_inverse
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 WeightedObjective = Objective | tuple[Objective, float]
@@ -69,31 +70,49 @@ class GradientProjectionScheme(Scheme):
     Args:
         objectives: costs, each optionally with a weight: ``[JointLimitObjective(),
             (ManipulabilityObjective(), 10.0)]``.
-        gain: ``k`` of ``−k N ∇D`` (rad²/s per unit of cost when ``D`` is dimensionless).
-        inverse: as for :class:`PseudoInverseScheme`.
+        k_null: null-space gain ``k`` of ``−k N ∇D`` (≥ 0; rad²/s per unit of cost when
+            ``D`` is dimensionless).
+        inverse: an :class:`~redres.resolution.Inverse`; or give ``damping``/``rcond``
+            (as for :class:`~redres.resolution.PseudoInverseScheme`). ``N`` is the
+            projector of that same inverse.
+        damping: ``λ ≥ 0`` (units of ``J``) or an :class:`~redres.linalg.AdaptiveDamping`.
+        rcond: relative rank cut of the exact inverse (refused next to a damping).
 
     Identifier ``gradient_projection``.
+
+    Raises:
+        InvalidParameterError: no objective, a negative ``k_null``, or a bad inverse.
+        UnknownParameterError: a misspelt keyword (the message names the valid ones).
     """
 
     name = "gradient_projection"
+    scenario_types = ("gradient_projection",)
 
+    @checked_keywords
     def __init__(
         self,
         objectives: Sequence[WeightedObjective],
-        gain: float = 1.0,
-        inverse: InverseChoice | str = "exact",
-        **inverse_params: Any,
+        *,
+        k_null: float = 1.0,
+        inverse: Inverse | None = None,
+        damping: float | AdaptiveDamping | None = None,
+        rcond: float | None = None,
     ) -> None:
         self.objectives = tuple(weighted_objectives(objectives))
         if not self.objectives:
             raise InvalidParameterError("gradient projection needs at least one objective")
-        self.gain = as_scalar(gain, "gain", minimum=0.0)
-        self.inverse = as_inverse(inverse, **inverse_params)
+        self.k_null = as_scalar(k_null, "k_null", minimum=0.0)
+        self.inverse = make_inverse(inverse, damping, rcond)
         self._kwargs = self.inverse.rate_kwargs()
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> GradientProjectionScheme:
+        """The scheme of a scenario table: ``objectives``, ``k_null`` and the inverse."""
+        k_null = params.nonnegative("k_null", 1.0)
+        return cls(params.objectives(), k_null=k_null, inverse=params.inverse())
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         grad = total_gradient(robot, q, self.objectives)
-        qd, info, null_term = rate_step(
-            J, xd, grad, k_null=self.gain, return_null=True, **self._kwargs
-        )
-        return StepResult(qd, info, null_term, details=GradientDetails(grad))
+        step = rate_step(J, xd, grad, k_null=self.k_null, return_null=True, **self._kwargs)
+        null_term = cast("FloatArray", step.null_term)  # computed: return_null=True
+        return StepResult(step.qd, step.info, null_term, details=GradientDetails(grad))

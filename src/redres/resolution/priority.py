@@ -67,7 +67,7 @@ from typing import TYPE_CHECKING, Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._validate import FloatArray, as_matrix, as_scalar, as_vector
+from .._validate import FloatArray, as_matrix, as_scalar, as_vector, checked_keywords
 from ..errors import InvalidParameterError, ShapeError
 from ..linalg import (
     RCOND,
@@ -78,9 +78,10 @@ from ..linalg import (
     singular_values,
 )
 from ..tasks import Task, stack
-from .base import Scheme, StepResult
+from .base import Inverse, Scheme, StepResult, make_inverse
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 PriorityMethod = Literal["exact", "robust", "damped"]
@@ -132,6 +133,18 @@ class LevelInfo(NamedTuple):
         return float(np.linalg.norm(self.achieved - self.requested))
 
 
+class PriorityResult(NamedTuple):
+    """The result of :func:`prioritized_velocity`.
+
+    Attributes:
+        qd: joint velocity of the whole hierarchy, shape ``(n,)``, rad/s.
+        levels: one :class:`LevelInfo` per level, highest priority first.
+    """
+
+    qd: FloatArray
+    levels: list[LevelInfo]
+
+
 def prioritized_velocity(
     jacobians: Sequence[ArrayLike],
     velocities: Sequence[ArrayLike],
@@ -140,7 +153,7 @@ def prioritized_velocity(
     damping: Damping | Sequence[Damping] = DEFAULT_DAMPING,
     rcond: float = RCOND,
     threshold: float = 1e-2,
-) -> tuple[FloatArray, list[LevelInfo]]:
+) -> PriorityResult:
     """Joint velocity of a strict priority hierarchy (module docstring for the formulas).
 
     Args:
@@ -157,8 +170,8 @@ def prioritized_velocity(
             reported singular (:attr:`LevelInfo.algorithmic_singularity`).
 
     Returns:
-        ``(qd, levels)``: joint velocity, shape ``(n,)``, rad/s, and one
-        :class:`LevelInfo` per level.
+        A :class:`PriorityResult` ``(qd, levels)``: joint velocity, shape ``(n,)``, rad/s,
+        and one :class:`LevelInfo` per level.
 
     Raises:
         ShapeError: a Jacobian or velocity has the wrong shape, or the levels disagree on
@@ -185,7 +198,7 @@ def _resolve(
     dampings: list[Damping],
     rcond: float,
     threshold: float,
-) -> tuple[FloatArray, list[LevelInfo]]:
+) -> PriorityResult:
     """:func:`prioritized_velocity` on validated input."""
     n = Js[0].shape[1]
     qd = np.zeros(n)
@@ -218,7 +231,7 @@ def _resolve(
         if k + 1 < len(Js):
             P = (np.eye(n) if P is None else P) - A_pinv @ A
             freedom = max(freedom - exact.rank, 0)
-    return qd, [_info(Js, xs, qd, *entry) for entry in levels]
+    return PriorityResult(qd, [_info(Js, xs, qd, *entry) for entry in levels])
 
 
 _NO_FREEDOM = InverseInfo(0, False, 0.0, 0.0, 0.0, "none")
@@ -321,26 +334,41 @@ class PriorityScheme(Scheme):
         levels: lower-priority levels, highest first.
         method: ``"exact"``, ``"robust"`` or ``"damped"`` (module docstring).
         gain: CLIK gain of the scheme's own levels, 1/s (one for all, or one per level).
-        damping: damping of the ``"robust"``/``"damped"`` inverses: one for all levels, or
-            one per level (level 1, the loop's task, first).
-        rcond: relative rank tolerance.
+        inverse: the :class:`~redres.resolution.Inverse` of every level; or give
+            ``damping``/``rcond``. ``"exact"`` takes an exact inverse only (its ``rcond``
+            is the rank tolerance); ``"robust"`` and ``"damped"`` default to
+            ``AdaptiveDamping(0.05, 0.05)``.
+        damping: damping of the ``"robust"``/``"damped"`` inverses, a ``λ ≥ 0`` in the
+            units of ``J`` or an :class:`~redres.linalg.AdaptiveDamping`.
+        rcond: relative rank tolerance of the exact inverses and null-space projectors
+            (refused next to a damping).
         threshold: singular value below which a level is reported singular.
 
     Identifier ``priority``. ``StepResult.info`` is the inverse of level 1,
     ``null_term`` what the lower levels add, ``algorithmic_singularity`` whether any level
     is at one, and ``details`` a :class:`PriorityDetails`.
+
+    Raises:
+        InvalidParameterError: an unknown method, a damping with ``method="exact"``, bad
+            levels or gains.
+        UnknownParameterError: a misspelt keyword (the message names the valid ones).
     """
 
     name = "priority"
+    scenario_types = ("priority",)
+    #: No gradient term: the lower levels are tasks (:attr:`gains`), not costs.
+    k_null: float = 0.0
 
+    @checked_keywords
     def __init__(
         self,
         levels: Sequence[Task | Sequence[Task]] = (),
         *,
         method: PriorityMethod = "exact",
         gain: float | Sequence[float] = 10.0,
-        damping: Damping | Sequence[Damping] = DEFAULT_DAMPING,
-        rcond: float = RCOND,
+        inverse: Inverse | None = None,
+        damping: Damping | None = None,
+        rcond: float | None = None,
         threshold: float = 1e-2,
     ) -> None:
         _check_method(method)
@@ -352,13 +380,24 @@ class PriorityScheme(Scheme):
             raise InvalidParameterError(f"give one gain per level ({len(self.levels)}); got {gain}")
         self.gains = [as_scalar(g, "gain", minimum=0.0) for g in gains]
         self.method: PriorityMethod = method
-        self.dampings = _per_level(damping, len(self.levels) + 1)
-        for d in self.dampings:
-            if not isinstance(d, AdaptiveDamping):
-                as_scalar(d, "damping", minimum=0.0)
-        self.rcond = as_scalar(rcond, "rcond", minimum=0.0)
+        if method != "exact" and inverse is None and damping is None and rcond is None:
+            damping = DEFAULT_DAMPING
+        self.inverse = make_inverse(inverse, damping, rcond)
+        if method == "exact" and self.inverse.kind != "exact":
+            raise InvalidParameterError(
+                f"method 'exact' inverts every level exactly and does not use damping = "
+                f"{self.inverse.damping!r}: choose method='damped' or 'robust', or drop it"
+            )
         self.threshold = as_scalar(threshold, "threshold", minimum=0.0)
         self.tasks = tuple(t for level in self.levels for t in level)
+        self._dampings = [self.inverse.damping] * (len(self.levels) + 1)
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> PriorityScheme:
+        """The scheme of a scenario table: ``levels``, ``method``, ``gain``, the inverse."""
+        method = params.string("method", "exact")
+        gain = params.nonnegative("gain", 10.0)
+        return cls(params.levels(), method=method, gain=gain, inverse=params.inverse())  # type: ignore[arg-type]
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         jacobians = [J]
@@ -371,7 +410,7 @@ class PriorityScheme(Scheme):
             velocities.append(state.command(gain))
             errors.append(state.error)
         qd, infos = _resolve(
-            jacobians, velocities, self.method, self.dampings, self.rcond, self.threshold
+            jacobians, velocities, self.method, self._dampings, self.inverse.rcond, self.threshold
         )
         return StepResult(
             qd,

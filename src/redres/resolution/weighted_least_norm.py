@@ -19,17 +19,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from .._validate import FloatArray
+from .._validate import FloatArray, as_scalar, checked_keywords
 from ..errors import InvalidParameterError
-from ..linalg import rate_step
-from .base import InverseChoice, Scheme, StepResult, as_inverse
+from ..linalg import AdaptiveDamping, rate_step
+from .base import Inverse, Scheme, StepResult, make_inverse
 from .gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 _MAX_WEIGHT = 1e12
@@ -61,23 +62,33 @@ class WeightedLeastNormScheme(Scheme):
         c: tuning constant ``cᵢ`` (scalar or shape ``(n,)``, > 0); larger is gentler.
         objectives: optional secondary costs projected with the weighted projector
             ``I − J_W⁺ J``.
-        gain: ``k`` of the secondary term.
-        inverse: ``"exact"`` (default) or a damped/adaptive choice, applied to the weighted
-            Jacobian.
+        k_null: null-space gain ``k`` of the secondary term (≥ 0).
+        inverse: an :class:`~redres.resolution.Inverse` of the weighted Jacobian
+            (default exact); or give ``damping``/``rcond``.
+        damping: ``λ ≥ 0`` (units of ``J``) or an :class:`~redres.linalg.AdaptiveDamping`.
+        rcond: relative rank cut of the exact inverse (refused next to a damping).
 
     Identifier ``wln``. The scheme keeps ``|h|`` of the previous step; :meth:`reset`
     forgets it (the first step of a run uses unit weights for joints not yet moving).
+
+    Raises:
+        InvalidParameterError: a non-positive ``c``, a negative ``k_null``, a bad inverse.
+        UnknownParameterError: a misspelt keyword (the message names the valid ones).
     """
 
     name = "wln"
+    scenario_types = ("wln",)
 
+    @checked_keywords
     def __init__(
         self,
         c: float | Sequence[float] = 1.0,
         objectives: Sequence[WeightedObjective] = (),
-        gain: float = 1.0,
-        inverse: InverseChoice | str = "exact",
-        **inverse_params: Any,
+        *,
+        k_null: float = 1.0,
+        inverse: Inverse | None = None,
+        damping: float | AdaptiveDamping | None = None,
+        rcond: float | None = None,
     ) -> None:
         try:
             c_arr = np.asarray(c, dtype=float)
@@ -89,10 +100,17 @@ class WeightedLeastNormScheme(Scheme):
             raise InvalidParameterError(f"c must be positive; got {c}")
         self.c = c_arr
         self.objectives = tuple(weighted_objectives(objectives))
-        self.gain = float(gain)
-        self.inverse = as_inverse(inverse, **inverse_params)
+        self.k_null = as_scalar(k_null, "k_null", minimum=0.0)
+        self.inverse = make_inverse(inverse, damping, rcond)
         self._kwargs = self.inverse.rate_kwargs()
         self._previous: FloatArray | None = None
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> WeightedLeastNormScheme:
+        """The scheme of a scenario table: ``c``, ``objectives``, ``k_null``, the inverse."""
+        c, objectives = params.positive("c", 1.0), params.objectives()
+        k_null = params.nonnegative("k_null", 1.0)
+        return cls(c, objectives, k_null=k_null, inverse=params.inverse())
 
     def _reset(self) -> None:
         self._previous = None
@@ -107,7 +125,8 @@ class WeightedLeastNormScheme(Scheme):
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         w = self.weights(robot, q)
         grad = total_gradient(robot, q, self.objectives) if self.objectives else None
-        qd, info, null_term = rate_step(
-            J, xd, grad, k_null=self.gain, weights=w, return_null=True, **self._kwargs
+        step = rate_step(
+            J, xd, grad, k_null=self.k_null, weights=w, return_null=True, **self._kwargs
         )
-        return StepResult(qd, info, null_term, details=WeightDetails(w))
+        null_term = cast("FloatArray", step.null_term)  # computed: return_null=True
+        return StepResult(step.qd, step.info, null_term, details=WeightDetails(w))
