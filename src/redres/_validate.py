@@ -104,18 +104,26 @@ def checked_keywords(func: _F) -> _F:
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
-            signature.bind(*args, **kwargs)
+            return func(*args, **kwargs)
         except TypeError as exc:
-            owner = func.__qualname__.removesuffix(".__init__")
-            for key in kwargs:
-                if key not in names:
-                    near = difflib.get_close_matches(key, names, n=1)
-                    hint = f"; did you mean {near[0]!r}?" if near else ""
-                    raise UnknownParameterError(
-                        f"{owner}() has no parameter {key!r}{hint} "
-                        f"(its parameters: {', '.join(names)})"
-                    ) from None
-            raise UnknownParameterError(f"{owner}(): {exc}") from None
-        return func(*args, **kwargs)
+            try:
+                signature.bind(*args, **kwargs)
+            except TypeError:
+                raise _unknown(func.__qualname__, names, kwargs, exc) from None
+            raise
 
     return wrapper  # type: ignore[return-value]
+
+
+def _unknown(
+    qualname: str, names: list[str], kwargs: dict[str, Any], exc: TypeError
+) -> UnknownParameterError:
+    owner = qualname.removesuffix(".__init__")
+    for key in kwargs:
+        if key not in names:
+            near = difflib.get_close_matches(key, names, n=1)
+            hint = f"; did you mean {near[0]!r}?" if near else ""
+            return UnknownParameterError(
+                f"{owner}() has no parameter {key!r}{hint} (its parameters: {', '.join(names)})"
+            )
+    return UnknownParameterError(f"{owner}(): {exc}")
