@@ -1,8 +1,8 @@
-"""Rate-control loops, trajectories and run logs."""
+"""The controller, rate-control runs, trajectories and run logs."""
 
 from .analysis import analyse_run, progress_bar
 from .clik import final_configuration, run
-from .controller import ClikController, FrameCommand
+from .controller import Controller
 from .runlog import RunLog
 from .scenarios import SCENARIOS, Scenario, iiwa_arm_angle_eight, panda_joint_limit_circle
 from .trajectories import (
@@ -19,9 +19,8 @@ from .trajectories import (
 __all__ = [
     "SCENARIOS",
     "Circle",
-    "ClikController",
+    "Controller",
     "FigureEight",
-    "FrameCommand",
     "Hold",
     "Line",
     "MinimumJerk",
