@@ -172,7 +172,7 @@ class Controller:
         self._error: FloatArray = self._out[:0]
         self._pose: Any = None
         self._result: StepResult | None = None
-        self._speed = 0.0
+        self._speed: float | None = 0.0
         self._scaled = False
 
     # -- settings (fixed at construction) ---------------------------------------------
@@ -282,14 +282,19 @@ class Controller:
                 f"the {scheme.name} scheme returned a joint velocity of shape {qd.shape}; "
                 f"expected ({n},)"
             )
-        speed = float(_max(_abs(qd) / robot.qd_max))
-        if not speed < math.inf:
+        speed: float | None = None  # read on demand where nothing is scaled
+        if self._limit and not self._hard:
+            speed = float(_max(_abs(qd) / robot.qd_max))
+            finite = speed < math.inf  # NaN and inf both fail
+        else:
+            finite = math.isfinite(qd @ qd)  # (or an astronomical qd: as bad)
+        if not finite:
             raise SimulationError(
                 f"the {scheme.name} scheme returned a non-finite joint velocity {qd}"
             )
-        scaled = self._limit and not self._hard and speed > 1.0
-        if scaled:
-            qd = qd / speed
+        scaled = False
+        if speed is not None and speed > 1.0:
+            qd, scaled = qd / speed, True
         self._qd, self._speed, self._scaled = qd, speed, scaled
         integrate = self._integrate
         if integrate is None:
@@ -342,6 +347,8 @@ class Controller:
         """``maxⱼ |q̇ⱼ| / q̇_max,j`` of the scheme's joint velocity at the last step, before
         any scaling (> 1: it was scaled down, if :attr:`limit_velocity`)."""
         if self._kernel is None:
+            if self._speed is None:  # nothing was scaled: the applied velocity's ratio
+                self._speed = float(_max(_abs(self._qd) / self._robot.qd_max))
             return self._speed
         if self._limit:
             return self._diag[5]
