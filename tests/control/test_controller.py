@@ -288,6 +288,21 @@ def test_without_a_target_the_pose_is_held_and_the_null_space_acts_alone(
     assert np.linalg.norm(J @ controller.qd) < 1e-10  # ... without moving the hand
 
 
+def test_the_kernels_read_the_target_where_the_task_keeps_it() -> None:
+    """FrameTask's 18 target numbers (R row-major, p, twist) are the kernels' CFG slots."""
+    from redres.control._fused import TARGET
+    from redres.linalg import _codes as codes
+
+    assert (codes.CFG_ROTATION, codes.CFG_POSITION, codes.CFG_TWIST) == (0, 9, 12)
+    assert (TARGET.start, TARGET.stop) == (0, 18)
+    task = FrameTask()
+    T = np.eye(4)
+    T[:3, :3] = pin.exp3(np.array([0.1, -0.2, 0.3]))
+    T[:3, 3] = [1.0, 2.0, 3.0]
+    task.set_target(T, np.arange(6.0))
+    np.testing.assert_array_equal(task._target, [*T[:3, :3].ravel(), 1, 2, 3, *range(6)])
+
+
 def test_the_target_is_the_tasks_even_when_tasks_are_shared(rng: np.random.Generator) -> None:
     """The task owns its target (copied in, so later changes to the caller's array do not
     leak); two controllers on one task both follow it."""
@@ -423,6 +438,9 @@ def test_bad_input_is_refused_with_a_clear_error() -> None:
     task = FrameTask()
     controller = Controller(robot, task, PseudoInverseScheme())
     q = robot.neutral()
+    for path_task in (task, ComposedFrameTask()):
+        with pytest.raises(InvalidParameterError, match="not made a step"):
+            _ = Controller(robot, path_task, PseudoInverseScheme()).info
     with pytest.raises(NonFiniteError, match="q contains NaN"):
         controller.step(np.full(7, np.nan))
     with pytest.raises(ShapeError, match=r"shape \(7,\)"):

@@ -28,10 +28,10 @@ if TYPE_CHECKING:
 Path = Literal["fused", "frame", "composed"]
 
 _F64 = np.float64
-# The frame task keeps its target as these 18 numbers, which the kernels read at the same
-# offsets of their config vector (FrameTask._share_target).
-assert (codes.CFG_ROTATION, codes.CFG_POSITION, codes.CFG_TWIST) == (0, 9, 12)
-TARGET = slice(0, 18)
+#: The slots of the kernels' config vector holding the target: the rotation row-major,
+#: the position, the twist (CFG_ROTATION, CFG_POSITION, CFG_TWIST = 0, 9, 12), the layout in
+#: which a FrameTask keeps its target (FrameTask._share_target).
+TARGET = slice(codes.CFG_ROTATION, codes.CFG_TWIST + 6)
 
 
 class Fusion(NamedTuple):

@@ -166,7 +166,7 @@ class Controller:
                                          "frame_command")  # fmt: skip
                 self._integrate = be.fused_integrate()
         # What the last step did.
-        self._out: FloatArray = _empty(self._size)
+        self._out: FloatArray = _empty(0)  # the fused kernel's (q_next, qd, e) once stepped
         self._diag: tuple[int, int, float, float, float, float] = (0, 0, 0.0, 0.0, 0.0, 0.0)
         self._qd: FloatArray = self._out[:0]
         self._error: FloatArray = self._out[:0]
@@ -368,6 +368,8 @@ class Controller:
             if self._result is None:
                 raise InvalidParameterError("the controller has not made a step yet")
             return self._result.info
+        if not self._out.shape[0]:
+            raise InvalidParameterError("the controller has not made a step yet")
         _, rank, smin, smax, used, _ = self._diag
         full = rank == min(self._rows.shape[0], self._n)
         label = _LABELS[damping_mode(self._config)]
