@@ -140,7 +140,7 @@ def redres_bare(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray) -> dic
         def step() -> np.ndarray:
             state = task.compute(robot, q)
             grad = objective.gradient(robot, q) if secondary else None
-            qd, _ = rate_step(state.jacobian, state.command(GAIN), grad, k_null=K_NULL,
+            qd, _, _ = rate_step(state.jacobian, state.command(GAIN), grad, k_null=K_NULL,
                               damping=damping)  # fmt: skip
             return q + qd * DT
 

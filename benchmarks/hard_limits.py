@@ -24,7 +24,6 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _common import machine, table
 
 import redres as rr
-from redres.control import panda_joint_limit_circle
 from redres.resolution import PseudoInverseScheme
 from redres.resolution.limits import (
     JointLimits,
@@ -33,6 +32,7 @@ from redres.resolution.limits import (
 )
 from redres.resolution.qp import QPScheme
 from redres.resolution.sns import SNSScheme
+from redres.scenario import builtin
 from redres.testing import random_limit_states
 
 DT = 1e-3
@@ -91,12 +91,12 @@ def random_steps(robot: rr.Robot) -> None:
 
 
 def circle() -> None:
-    scenario = panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot = scenario.robot
     lim = JointLimits.from_robot(robot)
     rows = []
     for scheme in (PseudoInverseScheme(), QPScheme(dt=DT), SNSScheme(dt=DT)):
-        log = rr.control.run(robot, scenario.task, scenario.trajectory, scheme,
+        log = rr.control.run(robot, scenario.task(), scenario.trajectory, scheme,
                              q0=scenario.q0, dt=DT)  # fmt: skip
         v, s = run_violation(lim, log.q, log.qd, DT), log.summary()
         rows.append([scheme.name, f"{v.position:.1e}", f"{v.velocity:.1e}",

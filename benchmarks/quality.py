@@ -1,8 +1,8 @@
 """Quality on the seeds' problem: the Panda circle that drives plain pseudo-inverse control
 into a joint limit, tracked by each library's best equivalent configuration.
 
-The scenario is ``redres.control.panda_joint_limit_circle()``: the TCP on a 10 cm circle,
-2.5 s per turn, four turns (10 s at 1 kHz, 10,000 steps), from the same start
+The scenario is ``redres.scenario.builtin("panda_joint_limit_circle")``: the TCP on a 10 cm
+circle, 2.5 s per turn, four turns (10 s at 1 kHz, 10,000 steps), from the same start
 configuration. Every contender closes the same loop at dt = 1 ms and every figure below is
 computed here, with redres forward kinematics, from the configuration at the start of
 each step: the largest TCP position and orientation errors against the reference, the
@@ -56,13 +56,13 @@ import peers
 from _common import table
 
 import redres as rr
-from redres.control import panda_joint_limit_circle
 from redres.objectives import JointLimitObjective
 from redres.resolution import (
     GradientProjectionScheme,
     PseudoInverseScheme,
     WeightedLeastNormScheme,
 )
+from redres.scenario import builtin
 
 DT, GAIN, K_NULL, SETTLE = 1e-3, 50.0, 5.0, 0.25
 POSTURE_COST, POSTURE_GAIN = 1e-3, 1e-2
@@ -236,12 +236,12 @@ def main() -> int:
     parser.add_argument("--json", type=Path, help="also write the figures to this file")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    scenario = panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot, trajectory, q0 = scenario.robot, scenario.trajectory, scenario.q0
     steps = round(trajectory.duration / DT)
     runs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for label, (scheme, gain) in redres_schemes().items():
-        log = rr.run(robot, scenario.task, trajectory, scheme, dt=DT, q0=q0, gain=gain,
+        log = rr.run(robot, scenario.task(), trajectory, scheme, dt=DT, q0=q0, gain=gain,
                      label=label, progress=False)  # fmt: skip
         runs[label] = (log.q, log.step_time_ns / 1e3)
     with TemporaryDirectory() as tmp:

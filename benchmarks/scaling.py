@@ -51,7 +51,7 @@ def step_time(robot: rr.Robot, task: FrameTask, q: np.ndarray) -> float:
     def step() -> np.ndarray:
         state = task.compute(robot, q)
         grad = limits.gradient(robot, q)
-        qd, _ = rate_step(state.jacobian, state.command(50.0), grad, k_null=1.0, damping=0.05)
+        qd, _, _ = rate_step(state.jacobian, state.command(50.0), grad, k_null=1.0, damping=0.05)
         return q + qd * 1e-3
 
     return median(time_calls(step, batch=100, batches=15))

@@ -85,7 +85,7 @@ def redres_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[
     def step() -> np.ndarray:
         state = task.compute(robot, q)  # fk, Jacobian, pose error
         grad = limits.gradient(robot, q)
-        qd, _ = rate_step(state.jacobian, state.command(GAIN), grad, k_null=1.0, damping=DAMPING)
+        qd, _, _ = rate_step(state.jacobian, state.command(GAIN), grad, k_null=1.0, damping=DAMPING)
         return q + qd * DT
 
     return step

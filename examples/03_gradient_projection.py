@@ -9,14 +9,14 @@ from __future__ import annotations
 import os
 
 import redres as rr
-from redres.control import panda_joint_limit_circle
 from redres.objectives import JointLimitObjective
 from redres.resolution import GradientProjectionScheme, PseudoInverseScheme, WeightedLeastNormScheme
+from redres.scenario import builtin
 from redres.tasks import FrameTask
 
 
 def main() -> None:
-    scenario = panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     steps = int(os.environ.get("REDRES_EXAMPLE_STEPS", "10000"))
     schemes = [
         PseudoInverseScheme(),

@@ -10,13 +10,13 @@ import os
 import numpy as np
 
 import redres as rr
-from redres.control import iiwa_arm_angle_eight
 from redres.resolution import AugmentedJacobianScheme, PseudoInverseScheme
+from redres.scenario import builtin
 from redres.tasks import ArmAngleTask, FrameTask
 
 
 def main() -> None:
-    scenario = iiwa_arm_angle_eight()
+    scenario = builtin("iiwa_arm_angle_eight")
     steps = int(os.environ.get("REDRES_EXAMPLE_STEPS", "10000"))
     arm = ArmAngleTask()
     phi0 = arm.value(scenario.robot, scenario.q0)

@@ -14,18 +14,18 @@ from __future__ import annotations
 import numpy as np
 
 import redres as rr
-from redres.control import panda_joint_limit_circle
 from redres.objectives import JointLimitObjective
 from redres.resolution import GradientProjectionScheme, PseudoInverseScheme
 from redres.resolution.limits import JointLimits, run_violation
 from redres.resolution.qp import QPScheme
 from redres.resolution.sns import SNSScheme
+from redres.scenario import builtin
 
 DT = 1e-3
 
 
 def main() -> None:
-    scenario = panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     duration = 6.5  # s: the pseudo-inverse leaves joint 2's range at t = 6.3 s
     robot = scenario.robot
     limits = JointLimits.from_robot(robot)
@@ -40,7 +40,7 @@ def main() -> None:
               "min margin rad", "median µs")  # fmt: skip
     print(f"{header[0]:<19} | " + " | ".join(f"{h:>14}" for h in header[1:]))
     for scheme in schemes:
-        log = rr.control.run(robot, scenario.task, scenario.trajectory, scheme,
+        log = rr.control.run(robot, scenario.task(), scenario.trajectory, scheme,
                              q0=scenario.q0, dt=DT, duration=duration)  # fmt: skip
         v = run_violation(limits, log.q, log.qd, DT)
         s = log.summary()

@@ -24,9 +24,10 @@ from collections.abc import Callable
 import numpy as np
 
 import redres as rr
-from redres.control import Controller, panda_joint_limit_circle
+from redres.control import Controller
 from redres.objectives import JointLimitObjective
 from redres.resolution import GradientProjectionScheme, QPScheme, Scheme, SNSScheme
+from redres.scenario import builtin
 from redres.tasks import FrameTask
 
 DT = 1e-3
@@ -54,7 +55,7 @@ def controllers(robot: rr.Robot) -> dict[str, tuple[FrameTask, Controller]]:
 
 
 def main() -> None:
-    scenario = panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot, trajectory = scenario.robot, scenario.trajectory
     assert trajectory is not None
     steps = int(os.environ.get("REDRES_EXAMPLE_STEPS", 6000))

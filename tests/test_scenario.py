@@ -5,10 +5,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+import redres as rr
 from redres.cli import main
-from redres.scenario import ScenarioError, builtin_scenarios, load_scenario
+from redres.control import Circle, FigureEight
+from redres.registry import HARD_LIMIT_BUILDERS, scheme_types
+from redres.resolution import Scheme
+from redres.scenario import ScenarioError, builtin, builtin_scenarios, load_scenario, parse_scenario
 
 GOOD = """
 name = "tiny"
@@ -29,6 +34,9 @@ duration = 0.02
 [[schemes]]
 type = "pinv"
 """
+
+
+GRADIENT = 'type = "gradient_projection"\nobjectives = [{ type = "joint_limits" }]'
 
 
 def write(tmp_path: Path, text: str) -> Path:
@@ -72,7 +80,34 @@ def test_a_good_scenario_runs(tmp_path: Path, capsys: pytest.CaptureFixture[str]
         ),
         (
             ('type = "pinv"', 'type = "magic"'),
-            r"\[schemes\]\[0\]\.type: unknown scheme 'magic'; use pinv",
+            r"\[schemes\]\[0\]\.type: unknown scheme 'magic'; use pinv, dls, gradient_projection, "
+            r"wln, augmented, priority, qp, sns, osc$",
+        ),
+        (
+            (
+                'type = "pinv"',
+                f"{GRADIENT}\ngain = 5.0",
+            ),
+            r"\[schemes\]\[0\]\.gain: unknown key; valid keys here: .*k_null",
+        ),
+        (
+            ('type = "pinv"', 'type = "wln"\nk_nul = 5.0'),
+            r"\[schemes\]\[0\]\.k_nul: unknown key; valid keys here: c, damping, k_null",
+        ),
+        (
+            ('type = "pinv"', 'type = "pinv"\ninverse = "damped"'),
+            r"\[schemes\]\[0\]\.inverse: unknown key; valid keys here: damping, label",
+        ),
+        (
+            ('type = "pinv"', 'type = "pinv"\ndamping = 0.1\nrcond = 0.001'),
+            r"\[schemes\]\[0\]\.rcond: rcond = 0.001 is used only by the exact inverse",
+        ),
+        (
+            (
+                'type = "pinv"',
+                GRADIENT.replace('"joint_limits"', '"joint_limits", wieght = 2'),
+            ),
+            r"\.objectives\[0\]\.wieght: unknown key; valid keys here: type, weight",
         ),
         (("radius = 0.05", "radius = [0.05]"), r"\[trajectory\]\.radius: expected a number"),
         (
@@ -121,3 +156,80 @@ def test_scenario_files_are_not_executed(tmp_path: Path) -> None:
     """A string that looks like code stays a string (tomllib only)."""
     text = GOOD.replace('description = "a short hold"', "description = \"__import__('os')\"")
     assert load_scenario(write(tmp_path, text)).description == "__import__('os')"
+
+
+def scheme_table(kind: str) -> str:
+    extra = {
+        "gradient_projection": 'objectives = [{ type = "joint_limits" }]',
+        "priority": 'levels = [{ type = "posture" }]',
+    }.get(kind, "")
+    return GOOD.replace('type = "pinv"', f'type = "{kind}"\n{extra}')
+
+
+def _concrete_schemes(cls: type = Scheme) -> set[type]:
+    found = set()
+    for sub in cls.__subclasses__():
+        if sub.__module__.startswith("redres.") and not getattr(sub, "__abstractmethods__", None):
+            found.add(sub)
+        found |= _concrete_schemes(sub)
+    return found
+
+
+def test_the_registry_lists_every_scheme_type() -> None:
+    """Every scheme of redres.resolution and the operational-space law are registered, and
+    each registered type builds from a table with its required keys only."""
+    registered = scheme_types()
+    assert list(registered) == [
+        "pinv", "dls", "gradient_projection", "wln", "augmented", "priority", "qp", "sns", "osc"
+    ]  # fmt: skip
+    declared = {t for cls in _concrete_schemes() for t in getattr(cls, "scenario_types", ())}
+    assert declared | set(HARD_LIMIT_BUILDERS) | {"osc"} == set(registered)
+    names = {cls.__name__ for cls in _concrete_schemes() if not hasattr(cls, "scenario_types")}
+    assert names == {"QPScheme", "SNSScheme"}  # built in the registry until they declare it
+    for kind in registered:
+        try:
+            spec = parse_scenario(tomllib_loads(scheme_table(kind)))
+            built = spec.schemes[0].build()
+        except rr.errors.MissingDependencyError:
+            continue
+        assert spec.schemes[0].kind == kind
+        assert built.name == ("osc" if kind == "osc" else kind), kind
+
+
+def test_scheme_keys_reach_the_constructors() -> None:
+    text = GOOD.replace(
+        'type = "pinv"',
+        'type = "gradient_projection"\nk_null = 2.5\nmax_damping = 0.2\nthreshold = 0.1\n'
+        'objectives = [{ type = "joint_limits" }]',
+    )
+    scheme = parse_scenario(tomllib_loads(text)).schemes[0].build()
+    assert scheme.k_null == 2.5
+    assert scheme.inverse == rr.resolution.Inverse(rr.linalg.AdaptiveDamping(0.2, 0.1))
+    dls = parse_scenario(tomllib_loads(scheme_table("dls"))).schemes[0].build()
+    assert dls.name == "dls" and dls.inverse == rr.resolution.Inverse(0.05)
+    aug = parse_scenario(tomllib_loads(scheme_table("augmented"))).schemes[0].build()
+    assert aug.inverse == rr.resolution.AugmentedJacobianScheme().inverse
+
+
+def test_builtin_scenarios_are_the_shipped_files() -> None:
+    """The one definition of the built-in scenarios, with the numbers they always had."""
+    panda = builtin("panda_joint_limit_circle")
+    q0 = np.array([-0.811, -1.061, 0.515, -2.269, -0.299, 1.036, 0.521])
+    assert np.array_equal(panda.q0, q0) and panda.robot.name == rr.models.panda().name
+    circle = Circle(panda.robot.fk(q0), 0.10, 2.5, normal=(-0.404, -0.565, -1.433),
+                    phase=1.851, turns=4.0)  # fmt: skip
+    iiwa = builtin("iiwa_arm_angle_eight")
+    eight = FigureEight(iiwa.robot.fk(iiwa.q0), 0.15, 0.10, 5.0, normal=(1.0, 0.0, 0.0), turns=2.0)
+    for spec, reference in ((panda, circle), (iiwa, eight)):
+        assert spec.dt == 1e-3 and spec.gain == 50.0
+        assert spec.duration == reference.duration
+        for t in np.linspace(0.0, reference.duration, 7):
+            assert np.array_equal(spec.trajectory.sample(t).pose, reference.sample(t).pose)
+    with pytest.raises(ScenarioError, match="built-in scenarios: iiwa_arm_angle_eight, panda"):
+        builtin("panda_circle")
+
+
+def tomllib_loads(text: str) -> dict:
+    import tomllib
+
+    return tomllib.loads(text)

@@ -22,7 +22,7 @@ from . import linalg, models
 from .control import RunLog
 from .errors import MissingDependencyError
 from .runner import format_table, run_scenario
-from .scenario import ScenarioSpec, builtin_scenarios, load_scenario
+from .scenario import ScenarioSpec, builtin
 
 DEG = np.pi / 180
 DEMO_SCENARIOS = ("panda_joint_limit_circle", "iiwa_arm_angle_eight")
@@ -91,12 +91,12 @@ def compiled_loop(steps: int = 1500) -> list[dict[str, object]]:
     median µs per step (target update and step, timed inside the loop) and the largest
     position error, for gradient projection (the fused kernel) and, when the ``qp`` extra
     is there, the hard-limit schemes (the kernel's frame front end, then the scheme)."""
-    from .control import Controller, panda_joint_limit_circle
+    from .control import Controller
     from .objectives import JointLimitObjective
     from .resolution import GradientProjectionScheme, QPScheme, Scheme, SNSScheme
     from .tasks import FrameTask
 
-    scenario = panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot, trajectory = scenario.robot, scenario.trajectory
     assert trajectory is not None
     schemes: dict[str, Callable[[], Scheme]] = {
@@ -230,8 +230,7 @@ def run_scenarios(
 
 def run_demo(*, out: Path, quiet: bool = False, as_json: bool = False, quick: bool = False) -> int:
     """The flagship demo: every scheme on the built-in scenarios."""
-    files = builtin_scenarios()
-    specs = [load_scenario(files[name]) for name in DEMO_SCENARIOS]
+    specs = [builtin(name) for name in DEMO_SCENARIOS]
     return run_scenarios(
         specs,
         out=out,

@@ -52,7 +52,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import pinocchio as pin
@@ -500,11 +500,12 @@ class _Solver:
             grad, k = self.limit_weight * (q - self.mid), self.o.k_limits * fade
         if blocked is not None:
             grad = np.where(blocked, 0.0, grad)
-        dq, info, null = rate_step(J, self.e, grad, k_null=k, damping=lam, return_null=True)
-        self.sigma = info.sigma_min
+        step = rate_step(J, self.e, grad, k_null=k, damping=lam, return_null=True)
+        self.sigma = step.info.sigma_min
         if not self.prefer:
-            return dq, None
-        return dq - null, null
+            return step.qd, None
+        null = cast("FloatArray", step.null_term)  # computed: return_null=True
+        return step.qd - null, null
 
     def arm_angle_step(
         self, J: FloatArray, arm: TaskState, lam: float, blocked: NDArray[np.bool_] | None
@@ -517,12 +518,12 @@ class _Solver:
         J_arm = arm.jacobian
         if blocked is not None:
             J_arm = np.where(blocked, 0.0, J_arm)
-        _, levels = prioritized_velocity(
+        levels = prioritized_velocity(
             [J, J_arm],
             [self.e, _PREFERENCE_GAIN * arm.error],
             method="damped",
             damping=[lam, self.o.damping],
-        )
+        ).levels
         self.sigma = levels[0].sigma_min
         return levels[0].contribution, levels[1].contribution
 

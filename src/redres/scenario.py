@@ -8,13 +8,23 @@ and the fix. See docs/scenarios.md for the format; built-in scenarios ship in
 
 from __future__ import annotations
 
+__all__ = [
+    "ScenarioError",
+    "ScenarioSpec",
+    "SchemeSpec",
+    "builtin",
+    "builtin_scenarios",
+    "load_scenario",
+    "parse_scenario",
+]
+
 import math
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import pinocchio as pin
@@ -32,17 +42,8 @@ from .objectives import (
     PostureObjective,
     SphereObstacle,
 )
-from .resolution import (
-    AugmentedJacobianScheme,
-    GradientProjectionScheme,
-    Inverse,
-    PriorityScheme,
-    PseudoInverseScheme,
-    QPScheme,
-    SNSScheme,
-    WeightedLeastNormScheme,
-    make_inverse,
-)
+from .registry import scheme_types
+from .resolution import Inverse, make_inverse
 from .robot import Robot
 from .tasks import ArmAngleTask, FrameTask, LookAtTask, PostureTask, Task
 
@@ -52,6 +53,8 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 from .control.trajectories import Circle, FigureEight, Hold, Line, MinimumJerk, Trajectory
+
+_T = TypeVar("_T")
 
 
 class ScenarioError(RedresError, ValueError):
@@ -242,138 +245,100 @@ def _objective(r: _Reader, obstacles: list[Obstacle], n: int) -> tuple[Objective
     return obj, weight
 
 
-SCHEME_TYPES = (
-    "pinv",
-    "dls",
-    "gradient_projection",
-    "wln",
-    "augmented",
-    "priority",
-    "qp",
-    "sns",
-    "osc",
-)
 LEVEL_TYPES = ("arm_angle", "posture", "look_at")
 
 
-def _level(r: _Reader, n: int) -> Callable[[], Task]:
-    """A factory of one priority level's task (fresh per run: tasks keep targets)."""
+def _level(r: _Reader, n: int) -> Task:
+    """One priority level's task (fresh on every call: tasks keep targets)."""
     kind = r.get("type", "string")
     if kind == "arm_angle":
         target = r.get("target", "number", None)
         reference = r.get("reference", "vector", (0.0, 0.0, 1.0), size=3)
-        return lambda: ArmAngleTask(reference=reference, target=target)
+        return ArmAngleTask(reference=reference, target=target)
     if kind == "posture":
-        q_ref = r.get("q_ref", "vector", None, size=n)
-        return lambda: PostureTask(q_ref)
+        return PostureTask(r.get("q_ref", "vector", None, size=n))
     if kind == "look_at":
-        frame = r.get("frame", "string", None)
-        point = r.get("target", "vector", size=3)
-        return lambda: LookAtTask(frame, target=point)
+        return LookAtTask(r.get("frame", "string", None), target=r.get("target", "vector", size=3))
     raise r.fail("type", f"unknown level {kind!r}; use {', '.join(LEVEL_TYPES)}")
 
 
-def _priority(r: _Reader, n: int, file: str) -> Callable[[], Any]:
-    """Strict task priorities: the path first, then the listed levels."""
-    levels = [
-        _level(_Reader(t, f"{r.path}.levels[{i}]", file), n)
-        for i, t in enumerate(r.get("levels", "tables"))
-    ]
-    if not levels:
-        raise r.fail("levels", 'list at least one level, e.g. levels = [{ type = "posture" }]')
-    method = r.get("method", "string", "exact")
-    gain = r.get("level_gain", "number", 10.0)
-    PriorityScheme([make() for make in levels], method=method, gain=gain)  # type: ignore[arg-type]
-    return lambda: PriorityScheme([make() for make in levels], method=method, gain=gain)  # type: ignore[arg-type]
+class _SchemeReader(_Reader):
+    """One ``[[schemes]]`` table as :class:`~redres.registry.ScenarioParams`."""
+
+    def __init__(
+        self, table: Any, path: str, file: str, obstacles: list[Obstacle], n: int, dt: float
+    ) -> None:
+        super().__init__(table, path, file)
+        self.obstacles, self.n, self.dt = obstacles, n, dt
+        self.type = self.get("type", "string")
+
+    def number(self, key: str, default: float) -> float:
+        return float(self.get(key, "number", default))
+
+    def nonnegative(self, key: str, default: float) -> float:
+        value = self.number(key, default)
+        if value < 0:
+            raise self.fail(key, f"must be >= 0; got {value}")
+        return value
+
+    def string(self, key: str, default: str) -> str:
+        return str(self.get(key, "string", default))
+
+    def objectives(self) -> list[tuple[Objective, float]]:
+        tables = self.get("objectives", "tables", [])
+        parse = lambda r: _objective(r, self.obstacles, self.n)  # noqa: E731
+        return [self._read(t, f"objectives[{i}]", parse) for i, t in enumerate(tables)]
+
+    def levels(self) -> list[Task]:
+        tables = self.get("levels", "tables")
+        if not tables:
+            example = 'levels = [{ type = "posture" }]'
+            raise self.fail("levels", f"list at least one level, e.g. {example}")
+        parse = lambda r: _level(r, self.n)  # noqa: E731
+        return [self._read(t, f"levels[{i}]", parse) for i, t in enumerate(tables)]
+
+    def inverse(self, default_damping: float | None = None) -> Inverse | None:
+        keys = ("damping", "max_damping", "threshold", "rcond")
+        given = {k: self.positive(k) for k in keys if k in self.table}
+        self.used.update(keys)
+        damping: float | AdaptiveDamping | None = given.get("damping")
+        if "max_damping" in given or "threshold" in given:
+            if damping is not None:
+                raise self.fail("damping", "give damping = λ, or max_damping and threshold")
+            damping = AdaptiveDamping(given.get("max_damping", 0.1), given.get("threshold", 0.05))
+        if damping is None and "rcond" not in given:
+            damping = default_damping
+        if damping is None and "rcond" not in given:
+            return None
+        try:
+            return make_inverse(None, damping, given.get("rcond"))
+        except RedresError as exc:
+            raise self.fail("rcond" if "rcond" in given else "damping", str(exc)) from None
+
+    def _read(self, table: Any, key: str, parse: Callable[[_Reader], _T]) -> _T:
+        """``parse`` one sub-table (an objective, a level); its unknown keys are errors."""
+        reader = _Reader(table, f"{self.path}.{key}", self.file)
+        value = parse(reader)
+        reader.done()
+        return value
 
 
-def _osc(r: _Reader, objectives: list[tuple[Objective, float]]) -> Callable[[], Any]:
-    """Operational-space torque control (seed 004), simulated with forward dynamics."""
-    from .dynamics import OperationalSpaceController
-
-    kp = r.positive("kp", 400.0)
-    kd = r.positive("kd", 2.0 * math.sqrt(kp))
-    projector = r.get("projector", "string", "dynamic")
-    null_kp = r.get("null_kp", "number", 25.0)
-    null_kd = r.get("null_kd", "number", 10.0)
-    posture = objectives or [(PostureObjective(), 1.0)]
-    if projector not in ("dynamic", "kinematic"):
-        raise r.fail("projector", f"use 'dynamic' or 'kinematic'; got {projector!r}")
-    return lambda: OperationalSpaceController(
-        kp=kp,
-        kd=kd,
-        objectives=posture,
-        null_kp=null_kp,
-        null_kd=null_kd,
-        projector=projector,
-        name="osc",  # type: ignore[arg-type]
-    )
-
-
-def _hard_limits(
-    kind: str, dt: float, objectives: list[tuple[Objective, float]], gain: float
-) -> Callable[[], Any]:
-    """QP or SNS with hard joint limits, planning over the run's own period ``dt``."""
-    cls = QPScheme if kind == "qp" else SNSScheme
-    cls(dt=dt, objectives=objectives, gain=gain)  # validate now
-    return lambda: cls(dt=dt, objectives=objectives, gain=gain)
-
-
-def _inverse(r: _Reader, kind: str) -> Inverse:
-    """The scheme's inverse: ``damping = λ``, or ``max_damping`` and ``threshold`` (the
-    adaptive law), or ``rcond`` (exact); ``dls`` defaults to ``damping = 0.05``."""
-    keys = ("damping", "max_damping", "threshold", "rcond")
-    given = {k: r.positive(k) for k in keys if k in r.table}
-    damping: float | AdaptiveDamping | None = given.get("damping")
-    if "max_damping" in given or "threshold" in given:
-        if damping is not None:
-            raise r.fail("damping", "give damping = λ or max_damping and threshold, not both")
-        damping = AdaptiveDamping(given.get("max_damping", 0.1), given.get("threshold", 0.05))
-    if damping is None and kind == "dls" and "rcond" not in given:
-        damping = 0.05
-    try:
-        return make_inverse(None, damping, given.get("rcond"))
-    except RedresError as exc:
-        raise r.fail("rcond" if "rcond" in given else "damping", str(exc)) from None
-
-
-def _scheme(r: _Reader, obstacles: list[Obstacle], n: int, file: str, run_dt: float) -> SchemeSpec:
-    kind = r.get("type", "string")
+def _scheme(r: _SchemeReader) -> SchemeSpec:
+    """The registered builder of the table's ``type``, run once now to validate."""
+    kind = r.type
     label = r.get("label", "string", kind)
-    inverse = _inverse(r, kind)
-    objectives = [
-        _objective(_Reader(t, f"{r.path}.objectives[{i}]", file), obstacles, n)
-        for i, t in enumerate(r.get("objectives", "tables", []))
-    ]
-    gain = r.get("gain", "number", 1.0)
-    if gain < 0:
-        raise r.fail("gain", f"must be >= 0; got {gain}")
+    builders = scheme_types()
+    if kind not in builders:
+        raise r.fail("type", f"unknown scheme {kind!r}; use {', '.join(builders)}")
+    builder = builders[kind]
     try:
-        if kind in ("pinv", "dls"):
-            PseudoInverseScheme(inverse)  # validate now, build per run
-            build: Callable[[], Any] = lambda: PseudoInverseScheme(inverse)  # noqa: E731
-        elif kind == "gradient_projection":
-            GradientProjectionScheme(objectives, k_null=gain, inverse=inverse)
-            build = lambda: GradientProjectionScheme(objectives, k_null=gain, inverse=inverse)  # noqa: E731
-        elif kind == "wln":
-            c = r.positive("c", 1.0)
-            build = lambda: WeightedLeastNormScheme(c, objectives, k_null=gain, inverse=inverse)  # noqa: E731
-        elif kind == "augmented":
-            build = lambda: AugmentedJacobianScheme(gain=gain if "gain" in r.table else 10.0)  # noqa: E731
-        elif kind == "osc":
-            build = _osc(r, objectives)
-        elif kind == "priority":
-            build = _priority(r, n, file)
-        elif kind in ("qp", "sns"):
-            build = _hard_limits(kind, run_dt, objectives, gain)
-        else:
-            raise r.fail("type", f"unknown scheme {kind!r}; use {', '.join(SCHEME_TYPES)}")
+        builder(r)
+    except ScenarioError:
+        raise
     except RedresError as exc:
-        if isinstance(exc, ScenarioError):
-            raise
         raise r.fail("type", str(exc)) from None
     r.done()
-    return SchemeSpec(kind, label, build)
+    return SchemeSpec(kind, label, lambda: builder(r))
 
 
 def load_scenario(path: str | Path) -> ScenarioSpec:
@@ -435,7 +400,7 @@ def parse_scenario(
     if not tables:
         raise ScenarioError(f'{file}: [[schemes]] is empty; add one with type = "pinv"')
     schemes = [
-        _scheme(_Reader(t, f"[schemes][{i}]", file), obstacles, robot.n, file, dt)
+        _scheme(_SchemeReader(t, f"[schemes][{i}]", file, obstacles, robot.n, dt))
         for i, t in enumerate(tables)
     ]
     top.done()
@@ -456,6 +421,24 @@ def parse_scenario(
 
 
 def builtin_scenarios() -> dict[str, Path]:
-    """Name -> path of the scenario files shipped with redres."""
+    """Name -> path of the scenario files shipped with redres (``redres run --list``)."""
     folder = resources.files("redres") / "scenarios"
     return {Path(str(p)).stem: Path(str(p)) for p in folder.iterdir() if str(p).endswith(".toml")}
+
+
+def builtin(name: str) -> ScenarioSpec:
+    """A built-in scenario, loaded from the TOML file redres ships (its one definition).
+
+    Args:
+        name: ``"panda_joint_limit_circle"``, ``"iiwa_arm_angle_eight"``, ... (see
+            :func:`builtin_scenarios`).
+
+    Raises:
+        ScenarioError: no built-in scenario has that name (the message lists them).
+    """
+    files = builtin_scenarios()
+    if name not in files:
+        raise ScenarioError(
+            f"no built-in scenario {name!r}; built-in scenarios: {', '.join(sorted(files))}"
+        )
+    return load_scenario(files[name])

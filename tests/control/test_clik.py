@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import redres as rr
-from redres.control import Hold, iiwa_arm_angle_eight, panda_joint_limit_circle
+from redres.control import Hold
 from redres.errors import InvalidParameterError, JointLimitError, SimulationError
 from redres.objectives import JointLimitObjective
 from redres.resolution import (
@@ -18,6 +18,7 @@ from redres.resolution import (
     StepResult,
     WeightedLeastNormScheme,
 )
+from redres.scenario import builtin
 from redres.tasks import ArmAngleTask, FrameTask
 
 
@@ -118,7 +119,7 @@ def test_panda_circle_pinv_hits_a_limit_and_self_motion_avoids_it() -> None:
     """Issue 4: 10 s at 1 kHz. Plain pseudo-inverse reaches or crosses a joint limit;
     gradient projection and weighted least-norm keep every joint inside with a margin,
     tracking error below 1e-4 m."""
-    sc = panda_joint_limit_circle()
+    sc = builtin("panda_joint_limit_circle")
     results = {}
     for scheme in (
         PseudoInverseScheme(),
@@ -137,7 +138,7 @@ def test_panda_circle_pinv_hits_a_limit_and_self_motion_avoids_it() -> None:
 
 
 def test_iiwa_holds_its_arm_angle_with_the_augmented_jacobian() -> None:
-    sc = iiwa_arm_angle_eight()
+    sc = builtin("iiwa_arm_angle_eight")
     arm = ArmAngleTask()
     phi0 = arm.value(sc.robot, sc.q0)
     logs = {}
@@ -166,7 +167,7 @@ def test_run_takes_the_compiled_front_end_only_for_a_plain_frame_task() -> None:
     """``rr.run`` evaluates a FrameTask in the compiled kernel: same run as the task's own
     ``compute`` (a subclass overriding it keeps the general path), and the task is left as
     if it had computed the last step."""
-    scenario = panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot, q0 = scenario.robot, scenario.q0
     T = robot.fk(q0)
     T[:3, 3] += [0.01, 0.0, -0.01]

@@ -36,6 +36,7 @@ from redres.resolution import (
     WeightedLeastNormScheme,
 )
 from redres.resolution.gradient_projection import total_gradient, weighted_objectives
+from redres.scenario import builtin
 from redres.tasks import ArmAngleTask, FrameTask, PlanarTask, PositionTask, PostureTask
 
 INVERSES: list[Inverse] = [
@@ -125,7 +126,7 @@ def composed_step(
     state = task.compute(robot, q)
     pairs = weighted_objectives(objectives)
     grad = total_gradient(robot, q, pairs) if pairs else None
-    qd, _ = rr.linalg.rate_step(
+    qd, _, _ = rr.linalg.rate_step(
         state.jacobian, state.command(gain), grad, k_null=0.7, **inverse.rate_kwargs()
     )
     speed = np.max(np.abs(qd) / robot.qd_max)
@@ -232,7 +233,7 @@ def test_info_and_scaling_describe_the_last_step(rng: np.random.Generator) -> No
     reference = FrameTask()
     reference.set_target(task.target)
     state = reference.compute(robot, q)
-    _, info = rr.linalg.rate_step(state.jacobian, state.command(500.0), damping=0.05)
+    _, info = rr.linalg.rate_step(state.jacobian, state.command(500.0), damping=0.05)[:2]
     assert controller.info.rank == info.rank == 6 and controller.info.full_rank
     assert controller.info.method == info.method == "damped"
     assert controller.info.damping == 0.05
@@ -334,7 +335,7 @@ def test_per_row_gains(rng: np.random.Generator) -> None:
     task = FrameTask()
     task.set_target(target)
     state = task.compute(robot, q)
-    qd, _ = rr.linalg.rate_step(state.jacobian, gains * state.error)
+    qd, _ = rr.linalg.rate_step(state.jacobian, gains * state.error)[:2]
     for kind in (FrameTask, ComposedFrameTask):
         task = kind()
         task.set_target(target)
@@ -408,7 +409,7 @@ def test_a_controller_with_each_scheme_reproduces_rr_run(name: str, jit: bool) -
     """Half a second of the Panda circle, step for step: ``rr.run`` takes the compiled
     paths; with ``jit=False`` the controller composes, so this also checks path against
     path over a closed loop."""
-    scenario = rr.control.panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot, trajectory = scenario.robot, scenario.trajectory
     assert trajectory is not None
     log = rr.run(robot, FrameTask(), trajectory, _scheme(name), duration=0.5, q0=scenario.q0)

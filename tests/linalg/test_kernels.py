@@ -163,7 +163,7 @@ def test_environment_variable_disables_the_kernels() -> None:
         import sys
         import redres.linalg as rl
         from redres.linalg import _backend
-        qd, info = rl.rate_step([[1.0, 0.0, 1.0]], [1.0], damping=0.1)
+        qd, info, _ = rl.rate_step([[1.0, 0.0, 1.0]], [1.0], damping=0.1)
         print(_backend.kernels() is None, "numba" in sys.modules, info.method)
         """,
         REDRES_DISABLE_JIT="1",

@@ -43,7 +43,7 @@ def test_rate_step_matches_matrix_functions(jac: Jac, seed: int, damping: float,
     m, n = jac.J.shape
     rng = np.random.default_rng(seed)
     xd, grad = rng.standard_normal(m), rng.standard_normal(n)
-    qd, info = rl.rate_step(jac.J, xd, grad, k_null=k, damping=damping)
+    qd, info, _ = rl.rate_step(jac.J, xd, grad, k_null=k, damping=damping)
     expected = reference(jac.J, xd, grad, k, damping)
     scale = 1.0 + np.abs(expected).max()
     tol = 1e-9 * scale * (1.0 if damping > 0 else min(jac.condition, 1e10) * 1e-2)
@@ -62,7 +62,7 @@ def test_weighted_rate_step(jac: Jac, data: st.DataObject) -> None:
     damping = data.draw(st.sampled_from([0.0, 0.05]))
     rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
     xd, grad = rng.standard_normal(m), rng.standard_normal(n)
-    qd, info = rl.rate_step(jac.J, xd, grad, k_null=0.7, damping=damping, weights=W)
+    qd, info, _ = rl.rate_step(jac.J, xd, grad, k_null=0.7, damping=damping, weights=W)
     expected = reference(jac.J, xd, grad, 0.7, damping, W)
     np.testing.assert_allclose(qd, expected, atol=1e-7 * (1 + np.abs(expected).max()))
     assert info.method.startswith("weighted")
@@ -73,7 +73,7 @@ def test_adaptive_rate_step(backend: str, rng: np.random.Generator, selective: b
     J = np.diag([1.0, 0.02, 0.5]) @ rng.standard_normal((3, 7))
     xd, grad = rng.standard_normal(3), rng.standard_normal(7)
     law = rl.AdaptiveDamping(0.1, 0.2, selective)
-    qd, info = rl.rate_step(J, xd, grad, k_null=0.3, damping=law)
+    qd, info, _ = rl.rate_step(J, xd, grad, k_null=0.3, damping=law)
     Jp, ref_info = rl.damped_pinv(J, law, return_info=True)
     np.testing.assert_allclose(qd, Jp @ xd - 0.3 * (np.eye(7) - Jp @ J) @ grad, atol=1e-10)
     assert info.damping == pytest.approx(ref_info.damping, rel=1e-9) and info.damping > 0
@@ -85,9 +85,9 @@ def test_exact_step_tracks_the_task_and_descends_the_cost(backend: str, rng) -> 
     # downhill on the secondary cost D (DESIGN.md: -k N grad D).
     J = rng.standard_normal((3, 7))
     xd, grad = rng.standard_normal(3), rng.standard_normal(7)
-    qd, info = rl.rate_step(J, xd, grad, k_null=0.5)
+    qd, info, _ = rl.rate_step(J, xd, grad, k_null=0.5)
     np.testing.assert_allclose(J @ qd, xd, atol=1e-12)
-    qd_task, _ = rl.rate_step(J, xd)
+    qd_task, _, _ = rl.rate_step(J, xd)
     assert (qd - qd_task) @ grad < 0.0  # descent direction for D
     assert info.full_rank and info.method == "pinv" and info.damping == 0.0
 
@@ -102,17 +102,17 @@ def test_damped_null_term_disturbs_the_task_by_at_most_lambda_over_two(backend, 
 
 def test_singular_step_is_finite_with_diagnostics(backend: str) -> None:
     J = np.array([[-1.0, -0.5], [np.sqrt(3.0), np.sqrt(3.0) / 2.0]])  # seed 002
-    qd, info = rl.rate_step(J, np.array([-1.0, np.sqrt(3.0)]))
+    qd, info, _ = rl.rate_step(J, np.array([-1.0, np.sqrt(3.0)]))
     np.testing.assert_allclose(qd, [0.8, 0.4], atol=1e-12)
     assert info.rank == 1 and not info.full_rank and info.sigma_min < 1e-12
     assert info.sigma_max == pytest.approx(np.sqrt(5.0))
-    qd, info = rl.rate_step(J, np.array([1.0, 0.0]), damping=0.1)
+    qd, info, _ = rl.rate_step(J, np.array([1.0, 0.0]), damping=0.1)
     assert np.isfinite(qd).all() and info.method == "damped"
 
 
 def test_zero_jacobian(backend: str) -> None:
     grad = np.arange(4.0)
-    qd, info = rl.rate_step(np.zeros((2, 4)), np.ones(2), grad, k_null=2.0, damping=0.1)
+    qd, info, _ = rl.rate_step(np.zeros((2, 4)), np.ones(2), grad, k_null=2.0, damping=0.1)
     np.testing.assert_allclose(qd, -2.0 * grad)  # J# = 0, N = I
     assert info.rank == 0 and info.sigma_max == 0.0 and info.damping == 0.1
 
@@ -141,7 +141,7 @@ def test_fast_and_general_paths_agree(rng: np.random.Generator) -> None:
 def test_large_sizes_use_numpy_and_agree(shape, rng: np.random.Generator) -> None:
     J = rng.standard_normal(shape)
     xd, grad = rng.standard_normal(shape[0]), rng.standard_normal(shape[1])
-    qd, info = rl.rate_step(J, xd, grad, k_null=0.5, damping=0.01)
+    qd, info, _ = rl.rate_step(J, xd, grad, k_null=0.5, damping=0.01)
     np.testing.assert_allclose(qd, reference(J, xd, grad, 0.5, 0.01), atol=1e-10)
     assert info.method == "damped"
 
@@ -230,9 +230,9 @@ def test_returned_null_term_is_the_secondary_part(jac: Jac, data: st.DataObject)
     w = rng.uniform(0.5, 2.0, n) if weights else None
     kwargs = {"damping": damping, "weights": w}
     qd, info, null = rl.rate_step(jac.J, xd, grad, k_null=0.8, return_null=True, **kwargs)
-    qd_alone, info_alone = rl.rate_step(jac.J, xd, grad, k_null=0.8, **kwargs)
-    task, _ = rl.rate_step(jac.J, xd, **kwargs)
-    secondary, _ = rl.rate_step(jac.J, np.zeros(m), grad, k_null=0.8, **kwargs)
+    qd_alone, info_alone, _ = rl.rate_step(jac.J, xd, grad, k_null=0.8, **kwargs)
+    task, _, _ = rl.rate_step(jac.J, xd, **kwargs)
+    secondary, _, _ = rl.rate_step(jac.J, np.zeros(m), grad, k_null=0.8, **kwargs)
     scale = 1.0 + np.abs(qd).max() + np.abs(task).max()
     assert np.array_equal(qd, qd_alone) and info == info_alone
     np.testing.assert_allclose(qd - null, task, rtol=0, atol=1e-9 * scale)
@@ -251,7 +251,9 @@ def test_returned_null_term_on_every_path(backend: str, rng: np.random.Generator
         J = np.zeros((m, n)) if kwargs.pop("zero", False) else rng.standard_normal((m, n))
         xd, grad = rng.standard_normal(m), rng.standard_normal(n)
         qd, _, null = rl.rate_step(J, xd, grad, k_null=1.5, return_null=True, **kwargs)
-        task, _ = rl.rate_step(J, xd, **kwargs)
+        step = rl.rate_step(J, xd, **kwargs)
+        assert isinstance(step, rl.RateStep) and step.null_term is None  # not computed
+        task = step.qd
         np.testing.assert_allclose(qd - null, task, rtol=0, atol=1e-10)
         _, _, none = rl.rate_step(J, xd, return_null=True, **kwargs)
         assert np.array_equal(none, np.zeros(n))

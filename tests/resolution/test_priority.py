@@ -16,7 +16,7 @@ import pytest
 import redres as rr
 from redres.errors import InvalidParameterError, NonFiniteError, ShapeError
 from redres.linalg import AdaptiveDamping, adaptive_damping
-from redres.resolution import PriorityScheme, prioritized_velocity
+from redres.resolution import PriorityResult, PriorityScheme, prioritized_velocity
 from redres.tasks import ArmAngleTask, FrameTask, LookAtTask, PositionTask, PostureTask
 from redres.testing import numerical_jacobian
 
@@ -423,3 +423,11 @@ def test_bad_input() -> None:
         PriorityScheme([[]])
     with pytest.raises(InvalidParameterError):
         PriorityScheme(method="best")  # type: ignore[arg-type]
+
+
+def test_the_result_is_named(rng: np.random.Generator) -> None:
+    Js = [rng.standard_normal((2, 5)), rng.standard_normal((1, 5))]
+    result = prioritized_velocity(Js, [np.ones(2), np.ones(1)])
+    assert isinstance(result, PriorityResult)
+    assert result.qd is result[0] and result.levels is result[1]
+    assert [level.level for level in result.levels] == [1, 2]

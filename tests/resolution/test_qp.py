@@ -15,12 +15,12 @@ import pytest
 from scipy.optimize import linprog
 
 import redres as rr
-from redres.control import panda_joint_limit_circle
 from redres.errors import InvalidParameterError, MissingDependencyError
 from redres.objectives import JointLimitObjective
 from redres.resolution.limits import JointLimits, run_violation, step_violation
 from redres.resolution.qp import QPScheme
 from redres.resolution.sns import SNSScheme
+from redres.scenario import builtin
 from redres.tasks import PostureTask
 from redres.testing import random_limit_states, step_from_states
 
@@ -221,9 +221,9 @@ def test_bad_parameters() -> None:
 
 
 def test_panda_circle_keeps_every_limit_and_tracks() -> None:
-    scenario = panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot = scenario.robot
-    log = rr.control.run(robot, scenario.task, scenario.trajectory, QPScheme(dt=DT),
+    log = rr.control.run(robot, scenario.task(), scenario.trajectory, QPScheme(dt=DT),
                          q0=scenario.q0, dt=DT)  # fmt: skip
     assert log.steps == 10_000
     assert run_violation(JointLimits.from_robot(robot), log.q, log.qd, DT).worst <= 1e-9

@@ -15,12 +15,12 @@ import pytest
 from scipy.optimize import linprog
 
 import redres as rr
-from redres.control import panda_joint_limit_circle
 from redres.errors import NonFiniteError, ShapeError
 from redres.objectives import JointLimitObjective
 from redres.resolution import PseudoInverseScheme
 from redres.resolution.limits import JointLimits, run_violation, step_violation
 from redres.resolution.sns import SNSScheme, largest_scale
+from redres.scenario import builtin
 from redres.testing import random_limit_states, step_from_states
 
 DT = 1e-3
@@ -265,12 +265,12 @@ def test_bad_input() -> None:
 def test_panda_circle_keeps_every_limit_and_tracks() -> None:
     """The scenario that drives the pseudo-inverse 0.23 rad past joint 2's limit: 10 s at
     1 kHz with SNS breaks no limit and keeps the TCP within a few millimetres."""
-    scenario = panda_joint_limit_circle()
+    scenario = builtin("panda_joint_limit_circle")
     robot = scenario.robot
     lim = JointLimits.from_robot(robot)
     runs = {}
     for scheme in (PseudoInverseScheme(), SNSScheme(dt=DT)):
-        runs[scheme.name] = rr.control.run(robot, scenario.task, scenario.trajectory, scheme,
+        runs[scheme.name] = rr.control.run(robot, scenario.task(), scenario.trajectory, scheme,
                                            q0=scenario.q0, dt=DT)  # fmt: skip
     pinv, sns = runs["pinv"], runs["sns"]
     assert sns.steps == 10_000

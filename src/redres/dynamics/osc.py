@@ -52,6 +52,7 @@ from .._validate import FloatArray, as_matrix, as_vector
 from ..errors import InvalidParameterError, NotPositiveDefiniteError
 from ..linalg import RCOND, AdaptiveDamping, InverseInfo, generalized_inverse
 from ..linalg.dynamics import mass_matrix_factor
+from ..objectives import PostureObjective
 from ..resolution.gradient_projection import WeightedObjective
 from ..tasks import FrameTask
 from ._servo import NullSpaceLaw, ServoLaw, TaskServo
@@ -59,6 +60,7 @@ from .base import ControlStep
 
 if TYPE_CHECKING:
     from ..control import Sample
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 __all__ = [
@@ -232,6 +234,9 @@ class OperationalSpaceController(ServoLaw):
         name: identifier in run logs (default ``osc_<projector>``).
     """
 
+    #: Scenario ``type`` name.
+    scenario_types = ("osc",)
+
     def __init__(
         self,
         task: FrameTask | None = None,
@@ -261,6 +266,25 @@ class OperationalSpaceController(ServoLaw):
         self.damping = damping
         self.rcond = rcond
         self.name = name or f"osc_{projector}"
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> OperationalSpaceController:
+        """The law of a scenario table: ``kp``, ``kd``, ``projector``, ``null_kp``,
+        ``null_kd`` and ``objectives`` (default: a posture cost); identifier ``osc``."""
+        kp = params.positive("kp", 400.0)
+        kd = params.positive("kd", 2.0 * float(np.sqrt(kp)))
+        projector = params.string("projector", "dynamic")
+        if projector not in _PROJECTORS:
+            raise params.fail("projector", f"use 'dynamic' or 'kinematic'; got {projector!r}")
+        return cls(
+            kp=kp,
+            kd=kd,
+            objectives=params.objectives() or [(PostureObjective(), 1.0)],
+            null_kp=params.number("null_kp", 25.0),
+            null_kd=params.number("null_kd", 10.0),
+            projector=projector,  # type: ignore[arg-type]
+            name="osc",
+        )
 
     def null_space_torque(
         self, robot: Robot, q: FloatArray, qd: FloatArray, M: FloatArray

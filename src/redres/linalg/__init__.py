@@ -45,13 +45,14 @@ from .projectors import (
     nullspace_basis,
     nullspace_projector,
 )
-from .rate import rate_step
+from .rate import RateStep, rate_step
 
 __all__ = [
     "RCOND",
     "AdaptiveDamping",
     "InverseInfo",
     "MoorePenroseResiduals",
+    "RateStep",
     "adaptive_damped_pinv",
     "adaptive_damping",
     "condition_number",

@@ -16,7 +16,7 @@ step is one compiled kernel call.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, Literal, overload
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -28,13 +28,13 @@ from . import _codes as codes
 from ._backend import FloatArray
 from ._info import RCOND, AdaptiveDamping, InverseInfo
 
-__all__ = ["rate_step"]
+__all__ = ["RateStep", "rate_step"]
 
 _F64 = np.float64
 _ndarray = np.ndarray
 _contiguous = np.ascontiguousarray
 _empty = np.empty
-_new_info = tuple.__new__
+_new_tuple = tuple.__new__
 _NO_GRAD = be.EMPTY_1D
 _NAMES = {"J": "J", "xd": "xd", "grad": "grad", "W": "weights"}
 # InverseInfo.method by damping mode (EXACT, FIXED, ADAPTIVE, SELECTIVE).
@@ -53,30 +53,22 @@ def _reset_lane() -> None:
 be._on_switch.append(_reset_lane)
 
 
-@overload
-def rate_step(
-    J: ArrayLike,
-    xd: ArrayLike,
-    grad: ArrayLike | None = ...,
-    *,
-    k_null: float = ...,
-    damping: float | AdaptiveDamping = ...,
-    weights: ArrayLike | None = ...,
-    rcond: float = ...,
-    return_null: Literal[False] = ...,
-) -> tuple[FloatArray, InverseInfo]: ...
-@overload
-def rate_step(
-    J: ArrayLike,
-    xd: ArrayLike,
-    grad: ArrayLike | None = ...,
-    *,
-    k_null: float = ...,
-    damping: float | AdaptiveDamping = ...,
-    weights: ArrayLike | None = ...,
-    rcond: float = ...,
-    return_null: Literal[True],
-) -> tuple[FloatArray, InverseInfo, FloatArray]: ...
+class RateStep(NamedTuple):
+    """The result of :func:`rate_step`.
+
+    Attributes:
+        qd: joint velocity, shape ``(n,)``, rad/s.
+        info: diagnostics of the inverse ``J#`` (rank, ``sigma_min``, ``sigma_max``,
+            damping used, method), from the same factorisation.
+        null_term: the secondary part ``qd - J# xd = -k_null N grad``, shape ``(n,)``,
+            rad/s, with ``return_null=True``; ``None`` otherwise (not computed).
+    """
+
+    qd: FloatArray
+    info: InverseInfo
+    null_term: FloatArray | None
+
+
 def rate_step(
     J: ArrayLike,
     xd: ArrayLike,
@@ -87,7 +79,7 @@ def rate_step(
     weights: ArrayLike | None = None,
     rcond: float = RCOND,
     return_null: bool = False,
-) -> tuple[FloatArray, InverseInfo] | tuple[FloatArray, InverseInfo, FloatArray]:
+) -> RateStep:
     """Joint velocity ``qd = J# xd - k_null N grad`` of one rate-control step.
 
     ``N = I - J# J`` is built from the same inverse ``J#`` as the task term, so that:
@@ -117,13 +109,13 @@ def rate_step(
         weights: ``None``, ``(n,)`` diagonal joint weights (> 0), or an ``(n, n)`` SPD
             matrix.
         rcond: Relative rank tolerance used when no damping applies.
-        return_null: Also return the secondary part ``qd - J# xd = -k_null N grad`` (the
+        return_null: Also compute the secondary part ``qd - J# xd = -k_null N grad`` (the
             null-space term), from the same factorisation.
 
     Returns:
-        ``(qd, info)``: joint velocity, shape ``(n,)`` in rad/s, and the
-        :class:`InverseInfo` of ``J#`` (rank, ``sigma_min``, ``sigma_max``, damping used);
-        ``(qd, info, null_term)`` with ``return_null=True``.
+        A :class:`RateStep` ``(qd, info, null_term)``: joint velocity, shape ``(n,)`` in
+        rad/s, the :class:`InverseInfo` of ``J#`` (rank, ``sigma_min``, ``sigma_max``,
+        damping used), and the null-space term (``None`` unless ``return_null``).
 
     Raises:
         ShapeError: an array has the wrong shape.
@@ -155,12 +147,12 @@ def rate_step(
             except TypeError:  # a scalar that is not a number: the general path says which
                 status = -1
             if not status:
-                info = _new_info(InverseInfo, (rank, full, smin, smax, used, _LABELS[mode]))
-                return (qd, info, null) if return_null else (qd, info)
+                info = _new_tuple(InverseInfo, (rank, full, smin, smax, used, _LABELS[mode]))
+                return _new_tuple(RateStep, (qd, info, null if return_null else None))
             if status > 0:
                 _raise_for_status(status, Ja, xa, ga, grad is not None, k_null, damping, rcond)
     qd, info, null = _general_step(Ja, xa, ga, grad is not None, k_null, damping, weights, rcond)
-    return (qd, info, null) if return_null else (qd, info)
+    return _new_tuple(RateStep, (qd, info, null if return_null else None))
 
 
 def _general_step(

@@ -20,7 +20,7 @@ from .limits import (
     step_violation,
     velocity_bounds,
 )
-from .priority import METHODS, LevelInfo, PriorityScheme, prioritized_velocity
+from .priority import METHODS, LevelInfo, PriorityResult, PriorityScheme, prioritized_velocity
 from .pseudoinverse import PseudoInverseScheme
 from .qp import QPScheme
 from .sns import SNSScheme, largest_scale
@@ -37,6 +37,7 @@ __all__ = [
     "InverseKind",
     "JointLimits",
     "LevelInfo",
+    "PriorityResult",
     "PriorityScheme",
     "PseudoInverseScheme",
     "QPScheme",

@@ -26,6 +26,7 @@ from .base import Inverse, Scheme, StepResult, make_inverse
 DEFAULT_MAX_DAMPING = 0.05
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 
@@ -66,6 +67,7 @@ class AugmentedJacobianScheme(Scheme):
     """
 
     name = "augmented"
+    scenario_types = ("augmented",)
     #: No null-space term: the extra rows use up the redundancy.
     k_null: float = 0.0
 
@@ -88,6 +90,11 @@ class AugmentedJacobianScheme(Scheme):
         self.inverse = make_inverse(inverse, damping, rcond)
         self._kwargs = self.inverse.rate_kwargs()
 
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> AugmentedJacobianScheme:
+        """The scheme of a scenario table: the arm-angle row, its ``gain`` and the inverse."""
+        return cls(gain=params.nonnegative("gain", 10.0), inverse=params.inverse())
+
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         states = [task.compute(robot, q) for task in self.tasks]
         rows = J.shape[0] + sum(s.jacobian.shape[0] for s in states)
@@ -98,7 +105,7 @@ class AugmentedJacobianScheme(Scheme):
             )
         J_ext = np.vstack([J, *(s.jacobian for s in states)])
         x_ext = np.concatenate([xd, *(s.command(self.gain) for s in states)])
-        qd, info = rate_step(J_ext, x_ext, **self._kwargs)
+        qd, info, _ = rate_step(J_ext, x_ext, **self._kwargs)
         # Classify only near a singularity (one extra SVD there, none elsewhere).
         algorithmic = bool(info.sigma_min < self.threshold and sigma_min(J) >= self.threshold)
         details = AugmentedDetails(np.concatenate([s.error for s in states]))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -20,6 +20,7 @@ from ..objectives import Objective
 from .base import Inverse, Scheme, StepResult, make_inverse
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 WeightedObjective = Objective | tuple[Objective, float]
@@ -85,6 +86,7 @@ class GradientProjectionScheme(Scheme):
     """
 
     name = "gradient_projection"
+    scenario_types = ("gradient_projection",)
 
     @checked_keywords
     def __init__(
@@ -103,9 +105,14 @@ class GradientProjectionScheme(Scheme):
         self.inverse = make_inverse(inverse, damping, rcond)
         self._kwargs = self.inverse.rate_kwargs()
 
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> GradientProjectionScheme:
+        """The scheme of a scenario table: ``objectives``, ``k_null`` and the inverse."""
+        k_null = params.nonnegative("k_null", 1.0)
+        return cls(params.objectives(), k_null=k_null, inverse=params.inverse())
+
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         grad = total_gradient(robot, q, self.objectives)
-        qd, info, null_term = rate_step(
-            J, xd, grad, k_null=self.k_null, return_null=True, **self._kwargs
-        )
-        return StepResult(qd, info, null_term, details=GradientDetails(grad))
+        step = rate_step(J, xd, grad, k_null=self.k_null, return_null=True, **self._kwargs)
+        null_term = cast("FloatArray", step.null_term)  # computed: return_null=True
+        return StepResult(step.qd, step.info, null_term, details=GradientDetails(grad))

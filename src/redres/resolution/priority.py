@@ -81,6 +81,7 @@ from ..tasks import Task, stack
 from .base import Inverse, Scheme, StepResult, make_inverse
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 PriorityMethod = Literal["exact", "robust", "damped"]
@@ -132,6 +133,18 @@ class LevelInfo(NamedTuple):
         return float(np.linalg.norm(self.achieved - self.requested))
 
 
+class PriorityResult(NamedTuple):
+    """The result of :func:`prioritized_velocity`.
+
+    Attributes:
+        qd: joint velocity of the whole hierarchy, shape ``(n,)``, rad/s.
+        levels: one :class:`LevelInfo` per level, highest priority first.
+    """
+
+    qd: FloatArray
+    levels: list[LevelInfo]
+
+
 def prioritized_velocity(
     jacobians: Sequence[ArrayLike],
     velocities: Sequence[ArrayLike],
@@ -140,7 +153,7 @@ def prioritized_velocity(
     damping: Damping | Sequence[Damping] = DEFAULT_DAMPING,
     rcond: float = RCOND,
     threshold: float = 1e-2,
-) -> tuple[FloatArray, list[LevelInfo]]:
+) -> PriorityResult:
     """Joint velocity of a strict priority hierarchy (module docstring for the formulas).
 
     Args:
@@ -157,8 +170,8 @@ def prioritized_velocity(
             reported singular (:attr:`LevelInfo.algorithmic_singularity`).
 
     Returns:
-        ``(qd, levels)``: joint velocity, shape ``(n,)``, rad/s, and one
-        :class:`LevelInfo` per level.
+        A :class:`PriorityResult` ``(qd, levels)``: joint velocity, shape ``(n,)``, rad/s,
+        and one :class:`LevelInfo` per level.
 
     Raises:
         ShapeError: a Jacobian or velocity has the wrong shape, or the levels disagree on
@@ -185,7 +198,7 @@ def _resolve(
     dampings: list[Damping],
     rcond: float,
     threshold: float,
-) -> tuple[FloatArray, list[LevelInfo]]:
+) -> PriorityResult:
     """:func:`prioritized_velocity` on validated input."""
     n = Js[0].shape[1]
     qd = np.zeros(n)
@@ -218,7 +231,7 @@ def _resolve(
         if k + 1 < len(Js):
             P = (np.eye(n) if P is None else P) - A_pinv @ A
             freedom = max(freedom - exact.rank, 0)
-    return qd, [_info(Js, xs, qd, *entry) for entry in levels]
+    return PriorityResult(qd, [_info(Js, xs, qd, *entry) for entry in levels])
 
 
 _NO_FREEDOM = InverseInfo(0, False, 0.0, 0.0, 0.0, "none")
@@ -342,6 +355,7 @@ class PriorityScheme(Scheme):
     """
 
     name = "priority"
+    scenario_types = ("priority",)
     #: No gradient term: the lower levels are tasks (:attr:`gains`), not costs.
     k_null: float = 0.0
 
@@ -377,6 +391,13 @@ class PriorityScheme(Scheme):
         self.threshold = as_scalar(threshold, "threshold", minimum=0.0)
         self.tasks = tuple(t for level in self.levels for t in level)
         self._dampings = [self.inverse.damping] * (len(self.levels) + 1)
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> PriorityScheme:
+        """The scheme of a scenario table: ``levels``, ``method``, ``gain``, the inverse."""
+        method = params.string("method", "exact")
+        gain = params.nonnegative("gain", 10.0)
+        return cls(params.levels(), method=method, gain=gain, inverse=params.inverse())  # type: ignore[arg-type]
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         jacobians = [J]

@@ -16,6 +16,7 @@ from ..linalg import AdaptiveDamping, rate_step
 from .base import Inverse, Scheme, StepResult, make_inverse
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 
@@ -38,6 +39,8 @@ class PseudoInverseScheme(Scheme):
 
     #: No null-space term: ``q̇`` is the task term alone.
     k_null: float = 0.0
+    #: Scenario ``type`` names (``dls``: damped, ``damping = 0.05`` unless given).
+    scenario_types = ("pinv", "dls")
 
     @checked_keywords
     def __init__(
@@ -51,8 +54,13 @@ class PseudoInverseScheme(Scheme):
         self.name = "pinv" if self.inverse.kind == "exact" else "dls"
         self._kwargs = self.inverse.rate_kwargs()
 
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> PseudoInverseScheme:
+        """The scheme of a scenario table: the inverse keys only."""
+        return cls(params.inverse(default_damping=0.05 if params.type == "dls" else None))
+
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
-        qd, info = rate_step(J, xd, **self._kwargs)
+        qd, info, _ = rate_step(J, xd, **self._kwargs)
         return StepResult(qd, info, np.zeros(qd.shape[0]))
 
     def __repr__(self) -> str:

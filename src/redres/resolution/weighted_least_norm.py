@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -30,6 +30,7 @@ from .base import Inverse, Scheme, StepResult, make_inverse
 from .gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 
 if TYPE_CHECKING:
+    from ..registry import ScenarioParams
     from ..robot import Robot
 
 _MAX_WEIGHT = 1e12
@@ -69,9 +70,14 @@ class WeightedLeastNormScheme(Scheme):
 
     Identifier ``wln``. The scheme keeps ``|h|`` of the previous step; :meth:`reset`
     forgets it (the first step of a run uses unit weights for joints not yet moving).
+
+    Raises:
+        InvalidParameterError: a non-positive ``c``, a negative ``k_null``, a bad inverse.
+        UnknownParameterError: a misspelt keyword (the message names the valid ones).
     """
 
     name = "wln"
+    scenario_types = ("wln",)
 
     @checked_keywords
     def __init__(
@@ -99,6 +105,13 @@ class WeightedLeastNormScheme(Scheme):
         self._kwargs = self.inverse.rate_kwargs()
         self._previous: FloatArray | None = None
 
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> WeightedLeastNormScheme:
+        """The scheme of a scenario table: ``c``, ``objectives``, ``k_null``, the inverse."""
+        c, objectives = params.positive("c", 1.0), params.objectives()
+        k_null = params.nonnegative("k_null", 1.0)
+        return cls(c, objectives, k_null=k_null, inverse=params.inverse())
+
     def _reset(self) -> None:
         self._previous = None
 
@@ -112,7 +125,8 @@ class WeightedLeastNormScheme(Scheme):
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         w = self.weights(robot, q)
         grad = total_gradient(robot, q, self.objectives) if self.objectives else None
-        qd, info, null_term = rate_step(
+        step = rate_step(
             J, xd, grad, k_null=self.k_null, weights=w, return_null=True, **self._kwargs
         )
-        return StepResult(qd, info, null_term, details=WeightDetails(w))
+        null_term = cast("FloatArray", step.null_term)  # computed: return_null=True
+        return StepResult(step.qd, step.info, null_term, details=WeightDetails(w))
