@@ -199,6 +199,33 @@ def test_the_three_paths_and_the_composed_step_agree(
             assert np.allclose(controller.pose, robot.fk(q), rtol=0, atol=1e-14), path  # type: ignore[arg-type]
 
 
+def test_the_fused_step_is_the_schemes_bit_for_bit_with_one_cost(
+    rng: np.random.Generator,
+) -> None:
+    """With one cost of weight 1 the fused kernel does the scheme's floating-point
+    operations (``a ∘ (q − r)``, the same inverse, division by the speed ratio): ``rr.run``
+    gives the same bits on either path, scaled or not."""
+    _kernels()
+    robot = rr.models.panda()
+    seen = set()
+    for trial in range(20):
+        q = robot.random_configuration(rng, margin=0.2)
+        target = _target_near(robot, q, rng)
+        steps = []
+        for kind in (GradientProjectionScheme, OwnStepGradient):
+            task = FrameTask()
+            task.set_target(target)
+            scheme = kind([JointLimitObjective()], k_null=5.0, damping=0.01)
+            controller = Controller(robot, task, scheme, gain=[1.0, 400.0][trial % 2])
+            steps.append((controller.step(q), controller.qd.copy(), controller.scaled))
+        (fused_q, fused_qd, fused_scaled), (frame_q, frame_qd, frame_scaled) = steps
+        assert fused_scaled == frame_scaled
+        seen.add(fused_scaled)
+        np.testing.assert_array_equal(fused_qd, frame_qd)
+        np.testing.assert_array_equal(fused_q, frame_q)
+    assert seen == {False, True}
+
+
 def test_the_path_is_chosen_from_the_task_the_scheme_and_the_kernels() -> None:
     _kernels()
     robot = rr.models.panda()

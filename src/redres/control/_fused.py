@@ -36,7 +36,8 @@ TARGET = slice(codes.CFG_ROTATION, codes.CFG_TWIST + 6)
 
 class Fusion(NamedTuple):
     """What the fused kernel needs of a scheme: the inverse's ``rate_step`` keywords, the
-    null-space gain and the summed quadratic costs ``Σ wᵢ ∇Dᵢ = a ∘ q − b`` (None: none)."""
+    null-space gain and the summed quadratic costs ``Σ wᵢ ∇Dᵢ = a ∘ (q − r)`` as ``(a, r)``
+    (None: none)."""
 
     rate_kwargs: dict[str, Any]
     k_null: float
@@ -82,7 +83,8 @@ def fused_config(
     robot: Robot, gains: FloatArray, dt: float, limit_velocity: bool, fused: Fusion | None
 ) -> FloatArray:
     """The kernels' ``config`` vector for a robot, the six per-row ``gains`` (1/s) and, on
-    the fused path, the scheme's settings; the target starts as the identity pose at rest."""
+    the fused path, the scheme's settings (the summed costs' ``a, r`` from CFG_VECTORS on);
+    the target starts as the identity pose at rest."""
     n = robot.n
     config = np.zeros(codes.CFG_VECTORS + 3 * n)
     config[codes.CFG_ROTATION : codes.CFG_ROTATION + 9] = np.eye(3).ravel()
@@ -114,19 +116,25 @@ def damping_mode(config: FloatArray) -> int:
 def quadratic_coefficients(
     robot: Robot, objectives: Sequence[tuple[Objective, float]]
 ) -> tuple[FloatArray, FloatArray] | None:
-    """``(a, b)`` with ``Σ wᵢ ∇Dᵢ(q) = a ∘ q − b`` for weighted diagonal quadratic costs,
-    None if a cost has no quadratic form (or there are none)."""
+    """``(a, r)`` with ``Σ wᵢ ∇Dᵢ(q) = a ∘ (q − r)`` for weighted diagonal quadratic costs
+    ``∇Dᵢ = aᵢ ∘ (q − rᵢ)``: ``a = Σ wᵢ aᵢ``, ``r = Σ wᵢ aᵢ rᵢ / a`` (0 where ``a = 0``;
+    one cost's ``rᵢ`` as it is). None if a cost has no quadratic form (or there are none).
+    """
     if not objectives:
         return None
-    a, b = np.zeros(robot.n), np.zeros(robot.n)
+    forms = []
     for obj, weight in objectives:
         form = obj.quadratic_form(robot)
         if form is None:
             return None
         ai, ri = (as_vector(x, f"quadratic form of {obj.name}", robot.n) for x in form)
-        a += weight * ai
-        b += weight * ai * ri
-    return a, b
+        forms.append((weight * ai, ri))
+    if len(forms) == 1:
+        return forms[0]
+    a = np.sum([ai for ai, _ in forms], axis=0)
+    ar = np.sum([ai * ri for ai, ri in forms], axis=0)
+    r = np.divide(ar, a, out=np.zeros(robot.n), where=a != 0.0)
+    return a, r
 
 
 def row_gains(gain: Any, rows: Sequence[int]) -> FloatArray:
