@@ -152,13 +152,12 @@ class Controller:
         self._kernel: Any = None
         self._front: Any = None
         self._integrate: Any = None
-        self._config = _empty(0)
+        self._config = self._block = _empty(0)
         if path != "composed":
             assert frame is not None
             gains = row_gains(gain, rows)
             self._config = fused_config(robot, gains, self._dt, self._limit, fused)
-            frame._share_target(self._config[TARGET])  # set_target writes the kernel's
-            self._block = self._config[TARGET]
+            self._block = self._config[TARGET]  # the task's target, from the first step on
             if path == "fused":
                 self._kernel = kernel_for(robot, self._fid, be.fused_clik_step, "clik_step")
             else:
@@ -236,7 +235,10 @@ class Controller:
         kernel = self._kernel
         if kernel is None:
             return self._resolved_step(qa)
-        J, H = self._frame(qa)
+        placement, J = self._robot.placement_jacobian(qa, self._fid)  # (_frame, inlined)
+        H = placement.homogeneous
+        if self._task._target is not self._block:  # type: ignore[attr-defined]
+            self._adopt(qa, H)
         out = _empty(self._size)
         diag = kernel(J, H, qa, self._rows, self._config, out)
         if diag[0]:
@@ -246,17 +248,23 @@ class Controller:
 
     def _frame(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """The frame's world-aligned Jacobian ``(6, n)`` and pose (4x4) at ``q``, from one
-        Pinocchio pass; the pose becomes the target at the first step without one."""
-        task: FrameTask = self._task  # type: ignore[assignment]
-        if task._target is not self._block:  # another controller took the task over
-            self._block[:] = task._target
+        Pinocchio pass, with the task's target in the kernel's settings."""
         placement, J = self._robot.placement_jacobian(q, self._fid)
         H = placement.homogeneous
+        if self._task._target is not self._block:  # type: ignore[attr-defined]
+            self._adopt(q, H)
+        return J, H
+
+    def _adopt(self, q: FloatArray, H: FloatArray) -> None:
+        """Make the kernel's settings hold the frame task's target (at the first step, or
+        after another controller stepped the same task); without a target, the pose ``H``
+        at ``q`` becomes it (hold still)."""
+        task: FrameTask = self._task  # type: ignore[assignment]
         if not task._has_target:
             if not np.all(np.isfinite(q)):
                 raise NonFiniteError("q contains NaN or infinity")
             task.set_target(H, validate=False)
-        return J, H
+        task._share_target(self._block)  # set_target writes the kernel's slots from now on
 
     def _resolved_step(self, q: FloatArray) -> FloatArray:
         """The ``"frame"`` and ``"composed"`` paths: task rows, the scheme, then scaling."""
