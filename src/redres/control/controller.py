@@ -39,7 +39,7 @@ chosen at construction (:attr:`Controller.path`), all computing the same step:
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
@@ -291,25 +291,29 @@ class Controller:
                 f"expected ({n},)"
             )
         speed: float | None = None  # read on demand where nothing is scaled
+        scaled = False
         if self._limit and not self._hard:
             speed = float(_max(_abs(qd) / robot.qd_max))
-            finite = speed < math.inf  # NaN and inf both fail
-        else:
-            finite = math.isfinite(qd @ qd)  # (or an astronomical qd: as bad)
-        if not finite:
-            raise SimulationError(
-                f"the {scheme.name} scheme returned a non-finite joint velocity {qd}"
-            )
-        scaled = False
-        if speed is not None and speed > 1.0:
-            qd, scaled = qd / speed, True
+            if not speed < math.inf:  # NaN and inf both fail
+                self._non_finite(qd)
+            if speed > 1.0:
+                qd, scaled = qd / speed, True
         self._qd, self._speed, self._scaled = qd, speed, scaled
         integrate = self._integrate
         if integrate is None:
-            return q + qd * self._dt
+            q_next = q + qd * self._dt
+            if speed is None and not math.isfinite(q_next @ q_next):
+                self._non_finite(qd)  # (or astronomically large: as bad)
+            return q_next
         q_next = _empty(n)
-        integrate(q, qd, self._dt, q_next)
+        if not integrate(q, qd, self._dt, q_next) and speed is None:
+            self._non_finite(qd)
         return q_next
+
+    def _non_finite(self, qd: FloatArray) -> NoReturn:
+        raise SimulationError(
+            f"the {self._scheme.name} scheme returned a non-finite joint velocity {qd}"
+        )
 
     def _compose(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``(J, ẋ_d + K e)`` from ``task.compute``; keeps the error and pose to report."""

@@ -116,7 +116,7 @@ def _frame_warm() -> tuple[Any, ...]:
 
 def fused_integrate() -> Callable[..., Any] | None:
     """Native entry point of ``_kernels.integrate`` (``out <- q + qd dt`` for float64
-    C-contiguous vectors and a float), or None."""
+    C-contiguous vectors and a float; returns whether ``out`` is finite), or None."""
     warm = (np.zeros(1), np.zeros(1), 0.0, np.zeros(1))
     return _entry_point("integrate", warm)
 

@@ -1076,9 +1076,15 @@ def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
 
 @_jit
 def integrate(q, qd, dt, out):  # type: ignore[no-untyped-def]
-    """``out <- q + qd dt`` (one compiled call instead of two NumPy temporaries)."""
+    """``out <- q + qd dt`` (one compiled call instead of two NumPy temporaries); returns
+    whether every ``out[j]`` is finite."""
+    finite = True
     for j in range(q.shape[0]):
-        out[j] = q[j] + qd[j] * dt
+        x = q[j] + qd[j] * dt
+        out[j] = x
+        if not math.isfinite(x):
+            finite = False
+    return finite
 
 
 @_jit
