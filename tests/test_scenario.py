@@ -209,6 +209,11 @@ def test_scheme_keys_reach_the_constructors() -> None:
     assert dls.name == "dls" and dls.inverse == rr.resolution.Inverse(0.05)
     aug = parse_scenario(tomllib_loads(scheme_table("augmented"))).schemes[0].build()
     assert aug.inverse == rr.resolution.AugmentedJacobianScheme().inverse
+    objectives = 'objectives = [{ type = "joint_limits" }]'
+    text = GOOD.replace('type = "pinv"', f'type = "sns"\nk_null = 2.0\n{objectives}')
+    sns_spec = parse_scenario(tomllib_loads(text))
+    sns = sns_spec.schemes[0].build()
+    assert sns.gain == 2.0 and sns.dt == sns_spec.dt == 0.002 and len(sns.objectives) == 1
 
 
 def test_builtin_scenarios_are_the_shipped_files() -> None:

@@ -1,7 +1,7 @@
 """Scenario files: a robot, a path, run settings, obstacles and the schemes to compare.
 
 Read with :mod:`tomllib` only; nothing in a scenario is executed. Every problem is
-reported as one :class:`ScenarioError` naming the file, the key path (``[schemes][2].gain``)
+reported as one :class:`ScenarioError` naming the file, the key path (``[schemes][2].k_null``)
 and the fix. See docs/scenarios.md for the format; built-in scenarios ship in
 ``redres/scenarios`` (``redres run --list``).
 """
@@ -22,6 +22,7 @@ import math
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from importlib import resources
 from pathlib import Path
 from typing import Any, TypeVar
@@ -286,7 +287,7 @@ class _SchemeReader(_Reader):
 
     def objectives(self) -> list[tuple[Objective, float]]:
         tables = self.get("objectives", "tables", [])
-        parse = lambda r: _objective(r, self.obstacles, self.n)  # noqa: E731
+        parse = partial(_objective, obstacles=self.obstacles, n=self.n)
         return [self._read(t, f"objectives[{i}]", parse) for i, t in enumerate(tables)]
 
     def levels(self) -> list[Task]:
@@ -294,7 +295,7 @@ class _SchemeReader(_Reader):
         if not tables:
             example = 'levels = [{ type = "posture" }]'
             raise self.fail("levels", f"list at least one level, e.g. {example}")
-        parse = lambda r: _level(r, self.n)  # noqa: E731
+        parse = partial(_level, n=self.n)
         return [self._read(t, f"levels[{i}]", parse) for i, t in enumerate(tables)]
 
     def inverse(self, default_damping: float | None = None) -> Inverse | None:
