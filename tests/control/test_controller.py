@@ -425,13 +425,25 @@ def _scheme(name: str) -> Scheme:
         return AugmentedJacobianScheme([ArmAngleTask()])
     if name == "dls":
         return PseudoInverseScheme(damping=0.01)
+    if name == "pinv":
+        return PseudoInverseScheme()
+    if name == "priority":
+        return rr.resolution.PriorityScheme([PostureTask(robot_q0())], gain=[1.0])
     return WeightedLeastNormScheme()
+
+
+def robot_q0() -> np.ndarray:
+    """The Panda circle's start configuration."""
+    q0: np.ndarray = builtin("panda_joint_limit_circle").q0
+    return q0
 
 
 @pytest.mark.parametrize("jit", [True, False])
 @pytest.mark.parametrize(
-    "name", ["dls", "gradient_projection", "manipulability", "wln", "augmented", "sns", "qp"]
-)
+    "name",
+    ["pinv", "dls", "gradient_projection", "manipulability", "wln", "augmented", "priority",
+     "sns", "qp"],
+)  # fmt: skip
 def test_a_controller_with_each_scheme_reproduces_rr_run(name: str, jit: bool) -> None:
     """Half a second of the Panda circle, step for step: ``rr.run`` takes the compiled
     paths; with ``jit=False`` the controller composes, so this also checks path against
