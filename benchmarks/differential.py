@@ -297,7 +297,7 @@ def sample(contenders: dict[str, Step], rounds: int, calls: int) -> dict[str, np
 
 LABELS = {
     "redres-fused": "redres (Controller.step, compiled)",
-    "redres": "redres (Scheme.step, as in rr.run)",
+    "redres": "redres (FrameTask + Scheme.step, composed)",
     "redres-bare": "redres (linalg.rate_step on arrays)",
     "KDL": "KDL (pinv / wdls / pinv_nso)",
     "robotics-toolbox": "robotics-toolbox (jacob0 + NumPy)",
