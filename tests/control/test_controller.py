@@ -354,6 +354,28 @@ def test_the_target_is_the_tasks_even_when_tasks_are_shared(rng: np.random.Gener
     np.testing.assert_allclose(first.error, second.error, rtol=0, atol=0)
 
 
+def test_a_copied_or_pickled_frame_task_keeps_one_target(rng: np.random.Generator) -> None:
+    """The target's views stay views of one block through copy.deepcopy and pickle, so a
+    controller on the copy follows its set_target."""
+    import copy
+    import pickle
+
+    robot = rr.models.panda()
+    q = robot.random_configuration(rng, margin=0.3)
+    task = FrameTask()
+    Controller(robot, task, PseudoInverseScheme()).step(q)  # the target now lives in a kernel
+    for clone in (copy.deepcopy(task), pickle.loads(pickle.dumps(task))):
+        np.testing.assert_array_equal(clone.target, task.target)
+        target = _target_near(robot, q, rng)
+        clone.set_target(target)
+        controller = Controller(robot, clone, PseudoInverseScheme())
+        controller.step(q)
+        np.testing.assert_allclose(clone.target, target, rtol=0, atol=0)
+        np.testing.assert_allclose(controller.error[:3], target[:3, 3] - robot.fk(q)[:3, 3],
+                                   rtol=0, atol=1e-15)  # fmt: skip
+    assert np.abs(Controller(robot, task, PseudoInverseScheme()).step(q) - q).max() < 1e-12
+
+
 def test_per_row_gains(rng: np.random.Generator) -> None:
     robot = rr.models.iiwa14()
     q = robot.random_configuration(rng, margin=0.3)

@@ -98,6 +98,18 @@ class FrameTask(Task):
         self._p_target = block[9:12]
         self._twist = block[12:18]
 
+    def __getstate__(self) -> dict[str, Any]:
+        # Copies and pickles would turn the views into arrays of their own: keep the block.
+        state = self.__dict__.copy()
+        for view in ("_R_target", "_p_target", "_twist"):
+            del state[view]
+        state["_target"] = self._target.copy()
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._share_target(self._target)
+
     @property
     def target(self) -> FloatArray | None:
         """The current target pose (4x4) or ``None`` before the first target."""
