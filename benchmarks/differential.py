@@ -21,10 +21,11 @@ pose error ``[p_d − p; log(R_d Rᵀ)]`` with gain 50/s, the joint velocity, th
   mink frame + posture tasks with their configuration and velocity limits (solver DAQP).
   KDL and robotics-toolbox have no velocity-QP API.
 
-Two redres rows per operation: the ``Scheme.step`` loop body of ``rr.run`` (task, scheme,
-integration: the general path), and ``ClikController``, the compiled loop step for a frame
-task (``scheme=QPScheme`` for ``qp``). The ratio column uses the faster redres row; a third
-row, ``rate_step`` on arrays, shows the cost of the ``Scheme`` layer.
+Two redres rows per operation: the step composed by hand from the public parts
+(``FrameTask.compute``, ``Scheme.step``, integration), and ``Controller.step``, the
+library's loop step (the fused kernel for a frame task; its frame front end and
+``QPScheme`` for ``qp``). The ratio column uses the faster redres row; a third row,
+``rate_step`` on arrays, shows the cost of the ``Scheme`` layer.
 
 Timing: every call is timed alone (``perf_counter_ns``, ~0.1 µs of overhead in every
 figure), in blocks of ``--calls`` calls per contender, the contenders in a new shuffled
@@ -58,7 +59,7 @@ import peers
 from _common import table
 
 import redres as rr
-from redres.control import ClikController
+from redres.control import Controller
 from redres.objectives import JointLimitObjective
 from redres.resolution import GradientProjectionScheme, PseudoInverseScheme
 from redres.tasks import FrameTask
@@ -105,26 +106,26 @@ def redres_steps(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray) -> di
 
 
 def redres_fused(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray) -> dict[str, Step]:
-    """The same steps through ``ClikController`` (one Pinocchio call, one compiled kernel;
-    the QP step with its kernel front end and ``QPScheme.velocity``)."""
+    """The same steps through ``Controller.step`` (one Pinocchio call, one compiled
+    kernel; the QP step with the kernel's frame front end and ``QPScheme``)."""
     frame = peers.TIP_FRAME[name]
     objective = JointLimitObjective()
-    common: dict[str, Any] = {"gain": GAIN, "dt": DT, "limit_velocity": False}
-    controllers = {
-        "pinv": ClikController(robot, frame, **common),
-        "damped": ClikController(robot, frame, inverse="damped", damping=DAMPING, **common),
-        "secondary": ClikController(robot, frame, objectives=[objective], k_null=K_NULL, **common),
+    schemes: dict[str, Any] = {
+        "pinv": PseudoInverseScheme(),
+        "damped": PseudoInverseScheme(damping=DAMPING),
+        "secondary": GradientProjectionScheme([objective], k_null=K_NULL),
     }
     try:
         from redres.resolution.qp import QPScheme
 
-        scheme = QPScheme(DT, objectives=[objective], gain=K_NULL)
-        controllers["qp"] = ClikController(robot, frame, scheme=scheme, **common)
+        schemes["qp"] = QPScheme(DT, objectives=[objective], gain=K_NULL)
     except ImportError:  # noted by redres_steps
         pass
     steps = {}
-    for op, controller in controllers.items():
-        controller.set_target(T)
+    for op, scheme in schemes.items():
+        task = FrameTask(frame)
+        task.set_target(T)
+        controller = Controller(robot, task, scheme, gain=GAIN, dt=DT, limit_velocity=False)
         steps[op] = functools.partial(controller.step, q)
     return steps
 
@@ -295,8 +296,8 @@ def sample(contenders: dict[str, Step], rounds: int, calls: int) -> dict[str, np
 
 
 LABELS = {
-    "redres-fused": "redres (ClikController, compiled step)",
-    "redres": "redres (Scheme.step, as in rr.run)",
+    "redres-fused": "redres (Controller.step, compiled)",
+    "redres": "redres (FrameTask + Scheme.step, composed)",
     "redres-bare": "redres (linalg.rate_step on arrays)",
     "KDL": "KDL (pinv / wdls / pinv_nso)",
     "robotics-toolbox": "robotics-toolbox (jacob0 + NumPy)",

@@ -66,7 +66,7 @@ BENCHES = [
           "call, same arm, configuration and target for every library; each operation's "
           "contenders interleaved (60 rounds of 100-call blocks, shuffled). Ratio = redres "
           "median ÷ peer median (< 1: redres is faster), with the faster of redres' two loop "
-          "steps: `ClikController` (compiled) and `Scheme.step` as in `rr.run` (general). "
+          "steps: `Controller.step` (compiled paths) and `Scheme.step` composed by hand. "
           "Each library's call: `benchmarks/differential.py`.",
           quick=["--rounds", "2", "--calls", "50"], json=True),
     Bench("step", "step.py", "One CLIK step with a joint-limit null space (Panda)",
@@ -328,10 +328,6 @@ def closing_note(figures: dict[str, Any]) -> list[str]:
         "arithmetic. A compiled serial-chain kernel (forward kinematics and the world-aligned "
         "Jacobian from the joint placements, in the same numba style as `redres.linalg`) "
         "would let a step, and a whole IK attempt, be one call from Python.",
-        "- **`rr.run` on the compiled front end.** `ClikController` shows what one kernel "
-        "call per step buys; `rr.run` still composes `FrameTask.compute` and `Scheme.step` "
-        "(validation, result objects) and could use the controller's kernel for frame "
-        "tasks while keeping its run log.",
         "- **QP step.** DAQP's update and solve are 4–5 µs of the controller's ~15 µs QP "
         "step; the rest is the box, the Gram factorisation and two kernel calls. Calling "
         "DAQP's C API from the kernel would remove the Python round trip, at the price of "

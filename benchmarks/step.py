@@ -3,9 +3,10 @@
 The redres step is the full CLIK step of the redundancy-resolution issue, through the
 public API: forward kinematics and Jacobian of the TCP, the pose error (SO(3) log), the
 damped inverse with seed 003's joint-limit gradient projected into its null space,
-velocity scaling and the integration ``q + q̇ dt`` — by ``ClikController`` (one Pinocchio
-call, one compiled kernel), and the same step composed from ``FrameTask``, the objective
-and ``rate_step`` (no velocity scaling). Peers do their equivalent step on the same Panda:
+velocity scaling and the integration ``q + q̇ dt`` — by ``Controller.step`` (its fused
+path: one Pinocchio call, one compiled kernel), and the same step composed from
+``FrameTask``, the objective and ``rate_step`` (no velocity scaling). Peers do their
+equivalent step on the same Panda:
 
 * pink ``solve_ik`` and mink ``solve_ik``: a frame task plus a posture task, solved as a
   QP with joint-limit constraints (their only mode), then integration;
@@ -14,7 +15,8 @@ and ``rate_step`` (no velocity scaling). Peers do their equivalent step on the s
 
 The hard-limit rows (issue 8) do the same frame task under hard position, velocity and
 acceleration limits: ``QPScheme`` (a QP through DAQP) and ``SNSScheme`` (saturation in the
-null space, no QP) inside ``ClikController(scheme=...)``, and composed from ``FrameTask``
+null space, no QP) in a ``Controller`` (its frame path: the kernel's front end, then the
+scheme), and composed from ``FrameTask``
 and ``scheme.step``, each from the state it reaches after the warm-up calls. On this
 problem the command (gain 50 × a 2 cm, 2° error) exceeds the velocity limits, so every
 solver saturates; a second table times the QP-type steps on a tracking problem (target
@@ -39,8 +41,9 @@ from _common import interleaved, machine, median, table
 from peers import import_kdl, import_mink, import_pink, kdl_panda, mujoco_panda
 
 import redres as rr
-from redres.control import ClikController
+from redres.control import Controller
 from redres.objectives import JointLimitObjective
+from redres.resolution import GradientProjectionScheme
 from redres.resolution.qp import QPScheme
 from redres.resolution.sns import SNSScheme
 from redres.tasks import FrameTask
@@ -62,12 +65,13 @@ def problem(scale: float = 1.0) -> tuple[rr.Robot, np.ndarray, np.ndarray]:
 
 
 def controller_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[], object]:
-    """The same step (plus velocity scaling) through the compiled ClikController."""
-    controller = ClikController(
-        robot, gain=GAIN, objectives=[JointLimitObjective()], inverse="damped",
-        damping=DAMPING, dt=DT,
-    )  # fmt: skip
-    controller.set_target(target)
+    """The same step (plus velocity scaling) through ``Controller.step`` (fused path)."""
+    task = FrameTask()
+    scheme = GradientProjectionScheme([JointLimitObjective()], damping=DAMPING)
+    controller = Controller(robot, task, scheme, gain=GAIN, dt=DT)
+    if controller.path != "fused":
+        raise AssertionError(f"expected the fused path; got {controller.path}")
+    task.set_target(target)
     step = controller.step
     return lambda: step(q)
 
@@ -92,14 +96,15 @@ def hard_limit_step(
 ) -> Callable[[], object]:
     """The controller: the compiled frame-task front end, then the scheme inside the
     hard-limit box, then integration."""
-    controller = ClikController(robot, gain=GAIN, dt=DT, scheme=scheme)
-    controller.set_target(target)
+    task = FrameTask()
+    controller = Controller(robot, task, scheme, gain=GAIN, dt=DT)
+    task.set_target(target)
     run = controller.step
 
     def step() -> np.ndarray:
         return run(q)
 
-    step.last = controller.last_result  # type: ignore[attr-defined]
+    step.last = lambda: controller.result  # type: ignore[attr-defined]
     return step
 
 
@@ -211,7 +216,7 @@ def report(hard: dict[str, Callable[[], object]], times: dict[str, np.ndarray]) 
 def main() -> int:
     robot, q, target = problem()
     contenders = {
-        "redres ClikController (compiled CLIK step)": controller_step(robot, q, target),
+        "redres Controller.step (fused CLIK step)": controller_step(robot, q, target),
         "redres composed (FrameTask + gradient + rate_step)": redres_step(robot, q, target),
     }
     hard = {

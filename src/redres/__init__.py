@@ -14,7 +14,7 @@ Quick start::
 from __future__ import annotations
 
 from . import control, dynamics, errors, linalg, models, objectives, resolution, tasks
-from .control import run
+from .control import Controller, run
 from .errors import RedresError
 from .ik import IKResult, ik
 from .robot import DHLink, Robot
@@ -22,6 +22,7 @@ from .robot import DHLink, Robot
 __version__ = "0.1.0.dev0"
 
 __all__ = [
+    "Controller",
     "DHLink",
     "IKResult",
     "RedresError",

@@ -24,12 +24,14 @@ def compile_hard_limit_kernels() -> None:
 
 
 def compile_controller_kernels() -> None:
-    """One step of the compiled CLIK controller (the fused kernel the demo ends with)."""
-    from .control import ClikController
+    """One step of the controller's fused path (the kernel the demo ends with)."""
+    from .control import Controller
     from .models import panda
+    from .resolution import PseudoInverseScheme
+    from .tasks import FrameTask
 
     robot = panda()
-    ClikController(robot).step(robot.neutral())
+    Controller(robot, FrameTask(), PseudoInverseScheme()).step(robot.neutral())
 
 
 if __name__ == "__main__":

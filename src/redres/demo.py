@@ -87,36 +87,38 @@ def worked_examples() -> list[dict[str, object]]:
 
 
 def compiled_loop(steps: int = 1500) -> list[dict[str, object]]:
-    """The Panda circle's first ``steps`` under :class:`~redres.control.ClikController`:
+    """The Panda circle's first ``steps`` under a :class:`~redres.control.Controller`:
     median µs per step (target update and step, timed inside the loop) and the largest
-    position error, for the fused gradient-projection step and, when the ``qp`` extra is
-    there, the hard-limit schemes in the controller."""
-    from .control import ClikController
+    position error, for gradient projection (the fused kernel) and, when the ``qp`` extra
+    is there, the hard-limit schemes (the kernel's frame front end, then the scheme)."""
+    from .control import Controller
     from .objectives import JointLimitObjective
-    from .resolution import QPScheme, SNSScheme
+    from .resolution import GradientProjectionScheme, QPScheme, Scheme, SNSScheme
+    from .tasks import FrameTask
 
     scenario = builtin("panda_joint_limit_circle")
     robot, trajectory = scenario.robot, scenario.trajectory
     assert trajectory is not None
-    loops: dict[str, Callable[[], ClikController]] = {
-        "gradient projection (fused kernel)": lambda: ClikController(
-            robot, objectives=[JointLimitObjective()], k_null=5.0
+    schemes: dict[str, Callable[[], Scheme]] = {
+        "gradient projection (fused kernel)": lambda: GradientProjectionScheme(
+            [JointLimitObjective()], k_null=5.0
         ),
-        "sns (hard limits)": lambda: ClikController(robot, scheme=SNSScheme(dt=1e-3)),
-        "qp (hard limits)": lambda: ClikController(robot, scheme=QPScheme(dt=1e-3)),
+        "sns (hard limits)": lambda: SNSScheme(dt=1e-3),
+        "qp (hard limits)": lambda: QPScheme(dt=1e-3),
     }
     rows: list[dict[str, object]] = []
     clock = time.perf_counter_ns
-    for label, make in loops.items():
+    for label, make in schemes.items():
         try:
-            controller = make()
+            task = FrameTask()
+            controller = Controller(robot, task, make())
         except MissingDependencyError:
             continue
         q, times, worst = scenario.q0.copy(), np.empty(steps), 0.0
         for k in range(steps):
             sample = trajectory.sample(k * 1e-3)
             t0 = clock()
-            controller.set_target(sample.pose, sample.twist, validate=False)
+            task.set_target(sample.pose, sample.twist, validate=False)
             q = controller.step(q)
             times[k] = clock() - t0
             worst = max(worst, float(np.linalg.norm(controller.error[:3])))
@@ -218,7 +220,7 @@ def run_scenarios(
                     if key != "example":
                         print(f"    {key}: {value}")
             steps = 100 if quick else 1500
-            print(f"\nA 1 kHz loop, compiled (ClikController), first {steps} steps of the "
+            print(f"\nA 1 kHz loop (Controller, compiled paths), first {steps} steps of the "
                   "Panda circle; `redres bench` compares it with pink, mink and KDL:")  # fmt: skip
             for row in compiled_loop(steps):
                 print(f"- {row['loop']}: {row['median_us']} µs per step, max position error "

@@ -190,3 +190,21 @@ def test_run_takes_the_compiled_front_end_only_for_a_plain_frame_task() -> None:
     offset = rr.run(robot, _OffsetTask(), None, PseudoInverseScheme(), duration=0.2, q0=q0)
     held = rr.run(robot, FrameTask(), None, PseudoInverseScheme(), duration=0.2, q0=q0)
     assert offset.position_error[-1] > 1e-3 > 1e-9 > held.position_error[-1]
+
+
+@pytest.mark.parametrize("name", ["sns", "qp"])
+def test_the_log_records_every_schemes_own_objectives(name: str) -> None:
+    """``scheme.objectives`` is read for any scheme: the hard-limit schemes' costs are
+    logged too (they were not while the log knew only two scheme classes)."""
+    robot = rr.models.panda()
+    costs = [JointLimitObjective(), (rr.objectives.PostureObjective(), 0.5)]
+    if name == "qp":
+        pytest.importorskip("daqp")
+        scheme: Scheme = rr.resolution.QPScheme(dt=1e-3, objectives=costs)
+    else:
+        scheme = rr.resolution.SNSScheme(dt=1e-3, objectives=costs)
+    hold = Hold(robot.fk(robot.neutral()), 0.02)
+    log = rr.run(robot, FrameTask(), hold, scheme)
+    assert set(log.objectives) == {"joint_limits", "posture"}
+    q = log.q[-1]
+    assert log.objectives["joint_limits"][-1] == JointLimitObjective().cost(robot, q)

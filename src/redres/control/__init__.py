@@ -1,8 +1,8 @@
-"""Rate-control loops, trajectories and run logs."""
+"""The controller, rate-control runs, trajectories and run logs."""
 
 from .analysis import analyse_run, progress_bar
 from .clik import final_configuration, run
-from .controller import ClikController, FrameCommand
+from .controller import Controller
 from .runlog import RunLog
 from .trajectories import (
     Circle,
@@ -17,9 +17,8 @@ from .trajectories import (
 
 __all__ = [
     "Circle",
-    "ClikController",
+    "Controller",
     "FigureEight",
-    "FrameCommand",
     "Hold",
     "Line",
     "MinimumJerk",

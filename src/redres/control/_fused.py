@@ -1,15 +1,16 @@
-"""The compiled step's plumbing for :class:`~redres.control.ClikController` (internal).
+"""The compiled paths' plumbing for :class:`~redres.control.Controller` (internal).
 
 The fused kernels (``redres.linalg._kernels.clik_step`` and ``frame_command``) read their
 settings and target from one ``config`` vector laid out by the ``CFG_*`` offsets of
-``redres.linalg._codes``; this module builds it, picks the kernels' entry points and turns
-their status codes into errors.
+``redres.linalg._codes``. This module decides which path a task and scheme allow
+(:func:`choose_path`), builds that vector, picks the kernels' entry points and turns their
+status codes into errors.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -18,78 +19,139 @@ from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import _backend as be
 from ..linalg import _codes as codes
 from ..objectives import Objective
+from ..resolution import GradientProjectionScheme, PseudoInverseScheme, Scheme
+from ..tasks import FrameTask, Task
 
 if TYPE_CHECKING:
     from ..robot import Robot
 
+Path = Literal["fused", "frame", "composed"]
+
 _F64 = np.float64
+#: The slots of the kernels' config vector holding the target: the rotation row-major,
+#: the position, the twist (CFG_ROTATION, CFG_POSITION, CFG_TWIST = 0, 9, 12), the layout in
+#: which a FrameTask keeps its target (FrameTask._share_target).
+TARGET = slice(codes.CFG_ROTATION, codes.CFG_TWIST + 6)
+
+
+class Fusion(NamedTuple):
+    """What the fused kernel needs of a scheme: the inverse's ``rate_step`` keywords, the
+    null-space gain and the summed quadratic costs ``Σ wᵢ ∇Dᵢ = a ∘ (q − r)`` as ``(a, r)``
+    (None: none)."""
+
+    rate_kwargs: dict[str, Any]
+    k_null: float
+    quadratic: tuple[FloatArray, FloatArray] | None
+
+
+def plain_frame_task(task: Task) -> bool:
+    """Whether ``task`` is a :class:`FrameTask` computed by FrameTask's own ``compute``
+    (FrameTask and its row subclasses: the compiled front end evaluates it exactly)."""
+    return isinstance(task, FrameTask) and type(task).compute is FrameTask.compute
+
+
+def fusion(robot: Robot, scheme: Scheme) -> Fusion | None:
+    """The fused kernel's settings for ``scheme``, or None when the kernel does not do
+    what the scheme's ``_step`` does: a :class:`PseudoInverseScheme` or a
+    :class:`GradientProjectionScheme` (not a subclass with its own ``_step``) whose
+    objectives all declare a diagonal quadratic form."""
+    step = type(scheme)._step
+    if step is PseudoInverseScheme._step:
+        return Fusion(scheme.inverse.rate_kwargs(), 0.0, None)  # type: ignore[attr-defined]
+    if step is not GradientProjectionScheme._step:
+        return None
+    quadratic = quadratic_coefficients(robot, scheme.objectives)
+    if quadratic is None:
+        return None
+    k_null: float = scheme.k_null  # type: ignore[attr-defined]
+    return Fusion(scheme.inverse.rate_kwargs(), k_null, quadratic)  # type: ignore[attr-defined]
+
+
+def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion | None]:
+    """The controller's path: ``"fused"`` (one kernel for the whole step), ``"frame"``
+    (the kernel's frame front end, then the scheme) or ``"composed"`` (``task.compute``,
+    then the scheme), with the fused settings on the fused path."""
+    if not plain_frame_task(task) or be.fused_frame_command() is None:
+        return "composed", None
+    fused = fusion(robot, scheme)
+    if fused is None or be.fused_clik_step() is None:
+        return "frame", None
+    return "fused", fused
 
 
 def fused_config(
-    robot: Robot,
-    gains: FloatArray,
-    k_null: float,
-    rate_kwargs: dict[str, Any],
-    dt: float,
-    limit_velocity: bool,
-    quadratic: tuple[FloatArray, FloatArray] | None,
-) -> tuple[FloatArray, int]:
-    """``(config, damping mode)``: the kernel's settings for a robot, the six per-row
-    ``gains``, the inverse's ``rate_kwargs`` (:meth:`InverseChoice.rate_kwargs`) and the
-    secondary gradient ``a ∘ q − b`` (``quadratic = (a, b)``, None for none); the target
-    starts as the identity pose at rest."""
+    robot: Robot, gains: FloatArray, dt: float, limit_velocity: bool, fused: Fusion | None
+) -> FloatArray:
+    """The kernels' ``config`` vector for a robot, the six per-row ``gains`` (1/s) and, on
+    the fused path, the scheme's settings (the summed costs' ``a, r`` from CFG_VECTORS on);
+    the target starts as the identity pose at rest."""
     n = robot.n
-    mode, lam, lam_max, eps = be.parse_damping(rate_kwargs["damping"])
     config = np.zeros(codes.CFG_VECTORS + 3 * n)
     config[codes.CFG_ROTATION : codes.CFG_ROTATION + 9] = np.eye(3).ravel()
     config[codes.CFG_GAIN : codes.CFG_GAIN + 6] = gains
-    config[codes.CFG_K_NULL] = k_null
+    config[codes.CFG_DT] = dt
+    config[codes.CFG_LIMIT] = 1.0 if limit_velocity else 0.0
+    v = codes.CFG_VECTORS
+    config[v + 2 * n : v + 3 * n] = robot.qd_max
+    if fused is None:
+        return config
+    mode, lam, lam_max, eps = be.parse_damping(fused.rate_kwargs["damping"])
+    config[codes.CFG_K_NULL] = fused.k_null
     config[codes.CFG_DAMPING] = lam
     config[codes.CFG_MAX_DAMPING] = lam_max
     config[codes.CFG_THRESHOLD] = eps
     config[codes.CFG_MODE] = mode
-    config[codes.CFG_DT] = dt
-    config[codes.CFG_RCOND] = rate_kwargs.get("rcond", 1e-10)
-    config[codes.CFG_LIMIT] = 1.0 if limit_velocity else 0.0
-    v = codes.CFG_VECTORS
-    if quadratic is not None:
+    config[codes.CFG_RCOND] = fused.rate_kwargs.get("rcond", 1e-10)
+    if fused.quadratic is not None:
         config[codes.CFG_HAS_GRAD] = 1.0
-        config[v : v + n], config[v + n : v + 2 * n] = quadratic
-    config[v + 2 * n : v + 3 * n] = robot.qd_max
-    return config, mode
+        config[v : v + n], config[v + n : v + 2 * n] = fused.quadratic
+    return config
+
+
+def damping_mode(config: FloatArray) -> int:
+    """The damping mode code a config vector holds."""
+    return int(config[codes.CFG_MODE])
 
 
 def quadratic_coefficients(
     robot: Robot, objectives: Sequence[tuple[Objective, float]]
-) -> tuple[FloatArray, FloatArray]:
-    """``(a, b)`` with ``Σ wᵢ ∇Dᵢ(q) = a ∘ q − b`` for weighted diagonal quadratic costs."""
-    a, b = np.zeros(robot.n), np.zeros(robot.n)
+) -> tuple[FloatArray, FloatArray] | None:
+    """``(a, r)`` with ``Σ wᵢ ∇Dᵢ(q) = a ∘ (q − r)`` for weighted diagonal quadratic costs
+    ``∇Dᵢ = aᵢ ∘ (q − rᵢ)``: ``a = Σ wᵢ aᵢ``, ``r = Σ wᵢ aᵢ rᵢ / a`` (0 where ``a = 0``;
+    one cost's ``rᵢ`` as it is). None if a cost has no quadratic form (or there are none).
+    """
+    if not objectives:
+        return None
+    forms = []
     for obj, weight in objectives:
         form = obj.quadratic_form(robot)
         if form is None:
-            raise InvalidParameterError(
-                f"ClikController fuses only diagonal quadratic costs (joint limits, "
-                f"posture); {obj.name!r} is not one: use redres.control.run with a "
-                f"GradientProjectionScheme for it"
-            )
+            return None
         ai, ri = (as_vector(x, f"quadratic form of {obj.name}", robot.n) for x in form)
-        a += weight * ai
-        b += weight * ai * ri
-    return a, b
+        forms.append((weight * ai, ri))
+    if len(forms) == 1:
+        return forms[0]
+    a = np.sum([ai for ai, _ in forms], axis=0)
+    ar = np.sum([ai * ri for ai, ri in forms], axis=0)
+    r = np.divide(ar, a, out=np.zeros(robot.n), where=a != 0.0)
+    return a, r
 
 
-def row_gains(gain: Any, rows: list[int]) -> FloatArray:
+def row_gains(gain: Any, rows: Sequence[int]) -> FloatArray:
     """Six per-row gains (unused rows 0) from a scalar or one value per task row."""
-    g = np.asarray(gain, dtype=float) if not isinstance(gain, (int, float)) else None
     full = np.zeros(6)
-    if g is None or g.ndim == 0:
-        full[rows] = as_scalar(gain, "gain", minimum=0.0)
-        return full
-    values = as_vector(g, "gain", len(rows))
+    full[list(rows)] = task_gains(gain, len(rows))
+    return full
+
+
+def task_gains(gain: Any, m: int) -> float | FloatArray:
+    """The CLIK gain as a float, or one value per task row ``(m,)``, each ≥ 0 (1/s)."""
+    if isinstance(gain, (int, float)) or np.ndim(gain) == 0:
+        return as_scalar(gain, "gain", minimum=0.0)
+    values = as_vector(gain, "gain", m).copy()
     if np.any(values < 0.0):
         raise InvalidParameterError(f"gain must be >= 0 on every row; got {values}")
-    full[rows] = values
-    return full
+    return values
 
 
 def kernel_for(robot: Robot, frame_id: int, entry_point: Any, name: str) -> Any:

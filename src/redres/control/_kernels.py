@@ -127,14 +127,18 @@ def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
 
     Inputs: ``J`` the frame's 6 x n world-aligned Jacobian, ``H`` its 4 x 4 placement,
     ``q`` (n,), ``rows`` the task rows (indices into ``[x, y, z, rx, ry, rz]``) and
-    ``config`` laid out as the ``CFG_*`` offsets say, with ``a, b, qd_max`` (n each) from
+    ``config`` laid out as the ``CFG_*`` offsets say, with ``a, r, qd_max`` (n each) from
     ``CFG_VECTORS`` on. Computes::
 
         e  = [p_d - p; log(R_d R^T)]                      (six rows)
         xd = twist_d + gain * e                          (the selected rows)
-        qd = J# xd - k_null (I - J# J) (a * q - b)       (damping mode CFG_MODE)
+        qd = J# xd - k_null (I - J# J) (a * (q - r))     (damping mode CFG_MODE)
         qd <- qd / max(1, max_j |qd_j| / qd_max_j)        (when CFG_LIMIT is 1)
         q+ = q + qd dt
+
+    with the same floating-point operations as the composed step (the quadratic cost's
+    gradient ``a * (q - r)``, the division by the speed ratio), so that both give the same
+    bits where the inverse does.
 
     and writes ``out[:n] = q+``, ``out[n:2n] = qd``, ``out[2n:2n+6] = e``. Returns
     ``(status, rank, sigma_min, sigma_max, damping, speed)`` where ``speed`` is
@@ -153,7 +157,7 @@ def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
     grad = np.empty(n if has_grad else 0)
     if has_grad:
         for j in range(n):
-            grad[j] = config[CFG_VECTORS + j] * q[j] - config[CFG_VECTORS + n + j]
+            grad[j] = config[CFG_VECTORS + j] * (q[j] - config[CFG_VECTORS + n + j])
     qd = out[n : 2 * n]
     status, rank, smin, smax, used = _step(
         Jm, xd, grad, qd, xd[:0], config[CFG_K_NULL], NO_WEIGHTS, xd[:0], Jm[:0, :0],
@@ -168,9 +172,8 @@ def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
         for j in range(n):
             speed = max(speed, abs(qd[j]) / limits[j])
         if speed > 1.0:
-            inv = 1.0 / speed
             for j in range(n):
-                qd[j] *= inv
+                qd[j] /= speed
     dt = config[CFG_DT]
     for j in range(n):
         out[j] = q[j] + qd[j] * dt
@@ -179,6 +182,12 @@ def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
 
 @kernel
 def integrate(q, qd, dt, out):  # type: ignore[no-untyped-def]
-    """``out <- q + qd dt`` (one compiled call instead of two NumPy temporaries)."""
+    """``out <- q + qd dt`` (one compiled call instead of two NumPy temporaries); returns
+    whether every ``out[j]`` is finite."""
+    finite = True
     for j in range(q.shape[0]):
-        out[j] = q[j] + qd[j] * dt
+        x = q[j] + qd[j] * dt
+        out[j] = x
+        if not math.isfinite(x):
+            finite = False
+    return finite

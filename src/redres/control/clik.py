@@ -1,15 +1,12 @@
-"""Closed-loop inverse kinematics (resolved motion rate control with feedback).
+"""``rr.run``: drive a :class:`~redres.control.Controller` along a trajectory and record it.
 
-Each control step, at time ``t = k·dt``:
-
-1. the trajectory gives the target pose and twist; the task gives ``e`` and ``J``;
-2. the scheme turns ``ẋ = ẋ_d + K e`` into ``q̇`` (seed 000 eq. 6 for gradient projection);
-3. if any joint would exceed its velocity limit the whole ``q̇`` is scaled down by one
-   factor, which keeps its direction (and so the task direction);
-4. ``q ← q + q̇ dt`` (seed 003's ``Δq = q̇ Δt``).
-
-``K`` (``gain``, 1/s) makes the task error decay as ``exp(−K t)`` when the scheme tracks
-exactly; ``K·dt`` must stay well below 2 for the discrete loop to be stable.
+Each control step, at time ``t = k·dt``, the trajectory's sample becomes the frame task's
+target (pose and twist), then :meth:`Controller.step` does the whole CLIK step (its module
+derives it: ``ẋ = ẋ_d + K e``, the scheme's ``q̇``, uniform velocity scaling,
+``q ← q + q̇ dt``). The loop records what the controller reports after each step; the
+measures that need no timing (joint-limit margins, the task Jacobian's singular values,
+the objectives' costs) are computed from the recorded configurations afterwards
+(:func:`~redres.control.analyse_run`).
 """
 
 from __future__ import annotations
@@ -24,10 +21,10 @@ import numpy as np
 from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError, JointLimitError, SimulationError
 from ..objectives import Objective
-from ..resolution import GradientProjectionScheme, Scheme, WeightedLeastNormScheme
+from ..resolution import Scheme
 from ..tasks import FrameTask, Task
 from .analysis import analyse_run, progress_bar
-from .controller import ClikController
+from .controller import Controller
 from .runlog import RunLog
 from .trajectories import Trajectory
 
@@ -76,8 +73,8 @@ def run(
         JointLimitError: ``q0`` outside the joint limits.
         SimulationError: a non-finite joint velocity (names the step).
     """
-    dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
-    gain = as_scalar(gain, "gain", minimum=0.0)
+    controller = Controller(robot, task, scheme, gain=gain, dt=dt, limit_velocity=limit_velocity)
+    dt = controller.dt
     if duration is None:
         if trajectory is None:
             raise InvalidParameterError("give a duration when there is no trajectory")
@@ -93,7 +90,6 @@ def run(
         )
     steps = round(duration / dt)
     n = robot.n
-    qd_max = robot.qd_max
     scheme.reset()
 
     t_log = np.arange(steps, dtype=np.float64) * dt
@@ -112,62 +108,45 @@ def run(
     algorithmic = np.zeros(steps, dtype=bool)
 
     frame_task = task if isinstance(task, FrameTask) else None
-    front = _compiled_front(robot, frame_task, gain, dt)
+    follow = trajectory is not None and frame_task is not None
     bar = progress_bar(steps, progress, f"{robot.name} {label or scheme.name}")
     clock = time.perf_counter_ns
+    step = controller.step
+    k = 0
     try:
         for k in range(steps):
             t0 = clock()
-            if trajectory is not None and frame_task is not None:
-                sample = trajectory.sample(k * dt)
-                target = front if front is not None else frame_task
-                target.set_target(sample.pose, sample.twist, validate=False)
-            if front is not None:  # the frame task through the compiled kernel
-                J, xd, frame_error, pose = front.command(q)
-            else:
-                state = task.compute(robot, q)
-                J, xd = state.jacobian, state.command(gain)
-            result = scheme.step(robot, q, J, xd)
-            qd = result.qd
-            speed = float(np.max(np.abs(qd) / qd_max))
-            if limit_velocity and speed > 1.0:
-                qd = qd / speed
-                scaled[k] = True
-            if not np.all(np.isfinite(qd)):
-                raise SimulationError(
-                    f"step {k} (t = {k * dt:.4f} s): the {scheme.name} scheme returned a "
-                    f"non-finite joint velocity {qd}"
-                )
+            if follow:
+                sample = trajectory.sample(k * dt)  # type: ignore[union-attr]
+                frame_task.set_target(sample.pose, sample.twist, validate=False)  # type: ignore[union-attr]
             q_log[k] = q
-            q = q + qd * dt
+            q = step(q)
             step_ns[k] = clock() - t0
-            qd_log[k] = qd
+            qd_log[k] = controller.qd
+            speed = controller.speed_ratio
             ratio[k] = min(speed, 1.0) if limit_velocity else speed
-            inv_sigma[k] = result.info.sigma_min
-            damping[k] = result.info.damping
-            rank[k] = result.info.rank
-            algorithmic[k] = result.algorithmic_singularity
-            if front is not None:
-                pos_err[k] = math.sqrt(float(frame_error[:3] @ frame_error[:3]))
-                rot_err[k] = math.sqrt(float(frame_error[3:] @ frame_error[3:]))
+            scaled[k] = controller.scaled
+            info = controller.info
+            inv_sigma[k], damping[k], rank[k] = info.sigma_min, info.damping, info.rank
+            result = controller.result
+            algorithmic[k] = result is not None and result.algorithmic_singularity
+            e, pose = controller.error, controller.pose
+            if pose is not None:
+                pos_err[k] = math.sqrt(float(e[:3] @ e[:3]))
+                rot_err[k] = math.sqrt(float(e[3:] @ e[3:]))
                 pos_log[k] = pose[:3, 3]
-                target_log[k] = front.target_position
-            elif frame_task is not None and frame_task.last_error is not None:
-                e = frame_task.last_error
-                pos_err[k] = float(np.linalg.norm(e[:3]))
-                rot_err[k] = float(np.linalg.norm(e[3:]))
-                assert frame_task.last_pose is not None and frame_task.target is not None
-                pos_log[k] = frame_task.last_pose.translation
-                target_log[k] = frame_task.target[:3, 3]
+                target_log[k] = frame_task.target[:3, 3]  # type: ignore[union-attr, index]
             else:
-                pos_err[k] = float(np.linalg.norm(state.error))
+                pos_err[k] = math.sqrt(float(e @ e))
             if bar is not None:
                 bar.update(1)
+    except SimulationError as exc:
+        raise SimulationError(f"step {k} (t = {k * dt:.4f} s): {exc}") from exc
     finally:
         if bar is not None:
             bar.close()
-        if front is not None and frame_task is not None and steps:
-            _leave_task_as_computed(frame_task, front, q_log[steps - 1])
+        if frame_task is not None and controller.path != "composed" and steps:
+            frame_task.compute(robot, q_log[k])  # as if it had computed the last step
 
     log = RunLog(
         robot=robot.name,
@@ -200,38 +179,9 @@ def run(
         log,
         frame=frame,
         rows=rows,
-        objectives=[*_scheme_objectives(scheme), *log_objectives],
+        objectives=[*(obj for obj, _ in scheme.objectives), *log_objectives],
     )
     return log
-
-
-def _compiled_front(
-    robot: Robot, task: FrameTask | None, gain: float, dt: float
-) -> ClikController | None:
-    """A controller whose compiled front end evaluates ``task`` (the frame error and
-    command ``ẋ_d + K e``) in one kernel call, starting from the task's target; None for
-    other tasks, a FrameTask subclass with its own ``compute``, or without the kernels."""
-    if task is None or type(task).compute is not FrameTask.compute:
-        return None
-    front = ClikController(robot, task.frame, task.rows, gain=gain, dt=dt, limit_velocity=False)
-    if not front.compiled:
-        return None
-    if task.target is not None:
-        front.set_target(task.target, task.twist, validate=False)
-    return front
-
-
-def _leave_task_as_computed(task: FrameTask, front: ClikController, q: FloatArray) -> None:
-    """Leave ``task`` (target, last pose and error) as if it had computed the last step."""
-    assert front.target is not None
-    task.set_target(front.target, front.twist, validate=False)
-    task.compute(front.robot, q)
-
-
-def _scheme_objectives(scheme: Scheme) -> list[Objective]:
-    if isinstance(scheme, (GradientProjectionScheme, WeightedLeastNormScheme)):
-        return [obj for obj, _ in scheme.objectives]
-    return []
 
 
 def final_configuration(log: RunLog) -> FloatArray:

@@ -1,192 +1,180 @@
-"""A compiled CLIK controller for one frame task: a whole control step in two calls.
+"""The controller: closed-loop inverse kinematics (CLIK), one step per control period.
 
-:class:`ClikController` does, for a :class:`~redres.tasks.FrameTask` and diagonal quadratic
-secondary costs (joint-limit mid-range, posture), what one iteration of
-:func:`redres.control.run` does with :class:`~redres.resolution.GradientProjectionScheme`
-(or :class:`~redres.resolution.PseudoInverseScheme` without costs)::
+A task gives its error ``e`` (m, rad) and Jacobian ``J`` (``m x n``) at ``q``; driving
+``e`` to zero at the rate ``ė = −K e`` (``K`` the gain, 1/s) asks for the task velocity
 
-    e   = [p_d − p; log(R_d Rᵀ)]                       (world-aligned, docs/conventions.md)
-    q̇   = J# (ẋ_d + K e) − k (I − J# J) Σ wᵢ ∇Dᵢ(q)     (seed 000 eq. 6, seed 003)
-    q̇  ← q̇ / max(1, maxⱼ |q̇ⱼ| / q̇_max,j)               (one factor: keeps the direction)
-    q  ← q + q̇ dt
+    ẋ = ẋ_d + K e                                   (ė ≈ ẋ_d − J q̇ for ẋ = J q̇)
 
-in one Pinocchio call (frame placement and Jacobian, one forward pass) and one compiled
-kernel (pose error, inverse, null-space term, scaling, integration) writing one fresh
-output array per step. It is the loop for a 1 kHz controller; :func:`run` stays the
-general path (any task, scheme and objective, with a full run log).
+and the redundancy-resolution scheme turns it into a joint velocity, e.g. for gradient
+projection (seed 000 eq. 6, seed 003)
 
-The costs must declare :meth:`~redres.objectives.Objective.quadratic_form` (their gradient
-is ``a ∘ (q − r)``); a cost without one (manipulability, obstacles) is refused with a
-pointer to the general path.
+    q̇ = J# ẋ − k (I − J# J) Σ wᵢ ∇Dᵢ(q).
 
-With ``scheme=`` (any :class:`~redres.resolution.Scheme`, e.g. the hard-limit
-:class:`~redres.resolution.SNSScheme` and :class:`~redres.resolution.QPScheme`), the
-compiled kernel computes the task error and command only and the scheme's
-:meth:`~redres.resolution.Scheme._step` (without the input checks of ``step``: the
-kernel's arrays are known good) resolves them; the step is then that of :func:`run` with
-that scheme.
+If a joint would exceed its velocity limit, the whole ``q̇`` is divided by one factor,
+which keeps its direction (and so the task direction)::
 
-Without the compiled kernels (numba missing or disabled) the same step runs through
-:class:`~redres.tasks.FrameTask` and :func:`redres.linalg.rate_step` (or the scheme).
+    q̇ ← q̇ / max(1, maxⱼ |q̇ⱼ| / q̇_max,j)          (not for hard-limit schemes: theirs hold)
+    q ← q + q̇ dt                                   (seed 003's Δq = q̇ Δt)
+
+When the scheme tracks exactly, ``e`` decays as ``(1 − K dt)^k`` per step, ``exp(−K t)``
+in the limit; ``K dt`` must stay well below 2 for the discrete loop to be stable. For a
+frame task ``e = [p_d − p; log(R_d Rᵀ)]``, world-aligned (docs/conventions.md; Siciliano
+et al., *Robotics*, 2009, §3.7.3).
+
+:meth:`Controller.step` is the only body of this loop in the library: :func:`redres.run`
+drives a controller along a trajectory and records it. It takes one of three paths,
+chosen at construction (:attr:`Controller.path`), all computing the same step:
+
+* ``"fused"``: a plain frame task with a :class:`~redres.resolution.PseudoInverseScheme`
+  or a :class:`~redres.resolution.GradientProjectionScheme` whose costs are diagonal
+  quadratics (joint-limit mid-range, posture): one Pinocchio call (placement and
+  Jacobian) and one compiled kernel (pose error, inverse, null-space term, scaling,
+  integration) per step;
+* ``"frame"``: a plain frame task with any other scheme: the kernel's front end gives the
+  task rows of ``J`` and ``ẋ``, the scheme's ``_step`` resolves them;
+* ``"composed"``: any other task (or no compiled kernels): ``task.compute`` and the
+  scheme's ``step``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, NamedTuple
+import math
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar, as_transform, as_vector
-from ..errors import InvalidParameterError, NonFiniteError, ShapeError
-from ..linalg import InverseInfo, rate_step
+from .._validate import FloatArray, as_scalar, checked_keywords
+from ..errors import InvalidParameterError, NonFiniteError, ShapeError, SimulationError
+from ..linalg import InverseInfo
 from ..linalg import _backend as be
-from ..linalg import _codes as codes
-from ..objectives import Objective
-from ..resolution.base import InverseChoice, Scheme, StepResult, as_inverse
-from ..resolution.gradient_projection import WeightedObjective, weighted_objectives
-from ..tasks import FrameTask
-from ._fused import fused_config, kernel_for, quadratic_coefficients, raise_for_status, row_gains
+from ..resolution import Scheme, StepResult
+from ..tasks import FrameTask, Task
+from ._fused import (
+    TARGET,
+    Path,
+    choose_path,
+    damping_mode,
+    fused_config,
+    kernel_for,
+    raise_for_status,
+    row_gains,
+    task_gains,
+)
 
 if TYPE_CHECKING:
     from ..robot import Robot
 
-__all__ = ["ClikController", "FrameCommand"]
+__all__ = ["Controller"]
 
 _F64 = np.float64
 _ndarray = np.ndarray
 _empty = np.empty
 _contiguous = np.ascontiguousarray
+_abs, _max = np.abs, np.max
 _LABELS = ("pinv", "damped", "adaptive", "selective")  # by damping mode, as rate_step
 _new_info = tuple.__new__
-_PENDING = object()  # a kernel not loaded yet
 
 
-class FrameCommand(NamedTuple):
-    """A frame task evaluated for a solver (:meth:`ClikController.command`).
-
-    Attributes:
-        jacobian: the task rows of the world-aligned Jacobian, ``(m, n)``.
-        command: ``ẋ_d + K e`` on those rows, ``(m,)`` (m/s, rad/s).
-        error: the six-row error ``[p_d − p; log(R_d Rᵀ)]`` (m, rad).
-        pose: the frame's pose, 4x4.
-    """
-
-    jacobian: FloatArray
-    command: FloatArray
-    error: FloatArray
-    pose: FloatArray
-
-
-class ClikController:
-    """Closed-loop inverse kinematics of one frame, compiled into a single kernel call.
+class Controller:
+    """Closed-loop inverse kinematics: a task, a scheme, a gain and a period.
 
     Args:
         robot: the robot.
-        frame: task frame (``None``: the robot's tip).
-        rows: task rows of ``[x, y, z, rx, ry, rz]``, indices or names (default: all six).
-        gain: CLIK gain ``K`` in 1/s, a scalar or one value per task row (≥ 0).
-        objectives: diagonal quadratic costs, each optionally with a weight:
-            ``[JointLimitObjective(), (PostureObjective(q_ref), 0.1)]``.
-        k_null: gain ``k`` of the null-space term ``−k N ∇D`` (≥ 0).
-        inverse: ``"exact"``, ``"svd"``, ``"damped"``, ``"adaptive"`` or an
-            :class:`~redres.resolution.InverseChoice`; its parameters (``damping``,
-            ``max_damping``, ``threshold``, ``rcond``) as keywords, as for the schemes.
-        dt: control period in s (> 0).
+        task: the primary task (any :class:`~redres.tasks.Task`). A
+            :class:`~redres.tasks.FrameTask` takes its target from ``task.set_target(pose,
+            twist)`` (e.g. a trajectory sample each period); until one is set, the pose at
+            the first step (hold still). Other tasks compute their own error.
+        scheme: the redundancy-resolution scheme (any :class:`~redres.resolution.Scheme`).
+        gain: CLIK gain ``K`` in 1/s (≥ 0), a scalar or one value per task row.
+        dt: control period in s (> 0); a scheme that plans over a period
+            (``scheme.dt``, the hard-limit schemes) must have this one.
         limit_velocity: scale each command uniformly down to the joint velocity limits
-            (schemes that enforce hard limits already keep them).
-        scheme: resolve the task with this scheme instead (then ``objectives``,
-            ``k_null`` and ``inverse`` belong to the scheme; a hard-limit scheme must have
-            the same ``dt``).
+            (never for ``scheme.hard_limits``: those schemes keep every limit already).
 
-    Use :meth:`set_target` (pose and twist, e.g. from a trajectory sample), then
-    ``q = controller.step(q)`` each period. After a step, :attr:`qd` (after velocity
-    scaling), :attr:`error`, :attr:`info` and :attr:`speed_ratio` describe it. Until a
-    target is set, the target is the pose at the first step (hold still). The settings are
-    fixed at construction (read-only attributes), and so is the choice between the compiled
-    kernels and the NumPy path.
+    ``q = controller.step(q)`` each period. After a step:
 
-    At an orientation error of exactly 180° both rotation axes are valid logarithms; the
-    kernel and Pinocchio's ``log3`` (used by :class:`~redres.tasks.FrameTask`) may pick
-    opposite ones, and the two paths then part ways. Anywhere else they agree to rounding.
+    * :attr:`qd`: the joint velocity applied (after scaling), rad/s;
+    * :attr:`error`: for a frame task its six-row pose error, else the task's error;
+    * :attr:`info`: the inverse's diagnostics (rank, σ_min, σ_max, damping);
+    * :attr:`speed_ratio`, :attr:`scaled`: the velocity scaling;
+    * :attr:`pose`: for a frame task, the frame's pose (4x4);
+    * :attr:`result`: the scheme's :class:`~redres.resolution.StepResult` on the
+      ``"frame"`` and ``"composed"`` paths; None on the ``"fused"`` path, whose kernel
+      returns only what the attributes above hold (the schemes it fuses report nothing
+      else: no bounds, no algorithmic singularity).
+
+    The path (:attr:`path`) and the scheme's settings are read once, at construction.
+    On the compiled paths the controller keeps a frame task's target in its kernel's
+    settings (``task.set_target`` writes there), and the task's ``last_pose`` and
+    ``last_error`` are not updated: read :attr:`pose` and :attr:`error`. At an orientation
+    error of exactly 180° both rotation axes are valid logarithms; the kernel and
+    Pinocchio's ``log3`` may pick opposite ones. Anywhere else the paths agree to rounding.
 
     Raises:
-        InvalidParameterError: a bad gain, period, inverse, a cost without a quadratic
-            form, or objectives given next to a scheme.
+        InvalidParameterError: a bad gain or period, a task or scheme of the wrong type,
+            or a scheme planned for another period.
+        UnknownParameterError: a misspelt keyword.
     """
 
+    @checked_keywords
     def __init__(
         self,
         robot: Robot,
-        frame: str | None = None,
-        rows: Sequence[int] | Sequence[str] | None = None,
+        task: Task,
+        scheme: Scheme,
         *,
-        gain: float | Sequence[float] | FloatArray = 50.0,
-        objectives: Sequence[WeightedObjective] = (),
-        k_null: float = 1.0,
-        inverse: InverseChoice | str = "exact",
+        gain: float | Any = 50.0,
         dt: float = 1e-3,
         limit_velocity: bool = True,
-        scheme: Scheme | None = None,
-        **inverse_params: Any,
     ) -> None:
-        n = robot.n
-        # Settings are fixed at construction (the kernel's config vector holds them): the
-        # public names below are read-only properties.
-        self._robot, self._n = robot, n
-        self.task = FrameTask(frame, rows)
-        self.frame_id = robot.frame_id(frame)
-        self.rows = np.array(self.task.rows, dtype=np.int64)
-        self._dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
-        self._k_null = as_scalar(k_null, "k_null", minimum=0.0)
-        self._limit_velocity = bool(limit_velocity)
-        self._inverse = as_inverse(inverse, **inverse_params)
-        self._objectives = tuple(weighted_objectives(objectives))
-        self._gain = row_gains(gain, self.task.rows)
-        self._scheme = scheme
-        if scheme is not None:
-            given = inverse != "exact" or inverse_params or k_null != 1.0
-            self._check_scheme(scheme, bool(given))
-        a, b = quadratic_coefficients(robot, self._objectives)
-        self._rate_kwargs = self._inverse.rate_kwargs()
-        quadratic = (a, b) if self._objectives else None
-        config, mode = fused_config(robot, self._gain, self._k_null, self._rate_kwargs,
-                                    self._dt, self._limit_velocity, quadratic)  # fmt: skip
-        self._config = config
-        # Views of the target's slots in config, written in place by set_target.
-        self._rotation = config[codes.CFG_ROTATION : codes.CFG_ROTATION + 9].reshape(3, 3)
-        self._position = config[codes.CFG_POSITION : codes.CFG_POSITION + 3]
-        self._twist = config[codes.CFG_TWIST : codes.CFG_TWIST + 6]
-        self._mode = mode
-        self._a, self._b = a, b
-        self._has_target = False
-        self._size = 2 * n + 6
-        self._out: FloatArray | None = np.zeros(self._size)
-        self._diag: tuple[int, float, float, float, float] = (0, 0.0, 0.0, 0.0, 0.0)
-        self._front = kernel_for(robot, self.frame_id, be.fused_frame_command, "frame_command")
-        # The fused step's kernel is loaded at the first fused step (rr.run, which only
-        # uses command(), never compiles it); None then means the NumPy path.
-        self._kernel: Any = _PENDING if scheme is None and self._front is not None else None
-        self._integrate: Any = be.fused_integrate() if scheme is not None else None
-        self._qd = self._e = self._out[:0]
-        self._result: StepResult | None = None
-
-    def _check_scheme(self, scheme: Scheme, inverse_given: bool) -> None:
+        if not isinstance(task, Task):
+            raise InvalidParameterError(f"task must be a redres Task; got {task!r}")
         if not isinstance(scheme, Scheme):
             raise InvalidParameterError(f"scheme must be a redres Scheme; got {scheme!r}")
-        if self.objectives or inverse_given:
+        self._dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
+        if scheme.dt is not None and scheme.dt != self._dt:
             raise InvalidParameterError(
-                "give the objectives, k_null and the inverse to the scheme, not to the "
-                "controller, when a scheme resolves the task"
+                f"the {scheme.name} scheme plans over dt = {scheme.dt} s but the controller "
+                f"runs at dt = {self._dt} s: its limits hold only at its own period; build "
+                f"both with the same dt"
             )
-        dt = getattr(scheme, "dt", None)
-        if scheme.hard_limits and dt is not None and dt != self.dt:
-            raise InvalidParameterError(
-                f"the {scheme.name} scheme was built for dt = {dt}, the controller runs at "
-                f"dt = {self.dt}: its limits hold only at its own period"
-            )
+        self._robot, self._task, self._scheme, self._n = robot, task, scheme, robot.n
+        self._hard = scheme.hard_limits
+        self._limit = bool(limit_velocity)
+        frame = task if isinstance(task, FrameTask) else None
+        rows = frame.rows if frame is not None else list(range(task.dim))
+        self._gain = task_gains(gain, len(rows))
+        path, fused = choose_path(robot, task, scheme)
+        self._path: Path = path
+        self._fid = robot.frame_id(frame.frame) if frame is not None else -1
+        self._rows = np.array(rows, dtype=np.int64)
+        self._size = 2 * self._n + 6
+        self._kernel: Any = None
+        self._front: Any = None
+        self._integrate: Any = None
+        self._config = self._block = _empty(0)
+        if path != "composed":
+            assert frame is not None
+            gains = row_gains(gain, rows)
+            self._config = fused_config(robot, gains, self._dt, self._limit, fused)
+            self._block = self._config[TARGET]  # the task's target, from the first step on
+            if path == "fused":
+                self._kernel = kernel_for(robot, self._fid, be.fused_clik_step, "clik_step")
+            else:
+                self._front = kernel_for(robot, self._fid, be.fused_frame_command,
+                                         "frame_command")  # fmt: skip
+                self._integrate = be.fused_integrate()
+        # What the last step did.
+        self._out: FloatArray = _empty(0)  # the fused kernel's (q_next, qd, e) once stepped
+        self._diag: tuple[int, int, float, float, float, float] = (0, 0, 0.0, 0.0, 0.0, 0.0)
+        self._qd: FloatArray = self._out[:0]
+        self._error: FloatArray = self._out[:0]
+        self._pose: Any = None
+        self._result: StepResult | None = None
+        self._speed: float | None = 0.0
+        self._scaled = False
 
-    # -- settings (read-only: the compiled step holds them) ------------------------------
+    # -- settings (fixed at construction) ---------------------------------------------
 
     @property
     def robot(self) -> Robot:
@@ -194,127 +182,49 @@ class ClikController:
         return self._robot
 
     @property
+    def task(self) -> Task:
+        """The primary task."""
+        return self._task
+
+    @property
+    def scheme(self) -> Scheme:
+        """The redundancy-resolution scheme."""
+        return self._scheme
+
+    @property
+    def gain(self) -> float | FloatArray:
+        """CLIK gain ``K``, 1/s: a float, or one value per task row (a copy)."""
+        return self._gain if isinstance(self._gain, float) else self._gain.copy()
+
+    @property
     def dt(self) -> float:
         """Control period, s."""
         return self._dt
 
     @property
-    def k_null(self) -> float:
-        """Gain of the null-space term."""
-        return self._k_null
-
-    @property
     def limit_velocity(self) -> bool:
-        """Whether commands are scaled down to the joint velocity limits."""
-        return self._limit_velocity
+        """Whether commands are scaled down to the joint velocity limits (never for a
+        hard-limit scheme)."""
+        return self._limit and not self._hard
 
     @property
-    def inverse(self) -> InverseChoice:
-        """The inverse of the fused step."""
-        return self._inverse
-
-    @property
-    def objectives(self) -> tuple[tuple[Objective, float], ...]:
-        """The weighted secondary costs of the fused step."""
-        return self._objectives
-
-    @property
-    def scheme(self) -> Scheme | None:
-        """The scheme resolving the task (``None``: the fused step)."""
-        return self._scheme
-
-    # -- target -------------------------------------------------------------------------
-
-    def set_target(self, pose: Any, twist: Any = None, *, validate: bool = True) -> None:
-        """Target pose (4x4, world) and feedforward twist ``[v; ω]`` (6,), m/s and rad/s.
-
-        ``validate=False`` skips the checks (finite, homogeneous, a rotation block), for
-        loops that feed trajectory samples already checked.
-        """
-        if validate:
-            pose = as_transform(pose, "pose")
-            twist = None if twist is None else as_vector(twist, "twist", 6)
-        self._rotation[...] = pose[:3, :3]
-        self._position[...] = pose[:3, 3]
-        self._twist[...] = 0.0 if twist is None else twist
-        self._has_target = True
-
-    @property
-    def twist(self) -> FloatArray:
-        """The target's feedforward twist ``[v; ω]`` (a copy)."""
-        return self._twist.copy()
-
-    @property
-    def target_position(self) -> FloatArray:
-        """The target's position (a copy; zeros before the first target)."""
-        return self._position.copy()
-
-    @property
-    def compiled(self) -> bool:
-        """Whether the step runs in the compiled kernels (else through NumPy)."""
-        return self._front is not None
-
-    @property
-    def target(self) -> FloatArray | None:
-        """The target pose (4x4), ``None`` before the first target or step."""
-        if not self._has_target:
-            return None
-        T = np.eye(4)
-        T[:3, :3] = self._rotation
-        T[:3, 3] = self._position
-        return T
+    def path(self) -> Path:
+        """``"fused"``, ``"frame"`` or ``"composed"`` (see the module documentation)."""
+        return self._path
 
     # -- the step -----------------------------------------------------------------------
 
     def step(self, q: Any) -> FloatArray:
-        """The next configuration ``q + q̇ dt``, shape ``(n,)``.
+        """The next configuration ``q + q̇ dt``, shape ``(n,)``, rad.
+
+        Args:
+            q: joint positions, shape ``(n,)``, rad.
 
         Raises:
             ShapeError: ``q`` does not have shape ``(n,)``.
             NonFiniteError: ``q`` contains NaN or infinity.
+            SimulationError: the scheme returned a non-finite joint velocity.
         """
-        n = self._n
-        qa = self._checked(q)
-        if self._scheme is not None:
-            return self._scheme_step(qa)
-        kernel = self._kernel
-        if kernel is _PENDING:
-            kernel = self._kernel = kernel_for(
-                self._robot, self.frame_id, be.fused_clik_step, "clik_step"
-            )
-        if kernel is None:
-            return self._composed_step(qa)
-        J, H = self._frame(qa)
-        out = _empty(self._size)
-        status, rank, smin, smax, used, speed = kernel(J, H, qa, self.rows, self._config, out)
-        if status:
-            raise_for_status(status, n)
-        self._out = out
-        self._diag = (rank, smin, smax, used, speed)
-        return out[:n]
-
-    def _frame(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """The frame's world-aligned Jacobian and pose at ``q`` (one Pinocchio pass); the
-        pose becomes the target at the first call without one (hold still)."""
-        placement, J = self._robot.placement_jacobian(q, self.frame_id)
-        H = placement.homogeneous
-        if not self._has_target:
-            if not np.all(np.isfinite(q)):
-                raise NonFiniteError("q contains NaN or infinity")
-            self.set_target(H, validate=False)
-        return J, H
-
-    def command(self, q: Any) -> FrameCommand:
-        """The frame task at ``q`` without resolving it: its Jacobian rows, the command
-        ``ẋ_d + K e``, the six-row error and the frame's pose, from the compiled front end
-        (for a solver of your own; :meth:`step` with ``scheme=`` uses the same).
-
-        Raises:
-            ShapeError, NonFiniteError: as :meth:`step`.
-        """
-        return self._command(self._checked(q))
-
-    def _checked(self, q: Any) -> FloatArray:
         n = self._n
         try:
             qa = _contiguous(q, _F64)
@@ -322,134 +232,169 @@ class ClikController:
             raise ShapeError(f"q must be an array of {n} numbers: {exc}") from exc
         if qa.ndim != 1 or qa.shape[0] != n:
             raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
-        return qa
+        kernel = self._kernel
+        if kernel is None:
+            return self._resolved_step(qa)
+        placement, J = self._robot.placement_jacobian(qa, self._fid)  # (_frame, inlined)
+        H = placement.homogeneous
+        if self._task._target is not self._block:  # type: ignore[attr-defined]
+            self._adopt(qa, H)
+        out = _empty(self._size)
+        diag = kernel(J, H, qa, self._rows, self._config, out)
+        if diag[0]:
+            raise_for_status(diag[0], n)
+        self._out, self._diag, self._pose = out, diag, H
+        return out[:n]
 
-    def _command(self, q: FloatArray) -> FrameCommand:
-        """:meth:`command` for a checked ``q``: the kernel, or FrameTask without numba."""
-        n, front = self._n, self._front
-        if front is None:
-            return self._task_command(q)
-        J, H = self._frame(q)
-        m = self.rows.shape[0]
-        Jm, xd, e = _empty((m, n)), _empty(m), _empty(6)
-        status = front(J, H, q, self.rows, self._config, Jm, xd, e)
-        if status:
-            raise_for_status(status, n)
-        return FrameCommand(Jm, xd, e, H)
+    def _frame(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The frame's world-aligned Jacobian ``(6, n)`` and pose (4x4) at ``q``, from one
+        Pinocchio pass, with the task's target in the kernel's settings."""
+        placement, J = self._robot.placement_jacobian(q, self._fid)
+        H = placement.homogeneous
+        if self._task._target is not self._block:  # type: ignore[attr-defined]
+            self._adopt(q, H)
+        return J, H
 
-    def _task_command(self, q: FloatArray) -> FrameCommand:
-        """:meth:`command` through :class:`~redres.tasks.FrameTask` (NumPy and Pinocchio's
-        ``log3``: the path without compiled kernels)."""
-        if not np.all(np.isfinite(q)):
-            raise NonFiniteError("q contains NaN or infinity")
-        task = self.task
-        if not self._has_target:
-            self.set_target(self._robot.fk(q, task.frame), validate=False)
-        task.set_target(self.target, self._twist.copy(), validate=False)
-        state = task.compute(self._robot, q)
-        xd = state.feedforward + self._gain[task.rows] * state.error
-        assert task.last_error is not None and task.last_pose is not None
-        return FrameCommand(state.jacobian, xd, task.last_error, task.last_pose.homogeneous)
+    def _adopt(self, q: FloatArray, H: FloatArray) -> None:
+        """Make the kernel's settings hold the frame task's target (at the first step, or
+        after another controller stepped the same task); without a target, the pose ``H``
+        at ``q`` becomes it (hold still)."""
+        task: FrameTask = self._task  # type: ignore[assignment]
+        if not task._has_target:
+            if not np.all(np.isfinite(q)):
+                raise NonFiniteError("q contains NaN or infinity")
+            task.set_target(H, validate=False)
+        task._share_target(self._block)  # set_target writes the kernel's slots from now on
 
-    def _scheme_step(self, q: FloatArray) -> FloatArray:
-        """Task command by the kernel (or FrameTask), joint velocity by the scheme."""
+    def _resolved_step(self, q: FloatArray) -> FloatArray:
+        """The ``"frame"`` and ``"composed"`` paths: task rows, the scheme, then scaling."""
         robot, scheme, n = self._robot, self._scheme, self._n
-        assert scheme is not None
-        Jm, xd, e, _ = self._command(q)
-        if self._front is None:
-            result = scheme.step(robot, q, Jm, xd)
-        else:  # the kernel's own arrays: no re-check
-            result = scheme._step(robot, q, Jm, xd)
+        front = self._front
+        if front is not None:
+            J, H = self._frame(q)
+            m = self._rows.shape[0]
+            Jm, xd, e = _empty((m, n)), _empty(m), _empty(6)
+            status = front(J, H, q, self._rows, self._config, Jm, xd, e)
+            if status:
+                raise_for_status(status, n)
+            self._error, self._pose = e, H
+            result = scheme._step(robot, q, Jm, xd)  # the kernel's own arrays
+        else:
+            result = scheme.step(robot, q, *self._compose(q))
         self._result = result
         qd = result.qd
         if type(qd) is not _ndarray or qd.dtype != _F64 or not qd.flags.c_contiguous:
-            qd = np.ascontiguousarray(qd, dtype=_F64)
+            qd = _contiguous(qd, _F64)
         if qd.shape != (n,):
             raise ShapeError(
                 f"the {scheme.name} scheme returned a joint velocity of shape {qd.shape}; "
                 f"expected ({n},)"
             )
-        speed = 0.0
-        if self._limit_velocity and not scheme.hard_limits:
-            speed = float(np.max(np.abs(qd) / robot.qd_max))
+        speed: float | None = None  # read on demand where nothing is scaled
+        scaled = False
+        if self._limit and not self._hard:
+            speed = float(_max(_abs(qd) / robot.qd_max))
+            if not speed < math.inf:  # NaN and inf both fail
+                self._non_finite(qd)
             if speed > 1.0:
-                qd = qd / speed
-        self._out, self._qd, self._e = None, qd, e
-        self._diag = (0, 0.0, 0.0, 0.0, speed)
+                qd, scaled = qd / speed, True
+        self._qd, self._speed, self._scaled = qd, speed, scaled
         integrate = self._integrate
         if integrate is None:
-            return q + qd * self._dt
+            q_next = q + qd * self._dt
+            if speed is None and not math.isfinite(q_next @ q_next):
+                self._non_finite(qd)  # (or astronomically large: as bad)
+            return q_next
         q_next = _empty(n)
-        integrate(q, qd, self._dt, q_next)
+        if not integrate(q, qd, self._dt, q_next) and speed is None:
+            self._non_finite(qd)
         return q_next
 
-    def _composed_step(self, q: FloatArray) -> FloatArray:
-        """The same step through FrameTask and rate_step (no compiled kernels)."""
-        n = self._n
-        J, xd, error, _ = self._task_command(q)
-        grad = self._a * q - self._b if self._objectives else None
-        qd, info, _ = rate_step(J, xd, grad, k_null=self._k_null, **self._rate_kwargs)
-        speed = float(np.max(np.abs(qd) / self._robot.qd_max)) if self._limit_velocity else 0.0
-        if speed > 1.0:
-            qd = qd / speed
-        out = np.empty(self._size)
-        out[:n] = q + qd * self._dt
-        out[n : 2 * n] = qd
-        out[2 * n :] = error
-        self._out = out
-        self._diag = (info.rank, info.sigma_min, info.sigma_max, info.damping, speed)
-        return out[:n]
+    def _non_finite(self, qd: FloatArray) -> NoReturn:
+        raise SimulationError(
+            f"the {self._scheme.name} scheme returned a non-finite joint velocity {qd}"
+        )
 
-    # -- what the last step did -----------------------------------------------------------
+    def _compose(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """``(J, ẋ_d + K e)`` from ``task.compute``; keeps the error and pose to report."""
+        if not math.isfinite(q @ q):  # one reduction: NaN or inf anywhere shows
+            raise NonFiniteError("q contains NaN or infinity")
+        task = self._task
+        state = task.compute(self._robot, q)
+        self._error, self._pose = state.error, None
+        if isinstance(task, FrameTask) and task.last_error is not None:
+            self._error, self._pose = task.last_error, task.last_pose
+        return state.jacobian, state.feedforward + self._gain * state.error
+
+    # -- what the last step did ---------------------------------------------------------
 
     @property
     def qd(self) -> FloatArray:
-        """Joint velocity of the last step (after velocity scaling), rad/s."""
-        if self._out is None:
+        """Joint velocity applied at the last step (after velocity scaling), ``(n,)``,
+        rad/s."""
+        if self._kernel is None:
             return self._qd
-        n = self.robot.n
+        n = self._n
         return self._out[n : 2 * n]
 
     @property
     def error(self) -> FloatArray:
-        """Six-row pose error ``[p_d − p; log(R_d Rᵀ)]`` at the last step (m, rad)."""
-        if self._out is None:
-            return self._e
-        return self._out[2 * self.robot.n :]
+        """Task error at the last step: for a frame task the six rows
+        ``[p_d − p; log(R_d Rᵀ)]`` whatever rows it controls (m, rad), else the task's
+        error ``(m,)``."""
+        if self._kernel is None:
+            return self._error
+        return self._out[2 * self._n :]
+
+    @property
+    def pose(self) -> FloatArray | None:
+        """The frame task's frame pose at the last step (4x4, world), else None."""
+        pose = self._pose
+        if pose is None or isinstance(pose, _ndarray):
+            return pose
+        return pose.homogeneous  # type: ignore[no-any-return]
 
     @property
     def speed_ratio(self) -> float:
-        """``maxⱼ |q̇ⱼ| / q̇_max,j`` of the last step before scaling (0 if limits are off
-        or a hard-limit scheme kept them)."""
-        return self._diag[4]
+        """``maxⱼ |q̇ⱼ| / q̇_max,j`` of the scheme's joint velocity at the last step, before
+        any scaling (> 1: it was scaled down, if :attr:`limit_velocity`)."""
+        if self._kernel is None:
+            if self._speed is None:  # nothing was scaled: the applied velocity's ratio
+                self._speed = float(_max(_abs(self._qd) / self._robot.qd_max))
+            return self._speed
+        if self._limit:
+            return self._diag[5]
+        return float(_max(_abs(self.qd) / self._robot.qd_max))
 
     @property
     def scaled(self) -> bool:
         """Whether the last command was scaled down to the velocity limits."""
-        return self._diag[4] > 1.0
+        if self._kernel is None:
+            return self._scaled
+        return self._diag[5] > 1.0
 
     @property
     def info(self) -> InverseInfo:
         """Diagnostics of the inverse at the last step (rank, σ_min, σ_max, damping)."""
-        if self.scheme is not None:
-            return self.last_result().info
-        rank, smin, smax, used, _ = self._diag
-        full = rank == min(len(self.rows), self.robot.n)
-        return _new_info(InverseInfo, (rank, full, smin, smax, used, _LABELS[self._mode]))
+        if self._kernel is None:
+            if self._result is None:
+                raise InvalidParameterError("the controller has not made a step yet")
+            return self._result.info
+        if not self._out.shape[0]:
+            raise InvalidParameterError("the controller has not made a step yet")
+        _, rank, smin, smax, used, _ = self._diag
+        full = rank == min(self._rows.shape[0], self._n)
+        label = _LABELS[damping_mode(self._config)]
+        return _new_info(InverseInfo, (rank, full, smin, smax, used, label))  # type: ignore[no-any-return]
 
-    def last_result(self) -> StepResult:
-        """The scheme's full :class:`~redres.resolution.StepResult` of the last step (only
-        with ``scheme=``; the fused step has :attr:`qd` and :attr:`info`)."""
-        result = self._result
-        if result is None:
-            raise InvalidParameterError(
-                "last_result() needs a controller built with scheme=, after a step"
-            )
-        return result
+    @property
+    def result(self) -> StepResult | None:
+        """The scheme's :class:`~redres.resolution.StepResult` of the last step (its
+        ``qd`` before scaling); None on the ``"fused"`` path or before a step."""
+        return self._result
 
     def __repr__(self) -> str:
         return (
-            f"ClikController(robot={self.robot.name!r}, frame={self.task.frame!r}, "
-            f"rows={self.task.rows}, inverse={self.inverse.kind!r}, "
-            f"objectives={[obj.name for obj, _ in self.objectives]})"
+            f"Controller(robot={self._robot.name!r}, task={self._task.name!r}, "
+            f"scheme={self._scheme.name!r}, path={self._path!r}, dt={self._dt})"
         )

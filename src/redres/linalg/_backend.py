@@ -124,7 +124,7 @@ def _frame_warm() -> tuple[Any, ...]:
 
 def fused_integrate() -> Callable[..., Any] | None:
     """Native entry point of ``integrate`` (``out <- q + qd dt`` for float64 C-contiguous
-    vectors and a float), or None."""
+    vectors and a float; returns whether ``out`` is finite), or None."""
     warm = (np.zeros(1), np.zeros(1), 0.0, np.zeros(1))
     return entry("redres.control._kernels", "integrate", warm)
 

@@ -31,8 +31,8 @@ class Objective(ABC):
     def quadratic_form(self, robot: Robot) -> tuple[FloatArray, FloatArray] | None:
         """``(a, r)``, each shape ``(n,)``, when ``∇D(q) = a ∘ (q − r)`` for every ``q``.
 
-        A diagonal quadratic cost has such a form; compiled loops
-        (:class:`redres.control.ClikController`) evaluate its gradient inside their kernel.
+        A diagonal quadratic cost has such a form; the controller's fused path
+        (:class:`redres.control.Controller`) evaluates its gradient inside its kernel.
         ``None`` (the default) for any other cost.
         """
         return None

@@ -2,13 +2,9 @@
 
 from .augmented import AugmentedJacobianScheme
 from .base import (
-    INVERSES,
     Inverse,
-    InverseChoice,
-    InverseKind,
     Scheme,
     StepResult,
-    as_inverse,
     make_inverse,
 )
 from .gradient_projection import GradientProjectionScheme, total_gradient
@@ -27,14 +23,11 @@ from .sns import SNSScheme, largest_scale
 from .weighted_least_norm import WeightedLeastNormScheme, joint_limit_gradient
 
 __all__ = [
-    "INVERSES",
     "METHODS",
     "AugmentedJacobianScheme",
     "Binding",
     "GradientProjectionScheme",
     "Inverse",
-    "InverseChoice",
-    "InverseKind",
     "JointLimits",
     "LevelInfo",
     "PriorityResult",
@@ -45,7 +38,6 @@ __all__ = [
     "Scheme",
     "StepResult",
     "WeightedLeastNormScheme",
-    "as_inverse",
     "braking_velocity",
     "joint_limit_gradient",
     "largest_scale",

@@ -19,9 +19,6 @@ if TYPE_CHECKING:
     from ..robot import Robot
     from ..tasks import Task
 
-InverseKind = Literal["exact", "svd", "damped", "adaptive"]
-INVERSES: tuple[str, ...] = ("exact", "svd", "damped", "adaptive")
-
 
 class StepResult:
     """What a scheme returns for one control step.
@@ -74,47 +71,6 @@ class StepResult:
             f"algorithmic_singularity={self.algorithmic_singularity}, "
             f"binding={list(self.binding)!r}, details={self.details!r})"
         )
-
-
-@dataclass(frozen=True)
-class InverseChoice:
-    """Which inverse of the linear-algebra core a scheme uses.
-
-    Attributes:
-        kind: ``"exact"`` (right pseudo-inverse, truncated SVD if rank-deficient),
-            ``"svd"`` (SVD pseudo-inverse skipping singular values below
-            ``rcond·σ_max``, seed 002), ``"damped"`` (damped least squares with
-            ``damping``), ``"adaptive"`` (zero damping while ``σ_min ≥ threshold``, rising to
-            ``max_damping`` at the singularity).
-        damping: λ of the damped inverse, units of J (m for position rows).
-        max_damping, threshold: the adaptive law's λ_max and ε.
-        rcond: relative cut of the SVD inverse.
-    """
-
-    kind: InverseKind = "exact"
-    damping: float = 0.05
-    max_damping: float = 0.1
-    threshold: float = 0.05
-    rcond: float = 1e-10
-
-    def __post_init__(self) -> None:
-        if self.kind not in INVERSES:
-            raise InvalidParameterError(
-                f"inverse must be one of {', '.join(INVERSES)}; got {self.kind!r}"
-            )
-        as_scalar(self.damping, "damping", minimum=0.0)
-        as_scalar(self.max_damping, "max_damping", minimum=0.0)
-        as_scalar(self.threshold, "threshold", minimum=0.0, strict=True)
-        as_scalar(self.rcond, "rcond", minimum=0.0)
-
-    def rate_kwargs(self) -> dict[str, Any]:
-        """Keyword arguments of :func:`redres.linalg.rate_step` for this inverse."""
-        if self.kind == "damped":
-            return {"damping": float(self.damping)}
-        if self.kind == "adaptive":
-            return {"damping": AdaptiveDamping(self.max_damping, self.threshold)}
-        rcond = self.rcond if self.kind == "svd" else 1e-10
-        return {"damping": 0.0, "rcond": float(max(rcond, 1e-10))}
 
 
 @dataclass(frozen=True)
@@ -175,13 +131,6 @@ def make_inverse(
     if damping is not None or rcond is not None:
         raise InvalidParameterError("give inverse= or damping=/rcond=, not both")
     return inverse
-
-
-def as_inverse(inverse: InverseChoice | str, **kwargs: Any) -> InverseChoice:
-    """An :class:`InverseChoice` from a kind name (with parameters) or as given."""
-    if isinstance(inverse, InverseChoice):
-        return inverse
-    return InverseChoice(inverse, **kwargs)  # type: ignore[arg-type]
 
 
 class Scheme(ABC):

@@ -64,10 +64,9 @@ class FrameTask(Task):
         self.rows = _parse_rows(rows)
         self.dim = len(self.rows)
         self.name = name or f"frame:{frame or 'tip'}"
-        self._T_target: FloatArray | None = None
-        self._R_target = np.eye(3)
-        self._p_target = np.zeros(3)
-        self._twist = np.zeros(6)
+        self._has_target = False
+        self._share_target(np.zeros(18))
+        self._R_target[...] = np.eye(3)
         self._all_rows = self.rows == list(range(6))
         #: Placement (Pinocchio SE3) of the frame and six-row error at the last compute.
         self.last_pose: pin.SE3 | None = None
@@ -76,21 +75,50 @@ class FrameTask(Task):
     def set_target(self, T_target: Any, twist: Any = None, *, validate: bool = True) -> None:
         """Target pose (4x4, world) and desired twist ``[v; ω]`` (6,), m/s and rad/s.
 
-        ``validate=False`` skips the checks, for loops that feed trajectory samples.
+        Both are copied. ``validate=False`` skips the checks (finite, homogeneous, a
+        rotation block), for loops that feed trajectory samples already checked.
         """
         if validate:
-            self._T_target = as_transform(T_target, "T_target")
-            self._twist = np.zeros(6) if twist is None else as_vector(twist, "twist", 6)
-        else:
-            self._T_target = T_target
-            self._twist = np.zeros(6) if twist is None else twist
-        self._R_target = np.ascontiguousarray(self._T_target[:3, :3])
-        self._p_target = self._T_target[:3, 3].copy()
+            T_target = as_transform(T_target, "T_target")
+            twist = None if twist is None else as_vector(twist, "twist", 6)
+        self._R_target[...] = T_target[:3, :3]
+        self._p_target[...] = T_target[:3, 3]
+        self._twist[...] = 0.0 if twist is None else twist
+        self._has_target = True
+
+    def _share_target(self, block: FloatArray) -> None:
+        """Keep the target in ``block`` (18 floats, written in place from now on): the
+        rotation row-major, the position, the twist. The controller passes a slice of its
+        compiled kernel's settings, so that :meth:`set_target` writes straight into them."""
+        old = getattr(self, "_target", None)
+        if old is not None:
+            block[:] = old
+        self._target = block
+        self._R_target = block[0:9].reshape(3, 3)
+        self._p_target = block[9:12]
+        self._twist = block[12:18]
+
+    def __getstate__(self) -> dict[str, Any]:
+        # Copies and pickles would turn the views into arrays of their own: keep the block.
+        state = self.__dict__.copy()
+        for view in ("_R_target", "_p_target", "_twist"):
+            del state[view]
+        state["_target"] = self._target.copy()
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._share_target(self._target)
 
     @property
     def target(self) -> FloatArray | None:
         """The current target pose (4x4) or ``None`` before the first target."""
-        return None if self._T_target is None else self._T_target.copy()
+        if not self._has_target:
+            return None
+        T = np.eye(4)
+        T[:3, :3] = self._R_target
+        T[:3, 3] = self._p_target
+        return T
 
     @property
     def twist(self) -> FloatArray:
@@ -99,7 +127,7 @@ class FrameTask(Task):
 
     def full_error(self, T: FloatArray) -> FloatArray:
         """Six-row error ``[p_d − p; log(R_d Rᵀ)]`` of pose ``T`` against the target."""
-        if self._T_target is None:
+        if not self._has_target:
             raise InvalidParameterError(f"task {self.name!r} has no target yet")
         return self._error(T[:3, :3], T[:3, 3])
 
@@ -112,7 +140,7 @@ class FrameTask(Task):
     def compute(self, robot: Robot, q: FloatArray) -> TaskState:
         qv = as_vector(q, "q", robot.n)
         placement, J = robot.placement_jacobian(qv, robot.frame_id(self.frame))
-        if self._T_target is None:
+        if not self._has_target:
             self.set_target(placement.homogeneous, validate=False)
         e = self._error(placement.rotation, placement.translation)
         self.last_pose, self.last_error = placement.copy(), e
