@@ -9,11 +9,12 @@ status codes into errors.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 
+from .. import _jit
 from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import _backend as be
@@ -28,6 +29,7 @@ if TYPE_CHECKING:
 Path = Literal["fused", "frame", "composed"]
 
 _F64 = np.float64
+_KERNELS = "redres.control._kernels"
 #: The slots of the kernels' config vector holding the target: the rotation row-major,
 #: the position, the twist (CFG_ROTATION, CFG_POSITION, CFG_TWIST = 0, 9, 12), the layout in
 #: which a FrameTask keeps its target (FrameTask._share_target).
@@ -71,10 +73,10 @@ def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion 
     """The controller's path: ``"fused"`` (one kernel for the whole step), ``"frame"``
     (the kernel's frame front end, then the scheme) or ``"composed"`` (``task.compute``,
     then the scheme), with the fused settings on the fused path."""
-    if not plain_frame_task(task) or be.fused_frame_command() is None:
+    if not plain_frame_task(task) or fused_frame_command() is None:
         return "composed", None
     fused = fusion(robot, scheme)
-    if fused is None or be.fused_clik_step() is None:
+    if fused is None or fused_clik_step() is None:
         return "frame", None
     return "fused", fused
 
@@ -154,6 +156,38 @@ def task_gains(gain: Any, m: int) -> float | FloatArray:
     return values
 
 
+def fused_clik_step() -> Callable[..., Any] | None:
+    """Native entry point of the fused CLIK step (``clik_step``), or None.
+
+    Arguments must be float64 C-contiguous arrays ``J (6, n)``, ``H (4, 4)``, ``q (n,)``,
+    int64 ``rows (m,)``, float64 ``config`` and ``out`` (see the kernel); a mismatched
+    type is not detected by the entry point, so callers check their arrays once.
+    """
+    return be.entry(_KERNELS, "clik_step", (*_frame_warm(), np.zeros(2 + 6)))
+
+
+def fused_frame_command() -> Callable[..., Any] | None:
+    """Native entry point of ``frame_command`` (the frame-task part of the fused step:
+    ``J (6, n)``, ``H``, ``q``, ``rows``, ``config``, then ``Jm (m, n)``, ``xd (m,)`` and
+    ``e (6,)`` to fill), or None; same argument rules as :func:`fused_clik_step`."""
+    warm = (*_frame_warm(), np.zeros((1, 1)), np.zeros(1), np.zeros(6))
+    return be.entry(_KERNELS, "frame_command", warm)
+
+
+def _frame_warm() -> tuple[Any, ...]:
+    """Warm-up arguments shared by the fused kernels, for one joint: ``J``, ``H``, ``q``,
+    ``rows``, ``config``."""
+    return (np.zeros((6, 1)), np.eye(4), np.zeros(1), np.arange(1, dtype=np.int64),
+            np.zeros(codes.CFG_VECTORS + 3))  # fmt: skip
+
+
+def fused_integrate() -> Callable[..., Any] | None:
+    """Native entry point of ``integrate`` (``out <- q + qd dt`` for float64 C-contiguous
+    vectors and a float; returns whether ``out`` is finite), or None."""
+    warm = (np.zeros(1), np.zeros(1), 0.0, np.zeros(1))
+    return be.entry(_KERNELS, "integrate", warm)
+
+
 def kernel_for(robot: Robot, frame_id: int, entry_point: Any, name: str) -> Any:
     """A fused kernel's native entry point (from ``entry_point()``) when the arrays
     Pinocchio returns have the layout it was compiled for (float64, C order), numba's
@@ -165,7 +199,7 @@ def kernel_for(robot: Robot, frame_id: int, entry_point: Any, name: str) -> Any:
     H = placement.homogeneous
     if all(x.dtype == _F64 and x.flags.c_contiguous for x in (J, H)):
         return entry
-    kernels = be.kernels()  # pragma: no cover - a Pinocchio build returning other layouts
+    kernels = _jit.load(_KERNELS)  # pragma: no cover - a Pinocchio build with other layouts
     return None if kernels is None else getattr(kernels, name)  # pragma: no cover
 
 

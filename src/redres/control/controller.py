@@ -46,7 +46,6 @@ import numpy as np
 from .._validate import FloatArray, as_scalar, checked_keywords
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError, SimulationError
 from ..linalg import InverseInfo
-from ..linalg import _backend as be
 from ..resolution import Scheme, StepResult
 from ..tasks import FrameTask, Task
 from ._fused import (
@@ -54,7 +53,10 @@ from ._fused import (
     Path,
     choose_path,
     damping_mode,
+    fused_clik_step,
     fused_config,
+    fused_frame_command,
+    fused_integrate,
     kernel_for,
     raise_for_status,
     row_gains,
@@ -159,11 +161,11 @@ class Controller:
             self._config = fused_config(robot, gains, self._dt, self._limit, fused)
             self._block = self._config[TARGET]  # the task's target, from the first step on
             if path == "fused":
-                self._kernel = kernel_for(robot, self._fid, be.fused_clik_step, "clik_step")
+                self._kernel = kernel_for(robot, self._fid, fused_clik_step, "clik_step")
             else:
-                self._front = kernel_for(robot, self._fid, be.fused_frame_command,
+                self._front = kernel_for(robot, self._fid, fused_frame_command,
                                          "frame_command")  # fmt: skip
-                self._integrate = be.fused_integrate()
+                self._integrate = fused_integrate()
         # What the last step did.
         self._out: FloatArray = _empty(0)  # the fused kernel's (q_next, qd, e) once stepped
         self._diag: tuple[int, int, float, float, float, float] = (0, 0, 0.0, 0.0, 0.0, 0.0)

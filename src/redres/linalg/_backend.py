@@ -97,38 +97,6 @@ def fast_step() -> Callable[..., Any] | None:
     return entry("redres.linalg._kernels", "step", warm)
 
 
-def fused_clik_step() -> Callable[..., Any] | None:
-    """Native entry point of the fused CLIK step (:mod:`redres.control._kernels`), or None.
-
-    Arguments must be float64 C-contiguous arrays ``J (6, n)``, ``H (4, 4)``, ``q (n,)``,
-    int64 ``rows (m,)``, float64 ``config`` and ``out`` (see the kernel); a mismatched
-    type is not detected by the entry point, so callers check their arrays once.
-    """
-    return entry("redres.control._kernels", "clik_step", (*_frame_warm(), np.zeros(2 + 6)))
-
-
-def fused_frame_command() -> Callable[..., Any] | None:
-    """Native entry point of ``frame_command`` (the frame-task part of the fused step:
-    ``J (6, n)``, ``H``, ``q``, ``rows``, ``config``, then ``Jm (m, n)``, ``xd (m,)`` and
-    ``e (6,)`` to fill), or None; same argument rules as :func:`fused_clik_step`."""
-    warm = (*_frame_warm(), np.zeros((1, 1)), np.zeros(1), np.zeros(6))
-    return entry("redres.control._kernels", "frame_command", warm)
-
-
-def _frame_warm() -> tuple[Any, ...]:
-    """Warm-up arguments shared by the fused kernels, for one joint: ``J``, ``H``, ``q``,
-    ``rows``, ``config``."""
-    return (np.zeros((6, 1)), np.eye(4), np.zeros(1), np.arange(1, dtype=np.int64),
-            np.zeros(codes.CFG_VECTORS + 3))  # fmt: skip
-
-
-def fused_integrate() -> Callable[..., Any] | None:
-    """Native entry point of ``integrate`` (``out <- q + qd dt`` for float64 C-contiguous
-    vectors and a float; returns whether ``out`` is finite), or None."""
-    warm = (np.zeros(1), np.zeros(1), 0.0, np.zeros(1))
-    return entry("redres.control._kernels", "integrate", warm)
-
-
 def set_jit_enabled(enabled: bool) -> bool:
     """Route :mod:`redres.linalg` and the controller to the compiled kernels or to their
     NumPy paths (for tests and comparisons); returns the old value. Without compiled
