@@ -105,9 +105,7 @@ def test_only_the_plumbing_imports_numba() -> None:
                 names = [node.module]
             if any(n == "numba" or n.startswith("numba.") for n in names):
                 offenders.append(name)
-    # The hard-limit kernels still compile themselves until they move to redres._jit.
-    allowed = {"redres._jit", "redres.resolution.limits"}
-    assert set(offenders) <= allowed, f"numba imported outside redres._jit: {offenders}"
+    assert set(offenders) == {"redres._jit"}, f"numba imported outside redres._jit: {offenders}"
 
 
 _CALLER = """

@@ -60,9 +60,9 @@ KERNEL_MODULES: tuple[str, ...] = (
     "redres.linalg._kernels",
     "redres.control._kernels",
     "redres.robot._kernels",
-    "redres.resolution.sns",
-    "redres.resolution.qp",
-    "redres.resolution.limits",
+    "redres.resolution.hard_limits._kernels",
+    "redres.resolution.hard_limits._lp_kernels",
+    "redres.resolution.hard_limits._qp_kernels",
 )
 
 #: Rough cold compile time of each module on a 2-core machine, s (for the message).

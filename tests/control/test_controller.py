@@ -296,7 +296,7 @@ def test_quadratic_forms_reproduce_the_gradients(
 
 def _scheme(name: str) -> Any:
     if name == "sns":
-        return rr.resolution.SNSScheme(dt=1e-3, objectives=[JointLimitObjective()], gain=2.0)
+        return rr.resolution.SNSScheme(dt=1e-3, objectives=[JointLimitObjective()], k_null=2.0)
     if name == "qp":
         pytest.importorskip("daqp")
         return rr.resolution.QPScheme(dt=1e-3, objectives=[JointLimitObjective()], gain=2.0)

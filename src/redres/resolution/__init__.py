@@ -12,18 +12,24 @@ from .base import (
     make_inverse,
 )
 from .gradient_projection import GradientProjectionScheme, total_gradient
-from .limits import (
+from .hard_limits import (
     Binding,
     JointLimits,
+    QPDetails,
+    QPScheme,
+    ScaleResult,
+    SNSDetails,
+    SNSScheme,
+    VelocityBounds,
+    Violation,
     braking_velocity,
+    largest_scale,
     run_violation,
     step_violation,
     velocity_bounds,
 )
 from .priority import METHODS, LevelInfo, PriorityResult, PriorityScheme, prioritized_velocity
 from .pseudoinverse import PseudoInverseScheme
-from .qp import QPScheme
-from .sns import SNSScheme, largest_scale
 from .weighted_least_norm import WeightedLeastNormScheme, joint_limit_gradient
 
 __all__ = [
@@ -40,10 +46,15 @@ __all__ = [
     "PriorityResult",
     "PriorityScheme",
     "PseudoInverseScheme",
+    "QPDetails",
     "QPScheme",
+    "SNSDetails",
     "SNSScheme",
+    "ScaleResult",
     "Scheme",
     "StepResult",
+    "VelocityBounds",
+    "Violation",
     "WeightedLeastNormScheme",
     "as_inverse",
     "braking_velocity",
