@@ -13,6 +13,9 @@ from .base import (
 )
 from .gradient_projection import GradientProjectionScheme, total_gradient
 from .hard_limits import (
+    BOUND_KINDS,
+    RELAXED_ACCELERATION,
+    RELAXED_POSITION,
     Binding,
     JointLimits,
     QPDetails,
@@ -22,6 +25,7 @@ from .hard_limits import (
     SNSScheme,
     VelocityBounds,
     Violation,
+    binding_bounds,
     braking_velocity,
     largest_scale,
     run_violation,
@@ -33,8 +37,11 @@ from .pseudoinverse import PseudoInverseScheme
 from .weighted_least_norm import WeightedLeastNormScheme, joint_limit_gradient
 
 __all__ = [
+    "BOUND_KINDS",
     "INVERSES",
     "METHODS",
+    "RELAXED_ACCELERATION",
+    "RELAXED_POSITION",
     "AugmentedJacobianScheme",
     "Binding",
     "GradientProjectionScheme",
@@ -57,6 +64,7 @@ __all__ = [
     "Violation",
     "WeightedLeastNormScheme",
     "as_inverse",
+    "binding_bounds",
     "braking_velocity",
     "joint_limit_gradient",
     "largest_scale",

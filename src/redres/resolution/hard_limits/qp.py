@@ -164,8 +164,9 @@ class QPScheme(BoxScheme):
                                                      ws.zero, *out, ws.M, ws.wm, self._bu,
                                                      self._bl, self._f, w, 1e-6, self._P,
                                                      self._c))  # fmt: skip
-        self._end = _jit.entry_point(kq.qp_end, (J, xd, ws.zero, *out[:2], ws.M, ws.wm, True))
-        self._finish = _jit.entry_point(k.epilogue, (J, xd, *out[:2], ws.M, ws.wm, True, False))
+        # warm-up calls with full=False: they must not solve with a factor of this J
+        self._end = _jit.entry_point(kq.qp_end, (J, xd, ws.zero, *out[:2], ws.M, ws.wm, False))
+        self._finish = _jit.entry_point(k.epilogue, (J, xd, *out[:2], ws.M, ws.wm, False, False))
         if self._qp.daqp:
             flags, eye = sense(n, m), np.eye(n)
             self._exact_qp = self._qp.warm(H=eye, f=self._f, A=J, bupper=self._bu,
