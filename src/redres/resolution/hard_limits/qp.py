@@ -61,6 +61,7 @@ from ._solvers import QPSolver, sense, solve_levels
 from .base import BoxScheme, Workspace, check, relaxed_joints
 
 if TYPE_CHECKING:
+    from ...registry import ScenarioParams
     from ...robot import Robot
 
 
@@ -114,6 +115,7 @@ class QPScheme(BoxScheme):
     """
 
     name = "qp"
+    scenario_types = ("qp",)
 
     @checked_keywords
     def __init__(
@@ -149,6 +151,13 @@ class QPScheme(BoxScheme):
     def _reset(self) -> None:
         super()._reset()
         self._infeasible_before = False
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> QPScheme:
+        """The scheme of a scenario table: ``objectives`` and ``k_null``, planned over the
+        run's own period ``dt`` (the limits are the robot's)."""
+        k_null = params.nonnegative("k_null", 1.0)
+        return cls(dt=params.dt, objectives=params.objectives(), k_null=k_null)
 
     def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
         n, m = robot.n, J.shape[0]
