@@ -70,6 +70,8 @@ _COLD_SECONDS: dict[str, float] = {
     "redres.linalg._kernels": 20.0,
     "redres.control._kernels": 8.0,
     "redres.robot._kernels": 2.0,
+    "redres.resolution.hard_limits._kernels": 20.0,  # with _lp_kernels (SNS's simplex)
+    "redres.resolution.hard_limits._qp_kernels": 4.0,
 }
 
 _ENABLED = os.environ.get("REDRES_DISABLE_JIT", "") in ("", "0")

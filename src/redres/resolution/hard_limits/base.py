@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..._validate import FloatArray, as_scalar
 from ...linalg import RCOND, InverseInfo
-from ...linalg._backend import invert, raise_status
+from ...linalg._backend import invert
 from ..base import Scheme, StepResult
 from ..gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 from ._codes import BOUND_KINDS
@@ -28,7 +28,12 @@ if TYPE_CHECKING:
     from ...robot import Robot
 
 #: Argument names for :func:`~redres.linalg._backend.raise_status` (a step's inputs).
-_NAMES = {"q": "q", "J": "J", "xd": "xd", "grad": "the secondary velocity (objective gradients)"}
+STEP_NAMES = {
+    "q": "q",
+    "J": "J",
+    "xd": "xd",
+    "grad": "the secondary velocity (objective gradients)",
+}
 
 
 class Workspace:
@@ -98,12 +103,6 @@ def step_info(J: FloatArray, method: str) -> InverseInfo:
                    want_pinv=False, want_projector=False).stats  # fmt: skip
     rank = stats.rank
     return InverseInfo(rank, rank == min(J.shape), stats.sigma_min, stats.sigma_max, 0.0, method)
-
-
-def check(status: int) -> None:
-    """Raise the error of a kernel's input status (:mod:`redres.linalg._codes`; 0 = OK)."""
-    if status:
-        raise_status(status, _NAMES)
 
 
 def relaxed_joints(codes: NDArray[np.int8], relaxed: int) -> list[int]:

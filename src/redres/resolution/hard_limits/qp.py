@@ -53,12 +53,13 @@ from numpy.typing import ArrayLike, NDArray
 from ... import _jit
 from ..._validate import FloatArray, as_scalar, as_vector, checked_keywords
 from ...errors import InvalidParameterError, ShapeError
+from ...linalg._backend import raise_status
 from ...tasks import Task, stack
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._compiled import kernels
 from ._solvers import QPSolver, sense, solve_levels
-from .base import BoxScheme, Workspace, check, relaxed_joints
+from .base import STEP_NAMES, BoxScheme, Workspace, relaxed_joints
 
 if TYPE_CHECKING:
     from ...registry import ScenarioParams
@@ -192,7 +193,8 @@ class QPScheme(BoxScheme):
             q, prev, self.dt, ws.lim, J, xd, qd0, out, codes, Jc, ws.M, ws.wm, self._bu,
             self._bl, self._f, self._w, self.damping * self.damping, self._P, self._c,
         )  # fmt: skip
-        check(status)
+        if status:  # an input is not finite (redres.linalg's status codes)
+            raise_status(status, STEP_NAMES)
         finished = None
         if self.levels:
             rows, targets = self._stack(robot, q, J, xd)

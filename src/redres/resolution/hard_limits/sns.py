@@ -50,11 +50,12 @@ from numpy.typing import ArrayLike
 
 from ... import _jit
 from ..._validate import FloatArray, as_scalar, checked_keywords
+from ...linalg._backend import raise_status
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._codes import METHODS, NEAREST
 from ._compiled import kernels
-from .base import BoxScheme, Workspace, check, relaxed_joints
+from .base import STEP_NAMES, BoxScheme, Workspace, relaxed_joints
 
 if TYPE_CHECKING:
     from ...registry import ScenarioParams
@@ -148,7 +149,8 @@ class SNSScheme(BoxScheme):
             q, prev, self.dt, ws.lim, J, xd, qd0, bool(self.objectives), self.tolerance,
             out, codes, Jc, ws.M, ws.wm, ws.wn, ws.wb,
         )  # fmt: skip
-        check(status)
+        if status:  # an input is not finite (redres.linalg's status codes)
+            raise_status(status, STEP_NAMES)
         s = 0.0 if method == NEAREST else s
         details = SNSDetails(s, METHODS[method], (out[2], out[3]), relaxed_joints(codes, relaxed))
         return self._result(out, codes, Jc, relaxed, active, s == 1.0, details)
