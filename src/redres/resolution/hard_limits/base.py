@@ -1,5 +1,5 @@
 """What the hard-limit schemes share (internal): :class:`BoxScheme`, the kernels'
-workspace, the step prologue and result, and the lazily built list of binding bounds.
+workspace, the step prologue, the diagnostics and the lazily built list of binding bounds.
 
 A hard-limit step is one compiled call (:mod:`._kernels`): it checks the inputs, builds the
 joint-velocity box of :mod:`.box`, resolves the task inside it and fills preallocated
@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..._validate import FloatArray, as_scalar
 from ...linalg import RCOND, InverseInfo
 from ...linalg._backend import invert
-from ..base import Scheme, StepResult
+from ..base import Scheme
 from ..gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 from ._codes import BOUND_KINDS
 from .box import Binding, JointLimits
@@ -160,22 +160,3 @@ class BoxScheme(Scheme):
             qd0 = (-self.k_null) * total_gradient(robot, q, self.objectives)  # new, C order
         prev = ws.zero if self.qd_prev is None else self.qd_prev
         return ws, qd0, prev
-
-    def _result(
-        self,
-        out: FloatArray,
-        codes: NDArray[np.int8],
-        Jc: FloatArray,
-        relaxed: int,
-        active: int,
-        feasible: bool,
-        details: Any,
-    ) -> StepResult:
-        """The step's :class:`StepResult` from the kernel's rows; keeps its own copy of
-        ``q̇`` as :attr:`qd_prev`."""
-        self.qd_prev = out[0].copy()
-        name = self.name
-        return StepResult(
-            out[0], lambda: step_info(Jc, name), out[1], feasible=feasible,
-            binding=BindingList(codes, relaxed > 0) if active else (), details=details,
-        )  # fmt: skip

@@ -59,7 +59,7 @@ from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._compiled import kernels
 from ._solvers import QPSolver, sense, solve_levels
-from .base import STEP_NAMES, BoxScheme, Workspace, relaxed_joints
+from .base import STEP_NAMES, BindingList, BoxScheme, Workspace, relaxed_joints, step_info
 
 if TYPE_CHECKING:
     from ...registry import ScenarioParams
@@ -212,7 +212,11 @@ class QPScheme(BoxScheme):
         levels = residuals if self.levels else [residual]
         details = QPDetails(residual, levels, (out[2], out[3]), relaxed_joints(codes, relaxed),
                             self.solver)  # fmt: skip
-        return self._result(out, codes, Jc, relaxed, active, all(exact), details)
+        self.qd_prev = out[0].copy()  # the scheme's own copy
+        return StepResult(
+            out[0], lambda: step_info(Jc, "qp"), out[1], feasible=all(exact),
+            binding=BindingList(codes, relaxed > 0) if active else (), details=details,
+        )  # fmt: skip
 
     def _single(
         self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray,

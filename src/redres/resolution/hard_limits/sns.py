@@ -55,7 +55,7 @@ from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._codes import METHODS, NEAREST
 from ._compiled import kernels
-from .base import STEP_NAMES, BoxScheme, Workspace, relaxed_joints
+from .base import STEP_NAMES, BindingList, BoxScheme, Workspace, relaxed_joints, step_info
 
 if TYPE_CHECKING:
     from ...registry import ScenarioParams
@@ -153,4 +153,8 @@ class SNSScheme(BoxScheme):
             raise_status(status, STEP_NAMES)
         s = 0.0 if method == NEAREST else s
         details = SNSDetails(s, METHODS[method], (out[2], out[3]), relaxed_joints(codes, relaxed))
-        return self._result(out, codes, Jc, relaxed, active, s == 1.0, details)
+        self.qd_prev = out[0].copy()  # the scheme's own copy
+        return StepResult(
+            out[0], lambda: step_info(Jc, "sns"), out[1], feasible=s == 1.0,
+            binding=BindingList(codes, relaxed > 0) if active else (), details=details,
+        )  # fmt: skip
