@@ -17,7 +17,7 @@ pose error ``[p_d − p; log(R_d Rᵀ)]`` with gain 50/s, the joint velocity, th
   toward mid-range (weights 1/range²); rtb ``pinv`` plus the projected gradient in NumPy;
   pink / mink a frame task plus a posture task toward mid-range (cost 1e-3), no limits.
 * ``qp``: hard limits. redres ``QPScheme`` (position, velocity and acceleration bounds,
-  the same objective; skipped with a note when ``redres.resolution.qp`` is absent); pink /
+  the same objective; skipped with a note when the ``qp`` extra is absent); pink /
   mink frame + posture tasks with their configuration and velocity limits (solver DAQP).
   KDL and robotics-toolbox have no velocity-QP API.
 
@@ -89,10 +89,10 @@ def redres_steps(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray) -> di
         "secondary": GradientProjectionScheme([objective], k_null=K_NULL),
     }
     try:
-        from redres.resolution.qp import QPScheme
+        from redres.resolution import QPScheme
 
-        schemes["qp"] = QPScheme(DT, objectives=[objective], gain=K_NULL)
-    except ImportError as exc:  # the module, or its optional QP backend
+        schemes["qp"] = QPScheme(DT, objectives=[objective], k_null=K_NULL)
+    except ImportError as exc:  # the optional QP backend (the qp extra)
         peers.note(f"redres QP step skipped: {exc}")
 
     def make(scheme: Any) -> Step:
@@ -116,9 +116,9 @@ def redres_fused(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray) -> di
         "secondary": GradientProjectionScheme([objective], k_null=K_NULL),
     }
     try:
-        from redres.resolution.qp import QPScheme
+        from redres.resolution import QPScheme
 
-        schemes["qp"] = QPScheme(DT, objectives=[objective], gain=K_NULL)
+        schemes["qp"] = QPScheme(DT, objectives=[objective], k_null=K_NULL)
     except ImportError:  # noted by redres_steps
         pass
     steps = {}

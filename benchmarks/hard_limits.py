@@ -24,14 +24,14 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _common import machine, table
 
 import redres as rr
-from redres.resolution import PseudoInverseScheme
-from redres.resolution.limits import (
+from redres.resolution import (
     JointLimits,
+    PseudoInverseScheme,
+    QPScheme,
+    SNSScheme,
     run_violation,
     step_violation,
 )
-from redres.resolution.qp import QPScheme
-from redres.resolution.sns import SNSScheme
 from redres.scenario import builtin
 from redres.testing import random_limit_states
 

@@ -80,10 +80,10 @@ def redres_schemes() -> dict[str, tuple[Any, float]]:
             GradientProjectionScheme([limits()], k_null=K_NULL), GAIN),
         "redres weighted least norm": (WeightedLeastNormScheme(), GAIN),
     }  # fmt: skip
-    for module, cls in (("qp", "QPScheme"), ("sns", "SNSScheme")):
+    for cls in ("QPScheme", "SNSScheme"):
         try:
-            scheme_cls = getattr(__import__(f"redres.resolution.{module}", fromlist=[cls]), cls)
-            scheme = scheme_cls(DT, objectives=[limits()], gain=K_NULL)
+            scheme_cls = getattr(__import__("redres.resolution", fromlist=[cls]), cls)
+            scheme = scheme_cls(DT, objectives=[limits()], k_null=K_NULL)
             found[f"redres {cls} (hard limits + joint-limit cost)"] = (scheme, GAIN)
         except (ImportError, AttributeError) as exc:
             peers.note(f"redres {cls} skipped: {exc}")

@@ -43,9 +43,7 @@ from peers import import_kdl, import_mink, import_pink, kdl_panda, mujoco_panda
 import redres as rr
 from redres.control import Controller
 from redres.objectives import JointLimitObjective
-from redres.resolution import GradientProjectionScheme
-from redres.resolution.qp import QPScheme
-from redres.resolution.sns import SNSScheme
+from redres.resolution import GradientProjectionScheme, QPScheme, SNSScheme
 from redres.tasks import FrameTask
 
 DT = 1e-3

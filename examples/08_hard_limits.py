@@ -15,10 +15,14 @@ import numpy as np
 
 import redres as rr
 from redres.objectives import JointLimitObjective
-from redres.resolution import GradientProjectionScheme, PseudoInverseScheme
-from redres.resolution.limits import JointLimits, run_violation
-from redres.resolution.qp import QPScheme
-from redres.resolution.sns import SNSScheme
+from redres.resolution import (
+    GradientProjectionScheme,
+    JointLimits,
+    PseudoInverseScheme,
+    QPScheme,
+    SNSScheme,
+    run_violation,
+)
 from redres.scenario import builtin
 
 DT = 1e-3

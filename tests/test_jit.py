@@ -72,6 +72,17 @@ def test_every_compiled_function_is_in_a_stamped_kernel_module() -> None:
         assert _jit._module_file(name).exists(), f"{name} is listed but has no source file"
 
 
+def test_kernel_modules_import_only_stamped_modules() -> None:
+    """What a kernel module imports from redres (kernels, constants) is in the stamp: an
+    edit to a constants file must recompile the kernels that baked its values in."""
+    modules = _modules()
+    stamped = {*_jit.KERNEL_MODULES, *_jit.CONSTANT_MODULES, "redres._jit"}
+    for name in _jit.KERNEL_MODULES:
+        sources = set(_imported(name, modules[name]).values())
+        unstamped = {s for s in sources if s.startswith("redres")} - stamped
+        assert not unstamped, f"{name} imports {unstamped}, which the cache stamp misses"
+
+
 def test_compiled_calls_cross_files_only_between_stamped_kernel_modules() -> None:
     """Walk every kernel's body: a call to a kernel defined in another file is allowed only
     when both files are covered by the one cache stamp."""
@@ -105,9 +116,7 @@ def test_only_the_plumbing_imports_numba() -> None:
                 names = [node.module]
             if any(n == "numba" or n.startswith("numba.") for n in names):
                 offenders.append(name)
-    # The hard-limit kernels still compile themselves until they move to redres._jit.
-    allowed = {"redres._jit", "redres.resolution.limits"}
-    assert set(offenders) <= allowed, f"numba imported outside redres._jit: {offenders}"
+    assert set(offenders) == {"redres._jit"}, f"numba imported outside redres._jit: {offenders}"
 
 
 _CALLER = """

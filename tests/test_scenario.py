@@ -11,7 +11,7 @@ import pytest
 import redres as rr
 from redres.cli import main
 from redres.control import Circle, FigureEight
-from redres.registry import HARD_LIMIT_BUILDERS, scheme_types
+from redres.registry import scheme_types
 from redres.resolution import Scheme
 from redres.scenario import ScenarioError, builtin, builtin_scenarios, load_scenario, parse_scenario
 
@@ -183,9 +183,9 @@ def test_the_registry_lists_every_scheme_type() -> None:
         "pinv", "dls", "gradient_projection", "wln", "augmented", "priority", "qp", "sns", "osc"
     ]  # fmt: skip
     declared = {t for cls in _concrete_schemes() for t in getattr(cls, "scenario_types", ())}
-    assert declared | set(HARD_LIMIT_BUILDERS) | {"osc"} == set(registered)
+    assert declared | {"osc"} == set(registered)
     names = {cls.__name__ for cls in _concrete_schemes() if not hasattr(cls, "scenario_types")}
-    assert names == {"QPScheme", "SNSScheme"}  # built in the registry until they declare it
+    assert names == set()  # every scheme declares its types and from_scenario
     for kind in registered:
         try:
             spec = parse_scenario(tomllib_loads(scheme_table(kind)))
@@ -213,7 +213,7 @@ def test_scheme_keys_reach_the_constructors() -> None:
     text = GOOD.replace('type = "pinv"', f'type = "sns"\nk_null = 2.0\n{objectives}')
     sns_spec = parse_scenario(tomllib_loads(text))
     sns = sns_spec.schemes[0].build()
-    assert sns.gain == 2.0 and sns.dt == sns_spec.dt == 0.002 and len(sns.objectives) == 1
+    assert sns.k_null == 2.0 and sns.dt == sns_spec.dt == 0.002 and len(sns.objectives) == 1
 
 
 def test_builtin_scenarios_are_the_shipped_files() -> None:

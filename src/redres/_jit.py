@@ -60,9 +60,16 @@ KERNEL_MODULES: tuple[str, ...] = (
     "redres.linalg._kernels",
     "redres.control._kernels",
     "redres.robot._kernels",
-    "redres.resolution.sns",
-    "redres.resolution.qp",
-    "redres.resolution.limits",
+    "redres.resolution.hard_limits._kernels",
+    "redres.resolution.hard_limits._lp_kernels",
+    "redres.resolution.hard_limits._qp_kernels",
+)
+
+#: Plain modules whose values kernels compile in (status codes, layouts): covered by the
+#: cache stamp too, since numba bakes their constants into the cached code.
+CONSTANT_MODULES: tuple[str, ...] = (
+    "redres.linalg._codes",
+    "redres.resolution.hard_limits._codes",
 )
 
 #: Rough cold compile time of each module on a 2-core machine, s (for the message).
@@ -70,6 +77,8 @@ _COLD_SECONDS: dict[str, float] = {
     "redres.linalg._kernels": 20.0,
     "redres.control._kernels": 8.0,
     "redres.robot._kernels": 2.0,
+    "redres.resolution.hard_limits._kernels": 20.0,  # with _lp_kernels (SNS's simplex)
+    "redres.resolution.hard_limits._qp_kernels": 4.0,
 }
 
 _ENABLED = os.environ.get("REDRES_DISABLE_JIT", "") in ("", "0")
@@ -120,12 +129,12 @@ def _module_file(name: str) -> Path:
 
 def stamp() -> str:
     """The freshness stamp of every cached kernel: a digest of the redres version and the
-    sources of all :data:`KERNEL_MODULES`."""
+    sources of all :data:`KERNEL_MODULES` and :data:`CONSTANT_MODULES`."""
     if "stamp" not in _state:
         from . import __version__
 
         digest = hashlib.sha256(__version__.encode())
-        for name in KERNEL_MODULES:
+        for name in (*KERNEL_MODULES, *CONSTANT_MODULES):
             digest.update(name.encode())
             digest.update(_module_file(name).read_bytes())
         _state["stamp"] = digest.hexdigest()

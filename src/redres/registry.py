@@ -75,25 +75,6 @@ class ScenarioParams(Protocol):
 ScenarioBuilder = Callable[[ScenarioParams], Any]
 
 
-# Builders of the hard-limit schemes, whose classes do not declare ``from_scenario`` yet
-# (move each onto its class as a classmethod, then drop it from here). ``k_null`` is the
-# null-space gain their constructors still call ``gain``.
-def _qp(params: ScenarioParams) -> Any:
-    from .resolution import QPScheme
-
-    k_null = params.nonnegative("k_null", 1.0)
-    return QPScheme(dt=params.dt, objectives=params.objectives(), gain=k_null)
-
-
-def _sns(params: ScenarioParams) -> Any:
-    from .resolution import SNSScheme
-
-    k_null = params.nonnegative("k_null", 1.0)
-    return SNSScheme(dt=params.dt, objectives=params.objectives(), gain=k_null)
-
-
-HARD_LIMIT_BUILDERS: dict[str, ScenarioBuilder] = {"qp": _qp, "sns": _sns}
-
 _REGISTRY: dict[str, ScenarioBuilder] = {}
 
 
@@ -107,6 +88,8 @@ def scheme_types() -> dict[str, ScenarioBuilder]:
             GradientProjectionScheme,
             PriorityScheme,
             PseudoInverseScheme,
+            QPScheme,
+            SNSScheme,
             WeightedLeastNormScheme,
         )
 
@@ -116,10 +99,11 @@ def scheme_types() -> dict[str, ScenarioBuilder]:
             WeightedLeastNormScheme,
             AugmentedJacobianScheme,
             PriorityScheme,
+            QPScheme,
+            SNSScheme,
         )
         for cls in classes:
             _REGISTRY.update(dict.fromkeys(cls.scenario_types, cls.from_scenario))
-        _REGISTRY.update(HARD_LIMIT_BUILDERS)
         osc = OperationalSpaceController
         _REGISTRY.update(dict.fromkeys(osc.scenario_types, osc.from_scenario))
     return dict(_REGISTRY)

@@ -131,7 +131,7 @@ def random_limit_states(
     reachable by a run that kept its limits); ``ẋ``: random (0.1 mm/s to 1 m/s) or the
     current task velocity perturbed and amplified. ``J`` is the tip Jacobian (6 x n).
     """
-    from .resolution.limits import JointLimits, velocity_bounds
+    from .resolution.hard_limits import JointLimits, velocity_bounds
 
     lim = JointLimits.from_robot(robot)
     out = []

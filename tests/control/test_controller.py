@@ -436,10 +436,10 @@ def test_the_kernel_and_the_numpy_fallback_agree(rng: np.random.Generator) -> No
 
 def _scheme(name: str) -> Scheme:
     if name == "sns":
-        return rr.resolution.SNSScheme(dt=1e-3, objectives=[JointLimitObjective()], gain=2.0)
+        return rr.resolution.SNSScheme(dt=1e-3, objectives=[JointLimitObjective()], k_null=2.0)
     if name == "qp":
         pytest.importorskip("daqp")
-        return rr.resolution.QPScheme(dt=1e-3, objectives=[JointLimitObjective()], gain=2.0)
+        return rr.resolution.QPScheme(dt=1e-3, objectives=[JointLimitObjective()], k_null=2.0)
     if name == "gradient_projection":
         return GradientProjectionScheme([JointLimitObjective()], k_null=5.0, damping=0.01)
     if name == "manipulability":

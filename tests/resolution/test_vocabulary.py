@@ -66,6 +66,7 @@ def test_every_scheme_exposes_its_inverse_and_null_space_gain() -> None:
     ):
         assert scheme.inverse == Inverse(0.1), type(scheme).__name__
     assert PseudoInverseScheme().k_null == 0.0
+    assert SNSScheme(k_null=0.5).k_null == 0.5
     assert AugmentedJacobianScheme().inverse == Inverse(AdaptiveDamping(0.05, 0.02))
     assert PriorityScheme(method="robust").inverse.kind == "adaptive"
 
@@ -100,6 +101,8 @@ def test_a_damping_or_rcond_the_inverse_does_not_use_is_refused(
         (lambda: PseudoInverseScheme(rcnd=1e-3), "rcond"),
         (lambda: AugmentedJacobianScheme(max_damping=0.1), "damping"),
         (lambda: PriorityScheme(methd="robust"), "method"),
+        (lambda: SNSScheme(dt=1e-3, gain=1.0), "k_null"),
+        (lambda: QPScheme(dt=1e-3, k_nul=1.0), "k_null"),
     ],
 )
 def test_a_misspelt_keyword_names_the_valid_one(make: Callable[[], Scheme], valid: str) -> None:

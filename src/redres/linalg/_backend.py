@@ -170,6 +170,8 @@ def parse_weights(weights: Any, n: int, name: str) -> tuple[int, FloatArray, Flo
 
 def raise_status(status: int, names: dict[str, str]) -> None:
     """Raise the error a kernel status code stands for, naming the argument."""
+    if status == codes.Q_NONFINITE:
+        raise NonFiniteError(f"{names.get('q', 'q')} contains NaN or infinity")
     if status == codes.J_NONFINITE:
         raise NonFiniteError(f"{names.get('J', 'J')} contains NaN or infinity")
     if status == codes.XD_NONFINITE:

@@ -8,22 +8,35 @@ from .base import (
     make_inverse,
 )
 from .gradient_projection import GradientProjectionScheme, total_gradient
-from .limits import (
+from .hard_limits import (
+    BOUND_KINDS,
+    RELAXED_ACCELERATION,
+    RELAXED_POSITION,
     Binding,
     JointLimits,
+    QPDetails,
+    QPScheme,
+    ScaleResult,
+    SNSDetails,
+    SNSScheme,
+    VelocityBounds,
+    Violation,
+    binding_bounds,
     braking_velocity,
+    largest_scale,
     run_violation,
     step_violation,
     velocity_bounds,
 )
 from .priority import METHODS, LevelInfo, PriorityResult, PriorityScheme, prioritized_velocity
 from .pseudoinverse import PseudoInverseScheme
-from .qp import QPScheme
-from .sns import SNSScheme, largest_scale
 from .weighted_least_norm import WeightedLeastNormScheme, joint_limit_gradient
 
 __all__ = [
+    "BOUND_KINDS",
     "METHODS",
+    "RELAXED_ACCELERATION",
+    "RELAXED_POSITION",
     "AugmentedJacobianScheme",
     "Binding",
     "GradientProjectionScheme",
@@ -33,11 +46,17 @@ __all__ = [
     "PriorityResult",
     "PriorityScheme",
     "PseudoInverseScheme",
+    "QPDetails",
     "QPScheme",
+    "SNSDetails",
     "SNSScheme",
+    "ScaleResult",
     "Scheme",
     "StepResult",
+    "VelocityBounds",
+    "Violation",
     "WeightedLeastNormScheme",
+    "binding_bounds",
     "braking_velocity",
     "joint_limit_gradient",
     "largest_scale",

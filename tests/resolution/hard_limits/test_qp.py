@@ -17,9 +17,13 @@ from scipy.optimize import linprog
 import redres as rr
 from redres.errors import InvalidParameterError, MissingDependencyError
 from redres.objectives import JointLimitObjective
-from redres.resolution.limits import JointLimits, run_violation, step_violation
-from redres.resolution.qp import QPScheme
-from redres.resolution.sns import SNSScheme
+from redres.resolution import (
+    JointLimits,
+    QPScheme,
+    SNSScheme,
+    run_violation,
+    step_violation,
+)
 from redres.scenario import builtin
 from redres.tasks import PostureTask
 from redres.testing import random_limit_states, step_from_states
@@ -126,7 +130,7 @@ def test_without_active_bounds_it_is_gradient_projection(rng: np.random.Generato
     robot = rr.models.panda()
     objective = JointLimitObjective()
     plain = QPScheme(dt=DT, qdd_max=np.inf)
-    secondary = QPScheme(dt=DT, qdd_max=np.inf, objectives=[objective], gain=2.0)
+    secondary = QPScheme(dt=DT, qdd_max=np.inf, objectives=[objective], k_null=2.0)
     for _ in range(10):
         q, J = well_conditioned(robot, rng)
         xd = rng.normal(size=6) * 0.02
@@ -147,7 +151,7 @@ def test_levels_are_a_sequence_of_qps(rng: np.random.Generator) -> None:
     robot = rr.models.panda()
     posture = PostureTask(robot.neutral())
     single = QPScheme(dt=DT, qdd_max=np.inf)
-    levels = QPScheme(dt=DT, qdd_max=np.inf, levels=[posture], level_gain=5.0)
+    levels = QPScheme(dt=DT, qdd_max=np.inf, levels=[posture], gain=5.0)
     for _ in range(10):
         q, J = well_conditioned(robot, rng)
         xd = rng.normal(size=6) * 0.02
@@ -239,7 +243,7 @@ def test_warm_started_daqp_model_agrees_with_cold_daqp_solves(rng: np.random.Gen
     daqp = pytest.importorskip("daqp")
     from types import SimpleNamespace
 
-    from redres.resolution.qp import WarmQP
+    from redres.resolution.hard_limits._solvers import WarmQP
 
     n, m = 7, 6
     sense = np.zeros(n + m, dtype=np.intc)

@@ -9,7 +9,7 @@ import pytest
 
 import redres as rr
 from redres.errors import InvalidParameterError, JointLimitError, NonFiniteError, ShapeError
-from redres.resolution.limits import (
+from redres.resolution.hard_limits import (
     RELAXED_ACCELERATION,
     RELAXED_POSITION,
     JointLimits,

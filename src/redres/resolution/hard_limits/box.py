@@ -50,23 +50,24 @@ References:
 
 from __future__ import annotations
 
-import math
-import os
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validate import FloatArray, as_scalar, as_vector
-from ..errors import InvalidParameterError, JointLimitError, NonFiniteError, ShapeError
+from ..._validate import FloatArray, as_scalar, as_vector
+from ...errors import InvalidParameterError, JointLimitError, NonFiniteError, ShapeError
+from ._codes import BOUND_KINDS, RELAXED_ACCELERATION, RELAXED_POSITION
+from ._compiled import kernels
 
 if TYPE_CHECKING:
-    from ..robot import Robot
+    from ...robot import Robot
 
 __all__ = [
     "BOUND_KINDS",
+    "RELAXED_ACCELERATION",
+    "RELAXED_POSITION",
     "Binding",
     "JointLimits",
     "VelocityBounds",
@@ -78,150 +79,7 @@ __all__ = [
     "velocity_bounds",
 ]
 
-#: Names of the bound codes of :class:`VelocityBounds` (index = code).
-BOUND_KINDS: tuple[str, ...] = ("none", "position", "velocity", "acceleration")
-_NONE, _POSITION, _VELOCITY, _ACCELERATION = 0, 1, 2, 3
-#: Bits of :attr:`VelocityBounds.relaxed`.
-RELAXED_POSITION = 1
-RELAXED_ACCELERATION = 2
-_INF = math.inf
-
 IntArray = NDArray[np.int8]
-
-
-# --------------------------------------------------------------------------- kernels
-# Plain Python, written for numba: compiled on first use by :func:`compiled` (module
-# globals are rebound to the compiled functions so that kernels call each other natively).
-
-
-def kernel(func: Callable[..., Any]) -> Any:
-    """Mark a kernel: plain Python until :func:`register_kernels` compiles it (typed ``Any``
-    so that kernels calling kernels type-check)."""
-    return func
-
-
-def _braking(distance: float, dt: float, qdd_max: float) -> float:
-    """Largest velocity toward a limit ``distance`` away that can still stop before it."""
-    x = distance / dt
-    if not x > 0.0 or x == _INF:
-        return x  # at or past the limit: come back within one step (x ≤ 0); no limit
-    a = qdd_max * dt
-    if a == _INF:
-        return x
-    k = np.floor((math.sqrt(1.0 + 8.0 * (x / a)) - 1.0) * 0.5)
-    while k > 0.0 and 0.5 * a * k * (k + 1.0) > x:  # correct the rounding of sqrt
-        k -= 1.0
-    while 0.5 * a * (k + 1.0) * (k + 2.0) <= x:
-        k += 1.0
-    return min(x / (k + 1.0) + 0.5 * a * k, x)
-
-
-@kernel
-def _bounds(q, qd_prev, dt, q_min, q_max, qd_max, qdd_max, lo, hi, kind_lo, kind_hi, relaxed):  # type: ignore[no-untyped-def]
-    """Fill ``lo``, ``hi`` (and the codes) with the velocity box; returns #relaxed joints."""
-    count = 0
-    for i in range(q.shape[0]):
-        flag = 0
-        up = _braking(q_max[i] - q[i], dt, qdd_max[i])
-        dn = -_braking(q[i] - q_min[i], dt, qdd_max[i])
-        ku = _POSITION if up < _INF else _NONE
-        kl = _POSITION if dn > -_INF else _NONE
-        v = qd_max[i]
-        if v < up:
-            up, ku = v, _VELOCITY
-        if -v > dn:
-            dn, kl = -v, _VELOCITY
-        if up < dn:  # q outside its range, farther than one step at full speed
-            flag |= RELAXED_POSITION
-            if up < 0.0:
-                up, ku = dn, kl
-            else:
-                dn, kl = up, ku
-        a = qdd_max[i] * dt
-        if a < _INF:
-            a_lo = qd_prev[i] - a
-            a_hi = qd_prev[i] + a
-            slack = 1e-12 * (1.0 + abs(qd_prev[i]))  # rounding of the braking recursion
-            if a_lo > up:
-                dn, kl = up, ku
-                if a_lo > up + slack:
-                    flag |= RELAXED_ACCELERATION
-            elif a_hi < dn:
-                up, ku = dn, kl
-                if a_hi < dn - slack:
-                    flag |= RELAXED_ACCELERATION
-            else:
-                if a_lo > dn:
-                    dn, kl = a_lo, _ACCELERATION
-                if a_hi < up:
-                    up, ku = a_hi, _ACCELERATION
-        lo[i] = dn
-        hi[i] = up
-        kind_lo[i] = kl
-        kind_hi[i] = ku
-        relaxed[i] = flag
-        if flag:
-            count += 1
-    return count
-
-
-_KERNEL_NAMES: list[str] = ["_braking", "_bounds"]
-_compiled: dict[str, bool] = {}
-
-
-def register_kernels(namespace: dict[str, Any], names: list[str]) -> None:
-    """Compile ``names`` of a module namespace with numba (in order), rebinding them.
-
-    Internal: used by this module and by :mod:`~redres.resolution.sns` and
-    :mod:`~redres.resolution.qp`. Does nothing when ``REDRES_DISABLE_JIT=1`` or numba is
-    missing (the kernels then run as plain Python: same results, slower).
-    """
-    key = f"{namespace['__name__']}"
-    if key in _compiled:
-        return
-    _compiled[key] = False
-    if os.environ.get("REDRES_DISABLE_JIT", "") not in ("", "0"):
-        return
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - numba is a dependency
-        return
-    for name in names:
-        func = namespace[name]
-        try:
-            namespace[name] = numba.njit(cache=True, nogil=True, error_model="numpy")(func)
-        except RuntimeError:  # pragma: no cover - no writable cache location
-            namespace[name] = numba.njit(cache=False, nogil=True, error_model="numpy")(func)
-    _compiled[key] = True
-
-
-def bounds_kernel() -> Callable[..., int]:
-    """The (compiled) box kernel ``_bounds`` (internal, for the schemes' hot path)."""
-    register_kernels(globals(), _KERNEL_NAMES)
-    kernel: Callable[..., int] = globals()["_bounds"]
-    return kernel
-
-
-def fast_entry(kernel: Any, args: tuple[Any, ...]) -> Callable[..., Any]:
-    """The native entry point of a compiled kernel for exactly the types of ``args``.
-
-    Skips numba's per-call type dispatch (about 1-2 µs for a dozen arguments); callers
-    must then pass arguments of the same types and layouts (C-contiguous float64 arrays,
-    Python floats and bools). Calls ``kernel(*args)`` once (to compile). Returns ``kernel``
-    itself when it is plain Python or numba's internals differ.
-    """
-    kernel(*args)
-    try:
-        import numba
-
-        signature = tuple(numba.typeof(arg) for arg in args)  # type: ignore[no-untyped-call]
-        entry: Callable[..., Any] = kernel.overloads[signature].entry_point
-    except Exception:  # plain Python, or numba internals changed: use the dispatcher
-        return kernel  # type: ignore[no-any-return]
-    return entry
-
-
-# --------------------------------------------------------------------------- public API
 
 
 def _limit_array(value: Any, name: str, n: int, *, positive: bool) -> FloatArray:
@@ -344,8 +202,7 @@ def braking_velocity(distance: ArrayLike, dt: float, qdd_max: ArrayLike) -> Floa
     d, acc = np.broadcast_arrays(np.asarray(distance, float), np.asarray(qdd_max, float))
     if np.isnan(d).any() or np.isnan(acc).any() or np.any(acc <= 0.0):
         raise InvalidParameterError("distance must not be NaN and qdd_max must be > 0")
-    register_kernels(globals(), _KERNEL_NAMES)
-    braking = globals()["_braking"]
+    braking = kernels().braking
     out = np.array([braking(float(x), dt, float(a)) for x, a in zip(d.ravel(), acc.ravel())])
     return out.reshape(d.shape)
 
@@ -371,8 +228,8 @@ def velocity_bounds(
     dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
     lo, hi = np.empty(n), np.empty(n)
     kl, ku, rel = np.empty(n, np.int8), np.empty(n, np.int8), np.empty(n, np.int8)
-    bounds_kernel()(q, qd_prev, dt, limits.q_min, limits.q_max, limits.qd_max, limits.qdd_max,
-                    lo, hi, kl, ku, rel)  # fmt: skip
+    kernels().bounds(q, qd_prev, dt, limits.q_min, limits.q_max, limits.qd_max,
+                     limits.qdd_max, lo, hi, kl, ku, rel)  # fmt: skip
     return VelocityBounds(lo, hi, kl, ku, rel)
 
 

@@ -3,7 +3,8 @@
 Oracles: NumPy's pseudo-inverse, the gradient-projection formula, a brute-force line search
 over the task scale (the feasibility of one scale is an interval test in the one-dimensional
 null space of a 6 x 7 Jacobian), exact enumeration of the vertices of the (scale,
-null-space) polygon, SciPy's HiGHS linear programs, and the limits themselves.
+null-space) polygon, and the limits themselves (the simplex alone against SciPy's HiGHS:
+test_lp.py).
 """
 
 from __future__ import annotations
@@ -12,14 +13,17 @@ import itertools
 
 import numpy as np
 import pytest
-from scipy.optimize import linprog
 
 import redres as rr
 from redres.errors import NonFiniteError, ShapeError
 from redres.objectives import JointLimitObjective
-from redres.resolution import PseudoInverseScheme
-from redres.resolution.limits import JointLimits, run_violation, step_violation
-from redres.resolution.sns import SNSScheme, largest_scale
+from redres.resolution import (
+    JointLimits,
+    PseudoInverseScheme,
+    SNSScheme,
+    run_violation,
+    step_violation,
+)
 from redres.scenario import builtin
 from redres.testing import random_limit_states, step_from_states
 
@@ -139,28 +143,6 @@ def test_infeasible_tasks_keep_their_direction_at_the_largest_scale(panda_steps:
     assert methods.get("sns-scaled", 0) >= 100 and methods.get("lp", 0) >= 100
 
 
-def test_largest_scale_matches_highs_on_position_tasks(rng: np.random.Generator) -> None:
-    """3-row tasks (a 4-dimensional null space): the simplex against SciPy's HiGHS."""
-    robot = rr.models.panda()
-    for _ in range(150):
-        q = robot.random_configuration(rng)
-        J = robot.jacobian(q)[:3]
-        xd = rng.normal(size=3) * 10 ** rng.uniform(-2, 0.5)
-        centre = rng.normal(size=7) * 0.05
-        half = rng.uniform(0.01, 0.3, 7)
-        lo, hi = centre - half, centre + half
-        s, qd, feasible = largest_scale(J, xd, lo, hi)
-        c = np.zeros(8)
-        c[-1] = -1.0
-        ref = linprog(c, A_eq=np.hstack([J, -xd[:, None]]), b_eq=np.zeros(3),
-                      bounds=[*zip(lo, hi), (0.0, 1.0)], method="highs")  # fmt: skip
-        assert feasible == (ref.status == 0)
-        if feasible:
-            assert s == pytest.approx(ref.x[-1], abs=1e-9)
-            assert np.all(qd >= lo) and np.all(qd <= hi)
-            assert np.allclose(J @ qd, s * xd, atol=1e-10)
-
-
 def well_conditioned(robot: rr.Robot, rng: np.random.Generator) -> tuple:
     """A configuration 0.2 rad inside the limits where σ_min(J) > 0.05, and J there."""
     while True:
@@ -191,7 +173,7 @@ def test_with_objectives_and_no_active_bound_it_is_gradient_projection(
 ) -> None:
     robot = rr.models.panda()
     objective = JointLimitObjective()
-    scheme = SNSScheme(dt=DT, objectives=[objective], gain=2.0, qdd_max=np.inf)
+    scheme = SNSScheme(dt=DT, objectives=[objective], k_null=2.0, qdd_max=np.inf)
     for _ in range(10):
         q, J = well_conditioned(robot, rng)
         xd = rng.normal(size=6) * 0.02

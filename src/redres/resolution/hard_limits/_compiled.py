@@ -1,0 +1,26 @@
+"""The hard-limit kernel modules, loaded through :mod:`redres._jit` on first use (internal)."""
+
+from __future__ import annotations
+
+from types import ModuleType
+
+from ... import _jit
+from ...errors import MissingDependencyError
+
+_PACKAGE = "redres.resolution.hard_limits."
+
+
+def kernels(name: str = "_kernels") -> ModuleType:
+    """Kernel module ``name`` of this package (``_kernels``, ``_lp_kernels``, ``_qp_kernels``).
+
+    Raises:
+        MissingDependencyError: numba cannot be imported (the hard-limit schemes have no
+            NumPy path; ``REDRES_DISABLE_JIT=1`` runs their kernels as plain Python).
+    """
+    module = _jit.load(_PACKAGE + name)
+    if module is None:
+        raise MissingDependencyError(
+            "the hard-limit schemes need numba (a dependency of redres), which cannot be "
+            "imported; reinstall it, or set REDRES_DISABLE_JIT=1 to run them as plain Python"
+        )
+    return module

@@ -1,0 +1,360 @@
+"""Compiled kernels of the hard-limit schemes (internal): the velocity box, saturation in
+the null space and the step's prologue and epilogue shared by SNS and the QP.
+
+Plain Python written for numba and compiled through :mod:`redres._jit` (load this module
+with ``_jit.load``); the linear program is in :mod:`._lp_kernels`, the QP's own kernels in
+:mod:`._qp_kernels`. Formulas: :mod:`.box` (the box), :mod:`.sns` (Algorithm 1 and 2 of
+Flacco, De Luca, Khatib 2015). Status codes are :mod:`redres.linalg._codes` (0 = OK).
+
+Workspaces: ``wm`` (3, m) and ``wn`` (6, n) floats, ``wb`` (3, n) booleans, ``M`` (3, m, m).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..._jit import kernel
+from ...linalg._codes import GRAD_NONFINITE, J_NONFINITE, OK, Q_NONFINITE, XD_NONFINITE
+from ...linalg._dense_kernels import _cholesky, _cholesky_solve, _finite_1d, _finite_2d
+from ._codes import (
+    ACCELERATION,
+    FAILED,
+    FEASIBLE,
+    LP_SCALED,
+    NONE,
+    POSITION,
+    RELAXED_ACCELERATION,
+    RELAXED_POSITION,
+    SCALED,
+    VELOCITY,
+)
+from ._lp_kernels import largest_scale
+
+_INF = math.inf
+_RANK_TOL = 1e-12  # Cholesky pivot / largest Gram diagonal below which J W is rank-deficient
+
+# --------------------------------------------------------------------------- the box
+
+
+@kernel
+def braking(distance, dt, qdd_max):  # type: ignore[no-untyped-def]
+    """Largest velocity toward a limit ``distance`` away that can still stop before it."""
+    x = distance / dt
+    if not x > 0.0 or x == _INF:
+        return x  # at or past the limit: come back within one step (x ≤ 0); no limit
+    a = qdd_max * dt
+    if a == _INF:
+        return x
+    k = np.floor((math.sqrt(1.0 + 8.0 * (x / a)) - 1.0) * 0.5)
+    while k > 0.0 and 0.5 * a * k * (k + 1.0) > x:  # correct the rounding of sqrt
+        k -= 1.0
+    while 0.5 * a * (k + 1.0) * (k + 2.0) <= x:
+        k += 1.0
+    return min(x / (k + 1.0) + 0.5 * a * k, x)
+
+
+@kernel
+def bounds(q, qd_prev, dt, q_min, q_max, qd_max, qdd_max, lo, hi, kind_lo, kind_hi, relaxed):  # type: ignore[no-untyped-def]
+    """Fill ``lo``, ``hi`` (and the codes) with the velocity box; returns #relaxed joints."""
+    count = 0
+    for i in range(q.shape[0]):
+        flag = 0
+        up = braking(q_max[i] - q[i], dt, qdd_max[i])
+        dn = -braking(q[i] - q_min[i], dt, qdd_max[i])
+        ku = POSITION if up < _INF else NONE
+        kl = POSITION if dn > -_INF else NONE
+        v = qd_max[i]
+        if v < up:
+            up, ku = v, VELOCITY
+        if -v > dn:
+            dn, kl = -v, VELOCITY
+        if up < dn:  # q outside its range, farther than one step at full speed
+            flag |= RELAXED_POSITION
+            if up < 0.0:
+                up, ku = dn, kl
+            else:
+                dn, kl = up, ku
+        a = qdd_max[i] * dt
+        if a < _INF:
+            a_lo = qd_prev[i] - a
+            a_hi = qd_prev[i] + a
+            slack = 1e-12 * (1.0 + abs(qd_prev[i]))  # rounding of the braking recursion
+            if a_lo > up:
+                dn, kl = up, ku
+                if a_lo > up + slack:
+                    flag |= RELAXED_ACCELERATION
+            elif a_hi < dn:
+                up, ku = dn, kl
+                if a_hi < dn - slack:
+                    flag |= RELAXED_ACCELERATION
+            else:
+                if a_lo > dn:
+                    dn, kl = a_lo, ACCELERATION
+                if a_hi < up:
+                    up, ku = a_hi, ACCELERATION
+        lo[i] = dn
+        hi[i] = up
+        kind_lo[i] = kl
+        kind_hi[i] = ku
+        relaxed[i] = flag
+        if flag:
+            count += 1
+    return count
+
+
+# --------------------------------------------------------------------------- SNS
+
+
+@kernel
+def factor(J, free, G, L):  # type: ignore[no-untyped-def]
+    """``G = J W Jᵀ`` (free columns) and ``L Lᵀ = G``; False when ``J W`` is rank-deficient
+    (a pivot ``≤ 1e-12`` times the largest diagonal of ``G``)."""
+    m, n = J.shape
+    top = 0.0
+    for i in range(m):
+        for j in range(i + 1):
+            acc = 0.0
+            for k in range(n):
+                if free[k]:
+                    acc += J[i, k] * J[j, k]
+            G[i, j] = acc
+            G[j, i] = acc
+        top = max(top, G[i, i])
+    if top <= 0.0 or not _cholesky(G, L, m, 0.0):
+        return False
+    for j in range(m):
+        if L[j, j] * L[j, j] <= _RANK_TOL * top:
+            return False
+    return True
+
+
+@kernel
+def min_norm(J, free, L, r, y, res, out):  # type: ignore[no-untyped-def]
+    """``out = (J W)⁺ r = W Jᵀ (J W Jᵀ)⁻¹ r``, refined once against the residual."""
+    m, n = J.shape
+    for k in range(n):
+        out[k] = 0.0
+    for i in range(m):
+        res[i] = r[i]
+    for _ in range(2):
+        for i in range(m):
+            y[i] = res[i]
+        _cholesky_solve(L, y, m)
+        for k in range(n):
+            if free[k]:
+                acc = 0.0
+                for i in range(m):
+                    acc += J[i, k] * y[i]
+                out[k] += acc
+        for i in range(m):
+            acc = r[i]
+            for k in range(n):
+                acc -= J[i, k] * out[k]
+            res[i] = acc
+
+
+@kernel
+def solved(r, res):  # type: ignore[no-untyped-def]
+    """Whether the residual ``res`` of a solve for ``r`` is at rounding level."""
+    size, err = 1.0, 0.0
+    for i in range(r.shape[0]):
+        size = max(size, abs(r[i]))
+        err = max(err, abs(res[i]))
+    return err <= 1e-12 * size
+
+
+@kernel
+def _scale_interval(a, b, lo, hi, free, tol):  # type: ignore[no-untyped-def]
+    """``(s_min, s_max, j)``: free joints of ``s a + b`` stay in the box for ``s`` in
+    ``[s_min, s_max]``; ``j`` limits ``s_max`` (-1: none). Algorithm 2 of Flacco et al."""
+    s_min, s_max, j_max = -math.inf, math.inf, -1
+    for i in range(a.shape[0]):
+        if not free[i]:
+            continue
+        if abs(a[i]) <= 1e-15:
+            if b[i] > hi[i] + tol or b[i] < lo[i] - tol:
+                return math.inf, -math.inf, -1
+            continue
+        s1 = (lo[i] - b[i]) / a[i]
+        s2 = (hi[i] - b[i]) / a[i]
+        if s1 > s2:
+            s1, s2 = s2, s1
+        s_min = max(s_min, s1)
+        if s2 < s_max:
+            s_max, j_max = s2, i
+    return s_min, s_max, j_max
+
+
+@kernel
+def _sns(J, xd, lo, hi, qd0, tol, qd, G, L, wm, wn, wb, factored):  # type: ignore[no-untyped-def]
+    """Algorithm 1 of Flacco et al. (2015): ``(method, scale)``, method FEASIBLE, SCALED or
+    FAILED (no feasible scale found by the greedy saturation). ``factored``: ``L`` already
+    holds the factor of the full ``J Jᵀ`` (skips the first factorisation)."""
+    m, n = J.shape
+    y, res, r = wm[0], wm[1], wm[2]
+    qn, best_qn, a, b = wn[0], wn[1], wn[2], wn[3]
+    free, best_free = wb[0], wb[1]
+    for k in range(n):
+        free[k] = True
+        qn[k] = qd0[k]
+    best = -1.0
+    for it in range(n + 1):
+        if not (it == 0 and factored) and not factor(J, free, G, L):
+            break
+        for i in range(m):
+            acc = xd[i]
+            for k in range(n):
+                acc -= J[i, k] * qn[k]
+            r[i] = acc
+        min_norm(J, free, L, r, y, res, qd)
+        if not solved(r, res):
+            break  # J W numerically rank-deficient: the task cannot be met with W
+        worst, j_worst = tol, -1
+        for k in range(n):
+            qd[k] += qn[k]
+            over = max(qd[k] - hi[k], lo[k] - qd[k])
+            if over > worst:
+                worst, j_worst = over, k
+        if j_worst < 0:
+            for k in range(n):
+                qd[k] = min(max(qd[k], lo[k]), hi[k])
+            return FEASIBLE, 1.0
+        min_norm(J, free, L, xd, y, res, a)
+        for k in range(n):
+            b[k] = qd[k] - a[k]
+        s_min, s_max, j_max = _scale_interval(a, b, lo, hi, free, tol)
+        if s_min <= s_max and s_max >= 0.0 and s_min <= 1.0 and min(s_max, 1.0) > best:
+            best = min(s_max, 1.0)
+            best_free[:] = free
+            best_qn[:] = qn
+        j = j_max if (s_max < 1.0 and j_max >= 0) else j_worst
+        free[j] = False
+        qn[j] = hi[j] if qd[j] > hi[j] else lo[j]
+    if best < 0.0:
+        return FAILED, 0.0
+    free[:] = best_free
+    factor(J, free, G, L)
+    for i in range(m):
+        acc = best * xd[i]
+        for k in range(n):
+            acc -= J[i, k] * best_qn[k]
+        r[i] = acc
+    min_norm(J, free, L, r, y, res, qd)
+    if not solved(r, res):
+        return FAILED, 0.0
+    for k in range(n):
+        qd[k] += best_qn[k]
+        if qd[k] > hi[k] + tol or qd[k] < lo[k] - tol:
+            return FAILED, 0.0
+        qd[k] = min(max(qd[k], lo[k]), hi[k])
+    return SCALED, best
+
+
+@kernel
+def _sns_step(J, xd, lo, hi, qd0, use_qd0, tol, qd, G, L, wm, wn, wb, full):  # type: ignore[no-untyped-def]
+    """One SNS step in a given box (:mod:`.sns`): ``(method, scale, factored)``;
+    ``factored``: ``L`` still holds the Cholesky factor of the full ``J Jᵀ``."""
+    n = J.shape[1]
+    zero, keep = wn[4], wn[5]
+    for k in range(n):
+        zero[k] = 0.0
+    method, s = _sns(J, xd, lo, hi, qd0 if use_qd0 else zero, tol, qd, G, L, wm, wn, wb, full)
+    factored = method == FEASIBLE
+    if factored:
+        for k in range(n):
+            factored = factored and wb[0, k]
+    if method != FEASIBLE and use_qd0:
+        method, s = _sns(J, xd, lo, hi, zero, tol, qd, G, L, wm, wn, wb, False)
+    if method != FEASIBLE:
+        keep[:] = qd
+        lp_method, lp_s = largest_scale(J, xd, lo, hi, qd, method == SCALED, s)
+        if method == SCALED and (lp_method != LP_SCALED or lp_s <= s + 1e-12):
+            qd[:] = keep  # the greedy solution already has the largest scale
+        elif lp_method != FAILED:
+            method, s = lp_method, lp_s
+        else:  # pragma: no cover - both failed (numerical breakdown): stay in the box
+            for k in range(n):
+                qd[k] = min(max(0.0, lo[k]), hi[k])
+            method, s = FAILED, 0.0
+    return method, s, factored
+
+
+# --------------------------------------------------------------------------- the step
+
+
+@kernel
+def prologue(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M):  # type: ignore[no-untyped-def]
+    """Input check, box (``out[2]``, ``out[3]``, ``codes[0:3]``), ``G = J Jᵀ`` and its
+    factor (``M[0]``, ``M[1]``), a copy of ``J`` in ``Jc`` (for the step's diagnostics,
+    computed only when asked). Returns ``(status, #relaxed, full_rank)``; status
+    ``Q_NONFINITE``, ``J_NONFINITE``, ``XD_NONFINITE`` or ``GRAD_NONFINITE`` (the secondary
+    velocity) of :mod:`redres.linalg._codes`, else ``OK``."""
+    if not _finite_1d(q):
+        return Q_NONFINITE, 0, False
+    if not _finite_2d(J):
+        return J_NONFINITE, 0, False
+    if not _finite_1d(xd):
+        return XD_NONFINITE, 0, False
+    if not _finite_1d(qd0):
+        return GRAD_NONFINITE, 0, False
+    relaxed = bounds(q, prev, dt, lim[0], lim[1], lim[2], lim[3], out[2], out[3], codes[0],
+                     codes[1], codes[2])  # fmt: skip
+    every = np.ones(J.shape[1], np.bool_)
+    full = factor(J, every, M[0], M[1])  # fills G = J Jᵀ even when it fails
+    m, n = J.shape
+    for i in range(m):
+        for k in range(n):
+            Jc[i, k] = J[i, k]
+    return OK, relaxed, full
+
+
+@kernel
+def epilogue(J, xd, out, codes, M, wm, full, factored):  # type: ignore[no-untyped-def]
+    """Clip ``q̇ = out[0]`` into the box, mark the active sides (``codes[3]``: +1 upper,
+    -1 lower, 2 both), its null-space component (``out[1]``). Returns ``(#active,
+    ‖J q̇ − ẋ‖)``."""
+    m, n = J.shape
+    active = 0
+    for k in range(n):
+        out[0, k] = min(max(out[0, k], out[2, k]), out[3, k])
+        side = 0
+        if out[0, k] >= out[3, k] - 1e-9:
+            side = 1
+        if out[0, k] <= out[2, k] + 1e-9:
+            side = 2 if side == 1 else -1
+        codes[3, k] = side
+        if side != 0:
+            active += 1
+    residual = 0.0
+    for i in range(m):
+        acc = 0.0
+        for k in range(n):
+            acc += J[i, k] * out[0, k]
+        wm[2, i] = acc
+        residual += (acc - xd[i]) ** 2
+    for k in range(n):
+        out[1, k] = 0.0
+    if full:  # null = (I − J⁺J) q̇
+        every = np.ones(n, np.bool_)
+        if not factored:
+            factor(J, every, M[0], M[1])
+        min_norm(J, every, M[1], wm[2], wm[0], wm[1], out[1])
+        for k in range(n):
+            out[1, k] = out[0, k] - out[1, k]
+    return active, math.sqrt(residual)
+
+
+@kernel
+def sns_step(q, prev, dt, lim, J, xd, qd0, use_qd0, tol, out, codes, Jc, M, wm, wn, wb):  # type: ignore[no-untyped-def]
+    """Box and SNS step in one call. ``out`` rows: q̇, null term, lower, upper; ``codes``
+    rows: lower kind, upper kind, relaxed, active side; ``Jc``: a copy of ``J``. Returns
+    ``(status, method, scale, #relaxed, #active)``."""
+    status, relaxed, full = prologue(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M)
+    if status != OK:
+        return status, FAILED, 0.0, 0, 0
+    method, s, factored = _sns_step(J, xd, out[2], out[3], qd0, use_qd0, tol, out[0], M[0],
+                                    M[1], wm, wn, wb, full)  # fmt: skip
+    active, _ = epilogue(J, xd, out, codes, M, wm, full, factored)
+    return OK, method, s, relaxed, active

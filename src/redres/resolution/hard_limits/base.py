@@ -1,0 +1,162 @@
+"""What the hard-limit schemes share (internal): :class:`BoxScheme`, the kernels'
+workspace, the step prologue, the diagnostics and the lazily built list of binding bounds.
+
+A hard-limit step is one compiled call (:mod:`._kernels`): it checks the inputs, builds the
+joint-velocity box of :mod:`.box`, resolves the task inside it and fills preallocated
+rows — ``out`` (q̇, null-space term, lower, upper) and ``codes`` (bound kinds, relaxed,
+active side). Everything a caller may never read (the bindings as namedtuples, the
+singular values of ``J``) is computed on first access.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..._validate import FloatArray, as_scalar
+from ...linalg import RCOND, InverseInfo
+from ...linalg._backend import invert
+from ..base import Scheme
+from ..gradient_projection import WeightedObjective, total_gradient, weighted_objectives
+from ._codes import BOUND_KINDS
+from .box import Binding, JointLimits
+
+if TYPE_CHECKING:
+    from ...robot import Robot
+
+#: Argument names for :func:`~redres.linalg._backend.raise_status` (a step's inputs).
+STEP_NAMES = {
+    "q": "q",
+    "J": "J",
+    "xd": "xd",
+    "grad": "the secondary velocity (objective gradients)",
+}
+
+
+class Workspace:
+    """Arrays of one robot and task size, and the limits, for the kernels (internal)."""
+
+    def __init__(self, limits: JointLimits, m: int) -> None:
+        n = limits.n
+        self.key: tuple[int, int] = (n, m)
+        self.lim = np.ascontiguousarray(
+            np.vstack([limits.q_min, limits.q_max, limits.qd_max, limits.qdd_max])
+        )
+        self.zero = np.zeros(n)
+        self.M = np.zeros((3, m, m))
+        self.wm = np.zeros((3, m))
+        self.wn = np.zeros((6, n))
+        self.wb = np.zeros((3, n), np.bool_)
+
+    def outputs(self) -> tuple[FloatArray, NDArray[np.int8], FloatArray]:
+        """Fresh per-step outputs: ``out`` (q̇, null term, lower, upper), ``codes`` (bound
+        kinds, relaxed, active side) and ``Jc`` (the kernel's copy of ``J``)."""
+        n, m = self.key
+        return np.empty((4, n)), np.empty((4, n), np.int8), np.empty((m, n))
+
+
+class BindingList(Sequence[Binding]):
+    """The :class:`~redres.resolution.hard_limits.Binding` bounds of a step, built on first
+    access from the kernel's code rows (a list of namedtuples costs microseconds a step;
+    most loops never read it). Compares equal to a list with the same entries."""
+
+    __slots__ = ("_codes", "_items", "_relaxed")
+
+    def __init__(self, codes: NDArray[np.int8], relaxed: bool) -> None:
+        self._codes, self._relaxed = codes, relaxed
+        self._items: list[Binding] | None = None
+
+    def _list(self) -> list[Binding]:
+        if self._items is None:
+            codes, relaxed, items = self._codes, self._relaxed, []
+            for j, side in enumerate(codes[3].tolist()):
+                gave_up = relaxed and bool(codes[2, j])
+                if side in (1, 2):
+                    items.append(Binding(j, "upper", BOUND_KINDS[codes[1, j]], gave_up))
+                if side in (-1, 2):
+                    items.append(Binding(j, "lower", BOUND_KINDS[codes[0, j]], gave_up))
+            self._items = items
+        return self._items
+
+    def __getitem__(self, index: Any) -> Any:
+        return self._list()[index]
+
+    def __len__(self) -> int:
+        return len(self._list())
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Sequence) and self._list() == list(other)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return repr(self._list())
+
+
+def step_info(J: FloatArray, method: str) -> InverseInfo:
+    """Diagnostics of a hard-limit step: the singular values and rank of ``J`` from
+    :mod:`redres.linalg`'s engine and its one rank rule (``σ > RCOND·σ_max``)."""
+    stats = invert(J, weights=None, weights_name="W", damping=0.0, rcond=RCOND,
+                   want_pinv=False, want_projector=False).stats  # fmt: skip
+    rank = stats.rank
+    return InverseInfo(rank, rank == min(J.shape), stats.sigma_min, stats.sigma_max, 0.0, method)
+
+
+def relaxed_joints(codes: NDArray[np.int8], relaxed: int) -> list[int]:
+    """The joints whose box had to give up a limit (``relaxed`` counts them)."""
+    return np.flatnonzero(codes[2]).tolist() if relaxed else []
+
+
+class BoxScheme(Scheme):
+    """What the hard-limit schemes share: the control period, the limits' overrides, the
+    secondary objectives and their gain, and the previous joint velocity
+    :attr:`qd_prev` that the box is built from."""
+
+    hard_limits = True
+
+    def _init_box(
+        self,
+        dt: float,
+        objectives: Sequence[WeightedObjective],
+        k_null: float,
+        qd_max: ArrayLike | None,
+        qdd_max: ArrayLike | None,
+    ) -> None:
+        self.dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
+        self.objectives = tuple(weighted_objectives(objectives))
+        self.k_null = as_scalar(k_null, "k_null", minimum=0.0)
+        self._overrides = (qd_max, qdd_max)
+        #: The previous joint velocity (``None`` = at rest); the scheme's own copy.
+        self.qd_prev: FloatArray | None = None
+        self._robot: Any = None
+        self._ws: Any = None
+
+    def _reset(self) -> None:
+        self.qd_prev = None
+
+    def limits(self, robot: Robot) -> JointLimits:
+        """The limits this scheme enforces on ``robot``."""
+        return JointLimits.from_robot(robot, qd_max=self._overrides[0],
+                                      qdd_max=self._overrides[1])  # fmt: skip
+
+    def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
+        """(Re)build the workspace and kernel entry points for ``robot`` and ``J``'s size."""
+        raise NotImplementedError
+
+    def _inputs(
+        self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray
+    ) -> tuple[Workspace, FloatArray, FloatArray]:
+        """The step prologue: ``(workspace, qd0, qd_prev)``, the workspace rebuilt when the
+        robot or the task size changes, ``qd0 = −k_null Σ wᵢ ∇Dᵢ`` the secondary velocity
+        (zeros without objectives)."""
+        if robot is not self._robot or self._ws.key[1] != xd.shape[0]:
+            self._prepare(robot, q, J, xd)
+        ws = self._ws
+        qd0 = ws.zero
+        if self.objectives:
+            qd0 = (-self.k_null) * total_gradient(robot, q, self.objectives)  # new, C order
+        prev = ws.zero if self.qd_prev is None else self.qd_prev
+        return ws, qd0, prev

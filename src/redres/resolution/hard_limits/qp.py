@@ -1,0 +1,269 @@
+"""Hard joint limits by quadratic programming (the approach of pink and mink), exact tasks.
+
+Each step the joint-velocity box ``lower ≤ q̇ ≤ upper`` of
+:mod:`~redres.resolution.hard_limits.box` (position, velocity and acceleration limits over
+one period) is computed, and the task is resolved inside it as a lexicographic sequence of
+QPs (Kanoun, Lamiraux, Wieber 2011; Escande, Mansard, Wieber 2014):
+
+1. **Exact** — ``min ½‖q̇ − q̇_0‖²  s.t.  J q̇ = ẋ,  lower ≤ q̇ ≤ upper``.
+   ``q̇_0 = −k_null Σ wᵢ ∇Dᵢ`` is the secondary velocity (zero without objectives).
+   Without active bounds the solution is ``J⁺ẋ + (I − J⁺J) q̇_0``, gradient projection;
+   with active bounds it is the closest velocity to ``q̇_0`` that still meets the task
+   exactly.
+2. **Least violating**, only when 1 is infeasible (the task cannot be met within the
+   limits, or ``J`` is singular) — ``min ½‖J q̇ − ẋ‖²_W + ½λ²‖q̇ − q̇_0‖²  s.t.  the box``: the
+   weighted task residual plus a small regularisation ``λ`` (``damping``). The box is
+   never empty (see :mod:`~redres.resolution.hard_limits.box`), so this QP is always
+   feasible and the step never raises inside a control loop; ``StepResult.binding`` lists
+   the bounds the answer sits on. After an infeasible step this QP is tried first, and the
+   exact one is skipped when the residual ``r = ẋ − J q̇`` proves the task infeasible
+   (Farkas' lemma: ``rᵀẋ > max_box rᵀJ q̇``).
+
+With ``levels`` (lower-priority tasks, each evaluated at ``q`` by the scheme and commanded
+``ẋ_d + gain·e``), level ``k`` is solved by the same two QPs with the velocities achieved by
+the levels above held as equality constraints, ``J_i q̇ = J_i q̇*_i`` for ``i < k`` (a
+sequence of QPs; a lower level never disturbs a higher one).
+
+The QPs go through qpsolvers' backends (extra ``qp``: ``pip install 'redres[qp]'``).
+The default backend, DAQP (Arnström, Bemporad, Axehill 2022, a dual active-set solver for
+small dense QPs), is called directly with the dense matrices qpsolvers would build: the
+solve takes about a microsecond, qpsolvers' generic conversions about twenty. Any other
+qpsolvers backend (``"proxqp"``, ...) is used through :func:`qpsolvers.solve_problem`
+(:mod:`._solvers`).
+
+References:
+    O. Kanoun, F. Lamiraux, P.-B. Wieber, "Kinematic control of redundant manipulators:
+    generalizing the task-priority framework to inequality tasks", IEEE Trans. Robotics
+    27(4) (2011) 785–792.
+    A. Escande, N. Mansard, P.-B. Wieber, "Hierarchical quadratic programming: fast online
+    humanoid-robot motion generation", Int. J. Robotics Research 33(7) (2014) 1006–1028.
+    D. Arnström, A. Bemporad, D. Axehill, "A dual active-set solver for embedded quadratic
+    programming using recursive LDLᵀ updates", IEEE Trans. Automatic Control 67(8) (2022).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ... import _jit
+from ..._validate import FloatArray, as_scalar, as_vector, checked_keywords
+from ...errors import InvalidParameterError, ShapeError
+from ...linalg._backend import raise_status
+from ...tasks import Task, stack
+from ..base import StepResult
+from ..gradient_projection import WeightedObjective
+from ._compiled import kernels
+from ._solvers import QPSolver, sense, solve_levels
+from .base import STEP_NAMES, BindingList, BoxScheme, Workspace, relaxed_joints, step_info
+
+if TYPE_CHECKING:
+    from ...registry import ScenarioParams
+    from ...robot import Robot
+
+
+@dataclass(frozen=True)
+class QPDetails:
+    """What a QP step adds to its :class:`~redres.resolution.StepResult`.
+
+    Attributes:
+        residual: ``‖J q̇ − ẋ‖`` of the loop's task.
+        level_residuals: the same for every level, the loop's task first.
+        bounds: the joint-velocity box ``(lower, upper)``, two ``(n,)`` arrays, rad/s.
+        relaxed: joints whose box had to give up a limit.
+        solver: the QP backend.
+    """
+
+    residual: float
+    level_residuals: list[float]
+    bounds: tuple[FloatArray, FloatArray]
+    relaxed: list[int]
+    solver: str
+
+
+class QPScheme(BoxScheme):
+    """Joint velocity by a sequence of QPs inside hard position, velocity, acceleration limits.
+
+    Args:
+        dt: control period, s; must equal the ``dt`` of the loop that applies ``q̇``.
+        objectives: optional secondary costs (``obj`` or ``(obj, weight)``), giving the
+            target velocity ``q̇_0 = −k_null Σ wᵢ ∇Dᵢ``.
+        k_null: null-space gain of the secondary velocity, 1/s (per unit of cost gradient).
+        levels: lower-priority tasks (each a task or a list of tasks, stacked), highest
+            first, evaluated at ``q``; their command is ``ẋ_d + gain·e``.
+        gain: CLIK gain of the levels, 1/s.
+        task_weights: diagonal weights of the task residual in the least-violating QP,
+            shape ``(m,)`` (default ones).
+        damping: ``λ`` of the least-violating QP (units of ``J``), > 0.
+        solver: qpsolvers backend name (default ``"daqp"``).
+        solver_options: keyword settings passed to the backend (e.g. ``{"eps_abs": 1e-9}``
+            for ProxQP; DAQP gets ``primal_tol=1e-10`` unless given).
+        qd_max, qdd_max: limits replacing the robot's (scalar or ``(n,)``).
+
+    Raises:
+        MissingDependencyError: qpsolvers or the backend is not installed (names the
+            ``qp`` extra).
+
+    Identifier ``qp``. State: the previous joint velocity :attr:`qd_prev` (:meth:`reset`
+    clears it). ``StepResult.feasible``: every level met exactly; ``binding``: the bounds
+    ``q̇`` sits on; ``details``: a :class:`QPDetails` (residuals, box, relaxed joints,
+    solver). ``info`` gives the singular values and rank of ``J`` (:mod:`redres.linalg`'s
+    rule); ``null_term`` the component of ``q̇`` in its null space.
+    """
+
+    name = "qp"
+    scenario_types = ("qp",)
+
+    @checked_keywords
+    def __init__(
+        self,
+        dt: float = 1e-3,
+        *,
+        objectives: Sequence[WeightedObjective] = (),
+        k_null: float = 1.0,
+        levels: Sequence[Task | Sequence[Task]] = (),
+        gain: float = 10.0,
+        task_weights: ArrayLike | None = None,
+        damping: float = 1e-3,
+        solver: str = "daqp",
+        solver_options: dict[str, Any] | None = None,
+        qd_max: ArrayLike | None = None,
+        qdd_max: ArrayLike | None = None,
+    ) -> None:
+        self._init_box(dt, objectives, k_null, qd_max, qdd_max)
+        self.levels = [[lv] if isinstance(lv, Task) else list(lv) for lv in levels]
+        if any(not lv or not all(isinstance(t, Task) for t in lv) for lv in self.levels):
+            raise InvalidParameterError("each level must be a Task or a non-empty list of Tasks")
+        self.tasks = tuple(t for level in self.levels for t in level)
+        self.gain = as_scalar(gain, "gain", minimum=0.0)
+        self.task_weights = None if task_weights is None else as_vector(task_weights,
+                                                                        "task_weights")  # fmt: skip
+        if self.task_weights is not None and np.any(self.task_weights <= 0):
+            raise InvalidParameterError(f"task_weights must be > 0; got {self.task_weights}")
+        self.damping = as_scalar(damping, "damping", minimum=0.0, strict=True)
+        self._qp = QPSolver(solver, solver_options)
+        self.solver, self.solver_options = self._qp.name, self._qp.options
+        self._infeasible_before = False
+
+    def _reset(self) -> None:
+        super()._reset()
+        self._infeasible_before = False
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> QPScheme:
+        """The scheme of a scenario table: ``objectives`` and ``k_null``, planned over the
+        run's own period ``dt`` (the limits are the robot's)."""
+        k_null = params.nonnegative("k_null", 1.0)
+        return cls(dt=params.dt, objectives=params.objectives(), k_null=k_null)
+
+    def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
+        n, m = robot.n, J.shape[0]
+        w = np.ones(m) if self.task_weights is None else self.task_weights
+        if w.shape != (m,):  # before anything changes: the old workspace stays consistent
+            raise ShapeError(f"task_weights must have shape ({m},); got {w.shape}")
+        self._robot = None  # rebuilt from scratch on the next call if anything below fails
+        ws = Workspace(self.limits(robot), m)
+        self._bu, self._bl, self._f = np.empty(n + m), np.empty(n + m), np.empty(n)
+        self._P, self._c, self._w = np.empty((n, n)), np.empty(n), w
+        k, kq, out = kernels(), kernels("_qp_kernels"), ws.outputs()
+        self._begin = _jit.entry_point(kq.qp_begin, (q, ws.zero, self.dt, ws.lim, J, xd,
+                                                     ws.zero, *out, ws.M, ws.wm, self._bu,
+                                                     self._bl, self._f, w, 1e-6, self._P,
+                                                     self._c))  # fmt: skip
+        # warm-up calls with full=False: they must not solve with a factor of this J
+        self._end = _jit.entry_point(kq.qp_end, (J, xd, ws.zero, *out[:2], ws.M, ws.wm, False))
+        self._finish = _jit.entry_point(k.epilogue, (J, xd, *out[:2], ws.M, ws.wm, False, False))
+        if self._qp.daqp:
+            flags, eye = sense(n, m), np.eye(n)
+            self._exact_qp = self._qp.warm(H=eye, f=self._f, A=J, bupper=self._bu,
+                                           blower=self._bl, sense=flags)  # fmt: skip
+            self._box_qp = self._qp.warm(H=eye, f=self._f, A=np.zeros((0, n)),
+                                         bupper=self._bu[:n], blower=self._bl[:n],
+                                         sense=flags[:n])  # fmt: skip
+        self._ws, self._robot = ws, robot
+
+    def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+        ws, qd0, prev = self._inputs(robot, q, J, xd)
+        out, codes, Jc = ws.outputs()
+        status, relaxed, full, inside = self._begin(
+            q, prev, self.dt, ws.lim, J, xd, qd0, out, codes, Jc, ws.M, ws.wm, self._bu,
+            self._bl, self._f, self._w, self.damping * self.damping, self._P, self._c,
+        )  # fmt: skip
+        if status:  # an input is not finite (redres.linalg's status codes)
+            raise_status(status, STEP_NAMES)
+        finished = None
+        if self.levels:
+            rows, targets = self._stack(robot, q, J, xd)
+            qd, exact, residuals = solve_levels(self._qp, rows, targets, (out[2], out[3]), qd0,
+                                                self.task_weights, self.damping)  # fmt: skip
+            out[0] = qd
+        elif inside:
+            exact = [True]
+        else:
+            met, finished = self._single(J, xd, qd0, out, codes, full)
+            exact = [met]
+        if finished is None:
+            finished = self._finish(J, xd, out, codes, ws.M, ws.wm, full, False)
+        active, residual = finished
+        levels = residuals if self.levels else [residual]
+        details = QPDetails(residual, levels, (out[2], out[3]), relaxed_joints(codes, relaxed),
+                            self.solver)  # fmt: skip
+        self.qd_prev = out[0].copy()  # the scheme's own copy
+        return StepResult(
+            out[0], lambda: step_info(Jc, "qp"), out[1], feasible=all(exact),
+            binding=BindingList(codes, relaxed > 0) if active else (), details=details,
+        )  # fmt: skip
+
+    def _single(
+        self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray,
+        codes: NDArray[np.int8], full: bool,
+    ) -> tuple[bool, tuple[int, float] | None]:  # fmt: skip
+        """One level, bounds active: the exact QP, else the least-violating one (writes
+        ``out[0]``). Returns whether the task is met exactly, and ``(#active, residual)``
+        when the step is already finished (else None: the caller finishes it).
+
+        After an infeasible step the least-violating QP is solved first: if its residual
+        ``r = ẋ − J q̇`` proves the task infeasible (Farkas: ``rᵀẋ > max over the box of
+        rᵀJ q̇``), the exact QP is skipped — one QP per step in both steady states.
+        """
+        if not self._qp.daqp:
+            qd, exact, _ = solve_levels(self._qp, [J], [xd], (out[2], out[3]), qd0,
+                                        self.task_weights, self.damping)  # fmt: skip
+            out[0] = qd
+            return exact[0], None
+        if self._infeasible_before:
+            x = self._least_violating(out)
+            if x is not None:
+                ws = self._ws
+                proved, active, residual = self._end(J, xd, x, out, codes, ws.M, ws.wm, full)
+                if proved:
+                    return False, (active, residual)
+        x, flag = self._exact_qp.solve(None, self._f, J, self._bu, self._bl)
+        self._infeasible_before = flag <= 0
+        if flag > 0:
+            out[0] = x
+            return True, None
+        x = self._least_violating(out)
+        out[0] = x if x is not None else np.clip(qd0, out[2], out[3])
+        return False, None
+
+    def _least_violating(self, out: FloatArray) -> FloatArray | None:
+        """The least-violating QP on the normal equations ``P``, ``c`` that ``qp_begin``
+        built for this step."""
+        x, flag = self._box_qp.solve(self._P, self._c, None, out[3], out[2])
+        return x if flag > 0 else None
+
+    def _stack(
+        self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray
+    ) -> tuple[list[FloatArray], list[FloatArray]]:
+        rows, targets = [J], [xd]
+        for level in self.levels:
+            states = [task.compute(robot, q) for task in level]
+            state = states[0] if len(states) == 1 else stack(states)
+            rows.append(state.jacobian)
+            targets.append(state.command(self.gain))
+        return rows, targets

@@ -1,0 +1,160 @@
+"""Saturation in the null space (SNS): hard joint limits without a QP solver.
+
+Flacco, De Luca and Khatib (2015, Algorithm 1) solve ``J q̇ = ẋ`` inside the joint-velocity
+box ``lower ≤ q̇ ≤ upper`` of :mod:`~redres.resolution.hard_limits.box` as follows. Start with every
+joint free (``W = I``) and the null-space velocity ``q̇_N`` equal to the secondary velocity
+``q̇_0`` (zero without objectives); repeat:
+
+1. ``q̇ = q̇_N + (J W)⁺ (ẋ − J q̇_N)`` — the task solved with the free joints only (``W``
+   selects them; ``(J W)⁺ = W Jᵀ (J W Jᵀ)⁻¹``, computed by a Cholesky solve with one step
+   of iterative refinement). If ``q̇`` is inside the box, stop: the task is met exactly.
+2. Otherwise write ``q̇(s) = s a + b`` with ``a = (J W)⁺ ẋ``, ``b = q̇ − a`` and find the
+   largest ``s ∈ [0, 1]`` that keeps the free joints in the box (Algorithm 2, the task
+   scaling factor); remember the best ``(s, W, q̇_N)`` seen.
+3. Saturate the *most critical joint* (the first to reach its bound as ``s`` grows; the
+   worst violator if none limits ``s``): ``W_jj = 0``, ``q̇_N,j`` = the bound it crosses.
+4. When ``J W`` loses rank, the task cannot be met: return the best remembered solution
+   with the task scaled by ``s`` (``J q̇ = s ẋ``, same direction).
+
+The greedy choice of saturated joints does not always find the largest feasible scale
+(nor a feasible solution whenever one exists; on random boxes it misses in about one
+case in four). So when step 4 is reached, this implementation also solves the linear
+program ``max s  s.t.  J q̇ = s ẋ, lower ≤ q̇ ≤ upper, 0 ≤ s ≤ 1`` exactly (a bounded-
+variable primal simplex with Bland's rule, Dantzig 1963 ch. 18; Chvátal 1983 ch. 8) and
+keeps the SNS solution if its scale is that maximum, the simplex vertex otherwise. The
+returned scale is therefore the largest feasible one (tests check it against a brute-
+force line search). If no scale in ``[0, 1]`` is feasible (the joints cannot change their
+velocities fast enough to move along ``ẋ`` at all), the result is the velocity in the box
+whose task velocity is nearest, in the 1-norm, to the segment ``{s ẋ : 0 ≤ s ≤ 1}``
+(phase 1 of the same simplex), reported as infeasible.
+
+With objectives the secondary velocity is ``q̇_0 = −k_null Σ wᵢ ∇Dᵢ(q)`` (DESIGN.md convention);
+on the free joints SNS then gives the gradient projection ``q̇_0 + (J W)⁺(ẋ − J q̇_N)``. If
+the task cannot be met with ``q̇_0``, SNS is rerun without it (the secondary goal gives way
+first).
+
+References:
+    F. Flacco, A. De Luca, O. Khatib, "Control of redundant robots under hard joint
+    constraints: saturation in the null space", IEEE Trans. Robotics 31(3) (2015) 637–654.
+    G. B. Dantzig, Linear Programming and Extensions, Princeton, 1963.
+    V. Chvátal, Linear Programming, Freeman, 1983.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from numpy.typing import ArrayLike
+
+from ... import _jit
+from ..._validate import FloatArray, as_scalar, checked_keywords
+from ...linalg._backend import raise_status
+from ..base import StepResult
+from ..gradient_projection import WeightedObjective
+from ._codes import METHODS, NEAREST
+from ._compiled import kernels
+from .base import STEP_NAMES, BindingList, BoxScheme, Workspace, relaxed_joints, step_info
+
+if TYPE_CHECKING:
+    from ...registry import ScenarioParams
+    from ...robot import Robot
+
+
+@dataclass(frozen=True)
+class SNSDetails:
+    """What an SNS step adds to its :class:`~redres.resolution.StepResult`.
+
+    Attributes:
+        scale: ``s`` with ``J q̇ = s ẋ`` (1: the task is met; 0 when no scale is feasible).
+        method: the outcome (a result, not an error): ``"sns"`` (Algorithm 1 met the
+            task), ``"sns-scaled"`` (its scaled solution has the largest scale), ``"lp"``
+            (the simplex vertex, when the greedy saturation missed the largest scale),
+            ``"nearest"`` (no scale in ``[0, 1]`` is feasible) or ``"failed"``.
+        bounds: the joint-velocity box ``(lower, upper)``, two ``(n,)`` arrays, rad/s.
+        relaxed: joints whose box had to give up a limit.
+    """
+
+    scale: float
+    method: str
+    bounds: tuple[FloatArray, FloatArray]
+    relaxed: list[int]
+
+
+class SNSScheme(BoxScheme):
+    """Saturation in the null space (Flacco, De Luca, Khatib 2015) within hard limits.
+
+    Every step the joint-velocity box of
+    :func:`~redres.resolution.hard_limits.velocity_bounds` (position, velocity and
+    acceleration limits over one period) is computed at ``q`` from the velocity of the
+    previous step, and the task is solved inside it by SNS (module docstring). The result
+    never leaves the box, so a run through :func:`redres.control.run` keeps every limit (to
+    rounding) — provided ``dt`` is the loop's period.
+
+    Args:
+        dt: control period, s; must equal the ``dt`` of the loop that applies ``q̇``.
+        objectives: optional secondary costs (each ``obj`` or ``(obj, weight)``); their
+            velocity ``−k_null Σ wᵢ ∇Dᵢ`` is used on the free joints while the task allows.
+        k_null: null-space gain of the secondary velocity, 1/s (per unit of cost gradient).
+        qd_max, qdd_max: velocity / acceleration limits replacing the robot's (scalar or
+            ``(n,)``; e.g. ``qdd_max`` for a model without acceleration limits).
+        tolerance: slack of the box tests inside the algorithm, rad/s (the output is
+            clipped into the exact box).
+
+    Identifier ``sns``. State: the previous joint velocity :attr:`qd_prev` (``None`` = at
+    rest; :meth:`reset` clears it, so a run starts at rest). ``StepResult.feasible``:
+    ``s = 1``, the task is met exactly; ``binding``: the
+    :class:`~redres.resolution.hard_limits.Binding` bounds ``q̇`` sits on; ``details``: an
+    :class:`SNSDetails` (scale, method, box, relaxed joints). ``null_term`` is the
+    component of ``q̇`` in the null space of ``J``; ``info`` gives the singular values and
+    rank of ``J`` (:mod:`redres.linalg`'s rule, ``σ > RCOND·σ_max``).
+    """
+
+    name = "sns"
+    scenario_types = ("sns",)
+
+    @checked_keywords
+    def __init__(
+        self,
+        dt: float = 1e-3,
+        *,
+        objectives: Sequence[WeightedObjective] = (),
+        k_null: float = 1.0,
+        qd_max: ArrayLike | None = None,
+        qdd_max: ArrayLike | None = None,
+        tolerance: float = 1e-12,
+    ) -> None:
+        self._init_box(dt, objectives, k_null, qd_max, qdd_max)
+        self.tolerance = as_scalar(tolerance, "tolerance", minimum=0.0)
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> SNSScheme:
+        """The scheme of a scenario table: ``objectives`` and ``k_null``, planned over the
+        run's own period ``dt`` (the limits are the robot's)."""
+        k_null = params.nonnegative("k_null", 1.0)
+        return cls(dt=params.dt, objectives=params.objectives(), k_null=k_null)
+
+    def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
+        ws = Workspace(self.limits(robot), J.shape[0])
+        args = (q, ws.zero, self.dt, ws.lim, J, xd, ws.zero, False, self.tolerance,
+                *ws.outputs(), ws.M, ws.wm, ws.wn, ws.wb)  # fmt: skip
+        self._kernel = _jit.entry_point(kernels().sns_step, args)
+        self._ws, self._robot = ws, robot
+
+    def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
+        ws, qd0, prev = self._inputs(robot, q, J, xd)
+        out, codes, Jc = ws.outputs()
+        status, method, s, relaxed, active = self._kernel(
+            q, prev, self.dt, ws.lim, J, xd, qd0, bool(self.objectives), self.tolerance,
+            out, codes, Jc, ws.M, ws.wm, ws.wn, ws.wb,
+        )  # fmt: skip
+        if status:  # an input is not finite (redres.linalg's status codes)
+            raise_status(status, STEP_NAMES)
+        s = 0.0 if method == NEAREST else s
+        details = SNSDetails(s, METHODS[method], (out[2], out[3]), relaxed_joints(codes, relaxed))
+        self.qd_prev = out[0].copy()  # the scheme's own copy
+        return StepResult(
+            out[0], lambda: step_info(Jc, "sns"), out[1], feasible=s == 1.0,
+            binding=BindingList(codes, relaxed > 0) if active else (), details=details,
+        )  # fmt: skip
