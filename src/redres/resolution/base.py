@@ -20,6 +20,9 @@ if TYPE_CHECKING:
     from ..tasks import Task
 
 
+_new = object.__new__
+
+
 class StepResult:
     """What a scheme returns for one control step.
 
@@ -36,11 +39,12 @@ class StepResult:
             level) became dependent on the task while the task alone is not singular.
         binding: the joint-velocity bounds ``qd`` sits on
             (:class:`~redres.resolution.hard_limits.Binding`; empty without hard limits).
-        details: the scheme's own typed diagnostics (e.g. :class:`SNSDetails`), or None.
+        details: the scheme's own typed diagnostics (e.g. :class:`SNSDetails`), or None;
+            the hard-limit schemes build it on first read.
     """
 
-    __slots__ = ("_info", "algorithmic_singularity", "binding", "details", "feasible", "null_term",
-                 "qd")  # fmt: skip
+    __slots__ = ("_details", "_info", "algorithmic_singularity", "binding", "feasible",
+                 "null_term", "qd")  # fmt: skip
 
     def __init__(
         self,
@@ -53,9 +57,10 @@ class StepResult:
         binding: Sequence[Any] = (),
         details: Any = None,
     ) -> None:
+        # details may be a zero-argument callable (built on first read), like info.
         self.qd, self._info, self.null_term = qd, info, null_term
         self.feasible, self.algorithmic_singularity = feasible, algorithmic_singularity
-        self.binding, self.details = binding, details
+        self.binding, self._details = binding, details
 
     @property
     def info(self) -> InverseInfo:
@@ -64,6 +69,31 @@ class StepResult:
         if not isinstance(info, InverseInfo):
             info = self._info = info()
         return info
+
+    @property
+    def details(self) -> Any:
+        """The scheme's own typed diagnostics, or None (built on first read where costly)."""
+        details = self._details
+        if callable(details):
+            details = self._details = details()
+        return details
+
+    @classmethod
+    def lazy(
+        cls,
+        qd: FloatArray,
+        info: Callable[[], InverseInfo],
+        null_term: FloatArray,
+        feasible: bool,
+        binding: Sequence[Any],
+        details: Callable[[], Any],
+    ) -> StepResult:
+        """A result whose ``info`` and ``details`` are built on first read (the hard-limit
+        schemes' hot path: no keyword parsing, nothing built a loop never reads)."""
+        result = _new(cls)
+        result.qd, result._info, result.null_term, result.feasible = qd, info, null_term, feasible
+        result.algorithmic_singularity, result.binding, result._details = False, binding, details
+        return result
 
     def __repr__(self) -> str:
         return (

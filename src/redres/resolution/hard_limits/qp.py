@@ -210,12 +210,13 @@ class QPScheme(BoxScheme):
             finished = self._finish(J, xd, out, codes, ws.M, ws.wm, full, False)
         active, residual = finished
         levels = residuals if self.levels else [residual]
-        details = QPDetails(residual, levels, (out[2], out[3]), relaxed_joints(codes, relaxed),
-                            self.solver)  # fmt: skip
-        self.qd_prev = out[0].copy()  # the scheme's own copy
-        return StepResult(
-            out[0], lambda: step_info(Jc, "qp"), out[1], feasible=all(exact),
-            binding=BindingList(codes, relaxed > 0) if active else (), details=details,
+        qd = out[0]
+        self.qd_prev = qd.copy()  # the scheme's own copy
+        return StepResult.lazy(
+            qd, lambda: step_info(Jc, "qp"), out[1], all(exact),
+            BindingList(codes, relaxed > 0) if active else (),
+            lambda: QPDetails(residual, levels, (out[2], out[3]),
+                              relaxed_joints(codes, relaxed), self.solver),
         )  # fmt: skip
 
     def _single(

@@ -152,9 +152,11 @@ class SNSScheme(BoxScheme):
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
         s = 0.0 if method == NEAREST else s
-        details = SNSDetails(s, METHODS[method], (out[2], out[3]), relaxed_joints(codes, relaxed))
-        self.qd_prev = out[0].copy()  # the scheme's own copy
-        return StepResult(
-            out[0], lambda: step_info(Jc, "sns"), out[1], feasible=s == 1.0,
-            binding=BindingList(codes, relaxed > 0) if active else (), details=details,
+        qd = out[0]
+        self.qd_prev = qd.copy()  # the scheme's own copy
+        return StepResult.lazy(
+            qd, lambda: step_info(Jc, "sns"), out[1], s == 1.0,
+            BindingList(codes, relaxed > 0) if active else (),
+            lambda: SNSDetails(s, METHODS[method], (out[2], out[3]),
+                               relaxed_joints(codes, relaxed)),
         )  # fmt: skip
