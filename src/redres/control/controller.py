@@ -66,7 +66,6 @@ from ._fused import (
 if TYPE_CHECKING:
     from ..robot import Robot
 
-__all__ = ["Controller"]
 
 _F64 = np.float64
 _ndarray = np.ndarray

@@ -64,20 +64,6 @@ from ._compiled import kernels
 if TYPE_CHECKING:
     from ...robot import Robot
 
-__all__ = [
-    "BOUND_KINDS",
-    "RELAXED_ACCELERATION",
-    "RELAXED_POSITION",
-    "Binding",
-    "JointLimits",
-    "VelocityBounds",
-    "Violation",
-    "binding_bounds",
-    "braking_velocity",
-    "run_violation",
-    "step_violation",
-    "velocity_bounds",
-]
 
 IntArray = NDArray[np.int8]
 

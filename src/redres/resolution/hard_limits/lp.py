@@ -24,8 +24,6 @@ from ...errors import ShapeError
 from ._codes import LP_SCALED
 from ._compiled import kernels
 
-__all__ = ["ScaleResult", "largest_scale"]
-
 
 class ScaleResult(NamedTuple):
     """What :func:`largest_scale` finds.
