@@ -10,10 +10,8 @@ Both schemes share :class:`~.base.BoxScheme` (period, limits, previous velocity)
 one compiled kernel per step (:mod:`._kernels`, through :mod:`redres._jit`).
 """
 
+from ._codes import BOUND_KINDS, RELAXED_ACCELERATION, RELAXED_POSITION
 from .box import (
-    BOUND_KINDS,
-    RELAXED_ACCELERATION,
-    RELAXED_POSITION,
     Binding,
     JointLimits,
     VelocityBounds,

@@ -58,7 +58,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..._validate import FloatArray, as_scalar, as_vector
 from ...errors import InvalidParameterError, JointLimitError, NonFiniteError, ShapeError
-from ._codes import BOUND_KINDS, RELAXED_ACCELERATION, RELAXED_POSITION
+from ._codes import BOUND_KINDS
 from ._compiled import kernels
 
 if TYPE_CHECKING:
