@@ -62,9 +62,7 @@ class TaskServo:
             slice(None) if self.rows == list(range(6)) else np.array(self.rows)
         )
         self.gains = TaskGains.make(kp, kd, len(self.rows))
-        self._twist = np.zeros(6)
-        self._accel = np.zeros(6)
-        self._has_target = task.target is not None
+        self.reset()
 
     def reset(self) -> None:
         """Hold the task's own target (if set) with zero feed-forward until a sample comes."""
