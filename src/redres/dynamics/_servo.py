@@ -12,11 +12,7 @@ import numpy as np
 from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError
 from ..linalg import AdaptiveDamping, generalized_inverse
-from ..resolution.gradient_projection import (
-    WeightedObjective,
-    total_gradient,
-    weighted_objectives,
-)
+from ..resolution.gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 from ..tasks import FrameTask
 from .base import ControlStep, TaskGains, TorqueLaw
 

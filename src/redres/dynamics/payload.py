@@ -120,11 +120,7 @@ def with_gravity(
 
 
 def payload_spatial_inertia(
-    robot: Robot,
-    q: Any,
-    payload: Payload,
-    frame: str | None = None,
-    reference: Reference = "world",
+    robot: Robot, q: Any, payload: Payload, frame: str | None = None, reference: Reference = "world"
 ) -> FloatArray:
     """Spatial inertia of ``payload`` about the origin of ``frame``, ``(6, 6)``.
 
