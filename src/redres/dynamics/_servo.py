@@ -89,10 +89,6 @@ class TaskServo:
         cmd = self._accel[rows] + g.kd * (self._twist[rows] - J @ qd) + g.kp * e6[rows]
         return ServoState(T, e6, J, cmd - jdot_qd)
 
-    def target(self) -> FloatArray | None:
-        """The current target pose (4x4)."""
-        return self.task.target
-
 
 class NullSpaceLaw:
     """Secondary motion as a joint acceleration ``q̈₀ = −k_p Σ wᵢ ∇Dᵢ(q) − k_d q̇``.

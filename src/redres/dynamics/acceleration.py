@@ -142,4 +142,4 @@ class AccelerationController(ServoLaw):
         qdd_null = qdd0 - J_hash @ (s.jacobian @ qdd0)
         tau = robot.inverse_dynamics(q, qd, qdd_task + qdd_null)
         extra = {"qdd": qdd_task + qdd_null}
-        return ControlStep(tau, info, s.error, s.pose, self.servo.target(), M @ qdd_null, extra)
+        return ControlStep(tau, info, s.error, s.pose, self.task.target, M @ qdd_null, extra)

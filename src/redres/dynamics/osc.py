@@ -305,5 +305,5 @@ class OperationalSpaceController(ServoLaw):
             self.rcond,
         )
         return ControlStep(
-            out.tau, out.info, s.error, s.pose, self.servo.target(), out.null, {"tau0": tau0}
+            out.tau, out.info, s.error, s.pose, self.task.target, out.null, {"tau0": tau0}
         )

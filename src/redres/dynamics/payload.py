@@ -92,7 +92,6 @@ def with_payload(robot: Robot, payload: Payload, *, name: str | None = None) -> 
     """A copy of ``robot`` carrying ``payload`` (the argument is left untouched).
 
     Args:
-        robot: the robot.
         payload: the load and the frame it is fixed to.
         name: name of the copy (default ``"<robot>+<mass>kg"``).
 

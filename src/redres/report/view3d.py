@@ -48,7 +48,6 @@ def arm_points(robot: Robot, q: Any, frames: Sequence[str] | None = None) -> Flo
     """World positions of the arm's frame origins at ``q``.
 
     Args:
-        robot: the robot.
         q: joint positions, shape ``(n,)``, rad (m for prismatic joints).
         frames: frames to use, in order (default :func:`arm_frames`).
 
