@@ -28,9 +28,7 @@ __all__ = [
 ]
 
 
-def _perturbed(
-    q0: FloatArray, eps: float, model: Any = None
-) -> Iterator[tuple[FloatArray, FloatArray]]:
+def _perturbed(q0: FloatArray, eps: float, model: Any) -> Iterator[tuple[FloatArray, FloatArray]]:
     """``(q ⊕ h eᵢ, q ⊕ −h eᵢ)`` for each coordinate ``i``: ``pin.integrate`` on ``model``,
     plain addition without one."""
     for dq in eps * np.eye(q0.size):

@@ -95,14 +95,11 @@ def dynamic_inverse(
     :func:`redres.linalg.dynamically_consistent_pinv`; tests check the two agree.
     """
     try:
-        J_bar, info = generalized_inverse(
-            J, weights=M, damping=damping, rcond=rcond, return_info=True
-        )
+        return generalized_inverse(J, weights=M, damping=damping, rcond=rcond, return_info=True)
     except NotPositiveDefiniteError as exc:
         raise NotPositiveDefiniteError(
             f"M must be a symmetric positive definite mass matrix ({exc})"
         ) from exc
-    return J_bar, info
 
 
 class OperationalSpaceTorque(NamedTuple):
