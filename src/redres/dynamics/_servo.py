@@ -1,5 +1,5 @@
-"""Shared parts of the torque-level controllers (internal): the task servo and the
-null-space acceleration law."""
+"""Shared parts of the torque-level controllers (internal): the task servo, the
+null-space acceleration law and :class:`ServoLaw`, the base that holds both."""
 
 from __future__ import annotations
 
