@@ -7,7 +7,7 @@ with ``pinocchio.integrate`` so that the helpers stay right for any joint type.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -28,6 +28,16 @@ __all__ = [
 ]
 
 
+def _perturbed(q0: FloatArray, eps: float, model: Any) -> Iterator[tuple[FloatArray, FloatArray]]:
+    """``(q ⊕ h eᵢ, q ⊕ −h eᵢ)`` for each coordinate ``i``: ``pin.integrate`` on ``model``,
+    plain addition without one."""
+    for dq in eps * np.eye(q0.size):
+        if model is None:
+            yield q0 + dq, q0 - dq
+        else:
+            yield pin.integrate(model, q0, dq), pin.integrate(model, q0, -dq)
+
+
 def numerical_jacobian(
     f: Callable[[FloatArray], Any], q: Any, eps: float = 1e-6, model: Any = None
 ) -> FloatArray:
@@ -40,18 +50,10 @@ def numerical_jacobian(
         model: a Pinocchio model to perturb ``q`` with ``pin.integrate`` (default: plain
             addition, right for revolute and prismatic joints).
     """
-    q0 = np.asarray(q, dtype=float)
-    n = q0.size
-    cols = []
-    for i in range(n):
-        dq = np.zeros(n)
-        dq[i] = eps
-        if model is None:
-            qp, qm = q0 + dq, q0 - dq
-        else:
-            qp, qm = pin.integrate(model, q0, dq), pin.integrate(model, q0, -dq)
-        cols.append((np.atleast_1d(f(qp)) - np.atleast_1d(f(qm))) / (2.0 * eps))
-    return np.column_stack(cols)
+    pairs = _perturbed(np.asarray(q, dtype=float), eps, model)
+    return np.column_stack(
+        [(np.atleast_1d(f(qp)) - np.atleast_1d(f(qm))) / (2.0 * eps) for qp, qm in pairs]
+    )
 
 
 def numerical_gradient(f: Callable[[FloatArray], float], q: Any, eps: float = 1e-6) -> FloatArray:
@@ -75,11 +77,8 @@ def frame_jacobian_fd(
     q0 = np.asarray(q, dtype=float)
     R0 = robot.fk(q0, frame)[:3, :3]
     J = np.zeros((6, robot.n))
-    for i in range(robot.n):
-        dq = np.zeros(robot.n)
-        dq[i] = eps
-        Tp = robot.fk(pin.integrate(robot.model, q0, dq), frame)
-        Tm = robot.fk(pin.integrate(robot.model, q0, -dq), frame)
+    for i, (qp, qm) in enumerate(_perturbed(q0, eps, robot.model)):
+        Tp, Tm = robot.fk(qp, frame), robot.fk(qm, frame)
         v = (Tp[:3, 3] - Tm[:3, 3]) / (2 * eps)
         if reference == "world":
             w = pin.log3(Tp[:3, :3] @ Tm[:3, :3].T) / (2 * eps)

@@ -6,11 +6,7 @@ import numpy as np
 import pytest
 
 import redres as rr
-from redres.dynamics import (
-    AccelerationController,
-    OperationalSpaceController,
-    resolve_acceleration,
-)
+from redres.dynamics import AccelerationController, OperationalSpaceController, resolve_acceleration
 from redres.errors import InvalidParameterError, NotPositiveDefiniteError, ShapeError
 from redres.objectives import JointLimitObjective, PostureObjective
 

@@ -122,21 +122,9 @@ def test_panda_tracks_a_circle_under_osc(circle_runs) -> None:
 def test_run_log_is_complete_and_finite(circle_runs, panda) -> None:
     log = circle_runs["dynamic"]
     K = log.steps
-    for name in (
-        "q",
-        "qd",
-        "position",
-        "target",
-        "position_error",
-        "orientation_error",
-        "sigma_min",
-        "damping",
-        "rank",
-        "speed_ratio",
-        "joint_limit_margin",
-        "manipulability",
-        "step_time_ns",
-    ):
+    arrays = """q qd position target position_error orientation_error sigma_min damping rank
+        speed_ratio joint_limit_margin manipulability step_time_ns"""
+    for name in arrays.split():
         values = np.asarray(getattr(log, name))
         assert values.shape[0] == K, name
         assert np.all(np.isfinite(values)), name

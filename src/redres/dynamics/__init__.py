@@ -15,14 +15,7 @@ See docs/dynamics.md.
 from __future__ import annotations
 
 from .acceleration import AccelerationController, resolve_acceleration
-from .base import (
-    ControlStep,
-    GravityCompensation,
-    TaskGains,
-    TorqueFunction,
-    TorqueLaw,
-    ZeroTorque,
-)
+from .base import ControlStep, GravityCompensation, TaskGains, TorqueFunction, TorqueLaw, ZeroTorque
 from .osc import (
     OperationalSpaceController,
     OperationalSpaceTorque,

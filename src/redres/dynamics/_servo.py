@@ -1,22 +1,20 @@
-"""Shared parts of the torque-level controllers (internal): the task servo and the
-null-space acceleration law."""
+"""Shared parts of the torque-level controllers (internal): the task servo, the
+null-space acceleration law and :class:`ServoLaw`, the base that holds both."""
 
 from __future__ import annotations
 
+from abc import abstractmethod
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar
+from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError
-from ..resolution.gradient_projection import (
-    WeightedObjective,
-    total_gradient,
-    weighted_objectives,
-)
+from ..linalg import AdaptiveDamping, generalized_inverse
+from ..resolution.gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 from ..tasks import FrameTask
-from .base import TaskGains, TorqueLaw
+from .base import ControlStep, TaskGains, TorqueLaw
 
 if TYPE_CHECKING:
     from ..control import Sample
@@ -60,9 +58,7 @@ class TaskServo:
             slice(None) if self.rows == list(range(6)) else np.array(self.rows)
         )
         self.gains = TaskGains.make(kp, kd, len(self.rows))
-        self._twist = np.zeros(6)
-        self._accel = np.zeros(6)
-        self._has_target = task.target is not None
+        self.reset()
 
     def reset(self) -> None:
         """Hold the task's own target (if set) with zero feed-forward until a sample comes."""
@@ -93,10 +89,6 @@ class TaskServo:
         cmd = self._accel[rows] + g.kd * (self._twist[rows] - J @ qd) + g.kp * e6[rows]
         return ServoState(T, e6, J, cmd - jdot_qd)
 
-    def target(self) -> FloatArray | None:
-        """The current target pose (4x4)."""
-        return self.task.target
-
 
 class NullSpaceLaw:
     """Secondary motion as a joint acceleration ``q̈₀ = −k_p Σ wᵢ ∇Dᵢ(q) − k_d q̇``.
@@ -125,10 +117,28 @@ class NullSpaceLaw:
 
 
 class ServoLaw(TorqueLaw):
-    """A torque law built on a :class:`TaskServo` (``self.servo``): the task plumbing that
-    the operational-space and acceleration-level controllers share."""
+    """A torque law built on a :class:`TaskServo` and a :class:`NullSpaceLaw`: the settings,
+    validation and task plumbing that the operational-space and acceleration-level
+    controllers share (arguments as for :class:`~redres.dynamics.OperationalSpaceController`).
+    Subclasses give the torque of one evaluated servo state in :meth:`_step`.
+    """
 
-    servo: TaskServo
+    def __init__(
+        self,
+        task: FrameTask | None,
+        kp: Any,
+        kd: Any,
+        objectives: Sequence[WeightedObjective],
+        null_kp: float,
+        null_kd: float,
+        damping: float | AdaptiveDamping,
+        rcond: float,
+    ) -> None:
+        self.servo = TaskServo(FrameTask() if task is None else task, kp, kd)
+        self.null_law = NullSpaceLaw(objectives, null_kp, null_kd)
+        generalized_inverse(np.eye(1), damping=damping)  # validates damping early
+        self.damping = damping
+        self.rcond = rcond
 
     @property
     def task(self) -> FrameTask:
@@ -140,3 +150,19 @@ class ServoLaw(TorqueLaw):
 
     def task_frame(self) -> tuple[str | None, list[int]]:
         return self.servo.task.frame, self.servo.rows
+
+    def step(
+        self, robot: Robot, q: FloatArray, qd: FloatArray, sample: Sample | None = None
+    ) -> ControlStep:
+        """Torques for state ``(q, q̇)`` tracking ``sample`` (``None``: hold the target)."""
+        q = as_vector(q, "q", robot.n)
+        qd = as_vector(qd, "qd", robot.n)
+        self.servo.update(sample)
+        s = self.servo.evaluate(robot, q, qd)
+        return self._step(robot, q, qd, s, robot.mass_matrix(q))
+
+    @abstractmethod
+    def _step(
+        self, robot: Robot, q: FloatArray, qd: FloatArray, s: ServoState, M: FloatArray
+    ) -> ControlStep:
+        """The torque at validated ``(q, q̇)``, servo state ``s`` and joint inertia ``M``."""

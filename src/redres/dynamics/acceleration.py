@@ -21,7 +21,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal, get_args
 
-import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validate import FloatArray, as_matrix, as_vector
@@ -29,17 +28,17 @@ from ..errors import InvalidParameterError
 from ..linalg import RCOND, AdaptiveDamping, InverseInfo, generalized_inverse
 from ..resolution.gradient_projection import WeightedObjective
 from ..tasks import FrameTask
-from ._servo import NullSpaceLaw, ServoLaw, TaskServo
+from ._servo import ServoLaw, ServoState
 from .base import ControlStep
 from .osc import check_choice, dynamic_inverse
 
 if TYPE_CHECKING:
-    from ..control import Sample
     from ..robot import Robot
 
 __all__ = ["AccelerationController", "InverseKind", "resolve_acceleration"]
 
 InverseKind = Literal["dynamic", "kinematic"]
+_INVERSES: tuple[str, ...] = get_args(InverseKind)
 
 
 def _inverse(
@@ -87,7 +86,7 @@ def resolve_acceleration(
         NotPositiveDefiniteError: ``M`` is not symmetric positive definite.
         InvalidParameterError: unknown ``inverse``, or ``"dynamic"`` without ``M``.
     """
-    check_choice(inverse, "inverse", get_args(InverseKind))
+    check_choice(inverse, "inverse", _INVERSES)
     Jm = as_matrix(J, "J")
     m, n = Jm.shape
     a = as_vector(xdd, "xdd", m) - as_vector(jdot_qd, "jdot_qd", m)
@@ -130,34 +129,17 @@ class AccelerationController(ServoLaw):
         rcond: float = RCOND,
         name: str | None = None,
     ) -> None:
-        self.servo = TaskServo(FrameTask() if task is None else task, kp, kd)
-        self.null_law = NullSpaceLaw(objectives, null_kp, null_kd)
-        self.inverse = check_choice(inverse, "inverse", get_args(InverseKind))
-        generalized_inverse(np.eye(1), damping=damping)  # validates damping early
-        self.damping = damping
-        self.rcond = rcond
+        self.inverse = check_choice(inverse, "inverse", _INVERSES)
+        super().__init__(task, kp, kd, objectives, null_kp, null_kd, damping, rcond)
         self.name = name or f"acceleration_{inverse}"
 
-    def step(
-        self, robot: Robot, q: FloatArray, qd: FloatArray, sample: Sample | None = None
+    def _step(
+        self, robot: Robot, q: FloatArray, qd: FloatArray, s: ServoState, M: FloatArray
     ) -> ControlStep:
-        """Torques for state ``(q, q̇)`` tracking ``sample`` (``None``: hold the target)."""
-        q = as_vector(q, "q", robot.n)
-        qd = as_vector(qd, "qd", robot.n)
-        self.servo.update(sample)
-        s = self.servo.evaluate(robot, q, qd)
-        M = robot.mass_matrix(q)
         qdd0 = self.null_law.acceleration(robot, q, qd)
         J_hash, info = _inverse(s.jacobian, M, self.inverse, self.damping, self.rcond)
         qdd_task = J_hash @ s.command
         qdd_null = qdd0 - J_hash @ (s.jacobian @ qdd0)
         tau = robot.inverse_dynamics(q, qd, qdd_task + qdd_null)
-        return ControlStep(
-            tau,
-            info,
-            s.error,
-            s.pose,
-            self.servo.target(),
-            M @ qdd_null,
-            {"qdd": qdd_task + qdd_null},
-        )
+        extra = {"qdd": qdd_task + qdd_null}
+        return ControlStep(tau, info, s.error, s.pose, self.task.target, M @ qdd_null, extra)

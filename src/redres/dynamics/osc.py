@@ -42,7 +42,7 @@ References:
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any, Literal, NamedTuple, get_args
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, TypeVar, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -55,11 +55,10 @@ from ..linalg.dynamics import mass_matrix_factor
 from ..objectives import PostureObjective
 from ..resolution.gradient_projection import WeightedObjective
 from ..tasks import FrameTask
-from ._servo import NullSpaceLaw, ServoLaw, TaskServo
+from ._servo import ServoLaw, ServoState
 from .base import ControlStep
 
 if TYPE_CHECKING:
-    from ..control import Sample
     from ..registry import ScenarioParams
     from ..robot import Robot
 
@@ -76,9 +75,10 @@ Projector = Literal["dynamic", "kinematic"]
 Compensation = Literal["joint", "task"]
 _PROJECTORS: tuple[str, ...] = get_args(Projector)
 _COMPENSATIONS: tuple[str, ...] = get_args(Compensation)
+_S = TypeVar("_S", bound=str)
 
 
-def check_choice(value: str, name: str, choices: tuple[str, ...]) -> str:
+def check_choice(value: _S, name: str, choices: tuple[str, ...]) -> _S:
     """``value`` if it is one of ``choices``, else an error listing them."""
     if value not in choices:
         raise InvalidParameterError(f"{name} must be one of {', '.join(choices)}; got {value!r}")
@@ -95,14 +95,11 @@ def dynamic_inverse(
     :func:`redres.linalg.dynamically_consistent_pinv`; tests check the two agree.
     """
     try:
-        J_bar, info = generalized_inverse(
-            J, weights=M, damping=damping, rcond=rcond, return_info=True
-        )
+        return generalized_inverse(J, weights=M, damping=damping, rcond=rcond, return_info=True)
     except NotPositiveDefiniteError as exc:
         raise NotPositiveDefiniteError(
             f"M must be a symmetric positive definite mass matrix ({exc})"
         ) from exc
-    return J_bar, info
 
 
 class OperationalSpaceTorque(NamedTuple):
@@ -253,18 +250,12 @@ class OperationalSpaceController(ServoLaw):
         rcond: float = RCOND,
         name: str | None = None,
     ) -> None:
-        self.servo = TaskServo(FrameTask() if task is None else task, kp, kd)
-        self.null_law = NullSpaceLaw(objectives, null_kp, null_kd)
         if null_torque is not None and not callable(null_torque):
             raise InvalidParameterError(f"null_torque must be callable; got {null_torque!r}")
         self.null_torque = null_torque
-        check_choice(projector, "projector", _PROJECTORS)
-        check_choice(compensation, "compensation", _COMPENSATIONS)
-        self.projector: Projector = projector
-        self.compensation: Compensation = compensation
-        generalized_inverse(np.eye(1), damping=damping)  # validates damping early
-        self.damping = damping
-        self.rcond = rcond
+        self.projector = check_choice(projector, "projector", _PROJECTORS)
+        self.compensation = check_choice(compensation, "compensation", _COMPENSATIONS)
+        super().__init__(task, kp, kd, objectives, null_kp, null_kd, damping, rcond)
         self.name = name or f"osc_{projector}"
 
     @classmethod
@@ -295,15 +286,9 @@ class OperationalSpaceController(ServoLaw):
             tau0 = tau0 + as_vector(self.null_torque(robot, q, qd), "null_torque()", robot.n)
         return tau0
 
-    def step(
-        self, robot: Robot, q: FloatArray, qd: FloatArray, sample: Sample | None = None
+    def _step(
+        self, robot: Robot, q: FloatArray, qd: FloatArray, s: ServoState, M: FloatArray
     ) -> ControlStep:
-        """Torques for state ``(q, q̇)`` tracking ``sample`` (``None``: hold the target)."""
-        q = as_vector(q, "q", robot.n)
-        qd = as_vector(qd, "qd", robot.n)
-        self.servo.update(sample)
-        s = self.servo.evaluate(robot, q, qd)
-        M = robot.mass_matrix(q)
         tau0 = self.null_space_torque(robot, q, qd, M)
         out = _torque(
             s.jacobian,
@@ -317,5 +302,5 @@ class OperationalSpaceController(ServoLaw):
             self.rcond,
         )
         return ControlStep(
-            out.tau, out.info, s.error, s.pose, self.servo.target(), out.null, {"tau0": tau0}
+            out.tau, out.info, s.error, s.pose, self.task.target, out.null, {"tau0": tau0}
         )

@@ -92,7 +92,6 @@ def with_payload(robot: Robot, payload: Payload, *, name: str | None = None) -> 
     """A copy of ``robot`` carrying ``payload`` (the argument is left untouched).
 
     Args:
-        robot: the robot.
         payload: the load and the frame it is fixed to.
         name: name of the copy (default ``"<robot>+<mass>kg"``).
 
@@ -120,11 +119,7 @@ def with_gravity(
 
 
 def payload_spatial_inertia(
-    robot: Robot,
-    q: Any,
-    payload: Payload,
-    frame: str | None = None,
-    reference: Reference = "world",
+    robot: Robot, q: Any, payload: Payload, frame: str | None = None, reference: Reference = "world"
 ) -> FloatArray:
     """Spatial inertia of ``payload`` about the origin of ``frame``, ``(6, 6)``.
 

@@ -251,9 +251,9 @@ def _make_log(robot: Robot, law: TorqueLaw, rec: _Recorder, h: float, label: str
     return log
 
 
-def _energy(plant: Robot, q: FloatArray, qd: FloatArray) -> tuple[float, float]:
-    kinetic = 0.5 * float(qd @ plant.mass_matrix(q) @ qd)
-    return kinetic, float(pin.computePotentialEnergy(plant.model, plant.data, q))
+def _energy(plant: Robot, q: FloatArray, qd: FloatArray, M: FloatArray) -> tuple[float, float]:
+    """Kinetic ``½ q̇ᵀ M q̇`` and potential energy, J."""
+    return 0.5 * float(qd @ M @ qd), float(pin.computePotentialEnergy(plant.model, plant.data, q))
 
 
 def _analyse(
@@ -277,11 +277,10 @@ def _analyse(
         if np.isnan(log.position[k, 0]):
             log.position[k] = placement.translation
         M = plant.mass_matrix(q)
-        kinetic[k] = 0.5 * float(qd @ M @ qd)
-        potential[k] = float(pin.computePotentialEnergy(plant.model, plant.data, q))
+        kinetic[k], potential[k] = _energy(plant, q, qd, M)
         if tau_null[k].any():
             disturbance[k] = float(np.linalg.norm(J6[rows] @ np.linalg.solve(M, tau_null[k])))
-    final = _energy(plant, q_end, qd_end)
+    final = _energy(plant, q_end, qd_end, plant.mass_matrix(q_end))
     log.extra.update(
         kinetic_energy=kinetic,
         potential_energy=potential,

@@ -142,18 +142,17 @@ class ObstacleObjective(Objective):
         """Smallest surface distance between the arm and any obstacle, m."""
         return min(p.distance for p in self.proximities(robot, q))
 
+    def _penalty(self, found: list[Proximity]) -> float:
+        d0 = self.influence
+        return float(sum((1.0 - p.distance / d0) ** 2 for p in found if p.distance < d0))
+
     def cost_and_distance(self, robot: Robot, q: FloatArray) -> tuple[float, float]:
         """:meth:`cost` and :meth:`min_distance` from one distance computation."""
-        d0 = self.influence
         found = self.proximities(robot, q)
-        cost = sum((1.0 - p.distance / d0) ** 2 for p in found if p.distance < d0)
-        return float(cost), min(p.distance for p in found)
+        return self._penalty(found), min(p.distance for p in found)
 
     def cost(self, robot: Robot, q: FloatArray) -> float:
-        d0 = self.influence
-        return float(
-            sum((1.0 - p.distance / d0) ** 2 for p in self.proximities(robot, q) if p.distance < d0)
-        )
+        return self._penalty(self.proximities(robot, q))
 
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
         d0 = self.influence

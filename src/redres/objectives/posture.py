@@ -30,18 +30,17 @@ class PostureObjective(Objective):
             raise ValueError(f"weights must be finite and >= 0; got {weights}")
         self.weights = w
 
-    def _offset(self, robot: Robot, q: FloatArray) -> FloatArray:
-        q_ref = robot.neutral() if self.q_ref is None else self.q_ref
-        return q - q_ref
+    def _q_ref(self, robot: Robot) -> FloatArray:
+        return robot.neutral() if self.q_ref is None else self.q_ref
 
     def cost(self, robot: Robot, q: FloatArray) -> float:
-        dq = self._offset(robot, q)
+        dq = q - self._q_ref(robot)
         return float(0.5 * np.sum(self.weights * dq * dq))
 
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
-        return self.weights * self._offset(robot, q)
+        return self.weights * (q - self._q_ref(robot))
 
     def quadratic_form(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
         """``(weights, q_ref)`` broadcast to ``(n,)``: the gradient is ``w ∘ (q − q_ref)``."""
-        q_ref = robot.neutral() if self.q_ref is None else self.q_ref
-        return np.broadcast_to(self.weights, (robot.n,)).astype(float), np.array(q_ref, float)
+        w = np.broadcast_to(self.weights, (robot.n,)).astype(float)
+        return w, np.array(self._q_ref(robot), float)

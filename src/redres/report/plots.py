@@ -10,7 +10,7 @@ display backend is touched.
 from __future__ import annotations
 
 import io
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -53,12 +53,15 @@ def palette(names: Sequence[str]) -> dict[str, str]:
 
 
 def _figure(
-    width: float, nrows: int, ncols: int, *, row_height: float, left: float = 0.7
+    width: float, panels: int, max_cols: int, *, row_height: float, left: float
 ) -> tuple[Figure, Any]:
-    """A figure with a fixed layout, margins in inches: room for the title and legend on
-    top, tick labels left and below. (A fixed layout draws ~2.5x faster than the
+    """A figure of ``panels`` axes in rows of at most ``max_cols`` (the unused ones of the
+    last row hidden), with a fixed layout, margins in inches: room for the title and legend
+    on top, tick labels left and below. (A fixed layout draws ~2.5x faster than the
     constrained one, which dominates the report's run time.)"""
     figure_module = require("matplotlib.figure")
+    ncols = min(max_cols, panels)
+    nrows = -(-panels // ncols)
     top, bottom = 0.85, 0.5
     height = top + bottom + row_height * nrows
     fig: Figure = figure_module.Figure(figsize=(width, height), dpi=DPI)
@@ -71,25 +74,28 @@ def _figure(
         hspace=0.45 if nrows > 1 else 0.2,
         wspace=0.22,
     )
+    for ax in axes.reshape(-1)[panels:]:
+        ax.set_visible(False)
     return fig, axes.reshape(-1)
 
 
 def _curve(
     ax: Axes,
-    t: FloatArray,
+    log: RunLog,
     y: FloatArray,
-    color: str,
-    label: str,
+    colours: Mapping[str, str],
     max_points: int,
     *,
     positive: bool = False,
 ) -> None:
+    """One run's curve ``y(log.t)``, thinned, in the run's colour and named after it."""
     idx = envelope_indices(y, max_points)
     values = y[idx]
     if positive:  # log axes: leave out exact zeros instead of drawing them at -inf
         values = np.where(values > 0, values, np.nan)
     marker = "o" if idx.size < 3 else None  # a one-step run is a point, not a line
-    ax.plot(t[idx], values, color=color, lw=1.3, label=label, marker=marker, ms=3)
+    name = run_name(log)
+    ax.plot(log.t[idx], values, color=colours[name], lw=1.3, label=name, marker=marker, ms=3)
 
 
 def _title(fig: Figure, text: str, handles: Sequence[Any], labels: Sequence[str]) -> None:
@@ -121,20 +127,15 @@ def joints_figure(
         max_points: at most this many samples per curve.
     """
     n = robot.n
-    ncols = min(4, n)
-    nrows = -(-n // ncols)
-    fig, axes = _figure(12.0, nrows, ncols, row_height=1.9, left=0.55)
-    for j, ax in enumerate(axes):
-        if j >= n:
-            ax.set_visible(False)
-            continue
+    fig, axes = _figure(12.0, n, 4, row_height=1.9, left=0.55)
+    for j, ax in enumerate(axes[:n]):
         for log in logs:
-            _curve(ax, log.t, log.q[:, j], colours[run_name(log)], run_name(log), max_points)
+            _curve(ax, log, log.q[:, j], colours, max_points)
         _draw_limits(ax, float(robot.q_min[j]), float(robot.q_max[j]))
         ax.set_title(f"{j + 1}: {robot.joint_names[j]}", fontsize=9)
         ax.tick_params(which="both", labelsize=8)
         ax.grid(alpha=0.3)
-    for ax in axes[-ncols:]:
+    for ax in axes[-min(4, n) :]:  # the bottom row
         ax.set_xlabel("t (s)", fontsize=9)
     _title(
         fig, f"{robot.name}: joint positions (rad) and limits", *axes[0].get_legend_handles_labels()
@@ -157,19 +158,24 @@ def _draw_limits(ax: Axes, low: float, high: float) -> None:
     ax.set_ylim(lo, hi)
 
 
+#: The one-panel time series: kind -> (the plotted values of a run, title, y label).
+_SERIES: dict[str, tuple[Callable[[RunLog], FloatArray], str, str]] = {
+    "position_error": (
+        lambda log: 1e3 * log.position_error,
+        "task position error",
+        "‖p_d − p‖ (mm)",
+    ),
+    "sigma_min": (lambda log: log.sigma_min, "smallest singular value σ_min", "σ_min of J"),
+}
+
+
 def _time_series_figure(
-    robot_name: str,
-    logs: Sequence[RunLog],
-    colours: Mapping[str, str],
-    max_points: int,
-    series: Any,
-    title: str,
-    ylabel: str,
+    kind: str, robot_name: str, logs: Sequence[RunLog], colours: Mapping[str, str], max_points: int
 ) -> Figure:
+    series, title, ylabel = _SERIES[kind]
     fig, (ax,) = _figure(6.0, 1, 1, row_height=2.45, left=0.75)
     for log in logs:
-        y = series(log)
-        _curve(ax, log.t, y, colours[run_name(log)], run_name(log), max_points, positive=True)
+        _curve(ax, log, series(log), colours, max_points, positive=True)
     _log_axis(ax)
     ax.set_xlabel("t (s)", fontsize=9)
     ax.set_ylabel(ylabel, fontsize=9)
@@ -195,30 +201,14 @@ def position_error_figure(
     robot_name: str, logs: Sequence[RunLog], colours: Mapping[str, str], max_points: int = 2000
 ) -> Figure:
     """``‖p_d − p‖`` over time, mm, log scale (exact zeros are left out)."""
-    return _time_series_figure(
-        robot_name,
-        logs,
-        colours,
-        max_points,
-        lambda log: 1e3 * log.position_error,
-        "task position error",
-        "‖p_d − p‖ (mm)",
-    )
+    return _time_series_figure("position_error", robot_name, logs, colours, max_points)
 
 
 def sigma_min_figure(
     robot_name: str, logs: Sequence[RunLog], colours: Mapping[str, str], max_points: int = 2000
 ) -> Figure:
     """Smallest singular value of the task Jacobian over time, log scale."""
-    return _time_series_figure(
-        robot_name,
-        logs,
-        colours,
-        max_points,
-        lambda log: log.sigma_min,
-        "smallest singular value σ_min",
-        "σ_min of J",
-    )
+    return _time_series_figure("sigma_min", robot_name, logs, colours, max_points)
 
 
 def objectives_figure(
@@ -229,16 +219,12 @@ def objectives_figure(
     names = list(dict.fromkeys(name for log in logs for name in log.objectives))
     if not names:
         return None
-    ncols = min(3, len(names))
-    nrows = -(-len(names) // ncols)
-    fig, axes = _figure(12.0, nrows, ncols, row_height=2.3, left=0.6)
-    for ax in axes[len(names) :]:
-        ax.set_visible(False)
+    fig, axes = _figure(12.0, len(names), 3, row_height=2.3, left=0.6)
     for ax, name in zip(axes, names):
         for log in logs:
             if name in log.objectives:
                 values = np.asarray(log.objectives[name], dtype=float)
-                _curve(ax, log.t, values, colours[run_name(log)], run_name(log), max_points)
+                _curve(ax, log, values, colours, max_points)
         ax.set_title(name.replace("_", " "), fontsize=9)
         ax.set_xlabel("t (s)", fontsize=9)
         ax.tick_params(which="both", labelsize=8)

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._validate import FloatArray, as_vector
+from .plots import run_name
 from .series import IntArray, even_indices
 
 if TYPE_CHECKING:
@@ -47,7 +48,6 @@ def arm_points(robot: Robot, q: Any, frames: Sequence[str] | None = None) -> Flo
     """World positions of the arm's frame origins at ``q``.
 
     Args:
-        robot: the robot.
         q: joint positions, shape ``(n,)``, rad (m for prismatic joints).
         frames: frames to use, in order (default :func:`arm_frames`).
 
@@ -106,8 +106,7 @@ def arm_animation(
         target = None
         position = np.array([robot.fk(log.q[k])[:3, 3] for k in path])
         now = arm[:, -1]
-    label = log.label or log.scheme
-    return ArmAnimation(robot.name, label, log.t[idx], idx, arm, target, position, now)
+    return ArmAnimation(robot.name, run_name(log), log.t[idx], idx, arm, target, position, now)
 
 
 def _xyz(points: FloatArray) -> dict[str, list[float]]:
@@ -141,50 +140,32 @@ def _scene(anim: ArmAnimation) -> dict[str, Any]:
     }
 
 
+def _path(
+    name: str, points: FloatArray, line: dict[str, Any], mode: str = "lines", **style: Any
+) -> dict[str, Any]:
+    """A plotly ``scatter3d`` trace through ``points``."""
+    return {"type": "scatter3d", "mode": mode, "name": name, **_xyz(points), "line": line, **style}
+
+
 def _traces(anim: ArmAnimation, colour: str) -> list[dict[str, Any]]:
     first = anim.arm[0]
-    traces: list[dict[str, Any]] = [
-        {
-            "type": "scatter3d",
-            "mode": "lines+markers",
-            "name": "arm",
-            **_xyz(first),
-            "line": {"color": colour, "width": 8},
-            "marker": {"size": 4, "color": "#333"},
-        },
-        {
-            "type": "scatter3d",
-            "mode": "markers",
-            **_xyz(anim.now[:1]),
-            "name": "target now" if anim.target is not None else "tip now",
-            "marker": {"size": 5, "color": "#d62728", "symbol": "diamond"},
-        },
-        {
-            "type": "scatter3d",
-            "mode": "lines",
-            "name": "arm at t = 0",
-            **_xyz(first),
-            "line": {"color": "#b0b0b0", "width": 4},
-            "opacity": 0.6,
-            "visible": "legendonly",
-        },
-        {
-            "type": "scatter3d",
-            "mode": "lines",
-            "name": "actual path",
-            **_xyz(anim.position),
-            "line": {"color": colour, "width": 3},
-        },
+    markers, grey = {"size": 4, "color": "#333"}, {"color": "#b0b0b0", "width": 4}
+    now = {
+        "type": "scatter3d",
+        "mode": "markers",
+        **_xyz(anim.now[:1]),
+        "name": "target now" if anim.target is not None else "tip now",
+        "marker": {"size": 5, "color": "#d62728", "symbol": "diamond"},
+    }
+    traces = [
+        _path("arm", first, {"color": colour, "width": 8}, "lines+markers", marker=markers),
+        now,
+        _path("arm at t = 0", first, grey, opacity=0.6, visible="legendonly"),
+        _path("actual path", anim.position, {"color": colour, "width": 3}),
     ]
     if anim.target is not None:
         traces.append(
-            {
-                "type": "scatter3d",
-                "mode": "lines",
-                "name": "target path",
-                **_xyz(anim.target),
-                "line": {"color": "#555", "width": 2, "dash": "dash"},
-            }
+            _path("target path", anim.target, {"color": "#555", "width": 2, "dash": "dash"})
         )
     return traces
 
@@ -211,19 +192,13 @@ def frame_delay_ms(anim: ArmAnimation) -> int:
 
 def _slider(anim: ArmAnimation) -> dict[str, Any]:
     """A time slider bound to the frames (step labels hidden: the current time shows)."""
+    jump = {
+        "mode": "immediate",
+        "frame": {"duration": 0, "redraw": True},
+        "transition": {"duration": 0},
+    }
     steps = [
-        {
-            "method": "animate",
-            "label": f"{t:.2f}",
-            "args": [
-                [str(f)],
-                {
-                    "mode": "immediate",
-                    "frame": {"duration": 0, "redraw": True},
-                    "transition": {"duration": 0},
-                },
-            ],
-        }
+        {"method": "animate", "label": f"{t:.2f}", "args": [[str(f)], jump]}
         for f, t in enumerate(anim.times)
     ]
     return {

@@ -20,12 +20,6 @@ if TYPE_CHECKING:
     from ..robot import Robot
 
 PAGE = "report.html"
-FILE_KINDS = {
-    "joints": "joints",
-    "position_error": "position-error",
-    "sigma_min": "sigma-min",
-    "objectives": "objectives",
-}
 
 
 def _check_options(
@@ -89,7 +83,7 @@ def _write_plots(
     out = []
     for name, (robot, logs) in _by_robot(pairs).items():
         pngs = plots.robot_figures(robot, logs, colours, max_points=max_points)
-        files = {kind: f"{_slug(name)}-{FILE_KINDS[kind]}.png" for kind in pngs}
+        files = {kind: f"{_slug(name)}-{kind.replace('_', '-')}.png" for kind in pngs}
         for kind, data in pngs.items():
             (staging / files[kind]).write_bytes(data)
         out.append(html.RobotPlots(name, pngs, files))

@@ -33,8 +33,8 @@ class PostureTask(Task):
             not self.joints or len(set(self.joints)) != len(self.joints)
         ):
             raise InvalidParameterError(f"joints must be distinct indices; got {joints}")
-        sizes = [len(self.joints)] if self.joints is not None else []
-        self.dim = sizes[0] if sizes else (0 if self.q_ref is None else self.q_ref.size)
+        n_ref = 0 if self.q_ref is None else self.q_ref.size
+        self.dim = n_ref if self.joints is None else len(self.joints)
         self.name = name
         self._rows: FloatArray | None = None  # the rows of I, built for the robot's n
         self._idx: list[int] = []
