@@ -22,6 +22,7 @@ __all__ = [
     "ShapeError",
     "SimulationError",
     "URDFError",
+    "UnknownParameterError",
 ]
 
 
