@@ -118,16 +118,11 @@ _on_switch: list[Callable[[], None]] = []
 def use_fast_path(m: int, n: int) -> ModuleType | None:
     """Kernels if ``m x n`` is small enough for them and they are available: up to 6 rows,
     or up to 12 rows when ``m <= n`` (stacked and augmented Jacobians); at most 50 columns."""
-    if fast_size(m, n):
+    if m <= 0 or n <= 0 or n > FAST_MAX_COLS:
+        return None
+    if m <= FAST_MAX_ROWS or (m <= FAST_MAX_SQUARE_ROWS and m <= n):
         return kernels()
     return None
-
-
-def fast_size(m: int, n: int) -> bool:
-    """Whether the kernels cover an ``m x n`` problem (see :func:`use_fast_path`)."""
-    if m <= 0 or n <= 0 or n > FAST_MAX_COLS:
-        return False
-    return m <= FAST_MAX_ROWS or (m <= FAST_MAX_SQUARE_ROWS and m <= n)
 
 
 def parse_damping(damping: float | AdaptiveDamping) -> tuple[int, float, float, float]:
@@ -168,21 +163,23 @@ def parse_weights(weights: Any, n: int, name: str) -> tuple[int, FloatArray, Flo
     )
 
 
+_NONFINITE = {
+    codes.Q_NONFINITE: "q",
+    codes.J_NONFINITE: "J",
+    codes.XD_NONFINITE: "xd",
+    codes.GRAD_NONFINITE: "grad",
+    codes.W_NONFINITE: "W",
+}
+
+
 def raise_status(status: int, names: dict[str, str]) -> None:
     """Raise the error a kernel status code stands for, naming the argument."""
-    if status == codes.Q_NONFINITE:
-        raise NonFiniteError(f"{names.get('q', 'q')} contains NaN or infinity")
-    if status == codes.J_NONFINITE:
-        raise NonFiniteError(f"{names.get('J', 'J')} contains NaN or infinity")
-    if status == codes.XD_NONFINITE:
-        raise NonFiniteError(f"{names.get('xd', 'xd')} contains NaN or infinity")
-    if status == codes.GRAD_NONFINITE:
-        raise NonFiniteError(f"{names.get('grad', 'grad')} contains NaN or infinity")
+    if status in _NONFINITE:
+        key = _NONFINITE[status]
+        raise NonFiniteError(f"{names.get(key, key)} contains NaN or infinity")
     if status == codes.J_EMPTY:
         raise ShapeError(f"{names.get('J', 'J')} must have at least one row and one column")
     w = names.get("W", "W")
-    if status == codes.W_NONFINITE:
-        raise NonFiniteError(f"{w} contains NaN or infinity")
     if status == codes.W_NOT_SPD:
         raise NotPositiveDefiniteError(
             f"{w} must be positive definite: diagonal weights all > 0, or a full matrix "
@@ -255,32 +252,27 @@ def times_lt(X: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
     return np.asarray(X @ factor.T)
 
 
-Result = FloatArray | tuple[FloatArray, InverseInfo]
-
-
+WithInfo = tuple[FloatArray, InverseInfo]
+"""What ``f(J, ..., return_info=True)`` returns: the matrix and its diagnostics."""
+Result = FloatArray | WithInfo
 Parts = tuple[FloatArray, "Stats", str]
 """``(matrix, stats, method)`` before packaging."""
 
 
-def finish(
-    X: FloatArray,
-    stats: Stats,
-    method: str,
-    shape: tuple[int, ...],
-    return_info: bool,
-) -> Result:
-    """``X`` alone, or ``(X, InverseInfo)`` built from the engine's statistics."""
+def finish(parts: Parts, shape: tuple[int, ...], return_info: bool) -> Result:
+    """The matrix of ``parts`` alone, or ``(matrix, InverseInfo)`` built from its statistics."""
+    X, stats, method = parts
     if not return_info:
         return X
     rank, smin, smax, used = stats
     return X, InverseInfo(rank, rank == min(shape), smin, smax, used, method)
 
 
-def as_jacobian(J: Any, name: str = "J") -> FloatArray:
+def as_jacobian(J: Any) -> FloatArray:
     """``J`` as a finite, non-empty float64 matrix (C order), or a clear error."""
-    arr = as_matrix(J, name)
+    arr = as_matrix(J, "J")
     if arr.shape[0] == 0 or arr.shape[1] == 0:
-        raise ShapeError(f"{name} must have at least one row and one column; got {arr.shape}")
+        raise ShapeError(f"J must have at least one row and one column; got {arr.shape}")
     return np.ascontiguousarray(arr)
 
 
@@ -377,6 +369,26 @@ class Factored(NamedTuple):
     mode: int
 
 
+def _kernel_inverse(
+    kern: ModuleType,
+    J: FloatArray,
+    weights: tuple[int, FloatArray, FloatArray],
+    outputs: tuple[FloatArray, FloatArray, FloatArray],
+    spec: tuple[int, float, float, float],
+    rcond: float,
+    weights_name: str,
+) -> Stats:
+    """``kern.inverse`` into ``outputs = (J#, N, Lambda)`` (0 x 0 when not wanted); errors
+    name ``weights_name``."""
+    wmode, wdiag, wfull = weights
+    status, rank, smin, smax, used = kern.inverse(
+        np.ascontiguousarray(J), wdiag, wfull, *outputs, wmode, *spec, rcond
+    )
+    if status:
+        raise_status(status, {"J": "J", "W": weights_name})
+    return Stats(rank, smin, smax, used)
+
+
 def invert(
     J: FloatArray,
     *,
@@ -392,28 +404,24 @@ def invert(
     ``J`` must already be a validated finite float64 matrix. Outputs not wanted are 0 x 0.
     """
     m, n = J.shape
-    mode, lam, lam_max, eps = parse_damping(damping)
-    wmode, wdiag, wfull = parse_weights(weights, n, weights_name)
+    spec = parse_damping(damping)
+    wmode, wdiag, wfull = parsed = parse_weights(weights, n, weights_name)
     kern = use_fast_path(m, n)
     if kern is not None:
         Jp = np.empty((n, m)) if want_pinv else EMPTY_2D
         N = np.empty((n, n)) if want_projector else EMPTY_2D
-        status, rank, smin, smax, used = kern.inverse(
-            np.ascontiguousarray(J), wdiag, wfull, Jp, N, EMPTY_2D, wmode, mode, lam, lam_max,
-            eps, rcond,
-        )  # fmt: skip
-        if status:
-            raise_status(status, {"J": "J", "W": weights_name})
-        return Factored(Jp, N, Stats(rank, smin, smax, used), mode)
+        stats = _kernel_inverse(kern, J, parsed, (Jp, N, EMPTY_2D), spec, rcond, weights_name)
+        return Factored(Jp, N, stats, spec[0])
     factor = (
         EMPTY_2D if wmode == codes.NO_WEIGHTS else weight_factor(wmode, wdiag, wfull, weights_name)
     )
-    filt = Filtered(weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
+    filt = Filtered(weigh(J, wmode, factor), *spec, rcond)
     Jp = unweigh_rows(filt.pinv(), wmode, factor) if want_pinv else EMPTY_2D
     N = EMPTY_2D
     if want_projector:
         N = times_lt(unweigh_rows(filt.projector(), wmode, factor), wmode, factor)
-    return Factored(Jp, N, Stats(filt.rank, filt.sigma_min, filt.sigma_max, filt.damping), mode)
+    stats = Stats(filt.rank, filt.sigma_min, filt.sigma_max, filt.damping)
+    return Factored(Jp, N, stats, spec[0])
 
 
 def task_inertia(
@@ -434,31 +442,26 @@ def task_inertia(
     kern = use_fast_path(m, n)
     if kern is None:
         return None
-    mode, lam, lam_max, eps = parse_damping(damping)
-    wmode, wdiag, wfull = parse_weights(M, n, "M")
-    if wmode != codes.FULL:  # a (n,) vector is not a mass matrix: let the caller say so
+    spec = parse_damping(damping)
+    parsed = parse_weights(M, n, "M")
+    if parsed[0] != codes.FULL:  # a (n,) vector is not a mass matrix: let the caller say so
         return None
     Lam = np.empty((m, m))
     Jp = np.empty((n, m)) if want_pinv else EMPTY_2D
-    status, rank, smin, smax, used = kern.inverse(
-        np.ascontiguousarray(J), wdiag, wfull, Jp, EMPTY_2D, Lam, wmode, mode, lam, lam_max,
-        eps, rcond,
-    )  # fmt: skip
-    if status:
-        raise_status(status, {"J": "J", "W": "M"})
-    return Factored(Lam, Jp, Stats(rank, smin, smax, used), mode)
+    stats = _kernel_inverse(kern, J, parsed, (Jp, EMPTY_2D, Lam), spec, rcond, "M")
+    return Factored(Lam, Jp, stats, spec[0])
 
 
 def matrix_inverse(
     J: FloatArray,
     *,
-    weights: Any,
-    weights_name: str,
-    damping: float | AdaptiveDamping,
-    rcond: float,
-    exact_label: str,
+    weights: Any = None,
+    weights_name: str = "W",
+    damping: float | AdaptiveDamping = 0.0,
+    rcond: Any,
+    exact_label: str = "",
 ) -> Parts:
-    """``(J#, stats, method)`` for the matrix functions.
+    """``(J#, stats, method)`` for the matrix functions; validates ``rcond``.
 
     An exact unweighted inverse of a rank-deficient ``J`` is labelled ``"pinv"`` (the
     truncated SVD pseudo-inverse it falls back to) instead of ``exact_label``.
@@ -468,7 +471,7 @@ def matrix_inverse(
         weights=weights,
         weights_name=weights_name,
         damping=damping,
-        rcond=rcond,
+        rcond=as_rcond(rcond),
         want_pinv=True,
         want_projector=False,
     )

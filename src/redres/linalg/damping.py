@@ -20,8 +20,8 @@ from typing import Literal, overload
 from numpy.typing import ArrayLike
 
 from . import _backend as be
-from ._backend import FloatArray, Result
-from ._info import RCOND, AdaptiveDamping, InverseInfo
+from ._backend import FloatArray, Result, WithInfo
+from ._info import RCOND, AdaptiveDamping
 
 __all__ = ["adaptive_damped_pinv", "damped_pinv"]
 
@@ -41,7 +41,7 @@ def damped_pinv(
     *,
     rcond: float = ...,
     return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+) -> WithInfo: ...
 def damped_pinv(
     J: ArrayLike,
     damping: float | AdaptiveDamping,
@@ -71,15 +71,8 @@ def damped_pinv(
         InvalidParameterError: ``damping`` is negative.
     """
     A = be.as_jacobian(J)
-    parts = be.matrix_inverse(
-        A,
-        weights=None,
-        weights_name="W",
-        damping=damping,
-        rcond=be.as_rcond(rcond),
-        exact_label="pinv",
-    )
-    return be.finish(*parts, A.shape, return_info)
+    parts = be.matrix_inverse(A, damping=damping, rcond=rcond, exact_label="pinv")
+    return be.finish(parts, A.shape, return_info)
 
 
 @overload
@@ -101,7 +94,7 @@ def adaptive_damped_pinv(
     selective: bool = ...,
     rcond: float = ...,
     return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+) -> WithInfo: ...
 def adaptive_damped_pinv(
     J: ArrayLike,
     max_damping: float,
@@ -133,6 +126,5 @@ def adaptive_damped_pinv(
         ``J#``, shape ``(n, m)`` (and the info).
     """
     spec = AdaptiveDamping(max_damping, threshold, selective)
-    if return_info:
-        return damped_pinv(J, spec, rcond=rcond, return_info=True)
-    return damped_pinv(J, spec, rcond=rcond)
+    A = be.as_jacobian(J)
+    return be.finish(be.matrix_inverse(A, damping=spec, rcond=rcond), A.shape, return_info)

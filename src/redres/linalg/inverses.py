@@ -20,8 +20,8 @@ from numpy.typing import ArrayLike
 
 from ..errors import ShapeError
 from . import _backend as be
-from ._backend import FloatArray, Result
-from ._info import RCOND, AdaptiveDamping, InverseInfo
+from ._backend import FloatArray, Result, WithInfo
+from ._info import RCOND, AdaptiveDamping
 
 __all__ = [
     "generalized_inverse",
@@ -33,25 +33,17 @@ __all__ = [
 ]
 
 
-def _exact(J: FloatArray, rcond: float, label: str) -> be.Parts:
-    """Exact inverse through the shared engine, labelled ``label`` unless rank-deficient."""
-    return be.matrix_inverse(
-        J, weights=None, weights_name="W", damping=0.0, rcond=rcond, exact_label=label
-    )
-
-
 def _left(J: FloatArray, rcond: float) -> be.Parts:
     """Left pseudo-inverse as the transpose of the right one of ``J^T``."""
-    Jp_t, stats, method = _exact(np.ascontiguousarray(J.T), rcond, "left")
+    J_t = np.ascontiguousarray(J.T)
+    Jp_t, stats, method = be.matrix_inverse(J_t, rcond=rcond, exact_label="left")
     return np.ascontiguousarray(Jp_t.T), stats, method
 
 
 @overload
 def pinv(J: ArrayLike, rcond: float = ..., *, return_info: Literal[False] = ...) -> FloatArray: ...
 @overload
-def pinv(
-    J: ArrayLike, rcond: float = ..., *, return_info: Literal[True]
-) -> tuple[FloatArray, InverseInfo]: ...
+def pinv(J: ArrayLike, rcond: float = ..., *, return_info: Literal[True]) -> WithInfo: ...
 def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Result:
     """Moore–Penrose pseudo-inverse from the SVD, skipping small singular values.
 
@@ -71,7 +63,7 @@ def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Re
     A = be.as_jacobian(J)
     filt = be.Filtered(A, 0, 0.0, 0.0, 1.0, be.as_rcond(rcond))
     stats = be.Stats(filt.rank, filt.sigma_min, filt.sigma_max, 0.0)
-    return be.finish(filt.pinv(), stats, "pinv", A.shape, return_info)
+    return be.finish((filt.pinv(), stats, "pinv"), A.shape, return_info)
 
 
 @overload
@@ -79,9 +71,7 @@ def right_pinv(
     J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
 ) -> FloatArray: ...
 @overload
-def right_pinv(
-    J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]
-) -> tuple[FloatArray, InverseInfo]: ...
+def right_pinv(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
 def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
     """Right pseudo-inverse ``J^T (J J^T)^-1`` of a wide Jacobian (``m <= n``).
 
@@ -109,7 +99,7 @@ def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False)
             f"right_pinv needs a wide J (m <= n); got shape {A.shape}. "
             "Use left_pinv for tall J, or pinv for any shape."
         )
-    return be.finish(*_exact(A, be.as_rcond(rcond), "right"), A.shape, return_info)
+    return be.finish(be.matrix_inverse(A, rcond=rcond, exact_label="right"), A.shape, return_info)
 
 
 @overload
@@ -117,9 +107,7 @@ def left_pinv(
     J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
 ) -> FloatArray: ...
 @overload
-def left_pinv(
-    J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]
-) -> tuple[FloatArray, InverseInfo]: ...
+def left_pinv(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
 def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
     """Left pseudo-inverse ``(J^T J)^-1 J^T`` of a tall Jacobian (``m >= n``).
 
@@ -146,7 +134,7 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
             f"left_pinv needs a tall J (m >= n); got shape {A.shape}. "
             "Use right_pinv for wide J, or pinv for any shape."
         )
-    return be.finish(*_left(A, be.as_rcond(rcond)), A.shape, return_info)
+    return be.finish(_left(A, rcond), A.shape, return_info)
 
 
 @overload
@@ -154,9 +142,7 @@ def square_inverse(
     J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
 ) -> FloatArray: ...
 @overload
-def square_inverse(
-    J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]
-) -> tuple[FloatArray, InverseInfo]: ...
+def square_inverse(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
 def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
     """Inverse ``J^-1`` of a square Jacobian (seed 002, "Square Jacobians").
 
@@ -177,7 +163,8 @@ def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = Fa
     A = be.as_jacobian(J)
     if A.shape[0] != A.shape[1]:
         raise ShapeError(f"square_inverse needs a square J; got shape {A.shape}. Use pinv.")
-    return be.finish(*_exact(A, be.as_rcond(rcond), "square"), A.shape, return_info)
+    parts = be.matrix_inverse(A, rcond=rcond, exact_label="square")
+    return be.finish(parts, A.shape, return_info)
 
 
 @overload
@@ -197,7 +184,7 @@ def weighted_pinv(
     damping: float | AdaptiveDamping = ...,
     rcond: float = ...,
     return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+) -> WithInfo: ...
 def weighted_pinv(
     J: ArrayLike,
     W: ArrayLike,
@@ -234,10 +221,8 @@ def weighted_pinv(
         NonFiniteError: ``J`` or ``W`` contains NaN or infinity.
     """
     A = be.as_jacobian(J)
-    parts = be.matrix_inverse(
-        A, weights=W, weights_name="W", damping=damping, rcond=be.as_rcond(rcond), exact_label=""
-    )
-    return be.finish(*parts, A.shape, return_info)
+    parts = be.matrix_inverse(A, weights=W, damping=damping, rcond=rcond)
+    return be.finish(parts, A.shape, return_info)
 
 
 @overload
@@ -257,7 +242,7 @@ def generalized_inverse(
     damping: float | AdaptiveDamping = ...,
     rcond: float = ...,
     return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+) -> WithInfo: ...
 def generalized_inverse(
     J: ArrayLike,
     *,
@@ -291,12 +276,10 @@ def generalized_inverse(
     rc = be.as_rcond(rcond)
     if weights is not None or be.parse_damping(damping)[0] != 0:
         parts = be.matrix_inverse(
-            A, weights=weights, weights_name="weights", damping=damping, rcond=rc, exact_label=""
+            A, weights=weights, weights_name="weights", damping=damping, rcond=rc
         )
-    elif m == n:
-        parts = _exact(A, rc, "square")
-    elif m < n:
-        parts = _exact(A, rc, "right")
+    elif m <= n:
+        parts = be.matrix_inverse(A, rcond=rc, exact_label="square" if m == n else "right")
     else:
         parts = _left(A, rc)
-    return be.finish(*parts, A.shape, return_info)
+    return be.finish(parts, A.shape, return_info)

@@ -26,8 +26,8 @@ from numpy.typing import ArrayLike
 from .._validate import as_matrix
 from ..errors import InvalidParameterError, ShapeError
 from . import _backend as be
-from ._backend import FloatArray, Result
-from ._info import RCOND, AdaptiveDamping, InverseInfo
+from ._backend import FloatArray, Result, WithInfo
+from ._info import RCOND, AdaptiveDamping
 
 __all__ = [
     "MoorePenroseResiduals",
@@ -57,7 +57,7 @@ def nullspace_projector(
     damping: float | AdaptiveDamping = ...,
     rcond: float = ...,
     return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+) -> WithInfo: ...
 def nullspace_projector(
     J: ArrayLike,
     J_pinv: ArrayLike | None = None,
@@ -99,8 +99,7 @@ def nullspace_projector(
                 "return_info=True needs J_pinv=None: the diagnostics belong to the inverse "
                 "this function computes"
             )
-        X = as_matrix(J_pinv, "J_pinv", (n, m))
-        return np.eye(n) - X @ A
+        return np.eye(n) - as_matrix(J_pinv, "J_pinv", (n, m)) @ A
     _, N, stats, mode = be.invert(
         A,
         weights=weights,
@@ -111,7 +110,7 @@ def nullspace_projector(
         want_projector=True,
     )
     method = be.method_label(mode, weights is not None, "pinv")
-    return be.finish(N, stats, method, A.shape, return_info)
+    return be.finish((N, stats, method), A.shape, return_info)
 
 
 def nullspace_basis(J: ArrayLike, rcond: float = RCOND) -> FloatArray:
