@@ -369,26 +369,6 @@ class Factored(NamedTuple):
     mode: int
 
 
-def _kernel_inverse(
-    kern: ModuleType,
-    J: FloatArray,
-    weights: tuple[int, FloatArray, FloatArray],
-    outputs: tuple[FloatArray, FloatArray, FloatArray],
-    spec: tuple[int, float, float, float],
-    rcond: float,
-    weights_name: str,
-) -> Stats:
-    """``kern.inverse`` into ``outputs = (J#, N, Lambda)`` (0 x 0 when not wanted); errors
-    name ``weights_name``."""
-    wmode, wdiag, wfull = weights
-    status, rank, smin, smax, used = kern.inverse(
-        np.ascontiguousarray(J), wdiag, wfull, *outputs, wmode, *spec, rcond
-    )
-    if status:
-        raise_status(status, {"J": "J", "W": weights_name})
-    return Stats(rank, smin, smax, used)
-
-
 def invert(
     J: FloatArray,
     *,
@@ -404,36 +384,41 @@ def invert(
     ``J`` must already be a validated finite float64 matrix. Outputs not wanted are 0 x 0.
     """
     m, n = J.shape
-    spec = parse_damping(damping)
-    wmode, wdiag, wfull = parsed = parse_weights(weights, n, weights_name)
+    mode, lam, lam_max, eps = parse_damping(damping)
+    wmode, wdiag, wfull = parse_weights(weights, n, weights_name)
     kern = use_fast_path(m, n)
     if kern is not None:
         Jp = np.empty((n, m)) if want_pinv else EMPTY_2D
         N = np.empty((n, n)) if want_projector else EMPTY_2D
-        stats = _kernel_inverse(kern, J, parsed, (Jp, N, EMPTY_2D), spec, rcond, weights_name)
-        return Factored(Jp, N, stats, spec[0])
+        status, rank, smin, smax, used = kern.inverse(
+            np.ascontiguousarray(J), wdiag, wfull, Jp, N, EMPTY_2D, wmode, mode, lam, lam_max,
+            eps, rcond,
+        )  # fmt: skip
+        if status:
+            raise_status(status, {"J": "J", "W": weights_name})
+        return Factored(Jp, N, Stats(rank, smin, smax, used), mode)
     factor = (
         EMPTY_2D if wmode == codes.NO_WEIGHTS else weight_factor(wmode, wdiag, wfull, weights_name)
     )
-    filt = Filtered(weigh(J, wmode, factor), *spec, rcond)
+    filt = Filtered(weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
     Jp = unweigh_rows(filt.pinv(), wmode, factor) if want_pinv else EMPTY_2D
     N = EMPTY_2D
     if want_projector:
         N = times_lt(unweigh_rows(filt.projector(), wmode, factor), wmode, factor)
-    stats = Stats(filt.rank, filt.sigma_min, filt.sigma_max, filt.damping)
-    return Factored(Jp, N, stats, spec[0])
+    return Factored(Jp, N, Stats(filt.rank, filt.sigma_min, filt.sigma_max, filt.damping), mode)
 
 
 def task_inertia(
     J: FloatArray,
-    M: Any,
+    M: FloatArray,
     *,
     damping: float | AdaptiveDamping,
     rcond: float,
     want_pinv: bool,
 ) -> Factored | None:
     """``Factored(Lambda, J_bar, stats, mode)`` from one compiled factorisation
-    of ``J L^-T`` (``M = L L^T``), or None when the kernels do not cover this size.
+    of ``J L^-T`` (``M = L L^T``, an already validated ``(n, n)`` matrix), or None when the
+    kernels do not cover this size.
 
     ``Lambda = (J M^-1 J^T + lambda^2 I)^-1`` and ``J_bar = M^-1 J^T Lambda`` (the inverse
     weighted by ``M``); ``J_bar`` is 0 x 0 unless ``want_pinv``. Errors name ``M``.
@@ -442,14 +427,16 @@ def task_inertia(
     kern = use_fast_path(m, n)
     if kern is None:
         return None
-    spec = parse_damping(damping)
-    parsed = parse_weights(M, n, "M")
-    if parsed[0] != codes.FULL:  # a (n,) vector is not a mass matrix: let the caller say so
-        return None
+    mode, lam, lam_max, eps = parse_damping(damping)
     Lam = np.empty((m, m))
     Jp = np.empty((n, m)) if want_pinv else EMPTY_2D
-    stats = _kernel_inverse(kern, J, parsed, (Jp, EMPTY_2D, Lam), spec, rcond, "M")
-    return Factored(Lam, Jp, stats, spec[0])
+    status, rank, smin, smax, used = kern.inverse(
+        np.ascontiguousarray(J), EMPTY_1D, np.ascontiguousarray(M), Jp, EMPTY_2D, Lam,
+        codes.FULL, mode, lam, lam_max, eps, rcond,
+    )  # fmt: skip
+    if status:
+        raise_status(status, {"J": "J", "W": "M"})
+    return Factored(Lam, Jp, Stats(rank, smin, smax, used), mode)
 
 
 def matrix_inverse(

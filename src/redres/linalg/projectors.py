@@ -18,13 +18,13 @@ from the same inverse as the task solution ``J# xd`` (DESIGN.md, section 2):
 
 from __future__ import annotations
 
-from typing import Any, Literal, NamedTuple, overload
+from typing import Literal, NamedTuple, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validate import as_matrix
-from ..errors import InvalidParameterError, ShapeError
+from ..errors import InvalidParameterError
 from . import _backend as be
 from ._backend import FloatArray, Result, WithInfo
 from ._info import RCOND, AdaptiveDamping
@@ -168,7 +168,7 @@ def moore_penrose_residuals(J: ArrayLike, J_pinv: ArrayLike) -> MoorePenroseResi
     """
     A = be.as_jacobian(J)
     m, n = A.shape
-    X = _as_inverse(J_pinv, (n, m))
+    X = as_matrix(J_pinv, "J_pinv", (n, m))
     JX = A @ X
     XJ = X @ A
     return MoorePenroseResiduals(
@@ -188,10 +188,3 @@ def is_moore_penrose(J: ArrayLike, J_pinv: ArrayLike, *, tol: float = 1e-8) -> b
         tol: Largest accepted relative residual (see :func:`moore_penrose_residuals`).
     """
     return moore_penrose_residuals(J, J_pinv).max() <= tol
-
-
-def _as_inverse(value: Any, shape: tuple[int, int]) -> FloatArray:
-    X = as_matrix(value, "J_pinv")
-    if X.shape != shape:
-        raise ShapeError(f"J_pinv must have shape {shape} (n x m for J of m x n); got {X.shape}")
-    return X

@@ -37,9 +37,9 @@ _empty = np.empty
 _new_tuple = tuple.__new__
 _NO_GRAD = be.EMPTY_1D
 _NAMES = {"J": "J", "xd": "xd", "grad": "grad", "W": "weights"}
-# InverseInfo.method by damping mode (EXACT, FIXED, ADAPTIVE, SELECTIVE).
-_LABELS = ("pinv", "damped", "adaptive", "selective")
-_WEIGHTED_LABELS = ("weighted", "weighted-damped", "weighted-adaptive", "weighted-selective")
+# InverseInfo.method by damping mode (the codes EXACT, FIXED, ADAPTIVE, SELECTIVE are 0..3).
+_LABELS = tuple(be.method_label(mode, False, "pinv") for mode in range(4))
+_WEIGHTED_LABELS = tuple(be.method_label(mode, True, "") for mode in range(4))
 
 # Native entry point of the compiled step for float64 arrays and float scalars; filled on
 # the first call (None until then, False when the kernels are unavailable).
@@ -135,7 +135,7 @@ def rate_step(
     lane = _lane[0]
     if lane is None:
         lane = _lane[0] = be.fast_step() or False
-    # be.fast_size(m, n), inlined (the hot path): up to 6 rows, or 12 when m <= n.
+    # The size test of be.use_fast_path, inlined (the hot path): up to 6 rows, or 12 when m <= n.
     if lane and weights is None and (m <= 6 or (m <= 12 and m <= n)) and n <= 50:
         if type(damping) is not AdaptiveDamping:
             qd = _empty(n)
