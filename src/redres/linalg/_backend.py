@@ -25,10 +25,10 @@ import math
 import warnings
 from collections.abc import Callable
 from types import ModuleType
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, TypedDict
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .. import _jit
 from .._validate import as_matrix, as_scalar
@@ -254,6 +254,27 @@ def times_lt(X: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
 
 WithInfo = tuple[FloatArray, InverseInfo]
 """What ``f(J, ..., return_info=True)`` returns: the matrix and its diagnostics."""
+
+
+class ExactOptions(TypedDict, total=False):
+    """The keyword options of the matrix functions, for their typed overloads (each
+    function's own signature has the defaults and its docstring the meaning)."""
+
+    rcond: float
+
+
+class AdaptiveOptions(ExactOptions, total=False):
+    selective: bool
+
+
+class DampedOptions(ExactOptions, total=False):
+    damping: float | AdaptiveDamping
+
+
+class InverseOptions(DampedOptions, total=False):
+    weights: ArrayLike | None
+
+
 Result = FloatArray | WithInfo
 Parts = tuple[FloatArray, "Stats", str]
 """``(matrix, stats, method)`` before packaging."""

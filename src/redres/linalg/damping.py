@@ -15,13 +15,16 @@ value so that the inverse is exact away from singularities.
 
 from __future__ import annotations
 
-from typing import Literal, overload
+from typing import TYPE_CHECKING, Literal, overload
 
 from numpy.typing import ArrayLike
 
 from . import _backend as be
-from ._backend import FloatArray, Result, WithInfo
+from ._backend import AdaptiveOptions, ExactOptions, FloatArray, Result, WithInfo
 from ._info import RCOND, AdaptiveDamping
+
+if TYPE_CHECKING:
+    from typing import Unpack  # Python 3.11; only read by type checkers
 
 __all__ = ["adaptive_damped_pinv", "damped_pinv"]
 
@@ -31,16 +34,16 @@ def damped_pinv(
     J: ArrayLike,
     damping: float | AdaptiveDamping,
     *,
-    rcond: float = ...,
     return_info: Literal[False] = ...,
+    **kw: Unpack[ExactOptions],
 ) -> FloatArray: ...
 @overload
 def damped_pinv(
     J: ArrayLike,
     damping: float | AdaptiveDamping,
     *,
-    rcond: float = ...,
     return_info: Literal[True],
+    **kw: Unpack[ExactOptions],
 ) -> WithInfo: ...
 def damped_pinv(
     J: ArrayLike,
@@ -81,9 +84,8 @@ def adaptive_damped_pinv(
     max_damping: float,
     threshold: float,
     *,
-    selective: bool = ...,
-    rcond: float = ...,
     return_info: Literal[False] = ...,
+    **kw: Unpack[AdaptiveOptions],
 ) -> FloatArray: ...
 @overload
 def adaptive_damped_pinv(
@@ -91,9 +93,8 @@ def adaptive_damped_pinv(
     max_damping: float,
     threshold: float,
     *,
-    selective: bool = ...,
-    rcond: float = ...,
     return_info: Literal[True],
+    **kw: Unpack[AdaptiveOptions],
 ) -> WithInfo: ...
 def adaptive_damped_pinv(
     J: ArrayLike,

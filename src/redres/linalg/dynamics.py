@@ -23,7 +23,7 @@ and ``J_bar_lambda = M^-1 J^T Lambda_lambda``; with no damping, singular values 
 
 from __future__ import annotations
 
-from typing import Literal, overload
+from typing import TYPE_CHECKING, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -33,8 +33,11 @@ from .._validate import as_matrix
 from ..errors import NotPositiveDefiniteError
 from . import _backend as be
 from . import _codes as codes
-from ._backend import FloatArray, Result, WithInfo
+from ._backend import DampedOptions, FloatArray, Result, WithInfo
 from ._info import RCOND, AdaptiveDamping
+
+if TYPE_CHECKING:
+    from typing import Unpack  # Python 3.11; only read by type checkers
 
 __all__ = [
     "dynamically_consistent_pinv",
@@ -131,21 +134,11 @@ def _decompose_svd(
 
 @overload
 def task_space_inertia(
-    J: ArrayLike,
-    M: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[False] = ...,
+    J: ArrayLike, M: ArrayLike, *, return_info: Literal[False] = ..., **kw: Unpack[DampedOptions]
 ) -> FloatArray: ...
 @overload
 def task_space_inertia(
-    J: ArrayLike,
-    M: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[True],
+    J: ArrayLike, M: ArrayLike, *, return_info: Literal[True], **kw: Unpack[DampedOptions]
 ) -> WithInfo: ...
 def task_space_inertia(
     J: ArrayLike,
@@ -174,21 +167,11 @@ def task_space_inertia(
 
 @overload
 def dynamically_consistent_pinv(
-    J: ArrayLike,
-    M: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[False] = ...,
+    J: ArrayLike, M: ArrayLike, *, return_info: Literal[False] = ..., **kw: Unpack[DampedOptions]
 ) -> FloatArray: ...
 @overload
 def dynamically_consistent_pinv(
-    J: ArrayLike,
-    M: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[True],
+    J: ArrayLike, M: ArrayLike, *, return_info: Literal[True], **kw: Unpack[DampedOptions]
 ) -> WithInfo: ...
 def dynamically_consistent_pinv(
     J: ArrayLike,

@@ -13,15 +13,18 @@ below ``rcond * sigma_max`` are skipped), reported as ``info.full_rank == False`
 
 from __future__ import annotations
 
-from typing import Literal, overload
+from typing import TYPE_CHECKING, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import ShapeError
 from . import _backend as be
-from ._backend import FloatArray, Result, WithInfo
+from ._backend import DampedOptions, FloatArray, InverseOptions, Result, WithInfo
 from ._info import RCOND, AdaptiveDamping
+
+if TYPE_CHECKING:
+    from typing import Unpack  # Python 3.11; only read by type checkers
 
 __all__ = [
     "generalized_inverse",
@@ -169,21 +172,11 @@ def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = Fa
 
 @overload
 def weighted_pinv(
-    J: ArrayLike,
-    W: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[False] = ...,
+    J: ArrayLike, W: ArrayLike, *, return_info: Literal[False] = ..., **kw: Unpack[DampedOptions]
 ) -> FloatArray: ...
 @overload
 def weighted_pinv(
-    J: ArrayLike,
-    W: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[True],
+    J: ArrayLike, W: ArrayLike, *, return_info: Literal[True], **kw: Unpack[DampedOptions]
 ) -> WithInfo: ...
 def weighted_pinv(
     J: ArrayLike,
@@ -227,21 +220,11 @@ def weighted_pinv(
 
 @overload
 def generalized_inverse(
-    J: ArrayLike,
-    *,
-    weights: ArrayLike | None = ...,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[False] = ...,
+    J: ArrayLike, *, return_info: Literal[False] = ..., **kw: Unpack[InverseOptions]
 ) -> FloatArray: ...
 @overload
 def generalized_inverse(
-    J: ArrayLike,
-    *,
-    weights: ArrayLike | None = ...,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[True],
+    J: ArrayLike, *, return_info: Literal[True], **kw: Unpack[InverseOptions]
 ) -> WithInfo: ...
 def generalized_inverse(
     J: ArrayLike,

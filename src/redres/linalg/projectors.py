@@ -18,7 +18,7 @@ from the same inverse as the task solution ``J# xd`` (DESIGN.md, section 2):
 
 from __future__ import annotations
 
-from typing import Literal, NamedTuple, overload
+from typing import TYPE_CHECKING, Literal, NamedTuple, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -26,8 +26,11 @@ from numpy.typing import ArrayLike
 from .._validate import as_matrix
 from ..errors import InvalidParameterError
 from . import _backend as be
-from ._backend import FloatArray, Result, WithInfo
+from ._backend import FloatArray, InverseOptions, Result, WithInfo
 from ._info import RCOND, AdaptiveDamping
+
+if TYPE_CHECKING:
+    from typing import Unpack  # Python 3.11; only read by type checkers
 
 __all__ = [
     "MoorePenroseResiduals",
@@ -43,20 +46,12 @@ def nullspace_projector(
     J: ArrayLike,
     J_pinv: ArrayLike | None = ...,
     *,
-    weights: ArrayLike | None = ...,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
     return_info: Literal[False] = ...,
+    **kw: Unpack[InverseOptions],
 ) -> FloatArray: ...
 @overload
 def nullspace_projector(
-    J: ArrayLike,
-    J_pinv: None = ...,
-    *,
-    weights: ArrayLike | None = ...,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[True],
+    J: ArrayLike, J_pinv: None = ..., *, return_info: Literal[True], **kw: Unpack[InverseOptions]
 ) -> WithInfo: ...
 def nullspace_projector(
     J: ArrayLike,
