@@ -23,7 +23,8 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from types import ModuleType
 from typing import Any, NamedTuple, TypedDict
 
@@ -54,7 +55,7 @@ EMPTY_2D: FloatArray = np.zeros((0, 0))
 _state: dict[str, Any] = {"enabled": _jit.enabled()}
 
 loaded: ModuleType | None = None
-"""The kernel module once imported and enabled (read by the hot path without a call)."""
+"""The kernel module once imported and enabled."""
 
 
 def kernels() -> ModuleType | None:
@@ -62,16 +63,14 @@ def kernels() -> ModuleType | None:
     global loaded
     if loaded is not None or not _state["enabled"] or _state.get("failed"):
         return loaded
-    module = _jit.load("redres.linalg._kernels")
-    if module is None:  # numba missing or broken: keep working on NumPy
+    loaded = _jit.load("redres.linalg._kernels")
+    if loaded is None:  # numba missing or broken: keep working on NumPy
         _state["failed"] = True
         warnings.warn(
             "redres.linalg: compiled kernels unavailable (numba cannot be imported); using NumPy",
             UserWarning,
             stacklevel=3,
         )
-        return None
-    loaded = module
     return loaded
 
 
@@ -113,6 +112,17 @@ def set_jit_enabled(enabled: bool) -> bool:
 
 _on_switch: list[Callable[[], None]] = []
 """Callbacks run by :func:`set_jit_enabled` (modules that cache a kernel entry point)."""
+
+
+@contextmanager
+def jit_enabled(enabled: bool) -> Iterator[None]:
+    """Run a block with the kernels switched on or off (:func:`set_jit_enabled`), then
+    restore the previous setting."""
+    previous = set_jit_enabled(enabled)
+    try:
+        yield
+    finally:
+        set_jit_enabled(previous)
 
 
 def use_fast_path(m: int, n: int) -> ModuleType | None:
