@@ -31,7 +31,6 @@ from ._info import RCOND, AdaptiveDamping, InverseInfo
 __all__ = ["RateStep", "rate_step"]
 
 _F64 = np.float64
-_ndarray = np.ndarray
 _contiguous = np.ascontiguousarray
 _empty = np.empty
 _new_tuple = tuple.__new__
