@@ -476,10 +476,10 @@ def matrix_inverse(
     weights: Any = None,
     weights_name: str = "W",
     damping: float | AdaptiveDamping = 0.0,
-    rcond: Any,
+    rcond: float,
     exact_label: str = "",
 ) -> Parts:
-    """``(J#, stats, method)`` for the matrix functions; validates ``rcond``.
+    """``(J#, stats, method)`` for the matrix functions (``rcond`` already validated).
 
     An exact unweighted inverse of a rank-deficient ``J`` is labelled ``"pinv"`` (the
     truncated SVD pseudo-inverse it falls back to) instead of ``exact_label``.
@@ -489,7 +489,7 @@ def matrix_inverse(
         weights=weights,
         weights_name=weights_name,
         damping=damping,
-        rcond=as_rcond(rcond),
+        rcond=rcond,
         want_pinv=True,
         want_projector=False,
     )

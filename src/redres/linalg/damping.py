@@ -74,7 +74,7 @@ def damped_pinv(
         InvalidParameterError: ``damping`` is negative.
     """
     A = be.as_jacobian(J)
-    parts = be.matrix_inverse(A, damping=damping, rcond=rcond, exact_label="pinv")
+    parts = be.matrix_inverse(A, damping=damping, rcond=be.as_rcond(rcond), exact_label="pinv")
     return be.finish(parts, A.shape, return_info)
 
 
@@ -128,4 +128,5 @@ def adaptive_damped_pinv(
     """
     spec = AdaptiveDamping(max_damping, threshold, selective)
     A = be.as_jacobian(J)
-    return be.finish(be.matrix_inverse(A, damping=spec, rcond=rcond), A.shape, return_info)
+    parts = be.matrix_inverse(A, damping=spec, rcond=be.as_rcond(rcond))
+    return be.finish(parts, A.shape, return_info)

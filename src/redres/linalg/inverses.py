@@ -102,7 +102,8 @@ def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False)
             f"right_pinv needs a wide J (m <= n); got shape {A.shape}. "
             "Use left_pinv for tall J, or pinv for any shape."
         )
-    return be.finish(be.matrix_inverse(A, rcond=rcond, exact_label="right"), A.shape, return_info)
+    parts = be.matrix_inverse(A, rcond=be.as_rcond(rcond), exact_label="right")
+    return be.finish(parts, A.shape, return_info)
 
 
 @overload
@@ -137,7 +138,7 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
             f"left_pinv needs a tall J (m >= n); got shape {A.shape}. "
             "Use right_pinv for wide J, or pinv for any shape."
         )
-    return be.finish(_left(A, rcond), A.shape, return_info)
+    return be.finish(_left(A, be.as_rcond(rcond)), A.shape, return_info)
 
 
 @overload
@@ -166,7 +167,7 @@ def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = Fa
     A = be.as_jacobian(J)
     if A.shape[0] != A.shape[1]:
         raise ShapeError(f"square_inverse needs a square J; got shape {A.shape}. Use pinv.")
-    parts = be.matrix_inverse(A, rcond=rcond, exact_label="square")
+    parts = be.matrix_inverse(A, rcond=be.as_rcond(rcond), exact_label="square")
     return be.finish(parts, A.shape, return_info)
 
 
@@ -214,7 +215,7 @@ def weighted_pinv(
         NonFiniteError: ``J`` or ``W`` contains NaN or infinity.
     """
     A = be.as_jacobian(J)
-    parts = be.matrix_inverse(A, weights=W, damping=damping, rcond=rcond)
+    parts = be.matrix_inverse(A, weights=W, damping=damping, rcond=be.as_rcond(rcond))
     return be.finish(parts, A.shape, return_info)
 
 
