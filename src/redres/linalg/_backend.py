@@ -204,7 +204,10 @@ def raise_status(status: int, names: dict[str, str]) -> None:
 
 
 def weight_factor(mode: int, diag: FloatArray, full: FloatArray, name: str) -> FloatArray:
-    """Validated factor of W for the NumPy path: ``sqrt(w)`` (diagonal) or lower ``L``."""
+    """Validated factor of W for the NumPy path: ``sqrt(w)`` (diagonal), lower ``L`` (full)
+    or an empty placeholder (no weights)."""
+    if mode == codes.NO_WEIGHTS:
+        return EMPTY_2D
     if mode == codes.DIAGONAL:
         if not np.isfinite(diag).all():
             raise_status(codes.W_NONFINITE, {"W": name})
@@ -428,9 +431,7 @@ def invert(
         if status:
             raise_status(status, {"J": "J", "W": weights_name})
         return Factored(Jp, N, Stats(rank, smin, smax, used), mode)
-    factor = (
-        EMPTY_2D if wmode == codes.NO_WEIGHTS else weight_factor(wmode, wdiag, wfull, weights_name)
-    )
+    factor = weight_factor(wmode, wdiag, wfull, weights_name)
     filt = Filtered(weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
     Jp = unweigh_rows(filt.pinv(), wmode, factor) if want_pinv else EMPTY_2D
     N = EMPTY_2D

@@ -96,8 +96,7 @@ def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False)
         ShapeError: if ``m > n`` (use :func:`left_pinv` or :func:`pinv`).
     """
     A = be.as_jacobian(J)
-    m, n = A.shape
-    if m > n:
+    if A.shape[0] > A.shape[1]:
         raise ShapeError(
             f"right_pinv needs a wide J (m <= n); got shape {A.shape}. "
             "Use left_pinv for tall J, or pinv for any shape."
@@ -132,8 +131,7 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
         ShapeError: if ``m < n`` (use :func:`right_pinv` or :func:`pinv`).
     """
     A = be.as_jacobian(J)
-    m, n = A.shape
-    if m < n:
+    if A.shape[0] < A.shape[1]:
         raise ShapeError(
             f"left_pinv needs a tall J (m >= n); got shape {A.shape}. "
             "Use right_pinv for wide J, or pinv for any shape."

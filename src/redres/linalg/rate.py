@@ -241,9 +241,7 @@ def _numpy_step(
         if not np.isfinite(arr).all():
             raise NonFiniteError(f"{name} contains NaN or infinity")
     mode, lam, lam_max, eps, rcond = spec
-    factor = be.EMPTY_2D
-    if wmode != codes.NO_WEIGHTS:
-        factor = be.weight_factor(wmode, wdiag, wfull, "weights")
+    factor = be.weight_factor(wmode, wdiag, wfull, "weights")
     filt = be.Filtered(be.weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
     task = filt.apply(xd)
     null = np.zeros_like(task)
