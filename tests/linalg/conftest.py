@@ -19,8 +19,5 @@ def rng() -> np.random.Generator:
 @pytest.fixture(params=["compiled", "numpy"])
 def backend(request: pytest.FixtureRequest) -> Iterator[str]:
     """Run a test once with the compiled kernels and once on the NumPy reference path."""
-    previous = _backend.set_jit_enabled(request.param == "compiled")
-    try:
+    with _backend.jit_enabled(request.param == "compiled"):
         yield request.param
-    finally:
-        _backend.set_jit_enabled(previous)

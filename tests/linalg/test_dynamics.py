@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 import redres.linalg as rl
 from redres.errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
+from redres.linalg.dynamics import _decompose, _decompose_svd
 
 from .strategies import PROPERTY, WIDE_SHAPES, Jac, jacobians, spd_matrices
 
@@ -116,8 +117,6 @@ def test_negative_damping_is_rejected() -> None:
 def test_compiled_path_matches_the_lapack_reference(jac: Jac, data: st.DataObject) -> None:
     """The kernel (one factorisation of J L^-T, Cholesky or Jacobi SVD) against the LAPACK
     SVD reference, for every damping mode, wide, square and tall J, near-singular ones too."""
-    from redres.linalg.dynamics import _decompose, _decompose_svd
-
     J = jac.J
     M = data.draw(spd_matrices(J.shape[1]))
     modes = [0.0, 0.05, rl.AdaptiveDamping(0.1, 0.2), rl.AdaptiveDamping(0.1, 0.2, True)]
@@ -148,8 +147,6 @@ def test_large_problems_use_the_reference_path(rng: np.random.Generator) -> None
 @pytest.mark.parametrize("damping", [0.0, 0.05])
 def test_stacked_sizes_match_the_reference(shape, damping, rng: np.random.Generator) -> None:
     """7–12 rows with m <= n also run in the kernel; it agrees with the LAPACK reference."""
-    from redres.linalg.dynamics import _decompose, _decompose_svd
-
     m, n = shape
     J = rng.standard_normal(shape)
     A = rng.standard_normal((n, n))

@@ -96,14 +96,11 @@ def test_compiled_inverse_matches_numpy(jac: Jac, mode: str, weighting: str, dat
     }[weighting]
     results = {}
     for enabled in (True, False):
-        previous = _backend.set_jit_enabled(enabled)
-        try:
+        with _backend.jit_enabled(enabled):
             results[enabled] = (
                 rl.nullspace_projector(J, weights=weights, damping=damping, return_info=True),
                 rl.generalized_inverse(J, weights=weights, damping=damping),
             )
-        finally:
-            _backend.set_jit_enabled(previous)
     (N_c, info_c), X_c = results[True]
     (N_n, info_n), X_n = results[False]
     # near-singular exact inverses amplify rounding by kappa (see test_projectors)
@@ -186,11 +183,8 @@ def test_stacked_sizes_in_the_kernels_match_lapack(
         "exact step": lambda: rl.rate_step(J, xd, grad, k_null=0.7)[0],
     }
     compiled = {name: call() for name, call in calls.items()}
-    previous = _backend.set_jit_enabled(False)
-    try:
+    with _backend.jit_enabled(False):
         reference = {name: call() for name, call in calls.items()}
-    finally:
-        _backend.set_jit_enabled(previous)
     for name, value in compiled.items():
         ref = reference[name]
         # near-singular undamped results carry rounding amplified by the condition number

@@ -127,11 +127,8 @@ def test_fast_and_general_paths_agree(rng: np.random.Generator) -> None:
     )
     np.testing.assert_allclose(fast[0], slow[0], atol=1e-13)
     assert fast[1] == slow[1]
-    previous = _backend.set_jit_enabled(False)
-    try:
+    with _backend.jit_enabled(False):
         numpy = rl.rate_step(J, xd, grad, k_null=0.5, damping=0.05)
-    finally:
-        _backend.set_jit_enabled(previous)
     np.testing.assert_allclose(fast[0], numpy[0], atol=1e-12)
     assert fast[1].rank == numpy[1].rank
     assert fast[1].sigma_min == pytest.approx(numpy[1].sigma_min, rel=1e-9)

@@ -231,11 +231,8 @@ def test_jacobian_derivatives_are_the_partials(
 
     robot = builtin_robots[name]
     q = robot.random_configuration(rng)
-    previous = _backend.set_jit_enabled(jit)
-    try:
+    with _backend.jit_enabled(jit):
         D = robot.jacobian_derivatives(q)
-    finally:
-        _backend.set_jit_enabled(previous)
     eye = np.eye(robot.n)
     for i in range(robot.n):
         assert np.allclose(D[i], robot.jacobian_dot(q, eye[i]), atol=1e-12)

@@ -23,12 +23,13 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from types import ModuleType
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, TypedDict
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .. import _jit
 from .._validate import as_matrix, as_scalar
@@ -54,7 +55,7 @@ EMPTY_2D: FloatArray = np.zeros((0, 0))
 _state: dict[str, Any] = {"enabled": _jit.enabled()}
 
 loaded: ModuleType | None = None
-"""The kernel module once imported and enabled (read by the hot path without a call)."""
+"""The kernel module once imported and enabled."""
 
 
 def kernels() -> ModuleType | None:
@@ -62,16 +63,14 @@ def kernels() -> ModuleType | None:
     global loaded
     if loaded is not None or not _state["enabled"] or _state.get("failed"):
         return loaded
-    module = _jit.load("redres.linalg._kernels")
-    if module is None:  # numba missing or broken: keep working on NumPy
+    loaded = _jit.load("redres.linalg._kernels")
+    if loaded is None:  # numba missing or broken: keep working on NumPy
         _state["failed"] = True
         warnings.warn(
             "redres.linalg: compiled kernels unavailable (numba cannot be imported); using NumPy",
             UserWarning,
             stacklevel=3,
         )
-        return None
-    loaded = module
     return loaded
 
 
@@ -115,19 +114,25 @@ _on_switch: list[Callable[[], None]] = []
 """Callbacks run by :func:`set_jit_enabled` (modules that cache a kernel entry point)."""
 
 
+@contextmanager
+def jit_enabled(enabled: bool) -> Iterator[None]:
+    """Run a block with the kernels switched on or off (:func:`set_jit_enabled`), then
+    restore the previous setting."""
+    previous = set_jit_enabled(enabled)
+    try:
+        yield
+    finally:
+        set_jit_enabled(previous)
+
+
 def use_fast_path(m: int, n: int) -> ModuleType | None:
     """Kernels if ``m x n`` is small enough for them and they are available: up to 6 rows,
     or up to 12 rows when ``m <= n`` (stacked and augmented Jacobians); at most 50 columns."""
-    if fast_size(m, n):
+    if m <= 0 or n <= 0 or n > FAST_MAX_COLS:
+        return None
+    if m <= FAST_MAX_ROWS or (m <= FAST_MAX_SQUARE_ROWS and m <= n):
         return kernels()
     return None
-
-
-def fast_size(m: int, n: int) -> bool:
-    """Whether the kernels cover an ``m x n`` problem (see :func:`use_fast_path`)."""
-    if m <= 0 or n <= 0 or n > FAST_MAX_COLS:
-        return False
-    return m <= FAST_MAX_ROWS or (m <= FAST_MAX_SQUARE_ROWS and m <= n)
 
 
 def parse_damping(damping: float | AdaptiveDamping) -> tuple[int, float, float, float]:
@@ -168,21 +173,23 @@ def parse_weights(weights: Any, n: int, name: str) -> tuple[int, FloatArray, Flo
     )
 
 
+_NONFINITE = {
+    codes.Q_NONFINITE: "q",
+    codes.J_NONFINITE: "J",
+    codes.XD_NONFINITE: "xd",
+    codes.GRAD_NONFINITE: "grad",
+    codes.W_NONFINITE: "W",
+}
+
+
 def raise_status(status: int, names: dict[str, str]) -> None:
     """Raise the error a kernel status code stands for, naming the argument."""
-    if status == codes.Q_NONFINITE:
-        raise NonFiniteError(f"{names.get('q', 'q')} contains NaN or infinity")
-    if status == codes.J_NONFINITE:
-        raise NonFiniteError(f"{names.get('J', 'J')} contains NaN or infinity")
-    if status == codes.XD_NONFINITE:
-        raise NonFiniteError(f"{names.get('xd', 'xd')} contains NaN or infinity")
-    if status == codes.GRAD_NONFINITE:
-        raise NonFiniteError(f"{names.get('grad', 'grad')} contains NaN or infinity")
+    if status in _NONFINITE:
+        key = _NONFINITE[status]
+        raise NonFiniteError(f"{names.get(key, key)} contains NaN or infinity")
     if status == codes.J_EMPTY:
         raise ShapeError(f"{names.get('J', 'J')} must have at least one row and one column")
     w = names.get("W", "W")
-    if status == codes.W_NONFINITE:
-        raise NonFiniteError(f"{w} contains NaN or infinity")
     if status == codes.W_NOT_SPD:
         raise NotPositiveDefiniteError(
             f"{w} must be positive definite: diagonal weights all > 0, or a full matrix "
@@ -197,7 +204,10 @@ def raise_status(status: int, names: dict[str, str]) -> None:
 
 
 def weight_factor(mode: int, diag: FloatArray, full: FloatArray, name: str) -> FloatArray:
-    """Validated factor of W for the NumPy path: ``sqrt(w)`` (diagonal) or lower ``L``."""
+    """Validated factor of W for the NumPy path: ``sqrt(w)`` (diagonal), lower ``L`` (full)
+    or an empty placeholder (no weights)."""
+    if mode == codes.NO_WEIGHTS:
+        return EMPTY_2D
     if mode == codes.DIAGONAL:
         if not np.isfinite(diag).all():
             raise_status(codes.W_NONFINITE, {"W": name})
@@ -255,32 +265,48 @@ def times_lt(X: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
     return np.asarray(X @ factor.T)
 
 
-Result = FloatArray | tuple[FloatArray, InverseInfo]
+WithInfo = tuple[FloatArray, InverseInfo]
+"""What ``f(J, ..., return_info=True)`` returns: the matrix and its diagnostics."""
 
 
+class ExactOptions(TypedDict, total=False):
+    """The keyword options of the matrix functions, for their typed overloads (each
+    function's own signature has the defaults and its docstring the meaning)."""
+
+    rcond: float
+
+
+class AdaptiveOptions(ExactOptions, total=False):
+    selective: bool
+
+
+class DampedOptions(ExactOptions, total=False):
+    damping: float | AdaptiveDamping
+
+
+class InverseOptions(DampedOptions, total=False):
+    weights: ArrayLike | None
+
+
+Result = FloatArray | WithInfo
 Parts = tuple[FloatArray, "Stats", str]
 """``(matrix, stats, method)`` before packaging."""
 
 
-def finish(
-    X: FloatArray,
-    stats: Stats,
-    method: str,
-    shape: tuple[int, ...],
-    return_info: bool,
-) -> Result:
-    """``X`` alone, or ``(X, InverseInfo)`` built from the engine's statistics."""
+def finish(parts: Parts, shape: tuple[int, ...], return_info: bool) -> Result:
+    """The matrix of ``parts`` alone, or ``(matrix, InverseInfo)`` built from its statistics."""
+    X, stats, method = parts
     if not return_info:
         return X
     rank, smin, smax, used = stats
     return X, InverseInfo(rank, rank == min(shape), smin, smax, used, method)
 
 
-def as_jacobian(J: Any, name: str = "J") -> FloatArray:
+def as_jacobian(J: Any) -> FloatArray:
     """``J`` as a finite, non-empty float64 matrix (C order), or a clear error."""
-    arr = as_matrix(J, name)
+    arr = as_matrix(J, "J")
     if arr.shape[0] == 0 or arr.shape[1] == 0:
-        raise ShapeError(f"{name} must have at least one row and one column; got {arr.shape}")
+        raise ShapeError(f"J must have at least one row and one column; got {arr.shape}")
     return np.ascontiguousarray(arr)
 
 
@@ -405,9 +431,7 @@ def invert(
         if status:
             raise_status(status, {"J": "J", "W": weights_name})
         return Factored(Jp, N, Stats(rank, smin, smax, used), mode)
-    factor = (
-        EMPTY_2D if wmode == codes.NO_WEIGHTS else weight_factor(wmode, wdiag, wfull, weights_name)
-    )
+    factor = weight_factor(wmode, wdiag, wfull, weights_name)
     filt = Filtered(weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
     Jp = unweigh_rows(filt.pinv(), wmode, factor) if want_pinv else EMPTY_2D
     N = EMPTY_2D
@@ -418,14 +442,15 @@ def invert(
 
 def task_inertia(
     J: FloatArray,
-    M: Any,
+    M: FloatArray,
     *,
     damping: float | AdaptiveDamping,
     rcond: float,
     want_pinv: bool,
 ) -> Factored | None:
     """``Factored(Lambda, J_bar, stats, mode)`` from one compiled factorisation
-    of ``J L^-T`` (``M = L L^T``), or None when the kernels do not cover this size.
+    of ``J L^-T`` (``M = L L^T``, an already validated ``(n, n)`` matrix), or None when the
+    kernels do not cover this size.
 
     ``Lambda = (J M^-1 J^T + lambda^2 I)^-1`` and ``J_bar = M^-1 J^T Lambda`` (the inverse
     weighted by ``M``); ``J_bar`` is 0 x 0 unless ``want_pinv``. Errors name ``M``.
@@ -435,14 +460,11 @@ def task_inertia(
     if kern is None:
         return None
     mode, lam, lam_max, eps = parse_damping(damping)
-    wmode, wdiag, wfull = parse_weights(M, n, "M")
-    if wmode != codes.FULL:  # a (n,) vector is not a mass matrix: let the caller say so
-        return None
     Lam = np.empty((m, m))
     Jp = np.empty((n, m)) if want_pinv else EMPTY_2D
     status, rank, smin, smax, used = kern.inverse(
-        np.ascontiguousarray(J), wdiag, wfull, Jp, EMPTY_2D, Lam, wmode, mode, lam, lam_max,
-        eps, rcond,
+        np.ascontiguousarray(J), EMPTY_1D, np.ascontiguousarray(M), Jp, EMPTY_2D, Lam,
+        codes.FULL, mode, lam, lam_max, eps, rcond,
     )  # fmt: skip
     if status:
         raise_status(status, {"J": "J", "W": "M"})
@@ -452,13 +474,13 @@ def task_inertia(
 def matrix_inverse(
     J: FloatArray,
     *,
-    weights: Any,
-    weights_name: str,
-    damping: float | AdaptiveDamping,
+    weights: Any = None,
+    weights_name: str = "W",
+    damping: float | AdaptiveDamping = 0.0,
     rcond: float,
-    exact_label: str,
+    exact_label: str = "",
 ) -> Parts:
-    """``(J#, stats, method)`` for the matrix functions.
+    """``(J#, stats, method)`` for the matrix functions (``rcond`` already validated).
 
     An exact unweighted inverse of a rank-deficient ``J`` is labelled ``"pinv"`` (the
     truncated SVD pseudo-inverse it falls back to) instead of ``exact_label``.

@@ -71,6 +71,12 @@ def _cholesky_solve(L, b, size):  # type: ignore[no-untyped-def]
         for k in range(i):
             acc -= L[i, k] * b[k]
         b[i] = acc / L[i, i]
+    _solve_lower_transposed(L, b, size)
+
+
+@kernel
+def _solve_lower_transposed(L, b, size):  # type: ignore[no-untyped-def]
+    """Solve ``L^T x = b`` in place of ``b`` (back substitution, L lower triangular)."""
     for i in range(size - 1, -1, -1):
         acc = b[i]
         for k in range(i + 1, size):
@@ -178,11 +184,7 @@ def _weight_down(v, wmode, Lw):  # type: ignore[no-untyped-def]
         for j in range(n):
             v[j] /= Lw[j, 0]
     elif wmode == FULL:
-        for j in range(n - 1, -1, -1):
-            acc = v[j]
-            for k in range(j + 1, n):
-                acc -= Lw[k, j] * v[k]
-            v[j] = acc / Lw[j, j]
+        _solve_lower_transposed(Lw, v, n)
 
 
 @kernel

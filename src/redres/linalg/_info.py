@@ -62,9 +62,14 @@ class InverseInfo(NamedTuple):
         The cap stands for "numerically singular" and keeps the value finite (see
         :func:`redres.linalg.condition_number`).
         """
-        if self.sigma_min > self.sigma_max * _EPS:
-            return self.sigma_max / self.sigma_min
-        return 1.0 / _EPS
+        return condition_from(self.sigma_max, self.sigma_min)
+
+
+def condition_from(sigma_max: float, sigma_min: float) -> float:
+    """``sigma_max / sigma_min`` capped at ``1 / eps`` (:func:`~redres.linalg.condition_number`)."""
+    if sigma_min > sigma_max * _EPS:
+        return sigma_max / sigma_min
+    return 1.0 / _EPS
 
 
 @dataclass(frozen=True)

@@ -15,13 +15,16 @@ value so that the inverse is exact away from singularities.
 
 from __future__ import annotations
 
-from typing import Literal, overload
+from typing import TYPE_CHECKING, Literal, overload
 
 from numpy.typing import ArrayLike
 
 from . import _backend as be
-from ._backend import FloatArray, Result
-from ._info import RCOND, AdaptiveDamping, InverseInfo
+from ._backend import AdaptiveOptions, ExactOptions, FloatArray, Result, WithInfo
+from ._info import RCOND, AdaptiveDamping
+
+if TYPE_CHECKING:
+    from typing import Unpack  # Python 3.11; only read by type checkers
 
 __all__ = ["adaptive_damped_pinv", "damped_pinv"]
 
@@ -31,17 +34,17 @@ def damped_pinv(
     J: ArrayLike,
     damping: float | AdaptiveDamping,
     *,
-    rcond: float = ...,
     return_info: Literal[False] = ...,
+    **kw: Unpack[ExactOptions],
 ) -> FloatArray: ...
 @overload
 def damped_pinv(
     J: ArrayLike,
     damping: float | AdaptiveDamping,
     *,
-    rcond: float = ...,
     return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+    **kw: Unpack[ExactOptions],
+) -> WithInfo: ...
 def damped_pinv(
     J: ArrayLike,
     damping: float | AdaptiveDamping,
@@ -71,15 +74,8 @@ def damped_pinv(
         InvalidParameterError: ``damping`` is negative.
     """
     A = be.as_jacobian(J)
-    parts = be.matrix_inverse(
-        A,
-        weights=None,
-        weights_name="W",
-        damping=damping,
-        rcond=be.as_rcond(rcond),
-        exact_label="pinv",
-    )
-    return be.finish(*parts, A.shape, return_info)
+    parts = be.matrix_inverse(A, damping=damping, rcond=be.as_rcond(rcond), exact_label="pinv")
+    return be.finish(parts, A.shape, return_info)
 
 
 @overload
@@ -88,9 +84,8 @@ def adaptive_damped_pinv(
     max_damping: float,
     threshold: float,
     *,
-    selective: bool = ...,
-    rcond: float = ...,
     return_info: Literal[False] = ...,
+    **kw: Unpack[AdaptiveOptions],
 ) -> FloatArray: ...
 @overload
 def adaptive_damped_pinv(
@@ -98,10 +93,9 @@ def adaptive_damped_pinv(
     max_damping: float,
     threshold: float,
     *,
-    selective: bool = ...,
-    rcond: float = ...,
     return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+    **kw: Unpack[AdaptiveOptions],
+) -> WithInfo: ...
 def adaptive_damped_pinv(
     J: ArrayLike,
     max_damping: float,
@@ -133,6 +127,6 @@ def adaptive_damped_pinv(
         ``J#``, shape ``(n, m)`` (and the info).
     """
     spec = AdaptiveDamping(max_damping, threshold, selective)
-    if return_info:
-        return damped_pinv(J, spec, rcond=rcond, return_info=True)
-    return damped_pinv(J, spec, rcond=rcond)
+    A = be.as_jacobian(J)
+    parts = be.matrix_inverse(A, damping=spec, rcond=be.as_rcond(rcond))
+    return be.finish(parts, A.shape, return_info)

@@ -23,7 +23,7 @@ and ``J_bar_lambda = M^-1 J^T Lambda_lambda``; with no damping, singular values 
 
 from __future__ import annotations
 
-from typing import Literal, overload
+from typing import TYPE_CHECKING, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -33,8 +33,11 @@ from .._validate import as_matrix
 from ..errors import NotPositiveDefiniteError
 from . import _backend as be
 from . import _codes as codes
-from ._backend import FloatArray, Result
-from ._info import RCOND, AdaptiveDamping, InverseInfo
+from ._backend import DampedOptions, FloatArray, Result, WithInfo
+from ._info import RCOND, AdaptiveDamping
+
+if TYPE_CHECKING:
+    from typing import Unpack  # Python 3.11; only read by type checkers
 
 __all__ = [
     "dynamically_consistent_pinv",
@@ -80,18 +83,23 @@ def _decompose(
     A = be.as_jacobian(J)
     n = A.shape[1]
     Mm = as_matrix(M, "M", (n, n))
+    rc = be.as_rcond(rcond)
     try:
-        parts = be.task_inertia(A, Mm, damping=damping, rcond=be.as_rcond(rcond),
-                                want_pinv=want_pinv)  # fmt: skip
+        parts = be.task_inertia(A, Mm, damping=damping, rcond=rc, want_pinv=want_pinv)
     except NotPositiveDefiniteError as exc:
         raise NotPositiveDefiniteError(
             f"M must be a symmetric positive definite mass matrix ({exc})"
         ) from exc
     if parts is None:
-        return _decompose_svd(A, Mm, damping, rcond)
+        return _decompose_svd(A, Mm, damping, rc)
     Lam, J_bar, stats, mode = parts
-    suffix = "" if mode == codes.EXACT else "-" + be.method_label(mode, False, "")
-    return Lam, J_bar, A, stats, "dynamically-consistent" + suffix
+    return Lam, J_bar, A, stats, _method(mode)
+
+
+def _method(mode: int) -> str:
+    """``InverseInfo.method`` of this module for a damping mode."""
+    label = "dynamically-consistent"
+    return label if mode == codes.EXACT else f"{label}-{be.method_label(mode, False, '')}"
 
 
 def _decompose_svd(
@@ -105,7 +113,7 @@ def _decompose_svd(
     Jw = solve_triangular(L, A.T, lower=True).T  # J L^-T
     U, sigma, Vt = np.linalg.svd(Jw, full_matrices=True)
     k = min(m, n)
-    f, lam2, rank, used = be.filter_factors(sigma, mode, lam, lam_max, eps, be.as_rcond(rcond))
+    f, lam2, rank, used = be.filter_factors(sigma, mode, lam, lam_max, eps, rcond)
     # Lambda = U diag(g) U^T with g = 1 / (sigma^2 + lambda^2) (exact: 1/sigma^2 or 0);
     # directions beyond min(m, n) have sigma = 0.
     g = np.zeros(m)
@@ -121,28 +129,17 @@ def _decompose_svd(
     J_bar = solve_triangular(L, (Vt[:k].T * f) @ U[:, :k].T, lower=True, trans="T")
     smin = float(sigma[-1]) if m <= n else float(sigma[k - 1])
     stats = be.Stats(rank, smin, float(sigma[0]), used)
-    suffix = "" if mode == codes.EXACT else "-" + be.method_label(mode, False, "")
-    return Lam, np.asarray(J_bar), A, stats, "dynamically-consistent" + suffix
+    return Lam, np.asarray(J_bar), A, stats, _method(mode)
 
 
 @overload
 def task_space_inertia(
-    J: ArrayLike,
-    M: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[False] = ...,
+    J: ArrayLike, M: ArrayLike, *, return_info: Literal[False] = ..., **kw: Unpack[DampedOptions]
 ) -> FloatArray: ...
 @overload
 def task_space_inertia(
-    J: ArrayLike,
-    M: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+    J: ArrayLike, M: ArrayLike, *, return_info: Literal[True], **kw: Unpack[DampedOptions]
+) -> WithInfo: ...
 def task_space_inertia(
     J: ArrayLike,
     M: ArrayLike,
@@ -165,27 +162,17 @@ def task_space_inertia(
         ``Lambda``, shape ``(m, m)``, symmetric (kg for translational rows).
     """
     Lam, _, A, stats, method = _decompose(J, M, damping, rcond, want_pinv=False)
-    return be.finish(Lam, stats, method, A.shape, return_info)
+    return be.finish((Lam, stats, method), A.shape, return_info)
 
 
 @overload
 def dynamically_consistent_pinv(
-    J: ArrayLike,
-    M: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[False] = ...,
+    J: ArrayLike, M: ArrayLike, *, return_info: Literal[False] = ..., **kw: Unpack[DampedOptions]
 ) -> FloatArray: ...
 @overload
 def dynamically_consistent_pinv(
-    J: ArrayLike,
-    M: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+    J: ArrayLike, M: ArrayLike, *, return_info: Literal[True], **kw: Unpack[DampedOptions]
+) -> WithInfo: ...
 def dynamically_consistent_pinv(
     J: ArrayLike,
     M: ArrayLike,
@@ -211,7 +198,7 @@ def dynamically_consistent_pinv(
         ``J_bar``, shape ``(n, m)``.
     """
     _, J_bar, A, stats, method = _decompose(J, M, damping, rcond)
-    return be.finish(J_bar, stats, method, A.shape, return_info)
+    return be.finish((J_bar, stats, method), A.shape, return_info)
 
 
 def dynamically_consistent_projector(

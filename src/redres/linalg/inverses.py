@@ -13,15 +13,18 @@ below ``rcond * sigma_max`` are skipped), reported as ``info.full_rank == False`
 
 from __future__ import annotations
 
-from typing import Literal, overload
+from typing import TYPE_CHECKING, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import ShapeError
 from . import _backend as be
-from ._backend import FloatArray, Result
-from ._info import RCOND, AdaptiveDamping, InverseInfo
+from ._backend import DampedOptions, FloatArray, InverseOptions, Result, WithInfo
+from ._info import RCOND, AdaptiveDamping
+
+if TYPE_CHECKING:
+    from typing import Unpack  # Python 3.11; only read by type checkers
 
 __all__ = [
     "generalized_inverse",
@@ -33,25 +36,17 @@ __all__ = [
 ]
 
 
-def _exact(J: FloatArray, rcond: float, label: str) -> be.Parts:
-    """Exact inverse through the shared engine, labelled ``label`` unless rank-deficient."""
-    return be.matrix_inverse(
-        J, weights=None, weights_name="W", damping=0.0, rcond=rcond, exact_label=label
-    )
-
-
 def _left(J: FloatArray, rcond: float) -> be.Parts:
     """Left pseudo-inverse as the transpose of the right one of ``J^T``."""
-    Jp_t, stats, method = _exact(np.ascontiguousarray(J.T), rcond, "left")
+    J_t = np.ascontiguousarray(J.T)
+    Jp_t, stats, method = be.matrix_inverse(J_t, rcond=rcond, exact_label="left")
     return np.ascontiguousarray(Jp_t.T), stats, method
 
 
 @overload
 def pinv(J: ArrayLike, rcond: float = ..., *, return_info: Literal[False] = ...) -> FloatArray: ...
 @overload
-def pinv(
-    J: ArrayLike, rcond: float = ..., *, return_info: Literal[True]
-) -> tuple[FloatArray, InverseInfo]: ...
+def pinv(J: ArrayLike, rcond: float = ..., *, return_info: Literal[True]) -> WithInfo: ...
 def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Result:
     """Moore–Penrose pseudo-inverse from the SVD, skipping small singular values.
 
@@ -71,7 +66,7 @@ def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Re
     A = be.as_jacobian(J)
     filt = be.Filtered(A, 0, 0.0, 0.0, 1.0, be.as_rcond(rcond))
     stats = be.Stats(filt.rank, filt.sigma_min, filt.sigma_max, 0.0)
-    return be.finish(filt.pinv(), stats, "pinv", A.shape, return_info)
+    return be.finish((filt.pinv(), stats, "pinv"), A.shape, return_info)
 
 
 @overload
@@ -79,9 +74,7 @@ def right_pinv(
     J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
 ) -> FloatArray: ...
 @overload
-def right_pinv(
-    J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]
-) -> tuple[FloatArray, InverseInfo]: ...
+def right_pinv(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
 def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
     """Right pseudo-inverse ``J^T (J J^T)^-1`` of a wide Jacobian (``m <= n``).
 
@@ -103,13 +96,13 @@ def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False)
         ShapeError: if ``m > n`` (use :func:`left_pinv` or :func:`pinv`).
     """
     A = be.as_jacobian(J)
-    m, n = A.shape
-    if m > n:
+    if A.shape[0] > A.shape[1]:
         raise ShapeError(
             f"right_pinv needs a wide J (m <= n); got shape {A.shape}. "
             "Use left_pinv for tall J, or pinv for any shape."
         )
-    return be.finish(*_exact(A, be.as_rcond(rcond), "right"), A.shape, return_info)
+    parts = be.matrix_inverse(A, rcond=be.as_rcond(rcond), exact_label="right")
+    return be.finish(parts, A.shape, return_info)
 
 
 @overload
@@ -117,9 +110,7 @@ def left_pinv(
     J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
 ) -> FloatArray: ...
 @overload
-def left_pinv(
-    J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]
-) -> tuple[FloatArray, InverseInfo]: ...
+def left_pinv(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
 def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
     """Left pseudo-inverse ``(J^T J)^-1 J^T`` of a tall Jacobian (``m >= n``).
 
@@ -140,13 +131,12 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
         ShapeError: if ``m < n`` (use :func:`right_pinv` or :func:`pinv`).
     """
     A = be.as_jacobian(J)
-    m, n = A.shape
-    if m < n:
+    if A.shape[0] < A.shape[1]:
         raise ShapeError(
             f"left_pinv needs a tall J (m >= n); got shape {A.shape}. "
             "Use right_pinv for wide J, or pinv for any shape."
         )
-    return be.finish(*_left(A, be.as_rcond(rcond)), A.shape, return_info)
+    return be.finish(_left(A, be.as_rcond(rcond)), A.shape, return_info)
 
 
 @overload
@@ -154,9 +144,7 @@ def square_inverse(
     J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
 ) -> FloatArray: ...
 @overload
-def square_inverse(
-    J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]
-) -> tuple[FloatArray, InverseInfo]: ...
+def square_inverse(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
 def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
     """Inverse ``J^-1`` of a square Jacobian (seed 002, "Square Jacobians").
 
@@ -177,27 +165,18 @@ def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = Fa
     A = be.as_jacobian(J)
     if A.shape[0] != A.shape[1]:
         raise ShapeError(f"square_inverse needs a square J; got shape {A.shape}. Use pinv.")
-    return be.finish(*_exact(A, be.as_rcond(rcond), "square"), A.shape, return_info)
+    parts = be.matrix_inverse(A, rcond=be.as_rcond(rcond), exact_label="square")
+    return be.finish(parts, A.shape, return_info)
 
 
 @overload
 def weighted_pinv(
-    J: ArrayLike,
-    W: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[False] = ...,
+    J: ArrayLike, W: ArrayLike, *, return_info: Literal[False] = ..., **kw: Unpack[DampedOptions]
 ) -> FloatArray: ...
 @overload
 def weighted_pinv(
-    J: ArrayLike,
-    W: ArrayLike,
-    *,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+    J: ArrayLike, W: ArrayLike, *, return_info: Literal[True], **kw: Unpack[DampedOptions]
+) -> WithInfo: ...
 def weighted_pinv(
     J: ArrayLike,
     W: ArrayLike,
@@ -234,30 +213,18 @@ def weighted_pinv(
         NonFiniteError: ``J`` or ``W`` contains NaN or infinity.
     """
     A = be.as_jacobian(J)
-    parts = be.matrix_inverse(
-        A, weights=W, weights_name="W", damping=damping, rcond=be.as_rcond(rcond), exact_label=""
-    )
-    return be.finish(*parts, A.shape, return_info)
+    parts = be.matrix_inverse(A, weights=W, damping=damping, rcond=be.as_rcond(rcond))
+    return be.finish(parts, A.shape, return_info)
 
 
 @overload
 def generalized_inverse(
-    J: ArrayLike,
-    *,
-    weights: ArrayLike | None = ...,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[False] = ...,
+    J: ArrayLike, *, return_info: Literal[False] = ..., **kw: Unpack[InverseOptions]
 ) -> FloatArray: ...
 @overload
 def generalized_inverse(
-    J: ArrayLike,
-    *,
-    weights: ArrayLike | None = ...,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+    J: ArrayLike, *, return_info: Literal[True], **kw: Unpack[InverseOptions]
+) -> WithInfo: ...
 def generalized_inverse(
     J: ArrayLike,
     *,
@@ -291,12 +258,10 @@ def generalized_inverse(
     rc = be.as_rcond(rcond)
     if weights is not None or be.parse_damping(damping)[0] != 0:
         parts = be.matrix_inverse(
-            A, weights=weights, weights_name="weights", damping=damping, rcond=rc, exact_label=""
+            A, weights=weights, weights_name="weights", damping=damping, rcond=rc
         )
-    elif m == n:
-        parts = _exact(A, rc, "square")
-    elif m < n:
-        parts = _exact(A, rc, "right")
+    elif m <= n:
+        parts = be.matrix_inverse(A, rcond=rc, exact_label="square" if m == n else "right")
     else:
         parts = _left(A, rc)
-    return be.finish(*parts, A.shape, return_info)
+    return be.finish(parts, A.shape, return_info)

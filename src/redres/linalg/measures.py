@@ -13,8 +13,7 @@ from numpy.typing import ArrayLike
 from ..errors import NonFiniteError, ShapeError
 from . import _backend as be
 from ._backend import FloatArray
-
-_EPS = float(np.finfo(np.float64).eps)
+from ._info import condition_from
 
 __all__ = [
     "condition_number",
@@ -59,13 +58,6 @@ def condition_number(J: ArrayLike) -> float:
     """
     sigma = singular_values(J)
     return condition_from(float(sigma[0]), float(sigma[-1]))
-
-
-def condition_from(sigma_max: float, sigma_min: float) -> float:
-    """``sigma_max / sigma_min`` capped at ``1 / eps`` (see :func:`condition_number`)."""
-    if sigma_min > sigma_max * _EPS:
-        return sigma_max / sigma_min
-    return 1.0 / _EPS
 
 
 def manipulability(J: ArrayLike) -> float:

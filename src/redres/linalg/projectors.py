@@ -18,16 +18,19 @@ from the same inverse as the task solution ``J# xd`` (DESIGN.md, section 2):
 
 from __future__ import annotations
 
-from typing import Any, Literal, NamedTuple, overload
+from typing import TYPE_CHECKING, Literal, NamedTuple, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validate import as_matrix
-from ..errors import InvalidParameterError, ShapeError
+from ..errors import InvalidParameterError
 from . import _backend as be
-from ._backend import FloatArray, Result
-from ._info import RCOND, AdaptiveDamping, InverseInfo
+from ._backend import FloatArray, InverseOptions, Result, WithInfo
+from ._info import RCOND, AdaptiveDamping
+
+if TYPE_CHECKING:
+    from typing import Unpack  # Python 3.11; only read by type checkers
 
 __all__ = [
     "MoorePenroseResiduals",
@@ -43,21 +46,13 @@ def nullspace_projector(
     J: ArrayLike,
     J_pinv: ArrayLike | None = ...,
     *,
-    weights: ArrayLike | None = ...,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
     return_info: Literal[False] = ...,
+    **kw: Unpack[InverseOptions],
 ) -> FloatArray: ...
 @overload
 def nullspace_projector(
-    J: ArrayLike,
-    J_pinv: None = ...,
-    *,
-    weights: ArrayLike | None = ...,
-    damping: float | AdaptiveDamping = ...,
-    rcond: float = ...,
-    return_info: Literal[True],
-) -> tuple[FloatArray, InverseInfo]: ...
+    J: ArrayLike, J_pinv: None = ..., *, return_info: Literal[True], **kw: Unpack[InverseOptions]
+) -> WithInfo: ...
 def nullspace_projector(
     J: ArrayLike,
     J_pinv: ArrayLike | None = None,
@@ -99,8 +94,7 @@ def nullspace_projector(
                 "return_info=True needs J_pinv=None: the diagnostics belong to the inverse "
                 "this function computes"
             )
-        X = as_matrix(J_pinv, "J_pinv", (n, m))
-        return np.eye(n) - X @ A
+        return np.eye(n) - as_matrix(J_pinv, "J_pinv", (n, m)) @ A
     _, N, stats, mode = be.invert(
         A,
         weights=weights,
@@ -111,7 +105,7 @@ def nullspace_projector(
         want_projector=True,
     )
     method = be.method_label(mode, weights is not None, "pinv")
-    return be.finish(N, stats, method, A.shape, return_info)
+    return be.finish((N, stats, method), A.shape, return_info)
 
 
 def nullspace_basis(J: ArrayLike, rcond: float = RCOND) -> FloatArray:
@@ -169,7 +163,7 @@ def moore_penrose_residuals(J: ArrayLike, J_pinv: ArrayLike) -> MoorePenroseResi
     """
     A = be.as_jacobian(J)
     m, n = A.shape
-    X = _as_inverse(J_pinv, (n, m))
+    X = as_matrix(J_pinv, "J_pinv", (n, m))
     JX = A @ X
     XJ = X @ A
     return MoorePenroseResiduals(
@@ -189,10 +183,3 @@ def is_moore_penrose(J: ArrayLike, J_pinv: ArrayLike, *, tol: float = 1e-8) -> b
         tol: Largest accepted relative residual (see :func:`moore_penrose_residuals`).
     """
     return moore_penrose_residuals(J, J_pinv).max() <= tol
-
-
-def _as_inverse(value: Any, shape: tuple[int, int]) -> FloatArray:
-    X = as_matrix(value, "J_pinv")
-    if X.shape != shape:
-        raise ShapeError(f"J_pinv must have shape {shape} (n x m for J of m x n); got {X.shape}")
-    return X

@@ -31,15 +31,14 @@ from ._info import RCOND, AdaptiveDamping, InverseInfo
 __all__ = ["RateStep", "rate_step"]
 
 _F64 = np.float64
-_ndarray = np.ndarray
 _contiguous = np.ascontiguousarray
 _empty = np.empty
 _new_tuple = tuple.__new__
 _NO_GRAD = be.EMPTY_1D
 _NAMES = {"J": "J", "xd": "xd", "grad": "grad", "W": "weights"}
-# InverseInfo.method by damping mode (EXACT, FIXED, ADAPTIVE, SELECTIVE).
-_LABELS = ("pinv", "damped", "adaptive", "selective")
-_WEIGHTED_LABELS = ("weighted", "weighted-damped", "weighted-adaptive", "weighted-selective")
+# InverseInfo.method by damping mode (the codes EXACT, FIXED, ADAPTIVE, SELECTIVE are 0..3).
+_LABELS = tuple(be.method_label(mode, False, "pinv") for mode in range(4))
+_WEIGHTED_LABELS = tuple(be.method_label(mode, True, "") for mode in range(4))
 
 # Native entry point of the compiled step for float64 arrays and float scalars; filled on
 # the first call (None until then, False when the kernels are unavailable).
@@ -135,7 +134,7 @@ def rate_step(
     lane = _lane[0]
     if lane is None:
         lane = _lane[0] = be.fast_step() or False
-    # be.fast_size(m, n), inlined (the hot path): up to 6 rows, or 12 when m <= n.
+    # The size test of be.use_fast_path, inlined (the hot path): up to 6 rows, or 12 when m <= n.
     if lane and weights is None and (m <= 6 or (m <= 12 and m <= n)) and n <= 50:
         if type(damping) is not AdaptiveDamping:
             qd = _empty(n)
@@ -242,9 +241,7 @@ def _numpy_step(
         if not np.isfinite(arr).all():
             raise NonFiniteError(f"{name} contains NaN or infinity")
     mode, lam, lam_max, eps, rcond = spec
-    factor = be.EMPTY_2D
-    if wmode != codes.NO_WEIGHTS:
-        factor = be.weight_factor(wmode, wdiag, wfull, "weights")
+    factor = be.weight_factor(wmode, wdiag, wfull, "weights")
     filt = be.Filtered(be.weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
     task = filt.apply(xd)
     null = np.zeros_like(task)
