@@ -1,4 +1,4 @@
-"""The ``redres`` command: ``redres robots``, ``redres demo``.
+"""The ``redres`` command: ``redres robots``, ``redres demo``, ``redres run``, ``redres bench``.
 
 Exit codes: 0 success, 2 bad usage or bad input (one clear message on stderr).
 """
