@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 
 import redres as rr
 from redres.cli import main
@@ -188,7 +189,7 @@ def test_the_registry_lists_every_scheme_type() -> None:
     assert names == set()  # every scheme declares its types and from_scenario
     for kind in registered:
         try:
-            spec = parse_scenario(tomllib_loads(scheme_table(kind)))
+            spec = parse_scenario(tomllib.loads(scheme_table(kind)))
             built = spec.schemes[0].build()
         except rr.errors.MissingDependencyError:
             continue
@@ -202,16 +203,16 @@ def test_scheme_keys_reach_the_constructors() -> None:
         'type = "gradient_projection"\nk_null = 2.5\nmax_damping = 0.2\nthreshold = 0.1\n'
         'objectives = [{ type = "joint_limits" }]',
     )
-    scheme = parse_scenario(tomllib_loads(text)).schemes[0].build()
+    scheme = parse_scenario(tomllib.loads(text)).schemes[0].build()
     assert scheme.k_null == 2.5
     assert scheme.inverse == rr.resolution.Inverse(rr.linalg.AdaptiveDamping(0.2, 0.1))
-    dls = parse_scenario(tomllib_loads(scheme_table("dls"))).schemes[0].build()
+    dls = parse_scenario(tomllib.loads(scheme_table("dls"))).schemes[0].build()
     assert dls.name == "dls" and dls.inverse == rr.resolution.Inverse(0.05)
-    aug = parse_scenario(tomllib_loads(scheme_table("augmented"))).schemes[0].build()
+    aug = parse_scenario(tomllib.loads(scheme_table("augmented"))).schemes[0].build()
     assert aug.inverse == rr.resolution.AugmentedJacobianScheme().inverse
     objectives = 'objectives = [{ type = "joint_limits" }]'
     text = GOOD.replace('type = "pinv"', f'type = "sns"\nk_null = 2.0\n{objectives}')
-    sns_spec = parse_scenario(tomllib_loads(text))
+    sns_spec = parse_scenario(tomllib.loads(text))
     sns = sns_spec.schemes[0].build()
     assert sns.k_null == 2.0 and sns.dt == sns_spec.dt == 0.002 and len(sns.objectives) == 1
 
@@ -232,9 +233,3 @@ def test_builtin_scenarios_are_the_shipped_files() -> None:
             assert np.array_equal(spec.trajectory.sample(t).pose, reference.sample(t).pose)
     with pytest.raises(ScenarioError, match="built-in scenarios: iiwa_arm_angle_eight, panda"):
         builtin("panda_circle")
-
-
-def tomllib_loads(text: str) -> dict:
-    import tomllib
-
-    return tomllib.loads(text)

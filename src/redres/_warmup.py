@@ -1,4 +1,4 @@
-"""Compile the numba kernels of the hard-limit schemes and the controller ahead of use.
+"""Compile the numba kernels of the hard-limit schemes ahead of use.
 
 ``redres demo`` starts this in a second process on a cold start, so that the JIT work of
 the QP/SNS kernels overlaps with the first runs on the other core; the compiled code lands
@@ -23,17 +23,5 @@ def compile_hard_limit_kernels() -> None:
         scheme.step(robot, q, J, np.zeros(6))
 
 
-def compile_controller_kernels() -> None:
-    """One step of the controller's fused path (the kernel the demo ends with)."""
-    from .control import Controller
-    from .models import panda
-    from .resolution import PseudoInverseScheme
-    from .tasks import FrameTask
-
-    robot = panda()
-    Controller(robot, FrameTask(), PseudoInverseScheme()).step(robot.neutral())
-
-
 if __name__ == "__main__":
     compile_hard_limit_kernels()
-    compile_controller_kernels()

@@ -1,4 +1,4 @@
-"""The ``redres`` command: ``redres robots``, ``redres demo``.
+"""The ``redres`` command: ``redres robots``, ``redres demo``, ``redres run``, ``redres bench``.
 
 Exit codes: 0 success, 2 bad usage or bad input (one clear message on stderr).
 """
@@ -17,17 +17,10 @@ from . import __version__
 from .errors import RedresError
 
 
-def _table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
-    line = "  ".join(h.ljust(w) for h, w in zip(headers, widths))
-    rule = "  ".join("-" * w for w in widths)
-    body = ["  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
-    return "\n".join(s.rstrip() for s in [line, rule, *body])
-
-
 def robots_table() -> tuple[str, list[dict[str, object]]]:
     """Text table and records describing every built-in robot."""
     from . import models
+    from .runner import aligned_table
 
     records: list[dict[str, object]] = []
     rows = []
@@ -60,7 +53,7 @@ def robots_table() -> tuple[str, list[dict[str, object]]]:
             ]
         )
     headers = ["robot", "dof", "tip", "range deg", "qd_max rad/s", "named frames"]
-    return _table(headers, rows), records
+    return aligned_table(headers, rows), records
 
 
 def _cmd_robots(args: argparse.Namespace) -> int:

@@ -98,7 +98,6 @@ def compiled_loop(steps: int = 1500) -> list[dict[str, object]]:
 
     scenario = builtin("panda_joint_limit_circle")
     robot, trajectory = scenario.robot, scenario.trajectory
-    assert trajectory is not None
     schemes: dict[str, Callable[[], Scheme]] = {
         "gradient projection (fused kernel)": lambda: GradientProjectionScheme(
             [JointLimitObjective()], k_null=5.0
@@ -137,16 +136,9 @@ def _write_report(
             "redres: note: the report package is not available; no report written", file=sys.stderr
         )
         return None
+    pairs = [(spec.robot, log) for spec, log in runs]
     try:
-        return Path(
-            write_report(
-                out,
-                [(spec.robot, log) for spec, log in runs],
-                title=title,
-                description=description,
-                table=[log.summary() for _, log in runs],
-            )
-        )
+        return Path(write_report(out, pairs, title=title, description=description))
     except MissingDependencyError as exc:
         print(f"redres: note: {exc}; no report written", file=sys.stderr)
         return None
@@ -183,48 +175,43 @@ def run_scenarios(
     """
     started = time.perf_counter()
     helper = _start_kernel_warmup(specs)
-    if quick:
-        for spec in specs:
-            spec.duration *= 0.05
+    loud = not (quiet or as_json)
     runs: list[tuple[ScenarioSpec, RunLog]] = []
-    show_progress = None if not (quiet or as_json) else False
     for spec in specs:
-        if not (quiet or as_json):
+        if quick:
+            spec.duration *= 0.05
+        if loud:
             print(f"{spec.name}: {spec.description}", file=sys.stderr)
-        runs += [(spec, log) for log in run_scenario(spec, progress=show_progress)]
+        runs += [(spec, log) for log in run_scenario(spec, progress=None if loud else False)]
     if helper is not None and helper.poll() is None:
         helper.kill()
-    description = " ".join(f"{s.description}." for s in specs)
-    report = _write_report(out, runs, title, description)
+    report = _write_report(out, runs, title, " ".join(f"{s.description}." for s in specs))
     summaries = [log.summary() for _, log in runs]
+    steps = 100 if quick else 1500
     if as_json:
-        payload: dict[str, Any] = {
-            "report": str(report) if report else None,
-            "runs": summaries,
-        }
+        payload: dict[str, Any] = {"report": str(report) if report else None, "runs": summaries}
         if examples:
-            payload["examples"] = worked_examples()
-            payload["compiled_loop"] = compiled_loop(100 if quick else 1500)
+            payload.update(examples=worked_examples(), compiled_loop=compiled_loop(steps))
         print(json.dumps(payload))
         return 0
     print(format_table(summaries))
     if report is not None:
         print(f"\nreport: {report}")
-    if not quiet:
-        print(f"({len(runs)} runs in {time.perf_counter() - started:.1f} s)")
-        if examples:
-            print("\nWorked examples of the seed documents, computed now:")
-            for ex in worked_examples():
-                print(f"- {ex['example']}")
-                for key, value in ex.items():
-                    if key != "example":
-                        print(f"    {key}: {value}")
-            steps = 100 if quick else 1500
-            print(f"\nA 1 kHz loop (Controller, compiled paths), first {steps} steps of the "
-                  "Panda circle; `redres bench` compares it with pink, mink and KDL:")  # fmt: skip
-            for row in compiled_loop(steps):
-                print(f"- {row['loop']}: {row['median_us']} µs per step, max position error "
-                      f"{row['max_error_mm']} mm")  # fmt: skip
+    if quiet:
+        return 0
+    print(f"({len(runs)} runs in {time.perf_counter() - started:.1f} s)")
+    if examples:
+        print("\nWorked examples of the seed documents, computed now:")
+        for ex in worked_examples():
+            print(f"- {ex['example']}")
+            for key, value in ex.items():
+                if key != "example":
+                    print(f"    {key}: {value}")
+        print(f"\nA 1 kHz loop (Controller, compiled paths), first {steps} steps of the "
+              "Panda circle; `redres bench` compares it with pink, mink and KDL:")  # fmt: skip
+        for row in compiled_loop(steps):
+            print(f"- {row['loop']}: {row['median_us']} µs per step, max position error "
+                  f"{row['max_error_mm']} mm")  # fmt: skip
     return 0
 
 

@@ -51,15 +51,17 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import pinocchio as pin
 from numpy.typing import NDArray
 
-from ._validate import FloatArray, as_scalar, as_transform, as_vector
-from .errors import InvalidParameterError, ShapeError
+from ._validate import FloatArray, as_scalar, as_vector
+from .errors import InvalidParameterError
+from .ik_types import IKResult, _Options, _options, _parse_target
 from .linalg import AdaptiveDamping, adaptive_damping, rate_step
 
 if TYPE_CHECKING:
@@ -73,48 +75,6 @@ _ERROR_SCALE = 0.1  # m or rad: damping and the joint-limit term fade out below 
 _PREFERENCE_GAIN = 0.5  # fraction of the distance to the preference covered per iteration
 _PREFERENCE_STEP = 0.1  # rad: largest joint motion per iteration toward the preference
 _STICKY_ERROR = 1e-3  # m + rad: above this error in phase 2, clamped joints are released
-
-
-@dataclass(frozen=True)
-class IKResult:
-    """Outcome of :func:`ik`.
-
-    Attributes:
-        q: configuration, shape ``(n,)``, rad, always within the joint limits (the best
-            one found when not converged).
-        converged: both errors are within their tolerances (and the preference, if any,
-            has settled).
-        iterations: CLIK iterations over all attempts.
-        restarts: random restarts used.
-        position_error: ``‖p_d − p(q)‖``, m (``inf`` for a non-finite target).
-        orientation_error: rotation angle of ``R_d R(q)ᵀ``, rad (0 for position-only
-            targets; ``inf`` for a non-finite target).
-        time_s: wall-clock time of the solve, s.
-        message: what happened, in words.
-    """
-
-    q: FloatArray
-    converged: bool
-    iterations: int
-    restarts: int
-    position_error: float
-    orientation_error: float
-    time_s: float
-    message: str
-
-
-@dataclass(frozen=True)
-class _Options:
-    tol_position: float
-    tol_orientation: float
-    max_iterations: int
-    max_restarts: int
-    timeout_s: float
-    max_step: float
-    k_limits: float
-    damping: AdaptiveDamping
-    patience: int
-    preference_tol: float
 
 
 def ik(
@@ -223,49 +183,10 @@ def _warm_up(priority: bool) -> None:
         _WARM.add("priority")
 
 
-def _options(*values: Any) -> _Options:
-    (tol_p, tol_o, iters, restarts, timeout, max_step, k_lim, damping, patience, pref) = values
-    for name, value in (("max_iterations", iters), ("patience", patience)):
-        if not isinstance(value, (int, np.integer)) or value < 1:
-            raise InvalidParameterError(f"{name} must be an integer >= 1; got {value!r}")
-    if not isinstance(restarts, (int, np.integer)) or restarts < 0:
-        raise InvalidParameterError(f"max_restarts must be an integer >= 0; got {restarts!r}")
-    if damping is not None and not isinstance(damping, AdaptiveDamping):
-        raise InvalidParameterError(f"damping must be an AdaptiveDamping; got {damping!r}")
-    return _Options(
-        as_scalar(tol_p, "tol_position", minimum=0.0, strict=True),
-        as_scalar(tol_o, "tol_orientation", minimum=0.0, strict=True),
-        int(iters),
-        int(restarts),
-        as_scalar(timeout, "timeout_s", minimum=0.0, strict=True),
-        as_scalar(max_step, "max_step", minimum=0.0, strict=True),
-        as_scalar(k_lim, "k_limits", minimum=0.0),
-        damping if damping is not None else AdaptiveDamping(0.05, 0.05),
-        int(patience),
-        as_scalar(pref, "preference_tol", minimum=0.0, strict=True),
-    )
-
-
-def _parse_target(target: Any, position_only: bool) -> tuple[FloatArray, FloatArray | None] | None:
-    """``(p_d, R_d)`` (``R_d`` None for position only), or None if the target is not finite."""
-    try:
-        arr = np.asarray(target, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"target must be a 4x4 pose or a 3-vector; got {target!r}") from exc
-    if arr.shape not in ((3,), (4, 4)):
-        raise ShapeError(
-            f"target must be a 4x4 homogeneous transform or a position of shape (3,); "
-            f"got shape {arr.shape}"
-        )
-    if not np.isfinite(arr).all():
-        return None
-    if arr.shape == (3,):
-        return arr.copy(), None
-    T = as_transform(arr, "target")
-    return T[:3, 3].copy(), (None if position_only else T[:3, :3].copy())
-
-
 _CONVERGED, _STALLED, _BUDGET, _TIMEOUT = range(4)
+#: ``(task part, preference part)`` of a step; :meth:`_Solver.direction` at one ``q``.
+_Parts = tuple[FloatArray, FloatArray | None]
+_Direction = Callable[[NDArray[np.bool_] | None], _Parts]
 
 
 class _Solver:
@@ -432,9 +353,10 @@ class _Solver:
         arm = None
         if self.prefer and self.arm_task is not None:
             arm = self.arm_task.compute(self.robot, q)
-        task, pref = self.direction(q, J, lam, fade, arm, None)
+        parts = self.direction(q, J, lam, fade, arm, None)
         if self.at_limit:
-            task, pref = self.clamp(q, J, lam, fade, arm, task, pref, error)
+            parts = self.clamp(q, partial(self.direction, q, J, lam, fade, arm), parts, error)
+        task, pref = parts
         dq = task if pref is None else task + self.preference_part(pref)
         largest = float(abs(dq).max())
         if largest > o.max_step:
@@ -445,20 +367,12 @@ class _Solver:
             q_new = np.minimum(np.maximum(q_new, self.lo), self.hi)
         return q_new
 
-    def clamp(
-        self,
-        q: FloatArray,
-        J: FloatArray,
-        lam: float,
-        fade: float,
-        arm: TaskState | None,
-        task: FloatArray,
-        pref: FloatArray | None,
-        error: float,
-    ) -> tuple[FloatArray, FloatArray | None]:
-        """Recompute the step without the joints it pushes against their limits, until
-        none is (at most three passes). In phase 2 a clamped joint stays clamped while the
-        task holds (no chattering against the limit)."""
+    def clamp(self, q: FloatArray, redo: _Direction, parts: _Parts, error: float) -> _Parts:
+        """Recompute the step (``redo``: :meth:`direction` at this ``q``) without the
+        joints it pushes against their limits, until none is (at most three passes). In
+        phase 2 a clamped joint stays clamped while the task holds (no chattering against
+        the limit)."""
+        task, pref = parts
         blocked = np.zeros(q.size, dtype=bool)
         if self.prefer:
             if error > _STICKY_ERROR:
@@ -467,7 +381,7 @@ class _Solver:
         recompute = bool(blocked.any())
         for _ in range(3):
             if recompute:
-                task, pref = self.direction(q, J, lam, fade, arm, blocked)
+                task, pref = redo(blocked)
             dq = task if pref is None else task + pref
             out = (((q <= self.lo) & (dq < 0.0)) | ((q >= self.hi) & (dq > 0.0))) & ~blocked
             if not out.any():
@@ -486,7 +400,7 @@ class _Solver:
         fade: float,
         arm: TaskState | None,
         blocked: NDArray[np.bool_] | None,
-    ) -> tuple[FloatArray, FloatArray | None]:
+    ) -> _Parts:
         """``(task part, preference part)`` of the step, the ``blocked`` joints' columns
         removed (in phase 1 the joint-limit term is in the task part, preference None)."""
         if blocked is not None:

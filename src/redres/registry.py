@@ -101,9 +101,8 @@ def scheme_types() -> dict[str, ScenarioBuilder]:
             PriorityScheme,
             QPScheme,
             SNSScheme,
+            OperationalSpaceController,
         )
         for cls in classes:
             _REGISTRY.update(dict.fromkeys(cls.scenario_types, cls.from_scenario))
-        osc = OperationalSpaceController
-        _REGISTRY.update(dict.fromkeys(osc.scenario_types, osc.from_scenario))
     return dict(_REGISTRY)

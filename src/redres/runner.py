@@ -6,6 +6,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from .control import RunLog, run
+from .dynamics import simulate
 from .objectives import ObstacleObjective
 from .scenario import ScenarioSpec
 
@@ -25,44 +26,30 @@ _MM = {"max_position_error_m", "rms_position_error_m"}
 
 def run_scenario(spec: ScenarioSpec, *, progress: bool | None = None) -> list[RunLog]:
     """Run each scheme of ``spec`` from the same start; returns the logs in order."""
-    logs = []
     extra = [ObstacleObjective(spec.obstacles)] if spec.obstacles else []
-    for scheme_spec in spec.schemes:
-        if scheme_spec.kind == "osc":
-            from .dynamics import simulate
-
-            log = simulate(
-                spec.robot,
-                scheme_spec.build(),
-                spec.trajectory,
-                dt=spec.dt,
-                duration=spec.duration,
-                q0=spec.q0,
-                label=scheme_spec.label,
-                progress=progress,
-            )
-            logs.append(log)
-            continue
-        log = run(
-            spec.robot,
-            spec.task(),
-            spec.trajectory,
-            scheme_spec.build(),
-            dt=spec.dt,
-            duration=spec.duration,
-            q0=spec.q0,
-            gain=spec.gain,
-            log_objectives=extra,
-            label=scheme_spec.label,
-            progress=progress,
-        )
-        logs.append(log)
+    logs = []
+    for s in spec.schemes:
+        common: dict[str, Any] = {"dt": spec.dt, "duration": spec.duration, "q0": spec.q0,
+                                  "label": s.label, "progress": progress}  # fmt: skip
+        if s.kind == "osc":
+            logs.append(simulate(spec.robot, s.build(), spec.trajectory, **common))
+        else:
+            logs.append(run(spec.robot, spec.task(), spec.trajectory, s.build(), gain=spec.gain,
+                            log_objectives=extra, **common))  # fmt: skip
     return logs
+
+
+def aligned_table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    """``rows`` of text under ``headers``, in left-aligned columns below a rule."""
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
+    lines = ["  ".join(h.ljust(w) for h, w in zip(headers, widths))]
+    lines.append("  ".join("-" * w for w in widths))
+    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
+    return "\n".join(line.rstrip() for line in lines)
 
 
 def format_table(summaries: Sequence[dict[str, Any]]) -> str:
     """The comparison table as aligned text."""
-    headers = [title for _, title, _ in COLUMNS]
     rows = []
     for s in summaries:
         row = []
@@ -72,8 +59,4 @@ def format_table(summaries: Sequence[dict[str, Any]]) -> str:
                 value = value * 1e3
             row.append(fmt.format(value) if value != "" else "-")
         rows.append(row)
-    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
-    lines = ["  ".join(h.ljust(w) for h, w in zip(headers, widths))]
-    lines.append("  ".join("-" * w for w in widths))
-    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
-    return "\n".join(line.rstrip() for line in lines)
+    return aligned_table([title for _, title, _ in COLUMNS], rows)

@@ -20,7 +20,8 @@ __all__ = [
 
 import math
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import partial
 from importlib import resources
@@ -31,6 +32,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import models
+from .control.trajectories import Circle, FigureEight, Hold, Line, MinimumJerk, Trajectory
 from .errors import RedresError
 from .linalg import AdaptiveDamping
 from .objectives import (
@@ -52,8 +54,6 @@ if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
-
-from .control.trajectories import Circle, FigureEight, Hold, Line, MinimumJerk, Trajectory
 
 _T = TypeVar("_T")
 
@@ -98,8 +98,20 @@ class _Reader:
         self.table, self.path, self.file = table, path, file
         self.used: set[str] = set()
 
-    def fail(self, key: str, message: str) -> ScenarioError:
-        return ScenarioError(f"{self.file}: {self.path}.{key}: {message}")
+    def fail(self, key: str | None, message: str) -> ScenarioError:
+        """The error at ``key`` of this table (``None``: the table itself)."""
+        where = self.path if key is None else f"{self.path}.{key}"
+        return ScenarioError(f"{self.file}: {where}: {message}")
+
+    @contextmanager
+    def blame(self, key: str | None) -> Iterator[None]:
+        """Report a :class:`RedresError` raised inside (a constructor's check) at ``key``."""
+        try:
+            yield
+        except ScenarioError:
+            raise
+        except RedresError as exc:
+            raise self.fail(key, str(exc)) from None
 
     def get(self, key: str, kind: str, default: Any = ..., *, size: int | None = None) -> Any:
         self.used.add(key)
@@ -135,11 +147,39 @@ class _Reader:
             return value
         raise AssertionError(kind)
 
+    def number(self, key: str, default: Any = ...) -> float:
+        return float(self.get(key, "number", default))
+
     def positive(self, key: str, default: Any = ...) -> float:
-        value = self.get(key, "number", default)
-        if value is not None and value <= 0:
+        value = self.number(key, default)
+        if value <= 0:
             raise self.fail(key, f"must be > 0; got {value}")
-        return float(value)
+        return value
+
+    def nonnegative(self, key: str, default: Any = ...) -> float:
+        value = self.number(key, default)
+        if value < 0:
+            raise self.fail(key, f"must be >= 0; got {value}")
+        return value
+
+    def string(self, key: str, default: Any = ...) -> str:
+        return str(self.get(key, "string", default))
+
+    def at(self, key: str, index: int) -> str:
+        """The path of table ``index`` of the list at ``key``."""
+        return f"{self.path}.{key}[{index}]" if self.path else f"[{key}][{index}]"
+
+    def read(self, table: Any, path: str, parse: Callable[[_Reader], _T]) -> _T:
+        """``parse`` the sub-table ``table`` at ``path``; its unknown keys are errors."""
+        reader = _Reader(table, path, self.file)
+        value = parse(reader)
+        reader.done()
+        return value
+
+    def each(self, key: str, parse: Callable[[_Reader], _T], default: Any = ...) -> list[_T]:
+        """``parse`` each table of the list at ``key`` (:meth:`read`)."""
+        tables = self.get(key, "tables", default)
+        return [self.read(table, self.at(key, i), parse) for i, table in enumerate(tables)]
 
     def done(self) -> None:
         unknown = sorted(set(self.table) - self.used)
@@ -149,70 +189,71 @@ class _Reader:
             )
 
 
-def _robot(r: _Reader, base: Path) -> Robot:
+def _robot(r: _Reader, base: Path) -> tuple[Robot, np.ndarray]:
+    """The robot and its start configuration ``q0``."""
     model = r.get("model", "string", None)
     urdf = r.get("urdf", "string", None)
     tip = r.get("tip", "string", None)
     if (model is None) == (urdf is None):
         raise r.fail("model", 'give exactly one of model = "<built-in name>" or urdf = "<path>"')
-    try:
-        if model is not None:
-            robot = models.load(model)
-        else:
-            robot = Robot.from_urdf(base / urdf, tip=tip)
-    except RedresError as exc:
-        raise r.fail("model" if model else "urdf", str(exc)) from None
+    with r.blame("model" if model else "urdf"):
+        robot = models.load(model) if model is not None else Robot.from_urdf(base / urdf, tip=tip)
     if tip is not None and model is not None:
         if tip not in robot.frames():
             raise r.fail("tip", f"unknown frame {tip!r}; frames: {', '.join(robot.frames())}")
         robot = Robot(
             robot.model, tip=tip, name=robot.name, home=robot.neutral(), qdd_max=robot.qdd_max
         )
-    return robot
+    q0 = r.get("q0", "vector", None, size=robot.n)
+    if q0 is None:
+        q0 = robot.neutral()
+    elif not robot.within_limits(q0):
+        raise r.fail("q0", "is outside the joint limits; see `redres robots` for them")
+    return robot, q0
 
 
 def _trajectory(r: _Reader, start: np.ndarray) -> Trajectory:
-    kind = r.get("type", "string")
-    if kind == "circle":
-        return Circle(
-            start,
-            r.positive("radius"),
-            r.positive("period"),
-            normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
-            phase=r.get("phase", "number", 0.0),
-            turns=r.positive("turns", 1.0),
-            ramp=r.get("ramp", "number", 0.0),
+    """The path of ``[trajectory]`` from the tip's pose ``start`` (checks reported here)."""
+    with r.blame(None):
+        kind = r.string("type")
+        if kind == "circle":
+            return Circle(
+                start,
+                r.positive("radius"),
+                r.positive("period"),
+                normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
+                phase=r.number("phase", 0.0),
+                turns=r.positive("turns", 1.0),
+                ramp=r.number("ramp", 0.0),
+            )
+        if kind == "figure_eight":
+            return FigureEight(
+                start,
+                r.positive("width"),
+                r.positive("height"),
+                r.positive("period"),
+                normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
+                turns=r.positive("turns", 1.0),
+            )
+        if kind == "line":
+            return Line(start, r.get("end", "vector", size=3), r.positive("duration"))
+        if kind == "minimum_jerk":
+            end = start.copy()
+            end[:3, 3] = r.get("end_position", "vector", start[:3, 3], size=3)
+            rotation = r.get("rotation", "vector", np.zeros(3), size=3)
+            end[:3, :3] = start[:3, :3] @ pin.exp3(rotation)
+            return MinimumJerk(start, end, r.positive("duration"))
+        if kind == "hold":
+            return Hold(start, r.positive("duration"))
+        raise r.fail(
+            "type",
+            f"unknown trajectory {kind!r}; use circle, figure_eight, line, minimum_jerk or hold",
         )
-    if kind == "figure_eight":
-        return FigureEight(
-            start,
-            r.positive("width"),
-            r.positive("height"),
-            r.positive("period"),
-            normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
-            turns=r.positive("turns", 1.0),
-        )
-    if kind == "line":
-        return Line(start, r.get("end", "vector", size=3), r.positive("duration"))
-    if kind == "minimum_jerk":
-        end = start.copy()
-        end[:3, 3] = r.get("end_position", "vector", start[:3, 3], size=3)
-        rotation = r.get("rotation", "vector", np.zeros(3), size=3)
-        end[:3, :3] = start[:3, :3] @ pin.exp3(rotation)
-        return MinimumJerk(start, end, r.positive("duration"))
-    if kind == "hold":
-        return Hold(start, r.positive("duration"))
-    raise r.fail(
-        "type", f"unknown trajectory {kind!r}; use circle, figure_eight, line, minimum_jerk or hold"
-    )
 
 
 def _obstacle(r: _Reader) -> Obstacle:
-    kind = r.get("type", "string")
-    name = r.get("name", "string", kind)
-    radius = r.get("radius", "number", 0.0)
-    if radius < 0:
-        raise r.fail("radius", f"must be >= 0; got {radius}")
+    kind = r.string("type")
+    name, radius = r.string("name", kind), r.nonnegative("radius", 0.0)
     if kind in ("sphere", "point"):
         return SphereObstacle(r.get("center", "vector", size=3), radius, name)
     if kind == "capsule":
@@ -223,35 +264,27 @@ def _obstacle(r: _Reader) -> Obstacle:
 
 
 def _objective(r: _Reader, obstacles: list[Obstacle], n: int) -> tuple[Objective, float]:
-    kind = r.get("type", "string")
-    weight = r.get("weight", "number", 1.0)
-    obj: Objective
+    kind, weight = r.string("type"), r.number("weight", 1.0)
     if kind == "joint_limits":
-        obj = JointLimitObjective()
-    elif kind == "manipulability":
-        obj = ManipulabilityObjective()
-    elif kind == "posture":
-        obj = PostureObjective(
-            r.get("q_ref", "vector", None, size=n), r.get("weights", "vector", np.ones(n), size=n)
-        )
-    elif kind == "obstacles":
+        return JointLimitObjective(), weight
+    if kind == "manipulability":
+        return ManipulabilityObjective(), weight
+    if kind == "posture":
+        q_ref = r.get("q_ref", "vector", None, size=n)
+        return PostureObjective(q_ref, r.get("weights", "vector", np.ones(n), size=n)), weight
+    if kind == "obstacles":
         if not obstacles:
             raise r.fail("type", "an obstacles objective needs [[obstacles]] in the scenario")
-        obj = ObstacleObjective(obstacles, r.positive("influence", 0.15))
-    else:
-        raise r.fail(
-            "type",
-            f"unknown objective {kind!r}; use joint_limits, manipulability, posture or obstacles",
-        )
-    return obj, weight
-
-
-LEVEL_TYPES = ("arm_angle", "posture", "look_at")
+        return ObstacleObjective(obstacles, r.positive("influence", 0.15)), weight
+    raise r.fail(
+        "type",
+        f"unknown objective {kind!r}; use joint_limits, manipulability, posture or obstacles",
+    )
 
 
 def _level(r: _Reader, n: int) -> Task:
     """One priority level's task (fresh on every call: tasks keep targets)."""
-    kind = r.get("type", "string")
+    kind = r.string("type")
     if kind == "arm_angle":
         target = r.get("target", "number", None)
         reference = r.get("reference", "vector", (0.0, 0.0, 1.0), size=3)
@@ -260,7 +293,7 @@ def _level(r: _Reader, n: int) -> Task:
         return PostureTask(r.get("q_ref", "vector", None, size=n))
     if kind == "look_at":
         return LookAtTask(r.get("frame", "string", None), target=r.get("target", "vector", size=3))
-    raise r.fail("type", f"unknown level {kind!r}; use {', '.join(LEVEL_TYPES)}")
+    raise r.fail("type", f"unknown level {kind!r}; use arm_angle, posture, look_at")
 
 
 class _SchemeReader(_Reader):
@@ -271,32 +304,17 @@ class _SchemeReader(_Reader):
     ) -> None:
         super().__init__(table, path, file)
         self.obstacles, self.n, self.dt = obstacles, n, dt
-        self.type = self.get("type", "string")
-
-    def number(self, key: str, default: float) -> float:
-        return float(self.get(key, "number", default))
-
-    def nonnegative(self, key: str, default: float) -> float:
-        value = self.number(key, default)
-        if value < 0:
-            raise self.fail(key, f"must be >= 0; got {value}")
-        return value
-
-    def string(self, key: str, default: str) -> str:
-        return str(self.get(key, "string", default))
+        self.type = self.string("type")
 
     def objectives(self) -> list[tuple[Objective, float]]:
-        tables = self.get("objectives", "tables", [])
-        parse = partial(_objective, obstacles=self.obstacles, n=self.n)
-        return [self._read(t, f"objectives[{i}]", parse) for i, t in enumerate(tables)]
+        return self.each("objectives", partial(_objective, obstacles=self.obstacles, n=self.n), [])
 
     def levels(self) -> list[Task]:
-        tables = self.get("levels", "tables")
-        if not tables:
+        levels = self.each("levels", partial(_level, n=self.n))
+        if not levels:
             example = 'levels = [{ type = "posture" }]'
             raise self.fail("levels", f"list at least one level, e.g. {example}")
-        parse = partial(_level, n=self.n)
-        return [self._read(t, f"levels[{i}]", parse) for i, t in enumerate(tables)]
+        return levels
 
     def inverse(self, default_damping: float | None = None) -> Inverse | None:
         keys = ("damping", "max_damping", "threshold", "rcond")
@@ -308,38 +326,23 @@ class _SchemeReader(_Reader):
                 raise self.fail("damping", "give damping = λ, or max_damping and threshold")
             damping = AdaptiveDamping(given.get("max_damping", 0.1), given.get("threshold", 0.05))
         if damping is None and "rcond" not in given:
+            if default_damping is None:
+                return None
             damping = default_damping
-        if damping is None and "rcond" not in given:
-            return None
-        try:
-            return make_inverse(None, damping, given.get("rcond"))
-        except RedresError as exc:
-            raise self.fail("rcond" if "rcond" in given else "damping", str(exc)) from None
+        with self.blame("rcond" if "rcond" in given else "damping"):
+            inverse = make_inverse(None, damping, given.get("rcond"))
+        return inverse
 
-    def _read(self, table: Any, key: str, parse: Callable[[_Reader], _T]) -> _T:
-        """``parse`` one sub-table (an objective, a level); its unknown keys are errors."""
-        reader = _Reader(table, f"{self.path}.{key}", self.file)
-        value = parse(reader)
-        reader.done()
-        return value
-
-
-def _scheme(r: _SchemeReader) -> SchemeSpec:
-    """The registered builder of the table's ``type``, run once now to validate."""
-    kind = r.type
-    label = r.get("label", "string", kind)
-    builders = scheme_types()
-    if kind not in builders:
-        raise r.fail("type", f"unknown scheme {kind!r}; use {', '.join(builders)}")
-    builder = builders[kind]
-    try:
-        builder(r)
-    except ScenarioError:
-        raise
-    except RedresError as exc:
-        raise r.fail("type", str(exc)) from None
-    r.done()
-    return SchemeSpec(kind, label, lambda: builder(r))
+    def spec(self) -> SchemeSpec:
+        """The registered builder of the table's ``type``, run once now to validate."""
+        label, builders = self.string("label", self.type), scheme_types()
+        if self.type not in builders:
+            raise self.fail("type", f"unknown scheme {self.type!r}; use {', '.join(builders)}")
+        builder = builders[self.type]
+        with self.blame("type"):
+            builder(self)
+        self.done()
+        return SchemeSpec(self.type, label, lambda: builder(self))
 
 
 def load_scenario(path: str | Path) -> ScenarioSpec:
@@ -361,64 +364,32 @@ def parse_scenario(
 ) -> ScenarioSpec:
     """Validate a parsed scenario (a dict as :mod:`tomllib` returns)."""
     top = _Reader(data, "", file)
-    name = top.get("name", "string", Path(file).stem)
-    description = top.get("description", "string", "")
+    name, description = top.string("name", Path(file).stem), top.string("description", "")
     top.used.update({"robot", "trajectory", "run", "obstacles", "schemes"})
     if "robot" not in data:
         raise ScenarioError(f'{file}: missing [robot] table; add [robot] with model = "panda"')
-    rob = _Reader(data["robot"], "[robot]", file)
-    robot = _robot(rob, base)
-    q0 = rob.get("q0", "vector", None, size=robot.n)
-    if q0 is None:
-        q0 = robot.neutral()
-    elif not robot.within_limits(q0):
-        raise rob.fail("q0", "is outside the joint limits; see `redres robots` for them")
-    rob.done()
-    start = robot.fk(q0)
+    robot, q0 = top.read(data["robot"], "[robot]", partial(_robot, base=base))
     if "trajectory" not in data:
         raise ScenarioError(f'{file}: missing [trajectory] table; add type = "circle" etc.')
-    traj_r = _Reader(data["trajectory"], "[trajectory]", file)
-    try:
-        trajectory = _trajectory(traj_r, start)
-    except ScenarioError:
-        raise
-    except RedresError as exc:
-        raise ScenarioError(f"{file}: [trajectory]: {exc}") from None
-    traj_r.done()
-    run_r = _Reader(data.get("run", {}), "[run]", file)
-    dt = run_r.positive("dt", 1e-3)
-    duration = run_r.positive("duration", trajectory.duration)
-    gain = run_r.get("gain", "number", 50.0)
-    if gain < 0:
-        raise run_r.fail("gain", f"must be >= 0; got {gain}")
-    run_r.done()
-    obstacles = []
-    for i, t in enumerate(top.get("obstacles", "tables", [])):
-        r = _Reader(t, f"[obstacles][{i}]", file)
-        obstacles.append(_obstacle(r))
-        r.done()
-    tables = top.get("schemes", "tables", ...)
+    path = partial(_trajectory, start=robot.fk(q0))
+    trajectory = top.read(data["trajectory"], "[trajectory]", path)
+    run = _Reader(data.get("run", {}), "[run]", file)
+    dt, duration = run.positive("dt", 1e-3), run.positive("duration", trajectory.duration)
+    gain = run.nonnegative("gain", 50.0)
+    run.done()
+    obstacles = top.each("obstacles", _obstacle, [])
+    tables = top.get("schemes", "tables")
     if not tables:
         raise ScenarioError(f'{file}: [[schemes]] is empty; add one with type = "pinv"')
     schemes = [
-        _scheme(_SchemeReader(t, f"[schemes][{i}]", file, obstacles, robot.n, dt))
+        _SchemeReader(t, top.at("schemes", i), file, obstacles, robot.n, dt).spec()
         for i, t in enumerate(tables)
     ]
     top.done()
     return ScenarioSpec(
-        name,
-        description,
-        robot,
-        q0,
-        FrameTask,
-        trajectory,
-        dt,
-        duration,
-        gain,
-        obstacles,
-        schemes,
-        file,
-    )
+        name, description, robot, q0, FrameTask, trajectory, dt, duration, gain, obstacles,
+        schemes, file,
+    )  # fmt: skip
 
 
 def builtin_scenarios() -> dict[str, Path]:

@@ -24,10 +24,8 @@ def progress_bar(total: int, enabled: bool | None, desc: str) -> Any:
     show = enabled if enabled is not None else (total >= 5000 and sys.stderr.isatty())
     if not show:
         return None
-    try:
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover - tqdm is a dependency
-        return None
+    from tqdm import tqdm  # a dependency; imported only when a bar is shown
+
     return tqdm(total=total, desc=desc, unit="step", leave=False, mininterval=0.25)
 
 

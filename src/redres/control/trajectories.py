@@ -48,22 +48,17 @@ class Trajectory(ABC):
     def sample(self, t: float) -> Sample:
         """Pose, twist and acceleration at time ``t``."""
 
-    def _fixed(self, position: FloatArray, velocity: FloatArray, accel: FloatArray) -> Sample:
-        T = self.start_pose.copy()  # type: ignore[attr-defined]
-        T[:3, 3] = position
-        twist = np.zeros(6)
-        twist[:3] = velocity
-        acc = np.zeros(6)
-        acc[:3] = accel
-        return Sample(T, twist, acc)
-
     def _planar(self, origin: FloatArray, coefficients: Any, basis: FloatArray) -> Sample:
         """A sample of a path in a plane with orientation held: ``coefficients`` (3 x 2)
         are the position offset, velocity and acceleration in the plane's ``basis``
         (2 x 3, rows e₁, e₂); one matrix product gives all three (the per-step cost of a
         run)."""
         pva = np.array(coefficients) @ basis
-        return self._fixed(origin + pva[0], pva[1], pva[2])
+        T = self.start_pose.copy()  # type: ignore[attr-defined]
+        T[:3, 3] = origin + pva[0]
+        twist, acc = np.zeros(6), np.zeros(6)
+        twist[:3], acc[:3] = pva[1], pva[2]
+        return Sample(T, twist, acc)
 
 
 def _plane_axes(normal: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -111,9 +106,8 @@ class Circle(Trajectory):
         u, v = _plane_axes(n)
         to_center = np.cos(phase) * u + np.sin(phase) * v
         self.center = self.start_pose[:3, 3] + self.radius * to_center
-        self._e1 = -to_center  # centre -> start
-        self._e2 = np.cross(n / np.linalg.norm(n), self._e1)
-        self._basis = np.vstack([self._e1, self._e2])
+        e1 = -to_center  # centre -> start
+        self._basis = np.vstack([e1, np.cross(n / np.linalg.norm(n), e1)])
         self.omega = 2.0 * np.pi / self.period
         self.duration = float(turns) * self.period + self.ramp / 2.0
 
@@ -168,8 +162,7 @@ class FigureEight(Trajectory):
         self.width = as_scalar(width, "width", minimum=0.0)
         self.height = as_scalar(height, "height", minimum=0.0)
         self.period = as_scalar(period, "period", minimum=0.0, strict=True)
-        self._e1, self._e2 = _plane_axes(as_vector(normal, "normal", 3))
-        self._basis = np.vstack([self._e1, self._e2])
+        self._basis = np.vstack(_plane_axes(as_vector(normal, "normal", 3)))
         self._origin = self.start_pose[:3, 3].copy()
         self.duration = float(turns) * self.period
 

@@ -1,0 +1,99 @@
+"""The problem and the answer of :func:`redres.ik.ik`: :class:`IKResult`, and the solver's
+options and target, validated once before the iteration (see :mod:`redres.ik`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ._validate import FloatArray, as_scalar, as_transform
+from .errors import InvalidParameterError, ShapeError
+from .linalg import AdaptiveDamping
+
+__all__ = ["IKResult"]
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """Outcome of :func:`~redres.ik.ik`.
+
+    Attributes:
+        q: configuration, shape ``(n,)``, rad, always within the joint limits (the best
+            one found when not converged).
+        converged: both errors are within their tolerances (and the preference, if any,
+            has settled).
+        iterations: CLIK iterations over all attempts.
+        restarts: random restarts used.
+        position_error: ``‖p_d − p(q)‖``, m (``inf`` for a non-finite target).
+        orientation_error: rotation angle of ``R_d R(q)ᵀ``, rad (0 for position-only
+            targets; ``inf`` for a non-finite target).
+        time_s: wall-clock time of the solve, s.
+        message: what happened, in words.
+    """
+
+    q: FloatArray
+    converged: bool
+    iterations: int
+    restarts: int
+    position_error: float
+    orientation_error: float
+    time_s: float
+    message: str
+
+
+@dataclass(frozen=True)
+class _Options:
+    tol_position: float
+    tol_orientation: float
+    max_iterations: int
+    max_restarts: int
+    timeout_s: float
+    max_step: float
+    k_limits: float
+    damping: AdaptiveDamping
+    patience: int
+    preference_tol: float
+
+
+def _options(*values: Any) -> _Options:
+    (tol_p, tol_o, iters, restarts, timeout, max_step, k_lim, damping, patience, pref) = values
+    for name, value in (("max_iterations", iters), ("patience", patience)):
+        if not isinstance(value, (int, np.integer)) or value < 1:
+            raise InvalidParameterError(f"{name} must be an integer >= 1; got {value!r}")
+    if not isinstance(restarts, (int, np.integer)) or restarts < 0:
+        raise InvalidParameterError(f"max_restarts must be an integer >= 0; got {restarts!r}")
+    if damping is not None and not isinstance(damping, AdaptiveDamping):
+        raise InvalidParameterError(f"damping must be an AdaptiveDamping; got {damping!r}")
+    return _Options(
+        as_scalar(tol_p, "tol_position", minimum=0.0, strict=True),
+        as_scalar(tol_o, "tol_orientation", minimum=0.0, strict=True),
+        int(iters),
+        int(restarts),
+        as_scalar(timeout, "timeout_s", minimum=0.0, strict=True),
+        as_scalar(max_step, "max_step", minimum=0.0, strict=True),
+        as_scalar(k_lim, "k_limits", minimum=0.0),
+        damping if damping is not None else AdaptiveDamping(0.05, 0.05),
+        int(patience),
+        as_scalar(pref, "preference_tol", minimum=0.0, strict=True),
+    )
+
+
+def _parse_target(target: Any, position_only: bool) -> tuple[FloatArray, FloatArray | None] | None:
+    """``(p_d, R_d)`` (``R_d`` None for position only), or None if the target is not finite."""
+    try:
+        arr = np.asarray(target, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"target must be a 4x4 pose or a 3-vector; got {target!r}") from exc
+    if arr.shape not in ((3,), (4, 4)):
+        raise ShapeError(
+            f"target must be a 4x4 homogeneous transform or a position of shape (3,); "
+            f"got shape {arr.shape}"
+        )
+    if not np.isfinite(arr).all():
+        return None
+    if arr.shape == (3,):
+        return arr.copy(), None
+    T = as_transform(arr, "target")
+    return T[:3, 3].copy(), (None if position_only else T[:3, :3].copy())
