@@ -213,3 +213,17 @@ def test_without_a_writable_cache_the_kernels_compile_in_memory() -> None:
         env={**os.environ, "REDRES_CACHE_DIR": "/proc/redres-read-only"},
     ).stdout.split()  # fmt: skip
     assert out == ["None", "0.5"]
+
+
+def test_warmup_runs_each_call_and_says_how_long_it_took(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    calls: list[str] = []
+    total = _jit.warmup(
+        [("first", lambda: calls.append("a")), ("second", lambda: calls.append("b"))]
+    )
+    assert calls == ["a", "b"] and total >= 0.0
+    err = capsys.readouterr().err.splitlines()
+    assert [line.split(":")[:2] for line in err] == [["redres", " first"], ["redres", " second"]]
+    assert _jit.warmup([("quiet", lambda: None)], quiet=True) >= 0.0
+    assert capsys.readouterr().err == ""

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _jit
+
 
 def compile_hard_limit_kernels() -> None:
     """One step of each hard-limit scheme on the Panda (compiles and caches the kernels)."""
@@ -24,4 +26,4 @@ def compile_hard_limit_kernels() -> None:
 
 
 if __name__ == "__main__":
-    compile_hard_limit_kernels()
+    _jit.warmup([("hard-limit kernels (SNS, QP)", compile_hard_limit_kernels)], quiet=True)
