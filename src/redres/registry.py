@@ -1,8 +1,8 @@
 """The scheme types of scenario files, registered in one place.
 
 Each scheme class (and the torque law :class:`~redres.dynamics.OperationalSpaceController`)
-declares the scenario ``type`` names it answers to (``scenario_types = ("pinv", "dls")``)
-and how it is built from that ``[[schemes]]`` table (a classmethod
+answers to the scenario ``type`` of its ``name``, or to its ``scenario_types`` (``("pinv",
+"dls")``), and builds itself from that ``[[schemes]]`` table (a classmethod
 ``from_scenario(params)``, reading :class:`ScenarioParams`). :func:`scheme_types` maps each
 name to its builder; :mod:`redres.scenario` loops over it, and its error for an unknown
 type lists these names.
@@ -104,5 +104,6 @@ def scheme_types() -> dict[str, ScenarioBuilder]:
             OperationalSpaceController,
         )
         for cls in classes:
-            _REGISTRY.update(dict.fromkeys(cls.scenario_types, cls.from_scenario))
+            names = cls.scenario_types or (cls.name,)
+            _REGISTRY.update(dict.fromkeys(names, cls.from_scenario))
     return dict(_REGISTRY)

@@ -67,7 +67,6 @@ class AugmentedJacobianScheme(Scheme):
     """
 
     name = "augmented"
-    scenario_types = ("augmented",)
     #: No null-space term: the extra rows use up the redundancy.
     k_null: float = 0.0
 

@@ -189,6 +189,9 @@ class Scheme(ABC):
     objectives: tuple[tuple[Objective, float], ...] = ()
     #: Tasks the scheme evaluates itself at ``q`` (empty: none); reset with the scheme.
     tasks: tuple[Task, ...] = ()
+    #: The ``type`` names of the scheme in scenario files (empty: its :attr:`name`); the
+    #: class builds itself from a scenario table with ``from_scenario`` (redres.registry).
+    scenario_types: tuple[str, ...] = ()
 
     def step(self, robot: Robot, q: Any, J: Any, xd: Any) -> StepResult:
         """Joint velocity for task Jacobian ``J`` and task velocity ``xd`` at ``q``.

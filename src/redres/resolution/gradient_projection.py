@@ -86,7 +86,6 @@ class GradientProjectionScheme(Scheme):
     """
 
     name = "gradient_projection"
-    scenario_types = ("gradient_projection",)
 
     @checked_keywords
     def __init__(

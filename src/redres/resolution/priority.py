@@ -355,7 +355,6 @@ class PriorityScheme(Scheme):
     """
 
     name = "priority"
-    scenario_types = ("priority",)
     #: No gradient term: the lower levels are tasks (:attr:`gains`), not costs.
     k_null: float = 0.0
 

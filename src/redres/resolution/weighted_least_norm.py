@@ -77,7 +77,6 @@ class WeightedLeastNormScheme(Scheme):
     """
 
     name = "wln"
-    scenario_types = ("wln",)
 
     @checked_keywords
     def __init__(

@@ -25,6 +25,7 @@ from ._codes import BOUND_KINDS
 from .box import Binding, JointLimits
 
 if TYPE_CHECKING:
+    from ...registry import ScenarioParams
     from ...robot import Robot
 
 #: Argument names for :func:`~redres.linalg._backend.raise_status` (a step's inputs).
@@ -133,6 +134,15 @@ class BoxScheme(Scheme):
         self.qd_prev: FloatArray | None = None
         self._robot: Any = None
         self._ws: Any = None
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> Scheme:
+        """The scheme of a scenario table: ``objectives`` and ``k_null``, planned over the
+        run's own period ``dt`` (the limits are the robot's)."""
+        build: Any = cls  # SNSScheme and QPScheme take dt, objectives and k_null
+        return build(  # type: ignore[no-any-return]
+            dt=params.dt, objectives=params.objectives(), k_null=params.nonnegative("k_null", 1.0)
+        )
 
     def _reset(self) -> None:
         self.qd_prev = None

@@ -62,7 +62,6 @@ from ._solvers import QPSolver, sense, solve_levels
 from .base import STEP_NAMES, BindingList, BoxScheme, Workspace, relaxed_joints, step_info
 
 if TYPE_CHECKING:
-    from ...registry import ScenarioParams
     from ...robot import Robot
 
 
@@ -116,7 +115,6 @@ class QPScheme(BoxScheme):
     """
 
     name = "qp"
-    scenario_types = ("qp",)
 
     @checked_keywords
     def __init__(
@@ -152,13 +150,6 @@ class QPScheme(BoxScheme):
     def _reset(self) -> None:
         super()._reset()
         self._infeasible_before = False
-
-    @classmethod
-    def from_scenario(cls, params: ScenarioParams) -> QPScheme:
-        """The scheme of a scenario table: ``objectives`` and ``k_null``, planned over the
-        run's own period ``dt`` (the limits are the robot's)."""
-        k_null = params.nonnegative("k_null", 1.0)
-        return cls(dt=params.dt, objectives=params.objectives(), k_null=k_null)
 
     def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
         n, m = robot.n, J.shape[0]

@@ -58,7 +58,6 @@ from ._compiled import kernels
 from .base import STEP_NAMES, BindingList, BoxScheme, Workspace, relaxed_joints, step_info
 
 if TYPE_CHECKING:
-    from ...registry import ScenarioParams
     from ...robot import Robot
 
 
@@ -112,7 +111,6 @@ class SNSScheme(BoxScheme):
     """
 
     name = "sns"
-    scenario_types = ("sns",)
 
     @checked_keywords
     def __init__(
@@ -127,13 +125,6 @@ class SNSScheme(BoxScheme):
     ) -> None:
         self._init_box(dt, objectives, k_null, qd_max, qdd_max)
         self.tolerance = as_scalar(tolerance, "tolerance", minimum=0.0)
-
-    @classmethod
-    def from_scenario(cls, params: ScenarioParams) -> SNSScheme:
-        """The scheme of a scenario table: ``objectives`` and ``k_null``, planned over the
-        run's own period ``dt`` (the limits are the robot's)."""
-        k_null = params.nonnegative("k_null", 1.0)
-        return cls(dt=params.dt, objectives=params.objectives(), k_null=k_null)
 
     def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
         ws = Workspace(self.limits(robot), J.shape[0])
