@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
+import textwrap
 
 import numpy as np
 import pytest
@@ -195,3 +198,42 @@ def test_limits_validation() -> None:
     with pytest.raises(InvalidParameterError):
         velocity_bounds(lim, robot.neutral(), None, -1.0)
     assert JointLimits.from_robot(robot, qdd_max=3.0).qdd_max.tolist() == [3.0] * 7
+
+
+def test_extreme_readings_and_limits_end_in_bounded_time() -> None:
+    """Readings of 1e300 rad, a distance of 1e30 rad, dt = 1e-300 s and qdd_max = 5e-324
+    used to spin forever in the braking loop (k ± 1 stops changing k beyond 2^53): now
+    each ends at once with a finite, non-negative bound. Run in a subprocess so that a
+    hang fails the test instead of stalling the suite."""
+    code = textwrap.dedent(
+        """
+        import numpy as np, redres as rr
+        from redres.resolution import SNSScheme, QPScheme, braking_velocity
+        robot = rr.models.panda()
+        q = np.full(7, 1e300)
+        J = robot.jacobian(robot.neutral())
+        out = [braking_velocity(1e30, 1e-3, 1.0), braking_velocity(1.0, 1e-300, 1.0),
+               braking_velocity(1.0, 1e-3, 5e-324)]
+        for make in (SNSScheme, QPScheme):
+            out.append(make(dt=1e-3).step(robot, q, J, np.zeros(6)).qd)
+        print(all(np.all(np.isfinite(v)) and np.all(np.asarray(v) >= -1e300) for v in out))
+        print(float(out[0]), float(out[2]))
+        """
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=240, check=True
+    )
+    finite, far, no_acceleration = done.stdout.split()
+    assert finite == "True"
+    assert float(far) == pytest.approx(math.sqrt(2.0 * 1.0 * 1e30), rel=1e-12)
+    assert float(no_acceleration) == pytest.approx(0.0, abs=1e-100)
+
+
+def test_the_braking_bound_is_continuous_where_it_turns_continuous() -> None:
+    """Either side of 2^50 braking steps the discrete bound and √(2 q̈ d) agree."""
+    dt, qdd = 1e-3, 2.0
+    a = qdd * dt
+    for k in (2.0**50 * 0.999, 2.0**50 * 1.001):
+        distance = 0.5 * a * k * (k + 1.0) * dt
+        v = float(braking_velocity(distance, dt, qdd))
+        assert v == pytest.approx(math.sqrt(2.0 * qdd * distance), rel=1e-12)

@@ -33,6 +33,9 @@ from ._codes import (
 from ._lp_kernels import largest_scale
 
 _INF = math.inf
+# Above this many braking steps the discrete bound equals the continuous one to 1e-15
+# relative, and float steps of k ± 1 stop being exact (2^53): no correction loop there.
+_K_EXACT = 2.0**50
 _RANK_TOL = 1e-12  # Cholesky pivot / largest Gram diagonal below which J W is rank-deficient
 
 # --------------------------------------------------------------------------- the box
@@ -48,10 +51,15 @@ def braking(distance, dt, qdd_max):  # type: ignore[no-untyped-def]
     if a == _INF:
         return x
     k = np.floor((math.sqrt(1.0 + 8.0 * (x / a)) - 1.0) * 0.5)
-    while k > 0.0 and 0.5 * a * k * (k + 1.0) > x:  # correct the rounding of sqrt
-        k -= 1.0
-    while 0.5 * a * (k + 1.0) * (k + 2.0) <= x:
-        k += 1.0
+    if not k < _K_EXACT:  # k ± 1 no longer changes k (or a underflowed): the continuous
+        return min(math.sqrt(2.0 * a * x), x)  # bound, to which v_max tends as k grows
+    for _ in range(4):  # correct the rounding of sqrt (at most a step or two)
+        if k > 0.0 and 0.5 * a * k * (k + 1.0) > x:
+            k -= 1.0
+        elif 0.5 * a * (k + 1.0) * (k + 2.0) <= x:
+            k += 1.0
+        else:
+            break
     return min(x / (k + 1.0) + 0.5 * a * k, x)
 
 

@@ -174,7 +174,10 @@ def braking_velocity(distance: ArrayLike, dt: float, qdd_max: ArrayLike) -> Floa
 
     ``v_max(x) = x/(k + 1) + a k/2`` with ``x = distance/dt``, ``a = qdd_max·dt`` and ``k`` the
     largest integer with ``a k (k + 1)/2 ≤ x`` (module docstring); ``distance/dt`` where
-    ``distance ≤ 0`` or ``qdd_max = inf``.
+    ``distance ≤ 0`` or ``qdd_max = inf``. Beyond ``k = 2⁵⁰`` braking steps (distances
+    far beyond any robot's, or ``qdd_max·dt`` underflowing) it is the continuous bound
+    ``√(2 q̈_max·distance)``, which the discrete one equals there to 1e-15: every step
+    ends in a bounded number of operations.
 
     Args:
         distance: distance to the limit, shape ``(n,)`` or scalar, rad (``inf`` allowed).
