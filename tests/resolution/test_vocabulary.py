@@ -4,12 +4,19 @@ null-space gains, misspelt keywords named, and one shape check in ``step``."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import pytest
 
 import redres as rr
-from redres.errors import InvalidParameterError, RedresError, ShapeError, UnknownParameterError
+from redres.errors import (
+    InvalidParameterError,
+    NonFiniteError,
+    RedresError,
+    ShapeError,
+    UnknownParameterError,
+)
 from redres.linalg import AdaptiveDamping
 from redres.objectives import JointLimitObjective
 from redres.resolution import (
@@ -122,3 +129,37 @@ def test_a_wrong_width_jacobian_is_a_shape_error_from_every_scheme(kind: str) ->
     q = robot.neutral()
     with pytest.raises(ShapeError, match=r"J must have shape \(6, 7\)"):
         scheme.step(robot, q, np.ones((6, 3)), np.zeros(6))
+
+
+@pytest.mark.parametrize("kind", sorted(SCHEMES))
+@pytest.mark.parametrize(
+    ("argument", "bad", "error"),
+    [
+        ("xd", np.nan, NonFiniteError),
+        ("xd", np.inf, NonFiniteError),
+        ("q", np.nan, NonFiniteError),
+        ("J", -np.inf, NonFiniteError),
+        ("q", 0.5j, InvalidParameterError),
+        ("J", 1j, InvalidParameterError),
+    ],
+)
+def test_every_scheme_refuses_non_finite_and_complex_input_by_name(
+    kind: str, argument: str, bad: complex, error: type[Exception]
+) -> None:
+    """``step`` names the argument: no all-NaN joint velocity (the priority scheme gave
+    one for a NaN ``xd`` or ``q``), no weights silently dropped (WLN with a NaN ``q``), no
+    imaginary part silently discarded."""
+    robot = rr.models.iiwa14() if kind == "augmented" else rr.models.panda()
+    try:
+        scheme = SCHEMES[kind]()
+    except rr.errors.MissingDependencyError:
+        pytest.skip("the qp extra is not installed")
+    q = robot.neutral()
+    J = robot.jacobian(q)
+    inputs: dict[str, Any] = {"q": q, "J": J, "xd": np.full(6, 0.01)}
+    value = inputs[argument].astype(complex) if isinstance(bad, complex) else inputs[argument]
+    value = value.copy()
+    value.flat[0] = bad
+    inputs[argument] = value
+    with pytest.raises(error, match=f"^{argument} "):
+        scheme.step(robot, inputs["q"], inputs["J"], inputs["xd"])

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from .._validate import FloatArray, as_scalar
-from ..errors import InvalidParameterError, ShapeError
+from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import RCOND, AdaptiveDamping, InverseInfo
 
 if TYPE_CHECKING:
@@ -21,6 +21,7 @@ if TYPE_CHECKING:
 
 
 _new = object.__new__
+_isfinite = np.isfinite
 
 
 class StepResult:
@@ -228,13 +229,20 @@ class Scheme(ABC):
 
 
 def step_arrays(q: Any, J: Any, xd: Any, n: int) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """``q``, ``J``, ``xd`` as C-contiguous float64 arrays of matching shapes, or a
-    :class:`~redres.errors.ShapeError` (finiteness is checked where they are used)."""
+    """``q``, ``J``, ``xd`` as finite, real, C-contiguous float64 arrays of matching shapes.
+
+    Raises:
+        ShapeError: a shape does not match ``robot.n`` or the others.
+        NonFiniteError: an array holds NaN or infinity (the message names it).
+        InvalidParameterError: an array is complex (its imaginary part would be lost).
+    """
     arrays = []
     for value, name in ((q, "q"), (J, "J"), (xd, "xd")):
         if type(value) is np.ndarray and value.dtype == np.float64 and value.flags.c_contiguous:
             arrays.append(value)
             continue
+        if np.iscomplexobj(value):
+            raise InvalidParameterError(f"{name} must be real; got a complex array")
         try:
             arrays.append(np.ascontiguousarray(value, dtype=np.float64))
         except (TypeError, ValueError) as exc:
@@ -249,4 +257,7 @@ def step_arrays(q: Any, J: Any, xd: Any, n: int) -> tuple[FloatArray, FloatArray
             f"J must have shape ({xd.shape[0]}, {n}) to match xd and the robot's {n} joints; "
             f"got {J.shape}"
         )
+    for arr, name in ((q, "q"), (J, "J"), (xd, "xd")):
+        if not _isfinite(arr).all():
+            raise NonFiniteError(f"{name} contains NaN or infinity")
     return q, J, xd
