@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -99,3 +100,26 @@ def test_demo_ends_with_the_compiled_loop(quick_demo: tuple[dict, Path]) -> None
         assert row["max_error_mm"] < 10.0  # the first 0.1 s of the circle, from rest
     # the fused step tracks like rr.run's gradient projection (0.0073 mm over the 10 s)
     assert rows["gradient projection (fused kernel)"]["max_error_mm"] < 0.02
+
+
+def test_a_folder_of_the_users_is_refused_before_anything_runs(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """One line naming the folder and the way out, exit 2, at once (no run happens); with
+    --force the report is added and the user's file kept."""
+    (tmp_path / "report.html").write_text("mine")
+    start = time.perf_counter()
+    assert main(["run", "iiwa_arm_angle_eight", "--quick", "--quiet", "--out", str(tmp_path)]) == 2
+    assert time.perf_counter() - start < 5.0
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--force" in err and str(tmp_path) in err
+    assert (tmp_path / "report.html").read_text() == "mine"
+    assert (
+        main(["run", "iiwa_arm_angle_eight", "--quick", "--quiet", "--out", str(tmp_path / "new")])
+        == 0
+    )
+    args = ["run", "iiwa_arm_angle_eight", "--quick", "--quiet", "--force", "--out"]
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "notes.txt").write_text("mine")
+    assert main([*args, str(tmp_path / "other")]) == 0
+    assert (tmp_path / "other" / "notes.txt").read_text() == "mine"

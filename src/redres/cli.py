@@ -65,7 +65,8 @@ def _cmd_robots(args: argparse.Namespace) -> int:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo import run_demo
 
-    return run_demo(out=Path(args.out), quiet=args.quiet, as_json=args.json, quick=args.quick)
+    return run_demo(out=Path(args.out), quiet=args.quiet, as_json=args.json, quick=args.quick,
+                    force=args.force)  # fmt: skip
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -91,6 +92,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         quiet=args.quiet,
         title=spec.name,
         quick=args.quick,
+        force=args.force,
     )
 
 
@@ -111,6 +113,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 def _output_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="redres-report", help="report folder")
+    parser.add_argument(
+        "--force", action="store_true",
+        help="write the report into a folder that holds other files (they are kept)",
+    )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--quiet", action="store_true", help="print only the results")
     parser.add_argument(

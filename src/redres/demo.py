@@ -127,7 +127,11 @@ def compiled_loop(steps: int = 1500) -> list[dict[str, object]]:
 
 
 def _write_report(
-    out: Path, runs: list[tuple[ScenarioSpec, RunLog]], title: str, description: str
+    out: Path,
+    runs: list[tuple[ScenarioSpec, RunLog]],
+    title: str,
+    description: str,
+    force: bool,
 ) -> Path | None:
     try:
         from .report import write_report
@@ -138,10 +142,20 @@ def _write_report(
         return None
     pairs = [(spec.robot, log) for spec, log in runs]
     try:
-        return Path(write_report(out, pairs, title=title, description=description))
+        return Path(write_report(out, pairs, title=title, description=description, force=force))
     except MissingDependencyError as exc:
         print(f"redres: note: {exc}; no report written", file=sys.stderr)
         return None
+
+
+def _check_out(out: Path, force: bool) -> None:
+    """Refuse a report folder that would replace a user's files, before any run (needs the
+    report package; without it no report is written anyway)."""
+    try:
+        from .report.writer import check_out_dir
+    except ImportError:
+        return
+    check_out_dir(out, force=force)
 
 
 def _start_kernel_warmup(specs: Sequence[ScenarioSpec]) -> subprocess.Popen[bytes] | None:
@@ -168,11 +182,15 @@ def run_scenarios(
     title: str,
     examples: bool = False,
     quick: bool = False,
+    force: bool = False,
 ) -> int:
     """Run ``specs``, print the table (or JSON), write the report; returns the exit code.
 
     ``quick`` runs 5 % of each scenario's duration (a smoke test of the whole pipeline).
+    The report folder is checked before anything runs (a user's files are never replaced;
+    ``force`` writes into a folder holding other files).
     """
+    _check_out(out, force)
     started = time.perf_counter()
     helper = _start_kernel_warmup(specs)
     loud = not (quiet or as_json)
@@ -185,7 +203,8 @@ def run_scenarios(
         runs += [(spec, log) for log in run_scenario(spec, progress=None if loud else False)]
     if helper is not None and helper.poll() is None:
         helper.kill()
-    report = _write_report(out, runs, title, " ".join(f"{s.description}." for s in specs))
+    description = " ".join(f"{s.description}." for s in specs)
+    report = _write_report(out, runs, title, description, force)
     summaries = [log.summary() for _, log in runs]
     steps = 100 if quick else 1500
     if as_json:
@@ -215,7 +234,10 @@ def run_scenarios(
     return 0
 
 
-def run_demo(*, out: Path, quiet: bool = False, as_json: bool = False, quick: bool = False) -> int:
+def run_demo(
+    *, out: Path, quiet: bool = False, as_json: bool = False, quick: bool = False,
+    force: bool = False,
+) -> int:  # fmt: skip
     """The flagship demo: every scheme on the built-in scenarios."""
     specs = [builtin(name) for name in DEMO_SCENARIOS]
     return run_scenarios(
@@ -226,4 +248,5 @@ def run_demo(*, out: Path, quiet: bool = False, as_json: bool = False, quick: bo
         title="redres demo",
         examples=True,
         quick=quick,
+        force=force,
     )

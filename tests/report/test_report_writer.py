@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import base64
 import json
+import os
 import re
 import sys
+import time
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -66,8 +68,9 @@ def test_files_are_written(report: Path) -> None:
     assert report.name == "report.html" and report.is_file()
     names = sorted(p.name for p in report.parent.iterdir())
     expected = """report.html panda-joints.png panda-position-error.png panda-sigma-min.png
-        panda-objectives.png iiwa14-joints.png iiwa14-position-error.png iiwa14-sigma-min.png"""
-    assert names == sorted(expected.split())
+        panda-objectives.png iiwa14-joints.png iiwa14-position-error.png iiwa14-sigma-min.png
+        .redres-report"""  # the marker: a later report may write here again
+    assert names == sorted(expected.split())  # no staging folder left
     assert not [p for p in report.parent.parent.iterdir() if p.name.startswith(".")]
 
 
@@ -139,7 +142,7 @@ def test_failure_after_the_plots_keeps_the_previous_report(
     out = tmp_path / "out"
     out.mkdir()
     (out / "notes.txt").write_text("mine")
-    write_report(out, runs[2:], title="first", frames=2)
+    write_report(out, runs[2:], title="first", frames=2, force=True)  # notes.txt is kept
     before = {p.name: p.read_bytes() for p in out.iterdir()}
 
     def broken(**kwargs: object) -> str:
@@ -181,3 +184,45 @@ def test_bad_input(runs: Runs, tmp_path: Path) -> None:
     with pytest.raises(InvalidParameterError, match="not a directory"):
         write_report(tmp_path / "file", runs, title="t")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+
+def test_a_users_files_are_never_replaced(runs: Runs, tmp_path: Path) -> None:
+    """A folder holding files redres did not write is refused (their names in the
+    message), with or without a file named like the report's; force=True adds the report
+    and keeps the user's other files; a folder holding a report is written again."""
+    for name in ("report.html", "panda-joints.png", "notes.txt"):
+        out = tmp_path / name.replace(".", "_")
+        out.mkdir()
+        (out / name).write_text("mine")
+        with pytest.raises(InvalidParameterError, match=re.escape(name)):
+            write_report(out, runs[2:], title="t", frames=2)
+        assert [p.name for p in out.iterdir()] == [name]  # untouched, no staging left
+        assert (out / name).read_text() == "mine"
+    forced = tmp_path / "notes_txt"
+    write_report(forced, runs[2:], title="t", frames=2, force=True)
+    assert (forced / "notes.txt").read_text() == "mine" and (forced / "report.html").exists()
+    again = write_report(forced, runs[2:], title="again", frames=2)  # now marked: no force
+    assert "again" in again.read_text(encoding="utf-8")
+    with pytest.raises(InvalidParameterError, match="report folder is empty"):
+        write_report("", runs[2:], title="t", frames=2)
+
+
+def test_a_report_written_before_the_marker_is_recognised(runs: Runs, tmp_path: Path) -> None:
+    out = tmp_path / "old"
+    write_report(out, runs[2:], title="t", frames=2)
+    (out / ".redres-report").unlink()  # as written by an earlier version
+    write_report(out, runs[2:], title="t", frames=2)
+
+
+def test_staging_left_by_a_killed_run_is_removed(runs: Runs, tmp_path: Path) -> None:
+    """Staging happens inside the report folder; one older than an hour is a killed run's
+    and goes at the next report, a fresh one (another writer at work) stays."""
+    out = tmp_path / "out"
+    write_report(out, runs[2:], title="t", frames=2)
+    stale, fresh = out / ".redres-staging-old", out / ".redres-staging-new"
+    for folder in (stale, fresh):
+        folder.mkdir()
+        (folder / "report.html").write_text("half")
+    os.utime(stale, (time.time() - 7200, time.time() - 7200))
+    write_report(out, runs[2:], title="t", frames=2)
+    assert not stale.exists() and fresh.exists()

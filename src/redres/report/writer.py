@@ -6,6 +6,7 @@ import os
 import re
 import shutil
 import tempfile
+import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -20,6 +21,11 @@ if TYPE_CHECKING:
     from ..robot import Robot
 
 PAGE = "report.html"
+#: The file that marks a folder as a redres report (a later report may replace its files).
+MARKER = ".redres-report"
+#: Prefix of the staging folders inside a report folder.
+STAGING = ".redres-staging-"
+_MARKER_TEXT = "This folder holds a report written by redres; a later report replaces its files.\n"
 
 
 def _check_options(
@@ -121,18 +127,57 @@ def _build(
     (staging / PAGE).write_text(page, encoding="utf-8")
 
 
-def _publish(staging: Path, out_dir: Path) -> None:
-    """Move the finished report into place: the whole directory by one rename when
-    ``out_dir`` does not exist, else file by file (``os.replace``), the page last, leaving
-    other files in ``out_dir`` alone."""
-    if not out_dir.exists():
+def check_out_dir(out_dir: str | os.PathLike[str], *, force: bool = False) -> Path:
+    """The report folder, resolved, if writing a report into it cannot replace a user's
+    files: it does not exist yet, is empty, or holds an earlier redres report (the
+    :data:`MARKER` file); ``force=True`` writes into any folder (files of other names are
+    kept, files named like the report's are replaced).
+
+    Raises:
+        InvalidParameterError: an empty name (it would write into the current folder), a
+            path that is a file, or a folder holding other files without ``force``.
+    """
+    if not str(out_dir).strip():
+        raise InvalidParameterError(
+            "the report folder is empty; give one (--out FOLDER), e.g. redres-report"
+        )
+    target = Path(out_dir).resolve()
+    if target.exists() and not target.is_dir():
+        raise InvalidParameterError(f"out_dir {str(target)!r} exists and is not a directory")
+    if target.is_dir() and not force and not _holds_report(target):
+        theirs = sorted(p.name for p in target.iterdir() if not p.name.startswith(STAGING))
+        if theirs:
+            shown = ", ".join(theirs[:3]) + (", ..." if len(theirs) > 3 else "")
+            raise InvalidParameterError(
+                f"{str(target)!r} holds files that are not a redres report ({shown}); "
+                f"write into a new or empty folder, or pass force=True (--force) to add the "
+                f"report's files to it"
+            )
+    return target
+
+
+def _holds_report(folder: Path) -> bool:
+    """Whether ``folder`` holds a report redres wrote: the marker, or (reports written
+    before the marker existed) a page whose head names redres as its generator."""
+    if (folder / MARKER).exists():
+        return True
+    try:
+        with (folder / PAGE).open("rb") as page:
+            return b'<meta name="generator" content="redres ' in page.read(4096)
+    except OSError:
+        return False
+
+
+def _clean_stale_staging(target: Path) -> None:
+    """Remove staging folders that killed runs left in ``target`` (older than an hour: a
+    report is staged for seconds, so a running writer's folder is never that old)."""
+    now = time.time()
+    for stale in target.glob(STAGING + "*"):
         try:
-            staging.rename(out_dir)
-            return
-        except OSError:  # created meanwhile by someone else: fall back to file moves
-            out_dir.mkdir(parents=True, exist_ok=True)
-    for path in sorted(staging.iterdir(), key=lambda p: (p.name == PAGE, p.name)):
-        os.replace(path, out_dir / path.name)
+            if stale.is_dir() and now - stale.stat().st_mtime > 3600.0:
+                shutil.rmtree(stale, ignore_errors=True)
+        except OSError:  # gone meanwhile
+            pass
 
 
 def write_report(
@@ -144,14 +189,18 @@ def write_report(
     table: Sequence[Mapping[str, Any]] | None = None,
     frames: int = 80,
     max_points: int = 2000,
+    force: bool = False,
 ) -> Path:
     """Write a report of several runs: PNG plots per robot and one self-contained page.
 
-    Everything is built in a temporary directory next to ``out_dir`` and moved into place
-    only when complete, so a failure leaves ``out_dir`` as it was.
+    Everything is built in a staging folder inside ``out_dir`` and moved into place only
+    when complete (one rename per file, the page last), so a failure leaves ``out_dir`` as
+    it was. A user's own files are never replaced: ``out_dir`` must be new, empty, or an
+    earlier redres report (:func:`check_out_dir`), unless ``force``.
 
     Args:
         out_dir: directory to write (created if needed; other files in it are kept).
+        force: write into a folder that holds other files too.
         runs: ``(robot, log)`` pairs, any mix of robots and schemes; a run is named by
             ``log.label`` (else ``log.scheme``).
         title: page title.
@@ -167,22 +216,27 @@ def write_report(
     Raises:
         MissingDependencyError: matplotlib or plotly is missing (the ``report`` extra).
         InvalidParameterError: no runs, a log without steps or paired with another robot,
-            ``out_dir`` is a file, a table row that is not a mapping, ``frames < 2`` or
+            ``out_dir`` is a file or holds files that are not a report (without
+            ``force``), a table row that is not a mapping, ``frames < 2`` or
             ``max_points < 4``.
         ShapeError: a log's joint positions do not match its robot.
     """
     check_report_dependencies()
     pairs = _check_runs(runs)
     rows = _check_options(table, frames, max_points)
-    target = Path(out_dir).resolve()
-    if target.exists() and not target.is_dir():
-        raise InvalidParameterError(f"out_dir {str(target)!r} exists and is not a directory")
-    target.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+    target = check_out_dir(out_dir, force=force)
+    created = not target.exists()
+    target.mkdir(parents=True, exist_ok=True)
+    _clean_stale_staging(target)
+    staging = Path(tempfile.mkdtemp(prefix=STAGING, dir=target))
     try:
         _build(staging, pairs, rows, title, description, frames, max_points)
-        os.chmod(staging, 0o755)  # mkdtemp makes it private; a report is meant to be shared
-        _publish(staging, target)
+        (staging / MARKER).write_text(_MARKER_TEXT, encoding="utf-8")
+        for path in sorted(staging.iterdir(), key=lambda p: (p.name == PAGE, p.name)):
+            os.replace(path, target / path.name)  # one rename per file, the page last
+        created = False
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+        if created:  # a failed first report leaves no folder behind
+            shutil.rmtree(target, ignore_errors=True)
     return target / PAGE
