@@ -8,6 +8,8 @@ import pytest
 
 import redres as rr
 from redres.control import Circle, FigureEight, Hold, Line, MinimumJerk, minimum_jerk
+from redres.resolution import PseudoInverseScheme
+from redres.tasks import ArmAngleTask, FrameTask
 
 T0 = np.eye(4)
 T0[:3, 3] = [0.4, 0.1, 0.5]
@@ -60,5 +62,25 @@ def test_bad_trajectory_input() -> None:
         Circle(np.eye(3), 0.1, 1.0)
     with pytest.raises(rr.errors.NonFiniteError):
         Line(T0, [np.nan, 0.0, 0.0], 1.0)
-    with pytest.raises(rr.errors.InvalidParameterError, match="duration must be > 0"):
+    with pytest.raises(rr.errors.InvalidParameterError, match="duration must be >= 1e-09"):
         MinimumJerk(T0, T1, 0.0)
+
+
+def test_non_physical_times_and_non_finite_parameters_are_refused() -> None:
+    """NaN turns or phase were accepted (a NaN path), a 5e-324 s period overflowed the rate
+    and a 1e-300 s line divided by zero; each is now a RedresError naming the parameter."""
+    robot = rr.models.panda()
+    start = robot.fk(robot.neutral())
+    cases = [
+        (lambda: Circle(start, 0.1, 1.0, turns=float("nan")), "turns"),
+        (lambda: Circle(start, 0.1, 1.0, phase=float("nan")), "phase"),
+        (lambda: Circle(start, 0.1, 5e-324), "period"),
+        (lambda: FigureEight(start, 0.1, 0.1, 1.0, turns=-1.0), "turns"),
+        (lambda: Line(start, [0.0, 0.0, 0.0], 1e-300), "duration"),
+        (lambda: Hold(start, 0.0), "duration"),
+        (lambda: ArmAngleTask(target=float("nan")), "target"),
+        (lambda: rr.run(robot, FrameTask(), "circle", PseudoInverseScheme()), "trajectory"),
+    ]
+    for make, name in cases:
+        with pytest.raises(rr.errors.RedresError, match=name):
+            make()

@@ -75,6 +75,11 @@ def run(
     """
     controller = Controller(robot, task, scheme, gain=gain, dt=dt, limit_velocity=limit_velocity)
     dt = controller.dt
+    if trajectory is not None and not isinstance(trajectory, Trajectory):
+        raise InvalidParameterError(
+            "trajectory must be a redres Trajectory (Circle, Line, ...) or None; "
+            f"got {trajectory!r}"
+        )
     if duration is None:
         if trajectory is None:
             raise InvalidParameterError("give a duration when there is no trajectory")

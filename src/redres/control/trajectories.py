@@ -18,6 +18,15 @@ import pinocchio as pin
 from .._validate import FloatArray, as_scalar, as_transform, as_vector
 from ..errors import InvalidParameterError
 
+#: Shortest period or duration accepted, s: shorter ones are not physical and overflow the
+#: rates they set (a 5e-324 s period).
+MIN_SECONDS = 1e-9
+
+
+def _seconds(value: Any, name: str) -> float:
+    """A period or duration in seconds, at least :data:`MIN_SECONDS`."""
+    return as_scalar(value, name, minimum=MIN_SECONDS)
+
 
 @dataclass(frozen=True)
 class Sample:
@@ -98,8 +107,10 @@ class Circle(Trajectory):
     ) -> None:
         self.start_pose = as_transform(start_pose, "start_pose")
         self.radius = as_scalar(radius, "radius", minimum=0.0, strict=True)
-        self.period = as_scalar(period, "period", minimum=0.0, strict=True)
+        self.period = _seconds(period, "period")
         self.ramp = as_scalar(ramp, "ramp", minimum=0.0)
+        phase = as_scalar(phase, "phase")
+        turns = as_scalar(turns, "turns", minimum=0.0, strict=True)
         n = as_vector(normal, "normal", 3)
         if np.linalg.norm(n) < 1e-12:
             raise InvalidParameterError("normal must be a non-zero vector")
@@ -161,7 +172,8 @@ class FigureEight(Trajectory):
         self.start_pose = as_transform(start_pose, "start_pose")
         self.width = as_scalar(width, "width", minimum=0.0)
         self.height = as_scalar(height, "height", minimum=0.0)
-        self.period = as_scalar(period, "period", minimum=0.0, strict=True)
+        self.period = _seconds(period, "period")
+        turns = as_scalar(turns, "turns", minimum=0.0, strict=True)
         self._basis = np.vstack(_plane_axes(as_vector(normal, "normal", 3)))
         self._origin = self.start_pose[:3, 3].copy()
         self.duration = float(turns) * self.period
@@ -189,7 +201,7 @@ class MinimumJerk(Trajectory):
     def __init__(self, start_pose: Any, end_pose: Any, duration: float) -> None:
         self.start_pose = as_transform(start_pose, "start_pose")
         self.end_pose = as_transform(end_pose, "end_pose")
-        self.duration = as_scalar(duration, "duration", minimum=0.0, strict=True)
+        self.duration = _seconds(duration, "duration")
         R0 = self.start_pose[:3, :3]
         self._dp = self.end_pose[:3, 3] - self.start_pose[:3, 3]
         self._r = pin.log3(R0.T @ self.end_pose[:3, :3])
@@ -222,7 +234,7 @@ class Hold(Trajectory):
 
     def __init__(self, pose: Any, duration: float) -> None:
         self.start_pose = as_transform(pose, "pose")
-        self.duration = as_scalar(duration, "duration", minimum=0.0, strict=True)
+        self.duration = _seconds(duration, "duration")
 
     def sample(self, t: float) -> Sample:
         return Sample(self.start_pose.copy(), np.zeros(6), np.zeros(6))

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._validate import FloatArray, as_vector
+from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError
 from .base import Task, TaskState, wrap_angle
 
@@ -137,8 +137,8 @@ class ArmAngleTask(Task):
         if np.linalg.norm(v) < 1e-9:
             raise InvalidParameterError("reference must be a non-zero 3-vector")
         self.reference = v / np.linalg.norm(v)
-        self.target = target
-        self._initial_target = target
+        self.target = None if target is None else as_scalar(target, "target")
+        self._initial_target = self.target
         self.rate = 0.0
         self.name = name
         self.last: ArmAngle | None = None
