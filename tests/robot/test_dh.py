@@ -140,3 +140,19 @@ def test_bad_convention_base_and_empty_links() -> None:
     with pytest.raises(ShapeError, match="not a rotation"):
         rr.Robot.from_dh(rec, tool=np.diag([2.0, 1.0, 1.0, 1.0]))
     assert isinstance(DHParameterError("x"), ValueError)
+
+
+def test_non_physical_limits_and_records_are_refused() -> None:
+    """A negative qd_max or tau_max was silently made positive and qd_max = 0 accepted (a
+    joint that can never move); a non-numeric com raised a raw ValueError; two joints of
+    one name were accepted. Each is now a DHParameterError naming the record and key."""
+    base = {"a": 0.3, "alpha": 0.0, "d": 0.0, "q_min": -1.0, "q_max": 1.0}
+    for key, value in (("qd_max", -2.0), ("qd_max", 0.0), ("tau_max", -5.0), ("qdd_max", -1.0)):
+        with pytest.raises(rr.errors.DHParameterError, match=f"record 0: {key} must be > 0"):
+            rr.Robot.from_dh([{**base, key: value}, base])
+    with pytest.raises(rr.errors.DHParameterError, match="record 0: com and inertia"):
+        rr.Robot.from_dh([{**base, "mass": 1.0, "com": "nil"}])
+    with pytest.raises(rr.errors.DHParameterError, match="repeated: j"):
+        rr.Robot.from_dh([{**base, "name": "j"}, {**base, "name": "j"}])
+    robot = rr.Robot.from_dh([{**base, "qd_max": 2.0, "tau_max": np.inf}, base])
+    assert robot.qd_max[0] == 2.0 and robot.tau_max[0] == np.inf  # positive and inf kept

@@ -107,6 +107,12 @@ class DHLink:
             )
         if rec.get("mass", 0.0) < 0.0 or rec.get("armature", 0.0) < 0.0:
             raise DHParameterError(f"DH record {index}: mass and armature must be >= 0")
+        for key in ("qd_max", "qdd_max", "tau_max"):
+            if rec.get(key) is not None and not rec[key] > 0.0:
+                raise DHParameterError(
+                    f"DH record {index}: {key} must be > 0 (leave it out, or inf, for no "
+                    f"limit); got {rec[key]}"
+                )
         return cls(**rec)
 
     def limits(self, index: int) -> tuple[float, float]:
@@ -119,8 +125,13 @@ class DHLink:
 
     def spatial_inertia(self, index: int) -> pin.Inertia:
         """The link's spatial inertia in its DH frame."""
-        com = np.zeros(3) if self.com is None else np.asarray(self.com, dtype=float)
-        inertia = np.zeros((3, 3)) if self.inertia is None else np.asarray(self.inertia, float)
+        try:
+            com = np.zeros(3) if self.com is None else np.asarray(self.com, dtype=float)
+            inertia = np.zeros((3, 3)) if self.inertia is None else np.asarray(self.inertia, float)
+        except (TypeError, ValueError) as exc:
+            raise DHParameterError(
+                f"DH record {index}: com and inertia must be numbers ({exc})"
+            ) from None
         if com.shape != (3,) or not np.isfinite(com).all():
             raise DHParameterError(f"DH record {index}: com must be 3 finite numbers; got {com}")
         if inertia.shape != (3, 3) or not np.isfinite(inertia).all():
@@ -185,6 +196,10 @@ def build_dh_model(
     if isinstance(links, (str, bytes)) or not isinstance(links, Sequence) or len(links) == 0:
         raise DHParameterError("links must be a non-empty sequence of DH records")
     records = [DHLink.from_record(rec, i) for i, rec in enumerate(links)]
+    names = [link.name or f"joint{i + 1}" for i, link in enumerate(records)]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise DHParameterError(f"joint names must be unique; repeated: {', '.join(repeated)}")
     T_base = _se3(as_transform(np.eye(4) if base is None else base, "base"))
     T_tool = _se3(as_transform(np.eye(4) if tool is None else tool, "tool"))
 
@@ -210,8 +225,8 @@ def build_dh_model(
             jmodel,
             joint_in_parent,
             link.name or f"joint{i + 1}",
-            np.array([np.inf if link.tau_max is None else abs(link.tau_max)]),
-            np.array([np.inf if link.qd_max is None else abs(link.qd_max)]),
+            np.array([np.inf if link.tau_max is None else link.tau_max]),
+            np.array([np.inf if link.qd_max is None else link.qd_max]),
             np.array([lo]),
             np.array([hi]),
         )
@@ -225,5 +240,5 @@ def build_dh_model(
     model.addFrame(
         pin.Frame(tool_name, parent_joint, last_frame, placement * T_tool, pin.FrameType.OP_FRAME)
     )
-    qdd_max = np.array([np.inf if r.qdd_max is None else abs(r.qdd_max) for r in records])
+    qdd_max = np.array([np.inf if r.qdd_max is None else r.qdd_max for r in records])
     return model, qdd_max
