@@ -10,11 +10,15 @@ import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import __version__
 from .errors import RedresError
+
+if TYPE_CHECKING:
+    from .demo import Output
 
 
 def robots_table() -> tuple[str, list[dict[str, object]]]:
@@ -65,8 +69,7 @@ def _cmd_robots(args: argparse.Namespace) -> int:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo import run_demo
 
-    return run_demo(out=Path(args.out), quiet=args.quiet, as_json=args.json, quick=args.quick,
-                    force=args.force)  # fmt: skip
+    return run_demo(_output(args))
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -85,15 +88,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     target = args.scenario
     path = builtin[target] if target in builtin and not Path(target).exists() else Path(target)
     spec = load_scenario(path)
-    return run_scenarios(
-        [spec],
-        out=Path(args.out),
-        as_json=args.json,
-        quiet=args.quiet,
-        title=spec.name,
-        quick=args.quick,
-        force=args.force,
-    )
+    return run_scenarios([spec], _output(args), title=spec.name)
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -109,6 +104,13 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         return 2
     runpy.run_path(str(script), run_name="__main__")
     return 0
+
+
+def _output(args: argparse.Namespace) -> Output:
+    """The :class:`~redres.demo.Output` of the options :func:`_output_options` adds."""
+    from .demo import Output
+
+    return Output(Path(args.out), args.json, args.quiet, args.force, args.quick)
 
 
 def _output_options(parser: argparse.ArgumentParser) -> None:

@@ -13,6 +13,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -173,23 +174,33 @@ def _start_kernel_warmup(specs: Sequence[ScenarioSpec]) -> subprocess.Popen[byte
         return None
 
 
-def run_scenarios(
-    specs: Sequence[ScenarioSpec],
-    *,
-    out: Path,
-    as_json: bool,
-    quiet: bool,
-    title: str,
-    examples: bool = False,
-    quick: bool = False,
-    force: bool = False,
-) -> int:
-    """Run ``specs``, print the table (or JSON), write the report; returns the exit code.
+@dataclass(frozen=True)
+class Output:
+    """How a command reports (the command line's ``--out``, ``--force``, ``--json``,
+    ``--quiet`` and ``--quick``).
 
-    ``quick`` runs 5 % of each scenario's duration (a smoke test of the whole pipeline).
-    The report folder is checked before anything runs (a user's files are never replaced;
-    ``force`` writes into a folder holding other files).
+    Attributes:
+        folder: the report folder; checked before anything runs (a user's files are never
+            replaced; ``force`` writes into a folder holding other files).
+        as_json: print one JSON object instead of the table.
+        quiet: print only the results.
+        force: write the report into a folder that holds other files.
+        quick: run 5 % of each scenario's duration (a smoke test of the whole pipeline).
     """
+
+    folder: Path = Path("redres-report")
+    as_json: bool = False
+    quiet: bool = False
+    force: bool = False
+    quick: bool = False
+
+
+def run_scenarios(
+    specs: Sequence[ScenarioSpec], output: Output, *, title: str, examples: bool = False
+) -> int:
+    """Run ``specs``, print the table (or JSON), write the report; returns the exit code."""
+    out, as_json, quiet, force, quick = (output.folder, output.as_json, output.quiet,
+                                         output.force, output.quick)  # fmt: skip
     _check_out(out, force)
     started = time.perf_counter()
     helper = _start_kernel_warmup(specs)
@@ -234,19 +245,7 @@ def run_scenarios(
     return 0
 
 
-def run_demo(
-    *, out: Path, quiet: bool = False, as_json: bool = False, quick: bool = False,
-    force: bool = False,
-) -> int:  # fmt: skip
+def run_demo(output: Output) -> int:
     """The flagship demo: every scheme on the built-in scenarios."""
     specs = [builtin(name) for name in DEMO_SCENARIOS]
-    return run_scenarios(
-        specs,
-        out=out,
-        as_json=as_json,
-        quiet=quiet,
-        title="redres demo",
-        examples=True,
-        quick=quick,
-        force=force,
-    )
+    return run_scenarios(specs, output, title="redres demo", examples=True)
