@@ -6,7 +6,7 @@ A task gives its error ``e`` (m, rad) and Jacobian ``J`` (``m x n``) at ``q``; d
     ẋ = ẋ_d + K e                                   (ė ≈ ẋ_d − J q̇ for ẋ = J q̇)
 
 and the redundancy-resolution scheme turns it into a joint velocity, e.g. for gradient
-projection (seed 000 eq. 6, seed 003)
+projection (Liégeois 1977; Siciliano et al., *Robotics*, 2009, §3.5.1)
 
     q̇ = J# ẋ − k (I − J# J) Σ wᵢ ∇Dᵢ(q).
 
@@ -14,7 +14,7 @@ If a joint would exceed its velocity limit, the whole ``q̇`` is divided by one 
 which keeps its direction (and so the task direction)::
 
     q̇ ← q̇ / max(1, maxⱼ |q̇ⱼ| / q̇_max,j)          (not for hard-limit schemes: theirs hold)
-    q ← q + q̇ dt                                   (seed 003's Δq = q̇ Δt)
+    q ← q + q̇ dt                                   (explicit Euler, Δq = q̇ Δt)
 
 When the scheme tracks exactly, ``e`` decays as ``(1 − K dt)^k`` per step, ``exp(−K t)``
 in the limit; ``K dt`` must stay well below 2 for the discrete loop to be stable. For a

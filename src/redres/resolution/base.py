@@ -113,7 +113,7 @@ class Inverse:
             least squares ``Jᵀ(JJᵀ + λ²I)⁻¹`` (units of ``J``), or an
             :class:`~redres.linalg.AdaptiveDamping` (zero away from singularities).
         rcond: relative rank cut of the exact inverse: singular values at or below
-            ``rcond·σ_max`` are skipped (seed 002's SVD inverse). Only the exact inverse
+            ``rcond·σ_max`` are skipped (the truncated SVD inverse). Only the exact inverse
             uses it; giving it with a damping is refused.
 
     Raises:
