@@ -1,0 +1,185 @@
+"""First use: how long a new user waits for the first answer, cold and warm.
+
+Every case runs in a fresh Python process, twice: *cold* with an empty compiled-code cache
+(``REDRES_CACHE_DIR`` set to a new, empty folder, as on a fresh install) and *warm* in a
+second process with the cache the first one filled. The time is measured inside the
+child, from before its first import to its first answer, so interpreter start-up (the
+same for every library) is left out. The peers' first solves run the same way:
+
+* ``import redres`` alone;
+* the README example (Panda, Jacobian, ``damped_pinv``);
+* the first step of the compiled controller (``rr.Controller``, gradient projection with a
+  joint-limit cost, the 1 kHz loop of ``examples/09_controller_loop.py``);
+* the first hard-limit step (``SNSScheme.step``);
+* the first ``rr.ik`` on a reachable Panda pose;
+* pink's and mink's first ``solve_ik`` (frame + posture task, DAQP) and robotics-toolbox's
+  first ``ik_LM``, each including its own imports and model loading.
+
+Run from the repository root: ``python benchmarks/first_use.py`` (``--repeat N`` runs each
+case N times and reports the median).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+from _common import machine, table  # noqa: E402
+
+_PANDA = """
+import redres as rr
+robot = rr.models.panda()
+q = robot.neutral()
+"""
+
+CASES: dict[str, str] = {
+    "import redres": "import redres",
+    "README example": """
+import numpy as np
+import redres as rr
+robot = rr.models.panda()
+q = robot.neutral()
+J = robot.jacobian(q)
+qd = rr.linalg.damped_pinv(J, 0.01) @ np.array([0.1, 0, 0, 0, 0, 0])
+""",
+    "first controller step": _PANDA
+    + """
+from redres.objectives import JointLimitObjective
+from redres.resolution import GradientProjectionScheme
+from redres.tasks import FrameTask
+scheme = GradientProjectionScheme([JointLimitObjective()], k_null=5.0, damping=0.01)
+controller = rr.Controller(robot, FrameTask(), scheme, gain=50.0, dt=1e-3)
+controller.step(q)
+""",
+    "first hard-limit step": _PANDA
+    + """
+import numpy as np
+from redres.resolution import SNSScheme
+SNSScheme(dt=1e-3).step(robot, q, robot.jacobian(q), np.zeros(6))
+""",
+    "first rr.ik": _PANDA
+    + """
+rr.ik(robot, robot.fk(q + 0.2), seed=0)
+""",
+    "pink first solve_ik": f"""
+import sys
+sys.path.insert(0, {str(HERE)!r})
+import numpy as np
+import pinocchio as pin
+import pink
+from pink import tasks
+import redres as rr
+robot = rr.models.panda()
+q = robot.neutral()
+model = pin.Model(robot.model)
+configuration = pink.Configuration(model, model.createData(), q.copy())
+frame = tasks.FrameTask("tcp", position_cost=1.0, orientation_cost=1.0)
+T = robot.fk(q + 0.1)
+frame.set_target(pin.SE3(T[:3, :3], T[:3, 3]))
+posture = tasks.PostureTask(cost=1e-3)
+posture.set_target(q)
+pink.solve_ik(configuration, [frame, posture], 1e-3, solver="daqp", damping=1e-6)
+""",
+    "mink first solve_ik": f"""
+import sys
+sys.path.insert(0, {str(HERE)!r})
+import mink
+import mujoco
+import peers
+model = peers.mujoco_panda(mujoco)
+configuration = mink.Configuration(model)
+frame = mink.FrameTask("panda_hand_tcp", "body", position_cost=1.0, orientation_cost=1.0)
+frame.set_target(configuration.get_transform_frame_to_world("panda_hand_tcp", "body"))
+posture = mink.PostureTask(model, cost=1e-3)
+posture.set_target(configuration.q)
+limits = [mink.ConfigurationLimit(model)]
+mink.solve_ik(configuration, [frame, posture], 1e-3, "daqp", damping=1e-6, limits=limits)
+""",
+    "robotics-toolbox first ik_LM": f"""
+import sys
+import tempfile
+from pathlib import Path
+sys.path.insert(0, {str(HERE)!r})
+import numpy as np
+import roboticstoolbox as rtb
+import peers
+ets = peers.rtb_robot(rtb, peers.write_urdf("panda", Path(tempfile.mkdtemp()))).ets(
+    end=peers.TIP_LINK["panda"])
+q = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+ets.ik_LM(ets.fkine(q + 0.2).A, q0=q, ilimit=30, slimit=1, tol=1e-13)
+""",
+}
+
+_WRAP = """
+import time as _t
+_t0 = _t.perf_counter()
+{body}
+print("FIRST_USE_SECONDS", _t.perf_counter() - _t0)
+"""
+
+
+def time_case(body: str, cache: Path) -> float | None:
+    """Seconds from first import to first answer in a fresh process; None if it failed
+    (a peer not installed)."""
+    env = dict(os.environ, REDRES_CACHE_DIR=str(cache), PYTHONDONTWRITEBYTECODE="1")
+    proc = subprocess.run(
+        [sys.executable, "-c", _WRAP.format(body=body)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+    )
+    for line in proc.stdout.splitlines():
+        if line.startswith("FIRST_USE_SECONDS"):
+            return float(line.split()[1])
+    last = (proc.stderr.strip().splitlines() or ["no output"])[-1]
+    print(f"  note: failed ({last})", file=sys.stderr)
+    return None
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=1, help="runs per case (median)")
+    parser.add_argument("--json", type=Path, help="also write the figures here")
+    args = parser.parse_args()
+    results: dict[str, dict[str, float | None]] = {}
+    for name, body in CASES.items():
+        cold: list[float] = []
+        warm: list[float] = []
+        for _ in range(args.repeat):
+            with tempfile.TemporaryDirectory(prefix="redres-first-use-") as tmp:
+                for sink in (cold, warm):
+                    seconds = time_case(body, Path(tmp))
+                    if seconds is not None:
+                        sink.append(seconds)
+        results[name] = {
+            "cold_s": statistics.median(cold) if cold else None,
+            "warm_s": statistics.median(warm) if warm else None,
+        }
+        print(f"  {name}: {results[name]}", file=sys.stderr)
+
+    def cell(value: float | None) -> str:
+        return "not installed" if value is None else f"{value:.2f}"
+
+    load = os.getloadavg()
+    print(f"First answer in a fresh process, {machine()}; load average {load[0]:.2f}.")
+    print("Seconds from the first import to the first answer (median of "
+          f"{args.repeat}); cold: empty compiled-code cache; warm: the cache the cold run "
+          "filled.\n")  # fmt: skip
+    rows = [[name, cell(r["cold_s"]), cell(r["warm_s"])] for name, r in results.items()]
+    print(table(["first use", "cold, s", "warm, s"], rows))
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=2))
+
+
+if __name__ == "__main__":
+    main()
