@@ -252,10 +252,7 @@ class _Solver:
     def result(
         self, q: FloatArray, ok: bool, iterations: int, restarts: int, start: float, msg: str
     ) -> IKResult:
-        if ok:
-            errors = self.errors(q)
-        else:
-            errors = self.best_errors
+        errors = self.errors(q) if ok else self.best_errors
         return IKResult(
             q.copy(), ok, iterations, restarts, errors[0], errors[1],
             time.perf_counter() - start, msg,
@@ -358,10 +355,7 @@ class _Solver:
             parts = self.clamp(q, partial(self.direction, q, J, lam, fade, arm), parts, error)
         task, pref = parts
         dq = task if pref is None else task + self.preference_part(pref)
-        largest = float(abs(dq).max())
-        if largest > o.max_step:
-            dq *= o.max_step / largest
-        q_new = q + dq
+        q_new = q + _cap(dq, o.max_step)
         self.at_limit = bool((q_new <= self.lo).any() or (q_new >= self.hi).any())
         if self.at_limit:
             q_new = np.minimum(np.maximum(q_new, self.lo), self.hi)
