@@ -22,6 +22,7 @@ import numpy as np
 from . import linalg, models
 from .control import RunLog
 from .errors import MissingDependencyError
+from .objectives import JointLimitObjective
 from .report.writer import check_out_dir, write_report
 from .runner import format_table, run_scenario
 from .scenario import ScenarioSpec, builtin
@@ -71,8 +72,7 @@ def worked_examples() -> list[dict[str, object]]:
     q = panda.neutral()
     J = panda.jacobian(q)
     v = np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
-    mid = (panda.q_min + panda.q_max) / 2
-    grad = 2 * (q - mid) / (panda.q_min - panda.q_max) ** 2  # seed 003's cost D(q)
+    grad = JointLimitObjective().gradient(panda, q)  # seed 003's cost D(q)
     J_pinv = linalg.right_pinv(J)
     N = linalg.nullspace_projector(J, J_pinv)
     qd = J_pinv @ v - 1.0 * N @ grad
@@ -94,7 +94,6 @@ def compiled_loop(steps: int = 1500) -> list[dict[str, object]]:
     position error, for gradient projection (the fused kernel) and, when the ``qp`` extra
     is there, the hard-limit schemes (the kernel's frame front end, then the scheme)."""
     from .control import Controller
-    from .objectives import JointLimitObjective
     from .resolution import GradientProjectionScheme, QPScheme, Scheme, SNSScheme
     from .tasks import FrameTask
 
