@@ -252,7 +252,7 @@ class _Solver:
     def result(
         self, q: FloatArray, ok: bool, iterations: int, restarts: int, start: float, msg: str
     ) -> IKResult:
-        errors = self.errors(q) if ok else self.best_errors
+        errors = self.evaluate(q)[1:] if ok else self.best_errors
         return IKResult(
             q.copy(), ok, iterations, restarts, errors[0], errors[1],
             time.perf_counter() - start, msg,
@@ -322,11 +322,6 @@ class _Solver:
         e[3:] = pin.log3(self.R_d @ pose.rotation.T)
         eo = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
         return J, ep, eo
-
-    def errors(self, q: FloatArray) -> tuple[float, float]:
-        """Position and orientation errors at ``q``, m and rad."""
-        _, ep, eo = self.evaluate(q)
-        return ep, eo
 
     def track(self, q: FloatArray, ep: float, eo: float) -> None:
         """Remember the best configuration so far (largest error relative to tolerance)."""
