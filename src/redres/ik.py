@@ -332,12 +332,8 @@ class _Solver:
 
     # ------------------------------------------------------------------ one step
     def step(self, q: FloatArray, J: FloatArray, error: float) -> FloatArray:
-        """Next configuration: damped CLIK step plus null-space term, scaled and clipped.
-
-        Clamping: joints at a limit whose step points outward are taken out of the problem
-        (their Jacobian columns zeroed) and the step recomputed, so that the other joints
-        do the work instead of the clip undoing part of a Newton step.
-        """
+        """Next configuration: damped CLIK step plus null-space term, clamped (:meth:`clamp`),
+        scaled and clipped."""
         o = self.o
         fade = min(1.0, error / _ERROR_SCALE)
         damping = o.damping
