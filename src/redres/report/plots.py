@@ -233,12 +233,8 @@ def objectives_figure(
     for ax in axes[: len(names)]:
         for handle, label in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(label, handle)
-    _title(
-        fig,
-        f"{robot_name}: secondary objectives (costs, lower is better)",
-        list(handles.values()),
-        list(handles),
-    )
+    title = f"{robot_name}: secondary objectives (costs, lower is better)"
+    _title(fig, title, list(handles.values()), list(handles))
     return fig
 
 

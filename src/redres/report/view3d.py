@@ -3,7 +3,7 @@
 :func:`arm_animation` samples a run (about 80 configurations, forward kinematics on each)
 and :func:`animation_figure` turns it into a plotly figure (plain JSON-ready dicts, so
 plotly.js draws it without the Python plotly objects): the arm, the target and actual
-paths of the task frame, play/pause buttons and a time slider, equal scale on all axes.
+paths of the task frame and a time slider (play/pause are the page's), equal scale.
 """
 
 from __future__ import annotations
