@@ -205,8 +205,10 @@ def _resolve(
     P: FloatArray | None = None  # projector onto the null space of the higher levels
     freedom, levels = n, []
     for k, (J, x) in enumerate(zip(Js, xs)):
+        m = J.shape[0]
         if freedom == 0:
-            levels.append((k, 0, 0, 0.0, np.zeros(n), False, _NO_FREEDOM))
+            levels.append(LevelInfo(k + 1, m, 0, 0, True, 0.0, 0.0, x, x, np.zeros(n), False,
+                                    _NO_FREEDOM))  # fmt: skip
             continue
         A = J if P is None else J @ P
         A_pinv, exact = damped_pinv(A, 0.0, rcond=_projected_rcond(J, A, rcond), return_info=True)
@@ -223,15 +225,18 @@ def _resolve(
         if P is not None:  # in the null space of the higher levels to rounding error
             part = P @ part
         qd = qd + part
-        smin = exact.sigma_min if J.shape[0] <= freedom else singular_values(A)[freedom - 1]
+        smin = exact.sigma_min if m <= freedom else singular_values(A)[freedom - 1]
         singular = P is not None and smin < threshold
         if singular:  # algorithmic only if J_k alone is well conditioned
             singular = (info.sigma_min if method == "robust" else sigma_min(J)) >= threshold
-        levels.append((k, freedom, exact.rank, float(smin), part, singular, info))
+        full = exact.rank == min(m, freedom)
+        levels.append(LevelInfo(k + 1, m, freedom, exact.rank, full, float(smin), info.damping,
+                                x, x, part, bool(singular), info))  # fmt: skip
         if k + 1 < len(Js):
             P = (np.eye(n) if P is None else P) - A_pinv @ A
             freedom = max(freedom - exact.rank, 0)
-    return PriorityResult(qd, [_info(Js, xs, qd, *entry) for entry in levels])
+    # achieved = J_k q̇ of the final q̇ (the loop above held a placeholder)
+    return PriorityResult(qd, [lv._replace(achieved=J @ qd) for lv, J in zip(levels, Js)])
 
 
 _NO_FREEDOM = InverseInfo(0, False, 0.0, 0.0, 0.0, "none")
@@ -263,25 +268,6 @@ def _projected_rcond(J: FloatArray, A: FloatArray, rcond: float) -> float:
     if norm_a == 0.0:
         return rcond
     return max(rcond, min(1.0, rcond * math.sqrt(float(np.vdot(J, J)) / norm_a)))
-
-
-def _info(
-    Js: list[FloatArray],
-    xs: list[FloatArray],
-    qd: FloatArray,
-    k: int,
-    freedom: int,
-    rank: int,
-    smin: float,
-    part: FloatArray,
-    singular: bool,
-    info: InverseInfo,
-) -> LevelInfo:
-    rows = Js[k].shape[0]
-    return LevelInfo(
-        k + 1, rows, freedom, rank, rank == min(rows, freedom), smin, info.damping, xs[k],
-        Js[k] @ qd, part, bool(singular), info,
-    )  # fmt: skip
 
 
 def _validate(
@@ -334,14 +320,10 @@ class PriorityScheme(Scheme):
         levels: lower-priority levels, highest first.
         method: ``"exact"``, ``"robust"`` or ``"damped"`` (module docstring).
         gain: CLIK gain of the scheme's own levels, 1/s (one for all, or one per level).
-        inverse: the :class:`~redres.resolution.Inverse` of every level; or give
-            ``damping``/``rcond``. ``"exact"`` takes an exact inverse only (its ``rcond``
-            is the rank tolerance); ``"robust"`` and ``"damped"`` default to
-            ``AdaptiveDamping(0.05, 0.05)``.
-        damping: damping of the ``"robust"``/``"damped"`` inverses, a ``λ ≥ 0`` in the
-            units of ``J`` or an :class:`~redres.linalg.AdaptiveDamping`.
-        rcond: relative rank tolerance of the exact inverses and null-space projectors
-            (refused next to a damping).
+        inverse, damping, rcond: the inverse of every level, as for
+            :class:`~redres.resolution.PseudoInverseScheme`. ``"exact"`` takes an exact
+            inverse only (its ``rcond`` is also the projectors' rank tolerance); ``"robust"``
+            and ``"damped"`` default to ``AdaptiveDamping(0.05, 0.05)``.
         threshold: singular value below which a level is reported singular.
 
     Identifier ``priority``. ``StepResult.info`` is the inverse of level 1,
