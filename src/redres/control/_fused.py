@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .. import _jit
 from .._validate import FloatArray, as_scalar, as_vector
@@ -82,15 +83,21 @@ def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion 
 
 
 def fused_config(
-    robot: Robot, gains: FloatArray, dt: float, limit_velocity: bool, fused: Fusion | None
+    robot: Robot,
+    rows: NDArray[np.int64],
+    gain: float | FloatArray,
+    dt: float,
+    limit_velocity: bool,
+    fused: Fusion | None,
 ) -> FloatArray:
-    """The kernels' ``config`` vector for a robot, the six per-row ``gains`` (1/s) and, on
-    the fused path, the scheme's settings (the summed costs' ``a, r`` from CFG_VECTORS on);
-    the target starts as the identity pose at rest."""
+    """The kernels' ``config`` vector for a robot, the task ``rows`` and their validated
+    ``gain`` (1/s, from :func:`task_gains`; other rows 0) and, on the fused path, the
+    scheme's settings (the summed costs' ``a, r`` from CFG_VECTORS on); the target starts
+    as the identity pose at rest."""
     n = robot.n
     config = np.zeros(codes.CFG_VECTORS + 3 * n)
     config[codes.CFG_ROTATION : codes.CFG_ROTATION + 9] = np.eye(3).ravel()
-    config[codes.CFG_GAIN : codes.CFG_GAIN + 6] = gains
+    config[codes.CFG_GAIN + rows] = gain
     config[codes.CFG_DT] = dt
     config[codes.CFG_LIMIT] = 1.0 if limit_velocity else 0.0
     v = codes.CFG_VECTORS
@@ -139,20 +146,14 @@ def quadratic_coefficients(
     return a, r
 
 
-def row_gains(gain: Any, rows: Sequence[int]) -> FloatArray:
-    """Six per-row gains (unused rows 0) from a scalar or one value per task row."""
-    full = np.zeros(6)
-    full[list(rows)] = task_gains(gain, len(rows))
-    return full
-
-
-def task_gains(gain: Any, m: int) -> float | FloatArray:
-    """The CLIK gain as a float, or one value per task row ``(m,)``, each ≥ 0 (1/s)."""
+def task_gains(gain: Any, m: int, name: str = "gain") -> float | FloatArray:
+    """A task gain as a float, or one value per task row ``(m,)``, each ≥ 0 (1/s or 1/s²);
+    errors name it ``name``."""
     if isinstance(gain, (int, float)) or np.ndim(gain) == 0:
-        return as_scalar(gain, "gain", minimum=0.0)
-    values = as_vector(gain, "gain", m).copy()
+        return as_scalar(gain, name, minimum=0.0)
+    values = as_vector(gain, name, m).copy()
     if np.any(values < 0.0):
-        raise InvalidParameterError(f"gain must be >= 0 on every row; got {values}")
+        raise InvalidParameterError(f"{name} must be >= 0 on every row; got {values}")
     return values
 
 

@@ -59,7 +59,6 @@ from ._fused import (
     fused_integrate,
     kernel_for,
     raise_for_status,
-    row_gains,
     task_gains,
 )
 
@@ -156,8 +155,7 @@ class Controller:
         self._config = self._block = _empty(0)
         if path != "composed":
             assert frame is not None
-            gains = row_gains(gain, rows)
-            self._config = fused_config(robot, gains, self._dt, self._limit, fused)
+            self._config = fused_config(robot, self._rows, self._gain, self._dt, self._limit, fused)
             self._block = self._config[TARGET]  # the task's target, from the first step on
             if path == "fused":
                 self._kernel = kernel_for(robot, self._fid, fused_clik_step, "clik_step")
