@@ -1,6 +1,6 @@
 """The compiled paths' plumbing for :class:`~redres.control.Controller` (internal).
 
-The fused kernels (``redres.linalg._kernels.clik_step`` and ``frame_command``) read their
+The fused kernels (``redres.control._kernels.clik_step`` and ``frame_command``) read their
 settings and target from one ``config`` vector laid out by the ``CFG_*`` offsets of
 ``redres.linalg._codes``. This module decides which path a task and scheme allow
 (:func:`choose_path`), builds that vector, picks the kernels' entry points and turns their

@@ -91,17 +91,8 @@ class Controller:
         limit_velocity: scale each command uniformly down to the joint velocity limits
             (never for ``scheme.hard_limits``: those schemes keep every limit already).
 
-    ``q = controller.step(q)`` each period. After a step:
-
-    * :attr:`qd`: the joint velocity applied (after scaling), rad/s;
-    * :attr:`error`: for a frame task its six-row pose error, else the task's error;
-    * :attr:`info`: the inverse's diagnostics (rank, σ_min, σ_max, damping);
-    * :attr:`speed_ratio`, :attr:`scaled`: the velocity scaling;
-    * :attr:`pose`: for a frame task, the frame's pose (4x4);
-    * :attr:`result`: the scheme's :class:`~redres.resolution.StepResult` on the
-      ``"frame"`` and ``"composed"`` paths; None on the ``"fused"`` path, whose kernel
-      returns only what the attributes above hold (the schemes it fuses report nothing
-      else: no bounds, no algorithmic singularity).
+    ``q = controller.step(q)`` each period; then :attr:`qd`, :attr:`error`, :attr:`info`,
+    :attr:`speed_ratio`, :attr:`scaled`, :attr:`pose` and :attr:`result` report the step.
 
     The path (:attr:`path`) and the scheme's settings are read once, at construction.
     On the compiled paths the controller keeps a frame task's target in its kernel's
@@ -389,7 +380,9 @@ class Controller:
     @property
     def result(self) -> StepResult | None:
         """The scheme's :class:`~redres.resolution.StepResult` of the last step (its
-        ``qd`` before scaling); None on the ``"fused"`` path or before a step."""
+        ``qd`` before scaling); None before a step and on the ``"fused"`` path, whose
+        schemes report nothing more than the attributes above (no bounds, no algorithmic
+        singularity)."""
         return self._result
 
     def __repr__(self) -> str:
