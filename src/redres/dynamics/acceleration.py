@@ -35,8 +35,6 @@ from .osc import check_choice, dynamic_inverse
 if TYPE_CHECKING:
     from ..robot import Robot
 
-__all__ = ["AccelerationController", "InverseKind", "resolve_acceleration"]
-
 InverseKind = Literal["dynamic", "kinematic"]
 _INVERSES: tuple[str, ...] = get_args(InverseKind)
 

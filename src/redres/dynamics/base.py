@@ -24,15 +24,6 @@ if TYPE_CHECKING:
     from ..control import Sample
     from ..robot import Robot
 
-__all__ = [
-    "ControlStep",
-    "GravityCompensation",
-    "TaskGains",
-    "TorqueFunction",
-    "TorqueLaw",
-    "ZeroTorque",
-]
-
 
 @dataclass(frozen=True)
 class ControlStep:

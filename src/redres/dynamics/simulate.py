@@ -41,8 +41,6 @@ if TYPE_CHECKING:
     from ..control import Trajectory
     from ..robot import Robot
 
-__all__ = ["dynamics_summary", "simulate"]
-
 
 class _Recorder:
     """Per-step arrays of one run (filled inside the loop, no allocation per step)."""
