@@ -71,9 +71,8 @@ def fusion(robot: Robot, scheme: Scheme) -> Fusion | None:
 
 
 def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion | None]:
-    """The controller's path: ``"fused"`` (one kernel for the whole step), ``"frame"``
-    (the kernel's frame front end, then the scheme) or ``"composed"`` (``task.compute``,
-    then the scheme), with the fused settings on the fused path."""
+    """The controller's path (:mod:`redres.control.controller` describes the three), with
+    the fused settings on the fused path."""
     if not plain_frame_task(task) or fused_frame_command() is None:
         return "composed", None
     fused = fusion(robot, scheme)
@@ -115,11 +114,6 @@ def fused_config(
         config[codes.CFG_HAS_GRAD] = 1.0
         config[v : v + n], config[v + n : v + 2 * n] = fused.quadratic
     return config
-
-
-def damping_mode(config: FloatArray) -> int:
-    """The damping mode code a config vector holds."""
-    return int(config[codes.CFG_MODE])
 
 
 def quadratic_coefficients(

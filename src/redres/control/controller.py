@@ -46,13 +46,13 @@ import numpy as np
 from .._validate import FloatArray, as_scalar, checked_keywords
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError, SimulationError
 from ..linalg import InverseInfo
+from ..linalg._codes import CFG_MODE
 from ..resolution import Scheme, StepResult
 from ..tasks import FrameTask, Task
 from ._fused import (
     TARGET,
     Path,
     choose_path,
-    damping_mode,
     fused_clik_step,
     fused_config,
     fused_frame_command,
@@ -374,7 +374,7 @@ class Controller:
             raise InvalidParameterError("the controller has not made a step yet")
         _, rank, smin, smax, used, _ = self._diag
         full = rank == min(self._rows.shape[0], self._n)
-        label = _LABELS[damping_mode(self._config)]
+        label = _LABELS[int(self._config[CFG_MODE])]
         return _new_info(InverseInfo, (rank, full, smin, smax, used, label))  # type: ignore[no-any-return]
 
     @property

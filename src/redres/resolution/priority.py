@@ -254,14 +254,10 @@ def _per_level(damping: Damping | Sequence[Damping], levels: int) -> list[Dampin
 
 
 def _projected_rcond(J: FloatArray, A: FloatArray, rcond: float) -> float:
-    """Relative tolerance for ``A = J_k P_{k−1}`` that cuts at about ``rcond·‖J_k‖``.
-
-    At an algorithmic singularity *every* singular value of the projected Jacobian may be
-    tiny (a one-row level has only one), and once the higher levels use ``r`` joints
-    ``n − r`` of them are rounding noise; a cut relative to the projected matrix's own
-    largest singular value would invert that noise. The scale is that of the unprojected
-    ``J_k`` (``‖A‖_F ≤ ‖J_k‖_F`` since ``P`` is an orthogonal projector).
-    """
+    """Relative tolerance for ``A = J_k P_{k−1}`` that cuts at about ``rcond·‖J_k‖`` (why:
+    module docstring, "Computation"; ``‖A‖_F ≤ ‖J_k‖_F`` as ``P`` is an orthogonal
+    projector). Once the higher levels use ``r`` joints, ``n − r`` singular values of
+    ``A`` are rounding noise."""
     if A is J:
         return rcond
     norm_a = float(np.vdot(A, A))
