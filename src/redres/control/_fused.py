@@ -47,12 +47,6 @@ class Fusion(NamedTuple):
     quadratic: tuple[FloatArray, FloatArray] | None
 
 
-def plain_frame_task(task: Task) -> bool:
-    """Whether ``task`` is a :class:`FrameTask` computed by FrameTask's own ``compute``
-    (FrameTask and its row subclasses: the compiled front end evaluates it exactly)."""
-    return isinstance(task, FrameTask) and type(task).compute is FrameTask.compute
-
-
 def fusion(robot: Robot, scheme: Scheme) -> Fusion | None:
     """The fused kernel's settings for ``scheme``, or None when the kernel does not do
     what the scheme's ``_step`` does: a :class:`PseudoInverseScheme` or a
@@ -73,10 +67,13 @@ def fusion(robot: Robot, scheme: Scheme) -> Fusion | None:
 def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion | None]:
     """The controller's path (:mod:`redres.control.controller` describes the three), with
     the fused settings on the fused path."""
-    if not plain_frame_task(task) or fused_frame_command() is None:
+    # A FrameTask computed by FrameTask's own compute (it or a row subclass): the compiled
+    # front end evaluates it exactly.
+    plain = isinstance(task, FrameTask) and type(task).compute is FrameTask.compute
+    if not plain or native("frame_command") is None:
         return "composed", None
     fused = fusion(robot, scheme)
-    if fused is None or fused_clik_step() is None:
+    if fused is None or native("clik_step") is None:
         return "frame", None
     return "fused", fused
 
@@ -151,43 +148,29 @@ def task_gains(gain: Any, m: int, name: str = "gain") -> float | FloatArray:
     return values
 
 
-def fused_clik_step() -> Callable[..., Any] | None:
-    """Native entry point of the fused CLIK step (``clik_step``), or None.
+def native(name: str) -> Callable[..., Any] | None:
+    """The native entry point of kernel ``name`` (``clik_step``, ``frame_command`` or
+    ``integrate`` of :mod:`redres.control._kernels`), or None without compiled kernels.
 
-    Arguments must be float64 C-contiguous arrays ``J (6, n)``, ``H (4, 4)``, ``q (n,)``,
-    int64 ``rows (m,)``, float64 ``config`` and ``out`` (see the kernel); a mismatched
-    type is not detected by the entry point, so callers check their arrays once.
+    Its arguments must have the types of the kernel's docstring, as float64 (``rows``
+    int64) C-contiguous arrays: a mismatched type is not detected by the entry point, so
+    callers check their arrays once.
     """
-    return be.entry(_KERNELS, "clik_step", (*_frame_warm(), np.zeros(2 + 6)))
+    frame = (np.zeros((6, 1)), np.eye(4), np.zeros(1), np.arange(1, dtype=np.int64),
+             np.zeros(codes.CFG_VECTORS + 3))  # fmt: skip
+    warm = {
+        "clik_step": (*frame, np.zeros(2 + 6)),
+        "frame_command": (*frame, np.zeros((1, 1)), np.zeros(1), np.zeros(6)),
+        "integrate": (np.zeros(1), np.zeros(1), 0.0, np.zeros(1)),
+    }
+    return be.entry(_KERNELS, name, warm[name])
 
 
-def fused_frame_command() -> Callable[..., Any] | None:
-    """Native entry point of ``frame_command`` (the frame-task part of the fused step:
-    ``J (6, n)``, ``H``, ``q``, ``rows``, ``config``, then ``Jm (m, n)``, ``xd (m,)`` and
-    ``e (6,)`` to fill), or None; same argument rules as :func:`fused_clik_step`."""
-    warm = (*_frame_warm(), np.zeros((1, 1)), np.zeros(1), np.zeros(6))
-    return be.entry(_KERNELS, "frame_command", warm)
-
-
-def _frame_warm() -> tuple[Any, ...]:
-    """Warm-up arguments shared by the fused kernels, for one joint: ``J``, ``H``, ``q``,
-    ``rows``, ``config``."""
-    return (np.zeros((6, 1)), np.eye(4), np.zeros(1), np.arange(1, dtype=np.int64),
-            np.zeros(codes.CFG_VECTORS + 3))  # fmt: skip
-
-
-def fused_integrate() -> Callable[..., Any] | None:
-    """Native entry point of ``integrate`` (``out <- q + qd dt`` for float64 C-contiguous
-    vectors and a float; returns whether ``out`` is finite), or None."""
-    warm = (np.zeros(1), np.zeros(1), 0.0, np.zeros(1))
-    return be.entry(_KERNELS, "integrate", warm)
-
-
-def kernel_for(robot: Robot, frame_id: int, entry_point: Any, name: str) -> Any:
-    """A fused kernel's native entry point (from ``entry_point()``) when the arrays
-    Pinocchio returns have the layout it was compiled for (float64, C order), numba's
-    dispatcher ``name`` if not, None without compiled kernels."""
-    entry = entry_point()
+def kernel_for(robot: Robot, frame_id: int, name: str) -> Any:
+    """Kernel ``name``'s :func:`native` entry point when the arrays Pinocchio returns have
+    the layout it was compiled for (float64, C order), numba's dispatcher if not, None
+    without compiled kernels."""
+    entry = native(name)
     if entry is None:
         return None
     placement, J = robot.placement_jacobian(robot.neutral(), frame_id)

@@ -53,11 +53,9 @@ from ._fused import (
     TARGET,
     Path,
     choose_path,
-    fused_clik_step,
     fused_config,
-    fused_frame_command,
-    fused_integrate,
     kernel_for,
+    native,
     raise_for_status,
     task_gains,
 )
@@ -149,11 +147,10 @@ class Controller:
             self._config = fused_config(robot, self._rows, self._gain, self._dt, self._limit, fused)
             self._block = self._config[TARGET]  # the task's target, from the first step on
             if path == "fused":
-                self._kernel = kernel_for(robot, self._fid, fused_clik_step, "clik_step")
+                self._kernel = kernel_for(robot, self._fid, "clik_step")
             else:
-                self._front = kernel_for(robot, self._fid, fused_frame_command,
-                                         "frame_command")  # fmt: skip
-                self._integrate = fused_integrate()
+                self._front = kernel_for(robot, self._fid, "frame_command")
+                self._integrate = native("integrate")
         # What the last step did.
         self._out: FloatArray = _empty(0)  # the fused kernel's (q_next, qd, e) once stepped
         self._diag: tuple[int, int, float, float, float, float] = (0, 0, 0.0, 0.0, 0.0, 0.0)
