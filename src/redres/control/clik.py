@@ -160,18 +160,12 @@ def run(
         step_time_ns=step_ns,
         label=label,
     )
-    log.extra["inverse_sigma_min"] = inv_sigma.copy()
-    log.extra["algorithmic_singularity"] = algorithmic
-    log.extra["final_q"] = q
-    frame = task.frame if isinstance(task, FrameTask) else None
-    rows = task.rows if isinstance(task, FrameTask) else list(range(6))
-    analyse_run(
-        robot,
-        log,
-        frame=frame,
-        rows=rows,
-        objectives=[*(obj for obj, _ in scheme.objectives), *log_objectives],
+    log.extra.update(
+        inverse_sigma_min=inv_sigma.copy(), algorithmic_singularity=algorithmic, final_q=q
     )
+    frame, rows = (frame_task.frame, frame_task.rows) if frame_task else (None, list(range(6)))
+    objectives = [*(obj for obj, _ in scheme.objectives), *log_objectives]
+    analyse_run(robot, log, frame=frame, rows=rows, objectives=objectives)
     return log
 
 
