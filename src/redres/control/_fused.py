@@ -21,7 +21,7 @@ from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import _backend as be
 from ..linalg import _codes as codes
 from ..objectives import Objective
-from ..resolution import GradientProjectionScheme, PseudoInverseScheme, Scheme
+from ..resolution import GradientProjectionScheme, Inverse, PseudoInverseScheme, Scheme
 from ..tasks import FrameTask, Task
 
 if TYPE_CHECKING:
@@ -38,11 +38,10 @@ TARGET = slice(codes.CFG_ROTATION, codes.CFG_TWIST + 6)
 
 
 class Fusion(NamedTuple):
-    """What the fused kernel needs of a scheme: the inverse's ``rate_step`` keywords, the
-    null-space gain and the summed quadratic costs ``Σ wᵢ ∇Dᵢ = a ∘ (q − r)`` as ``(a, r)``
-    (None: none)."""
+    """What the fused kernel needs of a scheme: its inverse, the null-space gain and the
+    summed quadratic costs ``Σ wᵢ ∇Dᵢ = a ∘ (q − r)`` as ``(a, r)`` (None: none)."""
 
-    rate_kwargs: dict[str, Any]
+    inverse: Inverse
     k_null: float
     quadratic: tuple[FloatArray, FloatArray] | None
 
@@ -54,14 +53,14 @@ def fusion(robot: Robot, scheme: Scheme) -> Fusion | None:
     objectives all declare a diagonal quadratic form."""
     step = type(scheme)._step
     if step is PseudoInverseScheme._step:
-        return Fusion(scheme.inverse.rate_kwargs(), 0.0, None)  # type: ignore[attr-defined]
+        return Fusion(scheme.inverse, 0.0, None)  # type: ignore[attr-defined]
     if step is not GradientProjectionScheme._step:
         return None
     quadratic = quadratic_coefficients(robot, scheme.objectives)
     if quadratic is None:
         return None
     k_null: float = scheme.k_null  # type: ignore[attr-defined]
-    return Fusion(scheme.inverse.rate_kwargs(), k_null, quadratic)  # type: ignore[attr-defined]
+    return Fusion(scheme.inverse, k_null, quadratic)  # type: ignore[attr-defined]
 
 
 def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion | None]:
@@ -100,13 +99,13 @@ def fused_config(
     config[v + 2 * n : v + 3 * n] = robot.qd_max
     if fused is None:
         return config
-    mode, lam, lam_max, eps = be.parse_damping(fused.rate_kwargs["damping"])
+    mode, lam, lam_max, eps = be.parse_damping(fused.inverse.damping)
     config[codes.CFG_K_NULL] = fused.k_null
     config[codes.CFG_DAMPING] = lam
     config[codes.CFG_MAX_DAMPING] = lam_max
     config[codes.CFG_THRESHOLD] = eps
     config[codes.CFG_MODE] = mode
-    config[codes.CFG_RCOND] = fused.rate_kwargs.get("rcond", 1e-10)
+    config[codes.CFG_RCOND] = fused.inverse.rcond
     if fused.quadratic is not None:
         config[codes.CFG_HAS_GRAD] = 1.0
         config[v : v + n], config[v + n : v + 2 * n] = fused.quadratic

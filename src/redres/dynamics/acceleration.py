@@ -105,9 +105,7 @@ class AccelerationController(ServoLaw):
     (same arguments and units).
 
     Args:
-        task: frame task (default: the tip, six rows).
-        kp, kd: task gains, 1/s² and 1/s (``kd=None``: ``2√K_p``).
-        objectives, null_kp, null_kd: the null-space law.
+        task, kp, kd, objectives, null_kp, null_kd: the task servo and null-space law.
         inverse: ``"dynamic"`` or ``"kinematic"``.
         damping, rcond: as for :func:`resolve_acceleration`.
         name: identifier in run logs (default ``acceleration_<inverse>``).
