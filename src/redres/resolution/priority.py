@@ -62,7 +62,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -242,14 +242,13 @@ def _resolve(
 _NO_FREEDOM = InverseInfo(0, False, 0.0, 0.0, 0.0, "none")
 
 
-def _per_level(damping: Damping | Sequence[Damping], levels: int) -> list[Damping]:
-    if isinstance(damping, (AdaptiveDamping, int, float, np.floating)):
-        return [damping] * levels
-    out = list(damping)
+def _per_level(value: Any, levels: int, name: str = "damping") -> list[Any]:
+    """``value`` for every level, or its list of one per level."""
+    if isinstance(value, AdaptiveDamping) or np.ndim(value) == 0:
+        return [value] * levels
+    out = list(value)
     if len(out) != levels:
-        raise InvalidParameterError(
-            f"give one damping, or one per level ({levels}); got {len(out)}"
-        )
+        raise InvalidParameterError(f"give one {name}, or one per level ({levels}); got {out}")
     return out
 
 
@@ -352,9 +351,7 @@ class PriorityScheme(Scheme):
         self.levels = [[lv] if isinstance(lv, Task) else list(lv) for lv in levels]
         if any(not level or not all(isinstance(t, Task) for t in level) for level in self.levels):
             raise InvalidParameterError("each level must be a Task or a non-empty list of Tasks")
-        gains = [gain] * len(self.levels) if np.ndim(gain) == 0 else list(gain)  # type: ignore[arg-type]
-        if len(gains) != len(self.levels):
-            raise InvalidParameterError(f"give one gain per level ({len(self.levels)}); got {gain}")
+        gains = _per_level(gain, len(self.levels), "gain")
         self.gains = [as_scalar(g, "gain", minimum=0.0) for g in gains]
         self.method: PriorityMethod = method
         if method != "exact" and inverse is None and damping is None and rcond is None:
