@@ -148,7 +148,6 @@ def simulate(
     law.reset()
     bar = progress_bar(steps, progress, f"{robot.name} {label or law.name}")
     clock = time.perf_counter_ns
-    k = 0
     try:
         with np.errstate(over="ignore", invalid="ignore"):
             for k in range(steps):
@@ -156,7 +155,8 @@ def simulate(
                 t0 = clock()
                 out = law.step(ctrl, q, qd, sample)
                 rec.step_ns[k] = clock() - t0
-                tau = np.clip(_checked_torque(out, robot.n, law.name), -tau_max, tau_max)
+                tau = _checked_torque(out, robot.n, k, k * h, law.name)
+                tau = np.clip(tau, -tau_max, tau_max)
                 rec.record(k, q, qd, out, tau, tau_max)
                 for _ in range(substeps):
                     qdd = plant.forward_dynamics(q, qd, tau)
@@ -164,14 +164,12 @@ def simulate(
                     q = q + dt * qd
                     if not math.isfinite(float(q.sum() + qd.sum())):
                         raise SimulationError(
-                            f"the state became non-finite (max |tau| = "
-                            f"{np.abs(tau).max():.3g} N m); lower the gains or dt, or limit "
-                            "the torques"
+                            f"step {k} (t = {k * h:.4f} s): the state became non-finite "
+                            f"(max |tau| = {np.abs(tau).max():.3g} N m); lower the gains "
+                            "or dt, or limit the torques"
                         )
                 if bar is not None:
                     bar.update(1)
-    except SimulationError as exc:
-        raise SimulationError(f"step {k} (t = {k * h:.4f} s): {exc}") from exc
     finally:
         if bar is not None:
             bar.close()
@@ -183,16 +181,19 @@ def simulate(
     return log
 
 
-def _checked_torque(out: Any, n: int, name: str) -> FloatArray:
+def _checked_torque(out: Any, n: int, k: int, t: float, name: str) -> FloatArray:
     if not isinstance(out, ControlStep):
         raise InvalidParameterError(f"the {name} law must return a ControlStep; got {out!r}")
     tau = np.asarray(out.tau, dtype=float)
     if tau.shape != (n,):
         raise SimulationError(
-            f"the {name} law returned torques of shape {tau.shape}; expected ({n},)"
+            f"step {k} (t = {t:.4f} s): the {name} law returned torques "
+            f"of shape {tau.shape}; expected ({n},)"
         )
     if not np.all(np.isfinite(tau)):
-        raise SimulationError(f"the {name} law returned a non-finite torque {tau}")
+        raise SimulationError(
+            f"step {k} (t = {t:.4f} s): the {name} law returned a non-finite torque {tau}"
+        )
     return tau
 
 
