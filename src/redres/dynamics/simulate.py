@@ -45,7 +45,8 @@ if TYPE_CHECKING:
 class _Recorder:
     """Per-step arrays of one run (filled inside the loop, no allocation per step)."""
 
-    def __init__(self, steps: int, n: int) -> None:
+    def __init__(self, steps: int, n: int, tau_max: FloatArray) -> None:
+        self.tau_max = tau_max
         self.q = np.empty((steps, n))
         self.qd = np.empty((steps, n))
         self.tau = np.empty((steps, n))
@@ -61,16 +62,10 @@ class _Recorder:
         self.step_ns = np.empty(steps)
 
     def record(
-        self,
-        k: int,
-        q: FloatArray,
-        qd: FloatArray,
-        out: ControlStep,
-        tau: FloatArray,
-        tau_max: FloatArray,
+        self, k: int, q: FloatArray, qd: FloatArray, out: ControlStep, tau: FloatArray
     ) -> None:
         self.q[k], self.qd[k], self.tau_cmd[k], self.tau[k] = q, qd, out.tau, tau
-        self.saturated[k] = np.abs(out.tau) > tau_max
+        self.saturated[k] = np.abs(out.tau) > self.tau_max
         if out.tau_null is not None:
             self.tau_null[k] = out.tau_null
         if out.error is not None:
@@ -144,7 +139,7 @@ def simulate(
     h = dt * substeps
     steps = max(round(duration / h), 1)
     tau_max = plant.tau_max if limit_torque else np.full(robot.n, np.inf)
-    rec = _Recorder(steps, robot.n)
+    rec = _Recorder(steps, robot.n, tau_max)
     law.reset()
     bar = progress_bar(steps, progress, f"{robot.name} {label or law.name}")
     clock = time.perf_counter_ns
@@ -157,7 +152,7 @@ def simulate(
                 rec.step_ns[k] = clock() - t0
                 tau = _checked_torque(out, robot.n, k, k * h, law.name)
                 tau = np.clip(tau, -tau_max, tau_max)
-                rec.record(k, q, qd, out, tau, tau_max)
+                rec.record(k, q, qd, out, tau)
                 for _ in range(substeps):
                     qdd = plant.forward_dynamics(q, qd, tau)
                     qd = qd + dt * qdd
