@@ -59,8 +59,7 @@ def fusion(robot: Robot, scheme: Scheme) -> Fusion | None:
     quadratic = quadratic_coefficients(robot, scheme.objectives)
     if quadratic is None:
         return None
-    k_null: float = scheme.k_null  # type: ignore[attr-defined]
-    return Fusion(scheme.inverse, k_null, quadratic)  # type: ignore[attr-defined]
+    return Fusion(scheme.inverse, scheme.k_null, quadratic)  # type: ignore[attr-defined]
 
 
 def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion | None]:

@@ -65,8 +65,6 @@ class AugmentedJacobianScheme(Scheme):
     """
 
     name = "augmented"
-    #: No null-space term: the extra rows use up the redundancy.
-    k_null: float = 0.0
 
     @checked_keywords
     def __init__(

@@ -186,6 +186,8 @@ class Scheme(ABC):
     #: The control period the scheme plans over, s (hard-limit schemes), else None: a loop
     #: must run at this period.
     dt: float | None = None
+    #: Gain ``k`` of the secondary (null-space) cost term (0: the scheme has none).
+    k_null: float = 0.0
     #: Weighted secondary costs ``(objective, weight)`` the scheme descends (empty: none).
     objectives: tuple[tuple[Objective, float], ...] = ()
     #: Tasks the scheme evaluates itself at ``q`` (empty: none); reset with the scheme.

@@ -332,8 +332,6 @@ class PriorityScheme(Scheme):
     """
 
     name = "priority"
-    #: No gradient term: the lower levels are tasks (:attr:`gains`), not costs.
-    k_null: float = 0.0
 
     @checked_keywords
     def __init__(
