@@ -55,7 +55,7 @@ from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._codes import METHODS, NEAREST
 from ._compiled import kernels
-from .base import STEP_NAMES, BindingList, BoxScheme, Workspace, relaxed_joints, step_info
+from .base import STEP_NAMES, BoxScheme, Workspace
 
 if TYPE_CHECKING:
     from ...robot import Robot
@@ -143,11 +143,5 @@ class SNSScheme(BoxScheme):
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
         s = 0.0 if method == NEAREST else s
-        qd = out[0]
-        self.qd_prev = qd.copy()  # the scheme's own copy
-        return StepResult.lazy(
-            qd, lambda: step_info(Jc, "sns"), out[1], s == 1.0,
-            BindingList(codes, relaxed > 0) if active else (),
-            lambda: SNSDetails(s, METHODS[method], (out[2], out[3]),
-                               relaxed_joints(codes, relaxed)),
-        )  # fmt: skip
+        return self._result(out, codes, Jc, s == 1.0, relaxed, active, SNSDetails, scale=s,
+                            method=METHODS[method])  # fmt: skip
