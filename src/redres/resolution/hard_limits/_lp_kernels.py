@@ -1,9 +1,6 @@
-"""Compiled linear program of the hard-limit schemes (internal): the largest task scale.
-
-``max s  s.t.  J q̇ = s ẋ,  lower ≤ q̇ ≤ upper,  0 ≤ s ≤ 1`` by a bounded-variable primal
-simplex with Bland's rule (Dantzig 1963 ch. 18; Chvátal 1983 ch. 8), in two phases or from
-a feasible vertex (the greedy SNS solution). Plain Python written for numba, compiled
-through :mod:`redres._jit`; the public entry point is :func:`redres.resolution.largest_scale`.
+"""Compiled linear program of the hard-limit schemes (internal): the largest task scale of
+:mod:`.lp` (formula and references there), in two phases or from a feasible vertex (the
+greedy SNS solution). Plain Python written for numba, compiled through :mod:`redres._jit`.
 """
 
 from __future__ import annotations

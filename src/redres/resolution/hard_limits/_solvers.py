@@ -1,9 +1,6 @@
 """The QP backends of :class:`~redres.resolution.QPScheme` (internal): DAQP called
-directly (warm-started through ``daqp.Model``), any other qpsolvers backend through
-:func:`qpsolvers.solve_problem`, and the sequence of QPs of the priority levels.
-
-DAQP (Arnström, Bemporad, Axehill 2022) is given the dense matrices qpsolvers would build:
-the solve takes about a microsecond, qpsolvers' generic conversions about twenty.
+directly (warm-started through ``daqp.Model``; why: :mod:`.qp`), any other qpsolvers
+backend through :func:`qpsolvers.solve_problem`, and the sequence of QPs of the levels.
 """
 
 from __future__ import annotations
@@ -72,9 +69,9 @@ class WarmQP:
 
     Args:
         daqp: the DAQP module.
-        options: DAQP settings (``primal_tol``, ...).
-        data: the first problem: ``H``, ``f``, ``A``, ``bupper``, ``blower`` and ``sense``
-            (DAQP's arguments).
+        options: DAQP settings, already checked (:class:`QPSolver`).
+        data: the first problem: DAQP's arguments ``H``, ``f``, ``A``, ``bupper``,
+            ``blower`` and ``sense``.
     """
 
     def __init__(self, daqp: Any, options: dict[str, Any], **data: Any) -> None:
@@ -83,7 +80,6 @@ class WarmQP:
         if hasattr(daqp, "Model"):
             model = daqp.Model()
             if model.setup(*(data[k] for k in _DAQP_ARGS))[0] >= 0:
-                check_daqp_options(daqp, options)
                 model.settings = dict(options)
                 self._model = model
 

@@ -160,21 +160,22 @@ class BoxScheme(Scheme):
         codes: NDArray[np.int8],
         Jc: FloatArray,
         feasible: bool,
-        relaxed: int,
         active: int,
-        details: Callable[..., Any],
-        **fields: Any,
+        details: Callable[[], Any],
     ) -> StepResult:
         """The step's result from the kernel's rows (``q̇`` also becomes :attr:`qd_prev`);
-        ``details(**fields, bounds=…, relaxed=…)`` and ``info`` are built on first read."""
+        ``info`` and ``details`` are built on first read."""
         qd = out[0]
         self.qd_prev = qd.copy()  # the scheme's own copy
-
-        def box_details() -> Any:
-            joints = np.flatnonzero(codes[2]).tolist() if relaxed else []
-            return details(**fields, bounds=(out[2], out[3]), relaxed=joints)
-
         return StepResult.lazy(
             qd, lambda: step_info(Jc, self.name), out[1], feasible,
-            BindingList(out, codes) if active else (), box_details,
+            BindingList(out, codes) if active else (), details,
         )  # fmt: skip
+
+
+def box_details(
+    out: FloatArray, codes: NDArray[np.int8], relaxed: int
+) -> tuple[tuple[FloatArray, FloatArray], list[int]]:
+    """The ``bounds`` and ``relaxed`` fields of a step's details: the box and the joints
+    whose box had to give up a limit (``relaxed`` counts them)."""
+    return (out[2], out[3]), np.flatnonzero(codes[2]).tolist() if relaxed else []

@@ -59,7 +59,7 @@ from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._compiled import kernels
 from ._solvers import QPSolver, sense, solve_levels
-from .base import STEP_NAMES, BoxScheme, Workspace
+from .base import STEP_NAMES, BoxScheme, Workspace, box_details
 
 if TYPE_CHECKING:
     from ...robot import Robot
@@ -202,8 +202,8 @@ class QPScheme(BoxScheme):
         active, residual = finished
         levels = residuals if self.levels else [residual]
         return self._result(
-            out, codes, Jc, all(exact), relaxed, active, QPDetails,
-            residual=residual, level_residuals=levels, solver=self.solver,
+            out, codes, Jc, all(exact), active,
+            lambda: QPDetails(residual, levels, *box_details(out, codes, relaxed), self.solver),
         )  # fmt: skip
 
     def _single(

@@ -19,14 +19,11 @@ joint free (``W = I``) and the null-space velocity ``q̇_N`` equal to the second
 The greedy choice of saturated joints does not always find the largest feasible scale
 (nor a feasible solution whenever one exists; on random boxes it misses in about one
 case in four). So when step 4 is reached, this implementation also solves the linear
-program ``max s  s.t.  J q̇ = s ẋ, lower ≤ q̇ ≤ upper, 0 ≤ s ≤ 1`` exactly (a bounded-
-variable primal simplex with Bland's rule, Dantzig 1963 ch. 18; Chvátal 1983 ch. 8) and
-keeps the SNS solution if its scale is that maximum, the simplex vertex otherwise. The
-returned scale is therefore the largest feasible one (tests check it against a brute-
-force line search). If no scale in ``[0, 1]`` is feasible (the joints cannot change their
-velocities fast enough to move along ``ẋ`` at all), the result is the velocity in the box
-whose task velocity is nearest, in the 1-norm, to the segment ``{s ẋ : 0 ≤ s ≤ 1}``
-(phase 1 of the same simplex), reported as infeasible.
+program of :mod:`.lp` exactly and keeps the SNS solution if its scale is that maximum,
+the simplex vertex otherwise: the returned scale is the largest feasible one (tests check
+it against a brute-force line search). If no scale in ``[0, 1]`` is feasible (the joints
+cannot change their velocities fast enough to move along ``ẋ`` at all), the result is
+the LP's nearest velocity, reported as infeasible.
 
 With objectives the secondary velocity is ``q̇_0 = −k_null Σ wᵢ ∇Dᵢ(q)`` (DESIGN.md convention);
 on the free joints SNS then gives the gradient projection ``q̇_0 + (J W)⁺(ẋ − J q̇_N)``. If
@@ -36,8 +33,6 @@ first).
 References:
     F. Flacco, A. De Luca, O. Khatib, "Control of redundant robots under hard joint
     constraints: saturation in the null space", IEEE Trans. Robotics 31(3) (2015) 637–654.
-    G. B. Dantzig, Linear Programming and Extensions, Princeton, 1963.
-    V. Chvátal, Linear Programming, Freeman, 1983.
 """
 
 from __future__ import annotations
@@ -55,7 +50,7 @@ from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._codes import METHODS, NEAREST
 from ._compiled import kernels
-from .base import STEP_NAMES, BoxScheme, Workspace
+from .base import STEP_NAMES, BoxScheme, Workspace, box_details
 
 if TYPE_CHECKING:
     from ...robot import Robot
@@ -143,5 +138,7 @@ class SNSScheme(BoxScheme):
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
         s = 0.0 if method == NEAREST else s
-        return self._result(out, codes, Jc, s == 1.0, relaxed, active, SNSDetails, scale=s,
-                            method=METHODS[method])  # fmt: skip
+        return self._result(
+            out, codes, Jc, s == 1.0, active,
+            lambda: SNSDetails(s, METHODS[method], *box_details(out, codes, relaxed)),
+        )  # fmt: skip
