@@ -39,18 +39,6 @@ def backend(solver: str) -> Any:
     return qpsolvers
 
 
-def check_daqp_options(daqp: Any, options: dict[str, Any]) -> None:
-    """Refuse settings DAQP does not know (``daqp.Model`` would ignore them silently)."""
-    if not hasattr(daqp, "Model"):
-        return  # daqp.solve raises on unknown keywords itself
-    known = set(daqp.Model().settings)
-    unknown = sorted(set(options) - known)
-    if unknown:
-        raise InvalidParameterError(
-            f"unknown DAQP setting(s) {unknown}; DAQP's settings are {sorted(known)}"
-        )
-
-
 def sense(n: int, m: int) -> Any:
     """DAQP's constraint flags for ``n`` bounds then ``m`` equality rows."""
     flags = np.zeros(n + m, dtype=np.intc)
@@ -123,8 +111,14 @@ class QPSolver:
         if self.daqp:
             self.options.setdefault("primal_tol", 1e-10)
         self.module = backend(self.name)
-        if self.daqp:
-            check_daqp_options(self.module, self.options)
+        # daqp.Model would ignore unknown settings silently (daqp.solve refuses them itself)
+        if self.daqp and hasattr(self.module, "Model"):
+            known = set(self.module.Model().settings)
+            unknown = sorted(set(self.options) - known)
+            if unknown:
+                raise InvalidParameterError(
+                    f"unknown DAQP setting(s) {unknown}; DAQP's settings are {sorted(known)}"
+                )
 
     def warm(self, **data: Any) -> WarmQP:
         """A :class:`WarmQP` of this (DAQP) solver for the problem ``data``."""

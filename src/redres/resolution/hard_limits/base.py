@@ -4,8 +4,8 @@ workspace, the step prologue, the diagnostics and the lazily built list of bindi
 A hard-limit step is one compiled call (:mod:`._kernels`): it checks the inputs, builds the
 joint-velocity box of :mod:`.box`, resolves the task inside it and fills preallocated
 rows — ``out`` (q̇, null-space term, lower, upper) and ``codes`` (bound kinds, relaxed).
-Everything a caller may never read (the bindings as namedtuples, the
-singular values of ``J``) is computed on first access.
+Everything a caller may never read (the bindings as namedtuples, the singular values of
+``J``) is computed on first access.
 """
 
 from __future__ import annotations
