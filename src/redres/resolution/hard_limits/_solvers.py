@@ -120,10 +120,6 @@ class QPSolver:
                     f"unknown DAQP setting(s) {unknown}; DAQP's settings are {sorted(known)}"
                 )
 
-    def warm(self, **data: Any) -> WarmQP:
-        """A :class:`WarmQP` of this (DAQP) solver for the problem ``data``."""
-        return WarmQP(self.module, self.options, **data)
-
     def solve(
         self,
         P: FloatArray,
@@ -136,14 +132,10 @@ class QPSolver:
         """The minimiser, or None if the QP is infeasible or the backend failed."""
         n = lo.shape[0]
         if self.daqp:
-            m = 0 if A is None else A.shape[0]
-            bu, bl = np.empty(n + m), np.empty(n + m)
-            bu[:n], bl[:n] = hi, lo
-            if A is not None and b is not None:
-                bu[n:], bl[n:] = b, b
-            else:
-                A = np.zeros((0, n))
-            x, _, flag, _ = self.module.solve(P, c, A, bu, bl, sense(n, m), **self.options)
+            if A is None or b is None:
+                A, b = np.zeros((0, n)), np.zeros(0)
+            bu, bl, flags = np.concatenate([hi, b]), np.concatenate([lo, b]), sense(n, len(b))
+            x, _, flag, _ = self.module.solve(P, c, A, bu, bl, flags, **self.options)
             return x if flag > 0 else None
         problem = self.module.Problem(P, c, None, None, A, b, lo, hi)
         solution = self.module.solve_problem(problem, solver=self.name, **self.options)
@@ -174,8 +166,7 @@ def solve_levels(
         x = qp.solve(eye, -qd0, A, b, lo, hi)
         ok = x is not None
         if x is None:
-            W = task_weights if k == 0 and task_weights is not None else None
-            JW = Jk if W is None else Jk * W[:, None]
+            JW = Jk * task_weights[:, None] if k == 0 and task_weights is not None else Jk
             lam2 = damping**2
             P = JW.T @ Jk + lam2 * eye
             c = -(JW.T @ xk) - lam2 * qd0

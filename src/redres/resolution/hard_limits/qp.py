@@ -58,7 +58,7 @@ from ...tasks import Task, stack
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._compiled import kernels
-from ._solvers import QPSolver, sense, solve_levels
+from ._solvers import QPSolver, WarmQP, sense, solve_levels
 from .base import STEP_NAMES, BoxScheme, Workspace, box_details
 
 if TYPE_CHECKING:
@@ -169,12 +169,12 @@ class QPScheme(BoxScheme):
         self._end = _jit.entry_point(kq.qp_end, (J, xd, ws.zero, out[0], ws.M, ws.wm, False))
         self._finish = _jit.entry_point(k.epilogue, (J, xd, out[0], ws.M, ws.wm, False, False))
         if self._qp.daqp:
-            flags, eye = sense(n, m), np.eye(n)
-            self._exact_qp = self._qp.warm(H=eye, f=self._f, A=J, bupper=self._bu,
-                                           blower=self._bl, sense=flags)  # fmt: skip
-            self._box_qp = self._qp.warm(H=eye, f=self._f, A=np.zeros((0, n)),
-                                         bupper=self._bu[:n], blower=self._bl[:n],
-                                         sense=flags[:n])  # fmt: skip
+            flags, eye, daqp, options = sense(n, m), np.eye(n), self._qp.module, self._qp.options
+            self._exact_qp = WarmQP(daqp, options, H=eye, f=self._f, A=J, bupper=self._bu,
+                                    blower=self._bl, sense=flags)  # fmt: skip
+            self._box_qp = WarmQP(daqp, options, H=eye, f=self._f, A=np.zeros((0, n)),
+                                  bupper=self._bu[:n], blower=self._bl[:n],
+                                  sense=flags[:n])  # fmt: skip
         self._ws, self._robot = ws, robot
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
