@@ -47,9 +47,6 @@ def largest_scale(J: ArrayLike, xd: ArrayLike, lower: ArrayLike, upper: ArrayLik
         J: task Jacobian, shape ``(m, n)``.
         xd: task velocity, shape ``(m,)``.
         lower, upper: the joint-velocity box, shapes ``(n,)``, rad/s (``lower ≤ upper``).
-
-    Returns:
-        A :class:`ScaleResult` ``(scale, qd, feasible)``.
     """
     J = as_matrix(J, "J")
     m, n = J.shape

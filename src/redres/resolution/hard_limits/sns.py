@@ -79,12 +79,9 @@ class SNSDetails:
 class SNSScheme(BoxScheme):
     """Saturation in the null space (Flacco, De Luca, Khatib 2015) within hard limits.
 
-    Every step the joint-velocity box of
-    :func:`~redres.resolution.hard_limits.velocity_bounds` (position, velocity and
-    acceleration limits over one period) is computed at ``q`` from the velocity of the
-    previous step, and the task is solved inside it by SNS (module docstring). The result
-    never leaves the box, so a run through :func:`redres.control.run` keeps every limit (to
-    rounding) — provided ``dt`` is the loop's period.
+    Each step solves the task inside the box of
+    :func:`~redres.resolution.hard_limits.velocity_bounds` (module docstring), so a run
+    through :func:`redres.control.run` at the period ``dt`` keeps every limit, to rounding.
 
     Args:
         dt: control period, s; must equal the ``dt`` of the loop that applies ``q̇``.
