@@ -187,7 +187,7 @@ class QPScheme(BoxScheme):
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
         finished = None
-        if self.levels:
+        if self.levels or not (inside or self._qp.daqp):  # other backends: no warm start
             rows, targets = self._stack(robot, q, J, xd)
             qd, exact, residuals = solve_levels(self._qp, rows, targets, (out[2], out[3]), qd0,
                                                 self.task_weights, self.damping)  # fmt: skip
@@ -209,15 +209,10 @@ class QPScheme(BoxScheme):
     def _single(
         self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray, full: bool
     ) -> tuple[bool, tuple[int, float] | None]:
-        """One level, bounds active: the exact QP, else the least-violating one (writes
+        """One level, bounds active, DAQP: the exact QP, else the least-violating one (writes
         ``out[0]``; after an infeasible step, the latter first: module docstring). Returns
         whether the task is met exactly, and ``(#active, residual)`` when the step is
         already finished (else None: the caller finishes it)."""
-        if not self._qp.daqp:
-            qd, exact, _ = solve_levels(self._qp, [J], [xd], (out[2], out[3]), qd0,
-                                        self.task_weights, self.damping)  # fmt: skip
-            out[0] = qd
-            return exact[0], None
         if self._infeasible_before:
             x = self._least_violating(out)
             if x is not None:
