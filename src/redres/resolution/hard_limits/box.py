@@ -69,11 +69,7 @@ IntArray = NDArray[np.int8]
 
 
 def _limit_array(value: Any, name: str, n: int, *, positive: bool) -> FloatArray:
-    arr = (
-        np.array(np.broadcast_to(np.asarray(value, dtype=float), (n,)))
-        if np.ndim(value) == 0
-        else np.asarray(value, dtype=float).copy()
-    )
+    arr = np.full(n, value, dtype=float) if np.ndim(value) == 0 else np.array(value, dtype=float)
     if arr.shape != (n,):
         raise ShapeError(f"{name} must have shape ({n},) or be a scalar; got shape {arr.shape}")
     if np.isnan(arr).any():
