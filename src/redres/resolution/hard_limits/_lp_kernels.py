@@ -177,7 +177,6 @@ def largest_scale(J, xd, lo, hi, qd, warm, s_warm):  # type: ignore[no-untyped-d
         cost[n] = 0.0
     for k in range(n):
         is_basic[k] = False
-        low[k], up[k] = max(lo[k], -_CAP), min(hi[k], _CAP)
         at_upper[k] = abs(up[k]) < abs(low[k])
         x[k] = up[k] if at_upper[k] else low[k]
     x[n], at_upper[n], is_basic[n] = 1.0, True, False
