@@ -24,8 +24,11 @@ _F = TypeVar("_F", bound=Callable[..., Any])
 _EYE3 = np.eye(3)
 
 
-def as_vector(value: Any, name: str, size: int | None = None) -> FloatArray:
-    """Return ``value`` as a finite float64 vector, optionally of a given size."""
+def as_vector(
+    value: Any, name: str, size: int | None = None, *, limit: float | None = None
+) -> FloatArray:
+    """Return ``value`` as a finite float64 vector, optionally of a given size and with
+    every entry within ``±limit``."""
     if type(value) is np.ndarray and value.dtype == np.float64:
         arr = value  # the common case in control loops: no conversion
     else:
@@ -41,6 +44,8 @@ def as_vector(value: Any, name: str, size: int | None = None) -> FloatArray:
     if not math.isfinite(arr.sum()):
         if not np.isfinite(arr).all():
             raise NonFiniteError(f"{name} contains NaN or infinity: {arr}")
+    if limit is not None and arr.size and np.abs(arr).max() > limit:
+        raise InvalidParameterError(f"{name} must lie within ±{limit:g}; got {arr}")
     return arr
 
 
@@ -72,19 +77,35 @@ def as_transform(value: Any, name: str) -> FloatArray:
 
 
 def as_scalar(
-    value: Any, name: str, *, minimum: float | None = None, strict: bool = False
+    value: Any,
+    name: str,
+    *,
+    minimum: float | None = None,
+    strict: bool = False,
+    maximum: float | None = None,
 ) -> float:
-    """Return ``value`` as a finite float, optionally bounded below (``strict``: ``>``)."""
+    """Return ``value`` as a finite real float, optionally bounded below (``strict``:
+    ``>``) and above (``<=``)."""
+    if isinstance(value, (complex, np.complexfloating)):
+        raise InvalidParameterError(f"{name} must be a real number; got {value!r}")
     try:
         x = float(value)
-    except (TypeError, ValueError) as exc:
-        raise InvalidParameterError(f"{name} must be a number; got {value!r}") from exc
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InvalidParameterError(f"{name} must be a number; got {short_repr(value)}") from exc
     if not math.isfinite(x):
         raise NonFiniteError(f"{name} must be finite; got {x}")
     if minimum is not None and (x <= minimum if strict else x < minimum):
         relation = ">" if strict else ">="
         raise InvalidParameterError(f"{name} must be {relation} {minimum}; got {x}")
+    if maximum is not None and x > maximum:
+        raise InvalidParameterError(f"{name} must be <= {maximum:g}; got {x:g}")
     return x
+
+
+def short_repr(value: Any, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters, for a one-line message."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 def checked_keywords(func: _F) -> _F:

@@ -1,6 +1,7 @@
 """The ``redres`` command: ``redres robots``, ``redres demo``, ``redres run``, ``redres bench``.
 
-Exit codes: 0 success, 2 bad usage or bad input (one clear message on stderr).
+Exit codes: 0 success, 2 bad usage, bad input or a file that cannot be read or written
+(one line on stderr: ``redres: error: ...`` naming the value or path and the fix).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import __version__
-from .errors import RedresError
+from .errors import RedresError, describe_os_error
 
 if TYPE_CHECKING:
     from .demo import Output
@@ -159,6 +160,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. `redres robots | head`
         sys.stderr.close()
         return 0
+    except OSError as exc:  # a report folder or file that cannot be written or read
+        print(f"redres: error: {describe_os_error(exc)}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

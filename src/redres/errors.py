@@ -8,6 +8,9 @@ know about redres.
 
 from __future__ import annotations
 
+import errno
+import os
+
 __all__ = [
     "DHParameterError",
     "FrameNotFoundError",
@@ -23,6 +26,8 @@ __all__ = [
     "SimulationError",
     "URDFError",
     "UnknownParameterError",
+    "describe_os_error",
+    "shown_path",
 ]
 
 
@@ -87,3 +92,34 @@ class FrameNotFoundError(_KeyLookupError):
 
 class RobotNotFoundError(_KeyLookupError):
     """A built-in robot name is unknown (message lists the valid names)."""
+
+
+_FIXES = {
+    errno.ENOENT: "a folder on the way does not exist or cannot hold files; create it or "
+    "choose another path",
+    errno.ENOTDIR: "a part of the path is a file, not a folder; choose another path",
+    errno.EISDIR: "a folder is in the way; rename or remove it, or choose another path",
+    errno.EACCES: "you may not write there; choose a folder you can write to",
+    errno.EPERM: "you may not write there; choose a folder you can write to",
+    errno.EROFS: "the file system is read-only; choose a folder you can write to",
+    errno.ENOSPC: "the disk is full; free some space or choose a folder on another disk",
+    errno.EDQUOT: "your disk quota is used up; free some space or choose another disk",
+    errno.ENAMETOOLONG: "the path or one of its names is too long; choose a shorter path",
+    errno.EEXIST: "something of that name is in the way; rename or remove it",
+}
+
+
+def shown_path(path: str | os.PathLike[str], limit: int = 160) -> str:
+    """``path`` quoted for a one-line message, its middle elided beyond ``limit`` characters."""
+    text = str(path)
+    if len(text) <= limit:
+        return repr(text)
+    return f"{text[: limit // 2]!r}...{text[-limit // 2 :]!r} ({len(text)} characters)"
+
+
+def describe_os_error(exc: OSError) -> str:
+    """One line for a file-system error: the path, what went wrong and the fix."""
+    where = shown_path(exc.filename) if exc.filename is not None else "a file"
+    reason = exc.strerror or type(exc).__name__
+    fix = _FIXES.get(exc.errno or 0, "check the path and its permissions")
+    return f"{where}: {reason}; {fix}"

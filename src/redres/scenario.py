@@ -32,8 +32,10 @@ import numpy as np
 import pinocchio as pin
 
 from . import models
+from ._validate import short_repr
+from .control.analysis import run_steps
 from .control.trajectories import Circle, FigureEight, Hold, Line, MinimumJerk, Trajectory
-from .errors import RedresError
+from .errors import RedresError, describe_os_error, shown_path
 from .linalg import AdaptiveDamping
 from .objectives import (
     CapsuleObstacle,
@@ -123,9 +125,7 @@ class _Reader:
         if kind == "number":
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise self.fail(key, f"expected a number, got {value!r} (write {key} = 1.0)")
-            if not math.isfinite(value):
-                raise self.fail(key, f"must be finite; got {value!r}")
-            return float(value)
+            return self._float(key, value)
         if kind == "string":
             if not isinstance(value, str):
                 raise self.fail(key, f'expected a string, got {value!r} (write {key} = "...")')
@@ -136,16 +136,23 @@ class _Reader:
             )
             if not ok or (size is not None and len(value) != size):
                 want = f"{size} numbers" if size else "a list of numbers"
-                raise self.fail(key, f"expected {want}, got {value!r}")
-            arr = np.array(value, dtype=float)
-            if not np.all(np.isfinite(arr)):
-                raise self.fail(key, "must contain finite numbers")
-            return arr
+                raise self.fail(key, f"expected {want}, got {short_repr(value)}")
+            return np.array([self._float(key, v) for v in value])
         if kind == "tables":
             if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
                 raise self.fail(key, f"expected a list of tables, got {value!r}")
             return value
         raise AssertionError(kind)
+
+    def _float(self, key: str, value: int | float) -> float:
+        """``value`` as a finite float (an integer of hundreds of digits is not one)."""
+        try:
+            x = float(value)
+        except OverflowError:
+            raise self.fail(key, f"{short_repr(value)} is too large for a number") from None
+        if not math.isfinite(x):
+            raise self.fail(key, f"must be finite; got {value!r}")
+        return x
 
     def number(self, key: str, default: Any = ...) -> float:
         return float(self.get(key, "number", default))
@@ -252,6 +259,11 @@ def _trajectory(r: _Reader, start: np.ndarray) -> Trajectory:
 
 
 def _obstacle(r: _Reader) -> Obstacle:
+    with r.blame(None):
+        return _obstacle_of(r)
+
+
+def _obstacle_of(r: _Reader) -> Obstacle:
     kind = r.string("type")
     name, radius = r.string("name", kind), r.nonnegative("radius", 0.0)
     if kind in ("sphere", "point"):
@@ -347,14 +359,22 @@ class _SchemeReader(_Reader):
 def load_scenario(path: str | Path) -> ScenarioSpec:
     """Read and validate a scenario file; raises :class:`ScenarioError`."""
     file = Path(path)
+    shown = shown_path(file)
     try:
-        data = tomllib.loads(file.read_text(encoding="utf-8"))
+        data = tomllib.loads(file.read_text(encoding="utf-8-sig"))  # a leading BOM is fine
     except FileNotFoundError:
-        raise ScenarioError(f"{file}: no such scenario file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"{file}: cannot be read ({exc})") from None
+        raise ScenarioError(f"{shown}: no such scenario file") from None
+    except OSError as exc:
+        raise ScenarioError(f"cannot read the scenario file: {describe_os_error(exc)}") from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{shown}: not UTF-8 text ({exc.reason}); save it as UTF-8") from None
     except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{file}: not valid TOML ({exc})") from None
+        raise ScenarioError(f"{shown}: not valid TOML ({exc})") from None
+    except RecursionError:
+        raise ScenarioError(
+            f"{shown}: arrays or tables are nested too deeply to read; a scenario needs at "
+            "most a few levels"
+        ) from None
     return parse_scenario(data, file.name, file.parent)
 
 
@@ -375,8 +395,10 @@ def parse_scenario(
     run = _Reader(data.get("run", {}), "[run]", file)
     dt, duration = run.positive("dt", 1e-3), run.positive("duration", trajectory.duration)
     gain = run.nonnegative("gain", 50.0)
+    with run.blame(None):
+        run_steps(duration, dt)  # 1 to MAX_STEPS steps
     run.done()
-    obstacles = top.each("obstacles", _obstacle, [])
+    obstacles = top.each("obstacles", _obstacle, [])  # checks blamed on the table
     tables = top.get("schemes", "tables")
     if not tables:
         raise ScenarioError(f'{file}: [[schemes]] is empty; add one with type = "pinv"')

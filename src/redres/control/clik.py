@@ -22,7 +22,7 @@ from ..errors import InvalidParameterError, SimulationError
 from ..objectives import Objective
 from ..resolution import Scheme
 from ..tasks import FrameTask, Task
-from .analysis import analyse_run, progress_bar, run_duration, start_configuration
+from .analysis import analyse_run, progress_bar, run_duration, run_steps, start_configuration
 from .controller import Controller
 from .runlog import RunLog
 from .trajectories import Trajectory
@@ -66,7 +66,9 @@ def run(
         The :class:`RunLog`.
 
     Raises:
-        InvalidParameterError: non-positive ``dt`` or ``duration``, negative ``gain``.
+        InvalidParameterError: non-positive ``dt`` or ``duration``, negative ``gain``, a
+            ``duration`` under half a step or over :data:`~redres.control.analysis.MAX_STEPS`
+            steps.
         JointLimitError: ``q0`` outside the joint limits.
         SimulationError: a non-finite joint velocity (names the step).
     """
@@ -79,7 +81,7 @@ def run(
         )
     duration = run_duration(trajectory, duration)
     q = start_configuration(robot, q0)
-    steps = round(duration / dt)
+    steps = run_steps(duration, dt)
     n = robot.n
     scheme.reset()
 

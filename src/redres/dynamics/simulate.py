@@ -31,7 +31,13 @@ import numpy as np
 import pinocchio as pin
 
 from .._validate import FloatArray, as_scalar, as_vector
-from ..control.analysis import analyse_run, progress_bar, run_duration, start_configuration
+from ..control.analysis import (
+    analyse_run,
+    progress_bar,
+    run_duration,
+    run_steps,
+    start_configuration,
+)
 from ..control.runlog import RunLog
 from ..errors import InvalidParameterError, ShapeError, SimulationError
 from .base import ControlStep, TorqueLaw
@@ -137,7 +143,7 @@ def simulate(
     q = start_configuration(robot, q0)
     qd = np.zeros(robot.n) if qd0 is None else as_vector(qd0, "qd0", robot.n).copy()
     h = dt * substeps
-    steps = max(round(duration / h), 1)
+    steps = run_steps(max(duration, h / 2), h)  # at least one step
     tau_max = plant.tau_max if limit_torque else np.full(robot.n, np.inf)
     rec = _Recorder(steps, robot.n, tau_max)
     law.reset()

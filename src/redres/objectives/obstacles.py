@@ -32,22 +32,38 @@ if TYPE_CHECKING:
     from ..robot import Capsule, Robot
 
 
+#: Bound on obstacle coordinates and radii, m. Workcells are metres across, so a kilometre
+#: is a unit slip; the bound also keeps the penalty's squares far from overflowing.
+MAX_LENGTH = 1e3
+#: Smallest influence distance ``d₀``, m (the penalty divides by it).
+MIN_INFLUENCE = 1e-6
+
+
+def _point(value: Any, name: str) -> FloatArray:
+    return as_vector(value, name, 3, limit=MAX_LENGTH)
+
+
+def _radius(value: Any) -> float:
+    return as_scalar(value, "radius", minimum=0.0, maximum=MAX_LENGTH)
+
+
 @dataclass(frozen=True)
 class SphereObstacle:
-    """A sphere (a point when ``radius = 0``) in world coordinates, m."""
+    """A sphere (a point when ``radius = 0``) in world coordinates, m (within
+    ±:data:`MAX_LENGTH`)."""
 
     center: FloatArray
     radius: float = 0.0
     name: str = "sphere"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", as_vector(self.center, "center", 3))
-        as_scalar(self.radius, "radius", minimum=0.0)
+        object.__setattr__(self, "center", _point(self.center, "center"))
+        _radius(self.radius)
 
 
 def PointObstacle(point: Any, name: str = "point") -> SphereObstacle:  # noqa: N802
     """A point obstacle: a sphere of radius zero."""
-    return SphereObstacle(as_vector(point, "point", 3), 0.0, name)
+    return SphereObstacle(_point(point, "point"), 0.0, name)
 
 
 @dataclass(frozen=True)
@@ -60,9 +76,9 @@ class CapsuleObstacle:
     name: str = "capsule"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "a", as_vector(self.a, "a", 3))
-        object.__setattr__(self, "b", as_vector(self.b, "b", 3))
-        as_scalar(self.radius, "radius", minimum=0.0)
+        object.__setattr__(self, "a", _point(self.a, "a"))
+        object.__setattr__(self, "b", _point(self.b, "b"))
+        _radius(self.radius)
 
 
 Obstacle = SphereObstacle | CapsuleObstacle
@@ -109,7 +125,8 @@ class ObstacleObjective(Objective):
 
     Args:
         obstacles: spheres, points and capsules in world coordinates.
-        influence: ``d₀``, m: pairs farther apart cost nothing.
+        influence: ``d₀``, m (at least :data:`MIN_INFLUENCE`): pairs farther apart cost
+            nothing.
         capsules: link capsules (default: ``robot.capsules`` of the built-in arms).
     """
 
@@ -122,7 +139,7 @@ class ObstacleObjective(Objective):
         capsules: Sequence[Capsule] | None = None,
     ) -> None:
         self.obstacles = list(obstacles)
-        self.influence = as_scalar(influence, "influence", minimum=0.0, strict=True)
+        self.influence = as_scalar(influence, "influence", minimum=MIN_INFLUENCE)
         self.capsules = None if capsules is None else list(capsules)
 
     def _capsules(self, robot: Robot) -> list[Capsule]:

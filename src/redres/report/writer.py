@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..errors import InvalidParameterError, ShapeError
+from ..errors import InvalidParameterError, ShapeError, describe_os_error, shown_path
 from . import html, plots, view3d
 from ._deps import check_report_dependencies, require
 from .table import table_html
@@ -131,7 +131,9 @@ def check_out_dir(out_dir: str | os.PathLike[str], *, force: bool = False) -> Pa
 
     Raises:
         InvalidParameterError: an empty name (it would write into the current folder), a
-            path that is a file, or a folder holding other files without ``force``.
+            path that is a file or lies under one, a folder that cannot be written (read-only,
+            ``/proc``, a name too long), a folder named ``report.html`` inside it, or a
+            folder holding other files without ``force``.
     """
     if not str(out_dir).strip():
         raise InvalidParameterError(
@@ -139,7 +141,15 @@ def check_out_dir(out_dir: str | os.PathLike[str], *, force: bool = False) -> Pa
         )
     target = Path(out_dir).resolve()
     if target.exists() and not target.is_dir():
-        raise InvalidParameterError(f"out_dir {str(target)!r} exists and is not a directory")
+        raise InvalidParameterError(
+            f"the report folder {shown_path(target)} is a file, not a directory; choose a folder (--out)"
+        )
+    _check_writable(target)
+    if (target / PAGE).is_dir() or (target / MARKER).is_dir():
+        raise InvalidParameterError(
+            f"{shown_path(target / PAGE)} is a folder, where the report's page goes; rename "
+            "or remove it, or choose another folder (--out)"
+        )
     if target.is_dir() and not force and not _holds_report(target):
         theirs = sorted(p.name for p in target.iterdir() if not p.name.startswith(STAGING))
         if theirs:
@@ -150,6 +160,31 @@ def check_out_dir(out_dir: str | os.PathLike[str], *, force: bool = False) -> Pa
                 f"report's files to it"
             )
     return target
+
+
+def _check_writable(target: Path) -> None:
+    """Create and remove a staging folder where the report will go (``target``, else its
+    nearest existing parent), so that a folder that cannot be written is refused before
+    anything runs.
+
+    Raises:
+        InvalidParameterError: one line naming the folder, the reason and the fix.
+    """
+    parent = target
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise InvalidParameterError(
+            f"cannot create the report folder {shown_path(target)}: {shown_path(parent)} is "
+            "a file; choose another folder (--out)"
+        )
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=STAGING, dir=parent))
+    except OSError as exc:
+        exc.filename = str(target)
+        raise InvalidParameterError(
+            f"cannot write the report folder: {describe_os_error(exc)} (--out)"
+        ) from None
 
 
 def _holds_report(folder: Path) -> bool:
@@ -228,6 +263,12 @@ def write_report(
     try:
         _build(staging, pairs, rows, title, description, frames, max_points)
         (staging / MARKER).write_text(_MARKER_TEXT, encoding="utf-8")
+        in_the_way = [target / p.name for p in staging.iterdir() if (target / p.name).is_dir()]
+        if in_the_way:
+            raise InvalidParameterError(
+                f"{shown_path(in_the_way[0])} is a folder, where a file of the report goes; "
+                "rename or remove it, or choose another folder (--out)"
+            )
         for path in sorted(staging.iterdir(), key=lambda p: (p.name == PAGE, p.name)):
             os.replace(path, target / path.name)  # one rename per file, the page last
         created = False

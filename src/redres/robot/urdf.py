@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ModelFileNotFoundError, URDFError
+from ..errors import ModelFileNotFoundError, URDFError, describe_os_error, shown_path
 
 # Pinocchio's unbounded revolute joints (nq = 2: cos, sin) and their bounded twins.
 _BOUNDED = {
@@ -32,14 +32,18 @@ def build_urdf_model(
 ) -> tuple[pin.Model, str]:
     """Parse ``path`` and reduce it to the chain ending at ``tip``; returns (model, tip)."""
     file = Path(path)
-    if not file.is_file():
-        raise ModelFileNotFoundError(f"URDF file not found: {file}")
+    try:
+        found = file.is_file()
+    except OSError as exc:  # a name too long, a loop of links
+        raise URDFError(f"cannot read the URDF file: {describe_os_error(exc)}") from None
+    if not found:
+        raise ModelFileNotFoundError(f"URDF file not found: {shown_path(file)}")
     try:
         root = ET.parse(file).getroot()
     except ET.ParseError as exc:
         raise URDFError(f"{file}: not well-formed XML ({exc})") from None
     except OSError as exc:
-        raise URDFError(f"{file}: cannot be read ({exc})") from None
+        raise URDFError(f"cannot read the URDF file: {describe_os_error(exc)}") from None
     if root.tag != "robot":
         raise URDFError(f"{file}: the root element is <{root.tag}>, expected <robot>")
     if root.find("link") is None:
