@@ -109,3 +109,53 @@ def test_unknown_tip_and_unknown_locked_joint(fixtures_dir: Path) -> None:
         rr.Robot.from_urdf(path, tip="gripper")
     with pytest.raises(URDFError, match="cannot lock unknown joint 'finger'"):
         rr.Robot.from_urdf(path, tip="panda_hand", locked={"finger": 0.0})
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ('<mass value="1"/>', '<mass value="-1"/>', r"link 'l1': <mass value='-1'> must be >= 0"),
+        ('<mass value="1"/>', '<mass value="nan"/>', r"link 'l1': <mass value='nan'> must be 1"),
+        ('<axis xyz="0 1 0"/>', '<axis xyz="0 0 0"/>', r"joint 'j2': <axis xyz='0 0 0'> is no"),
+        ('<axis xyz="0 1 0"/>', '<axis xyz="0 1"/>', r"joint 'j2': <axis xyz='0 1'> must be 3"),
+        ('upper="2"', 'upper="nan"', r"joint 'j2': <limit upper='nan'> must be 1 finite"),
+        ('<origin xyz="0.4 0 0"/>', '<origin xyz="0.4 0 inf"/>', r"<origin xyz='0.4 0 inf'>"),
+    ],
+)
+def test_physically_wrong_urdfs_are_refused_by_name(
+    tmp_path: Path, old: str, new: str, message: str
+) -> None:
+    """Pinocchio builds these silently (issue 18, item 7)."""
+    text = TWO_LINK.format(kind="revolute")
+    assert old in text
+    with pytest.raises(URDFError, match=message):
+        rr.Robot.from_urdf(write(tmp_path, text.replace(old, new, 1)))
+
+
+def long_chain(joints: int) -> str:
+    body = ['<robot name="snake"><link name="l0"/>']
+    for i in range(1, joints + 1):
+        body.append(
+            f'<joint name="j{i}" type="revolute"><parent link="l{i - 1}"/><child link="l{i}"/>'
+            '<origin xyz="0 0 0.01"/><axis xyz="0 1 0"/>'
+            '<limit lower="-1" upper="1" velocity="1" effort="1"/></joint>'
+            f'<link name="l{i}"/>'
+        )
+    return "".join(body) + "</robot>"
+
+
+def test_chains_beyond_the_joint_limit_are_refused_before_building(tmp_path: Path) -> None:
+    from redres.robot.dh import MAX_JOINTS
+
+    assert rr.Robot.from_urdf(write(tmp_path, long_chain(MAX_JOINTS))).n == MAX_JOINTS
+    with pytest.raises(URDFError, match=rf"2000 movable joints; .* at most {MAX_JOINTS}"):
+        rr.Robot.from_urdf(write(tmp_path, long_chain(2000)))  # Pinocchio would need GBs
+    links = [dict(a=0.01, alpha=0.0, d=0.0)] * (MAX_JOINTS + 1)
+    with pytest.raises(rr.errors.DHParameterError, match=rf"101 DH records; .* {MAX_JOINTS}"):
+        rr.Robot.from_dh(links)
+
+
+def test_a_tip_at_the_root_says_so(tmp_path: Path) -> None:
+    path = write(tmp_path, TWO_LINK.format(kind="revolute"))
+    with pytest.raises(URDFError, match=r"no movable joint between the root and tip 'base'"):
+        rr.Robot.from_urdf(path, tip="base")

@@ -142,7 +142,8 @@ def check_out_dir(out_dir: str | os.PathLike[str], *, force: bool = False) -> Pa
     target = Path(out_dir).resolve()
     if target.exists() and not target.is_dir():
         raise InvalidParameterError(
-            f"the report folder {shown_path(target)} is a file, not a directory; choose a folder (--out)"
+            f"the report folder {shown_path(target)} is a file, not a directory; choose a "
+            "folder (--out)"
         )
     _check_writable(target)
     if (target / PAGE).is_dir() or (target / MARKER).is_dir():

@@ -31,6 +31,11 @@ from ..errors import DHParameterError, JointLimitError, NotPositiveDefiniteError
 
 JointType = Literal["revolute", "prismatic"]
 
+#: The longest chain redres builds (docs/models.md): real arms have up to a dozen joints,
+#: while Pinocchio's memory and build time grow steeply with the joint count (500 joints:
+#: 4.2 GB and 15 s), so a longer chain is refused before it is built.
+MAX_JOINTS = 100
+
 
 @dataclass(frozen=True)
 class DHLink:
@@ -195,6 +200,11 @@ def build_dh_model(
         raise DHParameterError(f"convention must be 'standard' or 'modified'; got {convention!r}")
     if isinstance(links, (str, bytes)) or not isinstance(links, Sequence) or len(links) == 0:
         raise DHParameterError("links must be a non-empty sequence of DH records")
+    if len(links) > MAX_JOINTS:
+        raise DHParameterError(
+            f"{len(links)} DH records; redres models chains of at most {MAX_JOINTS} joints "
+            "(docs/models.md)"
+        )
     records = [DHLink.from_record(rec, i) for i, rec in enumerate(links)]
     names = [link.name or f"joint{i + 1}" for i, link in enumerate(records)]
     repeated = sorted({n for n in names if names.count(n) > 1})

@@ -15,6 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelFileNotFoundError, URDFError, describe_os_error, shown_path
+from .dh import MAX_JOINTS
 
 # Pinocchio's unbounded revolute joints (nq = 2: cos, sin) and their bounded twins.
 _BOUNDED = {
@@ -48,6 +49,7 @@ def build_urdf_model(
         raise URDFError(f"{file}: the root element is <{root.tag}>, expected <robot>")
     if root.find("link") is None:
         raise URDFError(f"{file}: the URDF has no <link> element")
+    _check_physical(root, file)
     try:
         full = pin.buildModelFromUrdf(str(file))
     except (RuntimeError, ValueError) as exc:
@@ -67,9 +69,54 @@ def build_urdf_model(
         model = pin.buildReducedModel(full, to_lock, q_ref)
     elif locked:
         raise URDFError(f"{file}: cannot lock {sorted(locked)}: every joint is on the chain")
+    if model.nv == 0:
+        links = [str(f.name) for f in full.frames if f.type == pin.FrameType.BODY]
+        raise URDFError(
+            f"{file}: no movable joint between the root and tip {tip_name!r} (the root link or "
+            f"fixed to it); choose a link further out: {', '.join(links[1:])}"
+        )
     if model.nq != model.nv:
         model = _bound_continuous_joints(model, continuous_limits, file)
     return model, tip_name
+
+
+#: The numeric attributes of a URDF's elements, and how many numbers each holds.
+_NUMERIC = {
+    "mass": {"value": 1},
+    "inertia": dict.fromkeys(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), 1),
+    "origin": {"xyz": 3, "rpy": 3},
+    "axis": {"xyz": 3},
+    "limit": dict.fromkeys(("lower", "upper", "velocity", "effort"), 1),
+}
+
+
+def _check_physical(root: ET.Element, file: Path) -> None:
+    """Refuse, by name, what Pinocchio would build into a wrong model (a negative or NaN
+    mass, a zero joint axis, NaN placements or limits) and chains too long to build."""
+    movable = [j for j in root.iter("joint") if j.get("type", "fixed") != "fixed"]
+    if len(movable) > MAX_JOINTS:
+        raise URDFError(
+            f"{file}: {len(movable)} movable joints; redres models chains of at most "
+            f"{MAX_JOINTS} joints (docs/models.md)"
+        )
+    for owner in root:
+        where = f"{file}: {owner.tag} {owner.get('name')!r}"
+        for element in owner.iter():
+            for key, count in _NUMERIC.get(element.tag, {}).items():
+                text = element.get(key)
+                if text is None:
+                    continue
+                tag = f"<{element.tag} {key}={text!r}>"
+                try:
+                    values = [float(v) for v in text.split()]
+                except ValueError:
+                    values = []
+                if len(values) != count or not all(map(math.isfinite, values)):
+                    raise URDFError(f"{where}: {tag} must be {count} finite number(s)")
+                if element.tag == "mass" and values[0] < 0.0:
+                    raise URDFError(f"{where}: {tag} must be >= 0 kg")
+                if element.tag == "axis" and math.hypot(*values) < 1e-9:
+                    raise URDFError(f'{where}: {tag} is no direction; give one, e.g. "0 0 1"')
 
 
 def _default_tip(model: pin.Model, file: Path) -> str:
