@@ -7,7 +7,13 @@ import numpy as np
 import pytest
 
 import redres as rr
-from redres.errors import DHParameterError, NotPositiveDefiniteError, ShapeError
+from redres.errors import (
+    DHParameterError,
+    InvalidParameterError,
+    JointLimitError,
+    NotPositiveDefiniteError,
+    ShapeError,
+)
 from redres.testing import assert_jacobian_close, frame_jacobian_fd
 
 
@@ -112,7 +118,6 @@ def test_default_limits() -> None:
         ({"a": 1.0, "alpha": 0.0, "d": 0.0, "joint": "spherical"}, "'revolute' or 'prismatic'"),
         ({"a": "one", "alpha": 0.0, "d": 0.0}, "record 0: a must be a number"),
         ({"a": np.inf, "alpha": 0.0, "d": 0.0}, "a must be finite"),
-        ({"a": 1.0, "alpha": 0.0, "d": 0.0, "joint": "prismatic"}, "explicit q_min and q_max"),
         ({"a": 1.0, "alpha": 0.0, "d": 0.0, "mass": -1.0}, "mass and armature must be >= 0"),
         ({"a": 1.0, "alpha": 0.0, "d": 0.0, "com": (1.0, 2.0)}, "com must be 3 finite"),
         ("a=1", "must be a DHLink or a dict"),
@@ -156,3 +161,39 @@ def test_non_physical_limits_and_records_are_refused() -> None:
         rr.Robot.from_dh([{**base, "name": "j"}, {**base, "name": "j"}])
     robot = rr.Robot.from_dh([{**base, "qd_max": 2.0, "tau_max": np.inf}, base])
     assert robot.qd_max[0] == 2.0 and robot.tau_max[0] == np.inf  # positive and inf kept
+
+
+def unbounded_arm() -> rr.Robot:
+    return rr.Robot.from_dh(
+        [
+            dict(a=0.0, alpha=0.0, d=0.0, theta=4.0, joint="prismatic"),
+            dict(a=0.5, alpha=0.0, d=0.0, q_min=-np.inf, q_max=np.inf),
+            dict(a=0.4, alpha=0.0, d=0.0),
+        ]
+    )
+
+
+def test_joints_without_limits_build_unbounded() -> None:
+    """Limits are optional (issue 18, item 8): a prismatic joint without them is ±inf."""
+    robot = unbounded_arm()
+    assert robot.q_min[:2].tolist() == [-np.inf, -np.inf] and robot.q_max[2] == np.pi
+    q = np.array([3.0, 0.2, -0.1])
+    assert np.isfinite(robot.fk(q)).all() and robot.within_limits(q)
+    cost = rr.objectives.JointLimitObjective()
+    assert np.isfinite(cost.gradient(robot, q)).all() and cost.gradient(robot, q)[0] == 0.0
+    wln = rr.resolution.WeightedLeastNormScheme()
+    for _ in range(2):
+        weights = wln.weights(robot, q)
+    assert np.isfinite(weights).all() and weights[0] == weights[1] == 1.0
+
+
+def test_functions_that_need_finite_limits_say_so() -> None:
+    robot = unbounded_arm()
+    with pytest.raises(JointLimitError, match=r"finite limits; joint 'joint1' has \[-inf, inf\]"):
+        robot.random_configuration(0)
+    arm = rr.models.planar([1.0, 1.0])
+    with pytest.raises(InvalidParameterError, match="margin must be >= 0"):
+        arm.random_configuration(0, margin=-1.0)
+    for rng in ("x", -1, 1.5):
+        with pytest.raises(InvalidParameterError, match="rng must be"):
+            arm.random_configuration(rng)  # type: ignore[arg-type]

@@ -9,6 +9,9 @@ denominator being negative, has the opposite sign. Taken literally, their
 ``Δq = J⁺Δx + [J⁺J − I] G Δt`` would push the joints *away* from mid-range. redres uses the
 true derivative above (checked against finite differences), with which the general
 formula (seed 000 eq. 6) lowers ``D`` as intended.
+
+A joint without a finite range (a limit of ``±inf``) has no mid-range: its term is 0 (the
+limit of the normalised cost as the range grows).
 """
 
 from __future__ import annotations
@@ -37,7 +40,10 @@ class JointLimitObjective(Objective):
         # Limits are fixed per robot: compute q̄ and 2/(q_max − q_min)² once.
         if self._cache is None or self._cache[0]() is not robot:
             lo, hi = robot.q_min, robot.q_max
-            self._cache = (weakref.ref(robot), (lo + hi) / 2, 2.0 / (hi - lo) ** 2)
+            bounded = np.isfinite(lo) & np.isfinite(hi)
+            lo, hi = np.where(bounded, lo, -1.0), np.where(bounded, hi, 1.0)
+            scale = np.where(bounded, 2.0 / (hi - lo) ** 2, 0.0)
+            self._cache = (weakref.ref(robot), np.where(bounded, (lo + hi) / 2, 0.0), scale)
         return self._cache[1], self._cache[2]
 
     def cost(self, robot: Robot, q: FloatArray) -> float:

@@ -37,11 +37,15 @@ _MAX_WEIGHT = 1e12
 
 
 def joint_limit_gradient(q: FloatArray, q_min: FloatArray, q_max: FloatArray, c: Any) -> FloatArray:
-    """Seed 001's ``h(q)`` per joint (finite: distances to the limits floored at 1e-12)."""
-    span = q_max - q_min
+    """Seed 001's ``h(q)`` per joint (finite: distances to the limits floored at 1e-12).
+
+    With ``a = q_max − q`` and ``b = q − q_min`` (so ``q_max − q_min = a + b`` and
+    ``2q − q_max − q_min = b − a``), ``h = (a + b)(b − a)/(c a² b²) = (1/a² − 1/b²)/c``:
+    the same number, and for an unbounded side (``a`` or ``b`` infinite) its limit, 0.
+    """
     to_max = np.maximum(q_max - q, 1e-12)
     to_min = np.maximum(q - q_min, 1e-12)
-    return span * (2.0 * q - q_max - q_min) / (c * to_max**2 * to_min**2)
+    return (1.0 / to_max**2 - 1.0 / to_min**2) / c
 
 
 @dataclass(frozen=True)

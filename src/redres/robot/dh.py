@@ -47,8 +47,8 @@ class DHLink:
         d: link offset, m (for a prismatic joint: the offset at ``q = 0``).
         theta: joint angle offset, rad (for a revolute joint: the angle at ``q = 0``).
         joint: ``"revolute"`` or ``"prismatic"``.
-        q_min, q_max: position limits, rad or m (default ±π for revolute; required for
-            prismatic joints).
+        q_min, q_max: position limits, rad or m (default ±π for revolute joints, ±inf,
+            unbounded, for prismatic ones; ``±inf`` may be given for either).
         qd_max: velocity limit, rad/s or m/s (default: unknown, ``inf``).
         qdd_max: acceleration limit, rad/s² or m/s² (default ``inf``).
         tau_max: torque or force limit, N·m or N (default ``inf``).
@@ -106,10 +106,6 @@ class DHLink:
         for key in ("q_min", "q_max", "qd_max", "qdd_max", "tau_max"):
             if rec.get(key) is not None:
                 rec[key] = _number(rec[key], index, key)
-        if joint == "prismatic" and (rec.get("q_min") is None or rec.get("q_max") is None):
-            raise DHParameterError(
-                f"DH record {index}: a prismatic joint needs explicit q_min and q_max (m)"
-            )
         if rec.get("mass", 0.0) < 0.0 or rec.get("armature", 0.0) < 0.0:
             raise DHParameterError(f"DH record {index}: mass and armature must be >= 0")
         for key in ("qd_max", "qdd_max", "tau_max"):
@@ -121,9 +117,11 @@ class DHLink:
         return cls(**rec)
 
     def limits(self, index: int) -> tuple[float, float]:
-        """Position limits with defaults applied; checks ``q_min <= q_max``."""
-        lo = -math.pi if self.q_min is None else self.q_min
-        hi = math.pi if self.q_max is None else self.q_max
+        """Position limits with defaults applied (±π revolute, ±inf prismatic); checks
+        ``q_min <= q_max``."""
+        default = math.pi if self.joint == "revolute" else math.inf
+        lo = -default if self.q_min is None else self.q_min
+        hi = default if self.q_max is None else self.q_max
         if lo > hi:
             raise JointLimitError(f"DH record {index}: q_min = {lo} > q_max = {hi}")
         return lo, hi

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import pinocchio as pin
 
-from .._validate import FloatArray, as_transform, as_vector
+from .._validate import FloatArray, as_scalar, as_transform, as_vector
 from ..errors import FrameNotFoundError, InvalidParameterError, JointLimitError, ShapeError
 from .derivatives import revolute_jacobian_derivatives
 
@@ -240,12 +240,32 @@ class Robot:
     def random_configuration(
         self, rng: np.random.Generator | int | None = None, *, margin: float = 0.0
     ) -> FloatArray:
-        """A configuration drawn uniformly within the limits.
+        """A configuration drawn uniformly within the limits (every limit must be finite).
 
         Args:
             rng: a NumPy generator or a seed; ``None`` draws a fresh seed.
-            margin: keep this distance (rad or m) from every limit.
+            margin: keep this distance (rad or m, >= 0) from every limit.
+
+        Raises:
+            InvalidParameterError: an ``rng`` that is neither, a negative ``margin`` or one
+                wider than a joint range.
+            JointLimitError: a joint without finite limits (no uniform draw exists).
         """
+        seed = isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) and rng >= 0
+        if rng is not None and not seed and not isinstance(rng, np.random.Generator):
+            raise InvalidParameterError(
+                f"rng must be a numpy.random.Generator, a seed (an integer >= 0) or None; "
+                f"got {rng!r}"
+            )
+        margin = as_scalar(margin, "margin", minimum=0.0)
+        unbounded = np.flatnonzero(~(np.isfinite(self._q_min) & np.isfinite(self._q_max)))
+        if unbounded.size:
+            j = int(unbounded[0])
+            raise JointLimitError(
+                f"random_configuration draws within finite limits; joint "
+                f"{self.joint_names[j]!r} has [{self._q_min[j]}, {self._q_max[j]}]: give it "
+                "q_min and q_max, or draw that joint yourself"
+            )
         gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         lo, hi = self._q_min + margin, self._q_max - margin
         if np.any(lo > hi):
