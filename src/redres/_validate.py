@@ -32,10 +32,7 @@ def as_vector(
     if type(value) is np.ndarray and value.dtype == np.float64:
         arr = value  # the common case in control loops: no conversion
     else:
-        try:
-            arr = np.asarray(value, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ShapeError(f"{name} must be a vector of numbers; got {value!r}") from exc
+        arr = _real_array(value, name, "a vector")
     if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
         expected = f"({size},)" if size is not None else "a 1-D vector"
         raise ShapeError(f"{name} must have shape {expected}; got shape {arr.shape}")
@@ -49,14 +46,26 @@ def as_vector(
     return arr
 
 
+def _real_array(value: Any, name: str, what: str) -> FloatArray:
+    """``value`` as a float64 array; complex values are refused, not made real."""
+    try:
+        raw = value if isinstance(value, np.ndarray) else np.asarray(value)
+        arr = None if raw.dtype.kind == "c" else raw.astype(np.float64, copy=False)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ShapeError(f"{name} must be {what} of numbers; got {short_repr(value)}") from exc
+    if arr is None:
+        raise InvalidParameterError(
+            f"{name} must be real; got a complex array (dtype {raw.dtype}): pass {name}.real "
+            "if the imaginary part is meant to be dropped"
+        )
+    return arr
+
+
 def as_matrix(
     value: Any, name: str, shape: tuple[int | None, int | None] = (None, None)
 ) -> FloatArray:
     """Return ``value`` as a finite float64 matrix; ``None`` in ``shape`` means any size."""
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be a 2-D array of numbers; got {value!r}") from exc
+    arr = _real_array(value, name, "a 2-D array")
     if arr.ndim != 2 or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
         want = "x".join("m" if s is None else str(s) for s in shape)
         raise ShapeError(f"{name} must be a {want} matrix; got shape {arr.shape}")
