@@ -234,3 +234,26 @@ def test_builtin_scenarios_are_the_shipped_files() -> None:
             assert np.array_equal(spec.trajectory.sample(t).pose, reference.sample(t).pose)
     with pytest.raises(ScenarioError, match="built-in scenarios: iiwa_arm_angle_eight, panda"):
         builtin("panda_circle")
+
+
+@pytest.mark.parametrize(
+    ("objective", "message"),
+    [
+        (
+            '{ type = "posture", weights = [-1, 1, 1, 1, 1, 1, 1] }',
+            r"\[schemes\]\[0\]\.objectives\[0\]: weights must be >= 0",
+        ),
+        ('{ type = "posture", weight = -1 }', r"objectives\[0\]\.weight: must be >= 0"),
+    ],
+)
+def test_negative_objective_weights_name_the_objective(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], objective: str, message: str
+) -> None:
+    """Was a raw ValueError traceback from PostureObjective (issue 18, item 11)."""
+    scheme = 'type = "gradient_projection"'
+    text = GOOD.replace('type = "pinv"', f"{scheme}\nobjectives = [{objective}]")
+    path = write(tmp_path, text)
+    with pytest.raises(ScenarioError, match=message):
+        load_scenario(path)
+    assert main(["run", str(path), "--out", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err.count("\n") == 1

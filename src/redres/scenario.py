@@ -258,12 +258,18 @@ def _trajectory(r: _Reader, start: np.ndarray) -> Trajectory:
         )
 
 
+def _blamed(parse: Callable[..., _T]) -> Callable[..., _T]:
+    """``parse`` with a constructor's :class:`RedresError` reported at its table's path."""
+
+    def wrapper(r: _Reader, **kwargs: Any) -> _T:
+        with r.blame(None):
+            return parse(r, **kwargs)
+
+    return wrapper
+
+
+@_blamed
 def _obstacle(r: _Reader) -> Obstacle:
-    with r.blame(None):
-        return _obstacle_of(r)
-
-
-def _obstacle_of(r: _Reader) -> Obstacle:
     kind = r.string("type")
     name, radius = r.string("name", kind), r.nonnegative("radius", 0.0)
     if kind in ("sphere", "point"):
@@ -275,8 +281,9 @@ def _obstacle_of(r: _Reader) -> Obstacle:
     raise r.fail("type", f"unknown obstacle {kind!r}; use sphere, point or capsule")
 
 
+@_blamed
 def _objective(r: _Reader, obstacles: list[Obstacle], n: int) -> tuple[Objective, float]:
-    kind, weight = r.string("type"), r.number("weight", 1.0)
+    kind, weight = r.string("type"), r.nonnegative("weight", 1.0)
     if kind == "joint_limits":
         return JointLimitObjective(), weight
     if kind == "manipulability":
@@ -294,6 +301,7 @@ def _objective(r: _Reader, obstacles: list[Obstacle], n: int) -> tuple[Objective
     )
 
 
+@_blamed
 def _level(r: _Reader, n: int) -> Task:
     """One priority level's task (fresh on every call: tasks keep targets)."""
     kind = r.string("type")

@@ -84,3 +84,13 @@ def test_non_physical_times_and_non_finite_parameters_are_refused() -> None:
     for make, name in cases:
         with pytest.raises(rr.errors.RedresError, match=name):
             make()
+
+
+@pytest.mark.parametrize("make", [Circle, lambda T, *a, **k: FigureEight(T, 0.1, *a, **k)])
+def test_a_zero_normal_is_refused_and_extreme_ones_are_directions(make) -> None:
+    """FigureEight did not check its normal (issue 18, item 11): one check in _plane_axes."""
+    with pytest.raises(rr.errors.InvalidParameterError, match="normal must be a non-zero"):
+        make(T0, 0.1, 2.0, normal=(0.0, 0.0, 0.0))
+    for normal in ((0.0, 0.0, 1e-200), (0.0, 0.0, 1e300)):
+        sample = make(T0, 0.1, 2.0, normal=normal).sample(0.3)
+        assert np.isfinite(sample.pose).all() and np.isfinite(sample.twist).all()

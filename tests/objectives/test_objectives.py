@@ -146,3 +146,19 @@ def test_obstacles_need_capsules() -> None:
         ObstacleObjective([PointObstacle([0.0, 0.0, 0.0])]).cost(robot, np.zeros(2))
     with pytest.raises(rr.errors.NonFiniteError):
         PointObstacle([np.nan, 0.0, 0.0])
+
+
+def test_posture_refuses_bad_weights_and_sizes_with_redres_errors() -> None:
+    """Issue 18, item 11: these were plain ValueErrors or raw numpy broadcast errors."""
+    from redres.errors import InvalidParameterError, NonFiniteError, ShapeError
+
+    robot = rr.models.panda()
+    with pytest.raises(InvalidParameterError, match="weights must be >= 0"):
+        PostureObjective(weights=[-1.0] * 7)
+    with pytest.raises(InvalidParameterError, match="weights must be >= 0"):
+        PostureObjective(weights=-1.0)
+    with pytest.raises(NonFiniteError, match="weights"):
+        PostureObjective(weights=[np.nan] * 7)
+    for kwargs, name in ((dict(q_ref=[0.0, 1.0]), "q_ref"), (dict(weights=[1.0, 2.0]), "weights")):
+        with pytest.raises(ShapeError, match=f"{name} has 2 entries but robot 'panda' has 7"):
+            PostureObjective(**kwargs).gradient(robot, robot.neutral())

@@ -253,3 +253,10 @@ def test_jacobian_derivatives_with_a_prismatic_joint(rng: np.random.Generator) -
         e = np.eye(3)[i]
         fd = (robot.jacobian(q + 1e-6 * e) - robot.jacobian(q - 1e-6 * e)) / 2e-6
         assert np.allclose(D[i], fd, atol=1e-7)
+
+
+def test_add_frame_names_must_be_strings() -> None:
+    """add_frame(name=5) was a raw Boost.Python ArgumentError (issue 18, item 11)."""
+    robot = rr.models.planar([1.0, 1.0])
+    with pytest.raises(rr.errors.InvalidParameterError, match="frame names are strings; got 5"):
+        robot.add_frame(5, "tool", np.eye(4))  # type: ignore[arg-type]

@@ -70,9 +70,15 @@ class Trajectory(ABC):
         return Sample(T, twist, acc)
 
 
-def _plane_axes(normal: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Two orthonormal axes spanning the plane normal to ``normal``."""
-    nrm = normal / np.linalg.norm(normal)
+def _plane_axes(normal: Any) -> tuple[FloatArray, FloatArray]:
+    """Two orthonormal axes spanning the plane normal to ``normal`` (3 finite numbers, not
+    all zero; scaled before normalising, so 1e-200 or 1e300 are directions too)."""
+    n = as_vector(normal, "normal", 3)
+    scale = float(np.abs(n).max())
+    if scale == 0.0:
+        raise InvalidParameterError(f"normal must be a non-zero vector; got {n}")
+    nrm = n / scale
+    nrm /= np.linalg.norm(nrm)
     helper = np.array([1.0, 0.0, 0.0]) if abs(nrm[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(nrm, helper)
     u /= np.linalg.norm(u)
@@ -111,14 +117,11 @@ class Circle(Trajectory):
         self.ramp = as_scalar(ramp, "ramp", minimum=0.0)
         phase = as_scalar(phase, "phase")
         turns = as_scalar(turns, "turns", minimum=0.0, strict=True)
-        n = as_vector(normal, "normal", 3)
-        if np.linalg.norm(n) < 1e-12:
-            raise InvalidParameterError("normal must be a non-zero vector")
-        u, v = _plane_axes(n)
+        u, v = _plane_axes(normal)
         to_center = np.cos(phase) * u + np.sin(phase) * v
         self.center = self.start_pose[:3, 3] + self.radius * to_center
         e1 = -to_center  # centre -> start
-        self._basis = np.vstack([e1, np.cross(n / np.linalg.norm(n), e1)])
+        self._basis = np.vstack([e1, np.cross(np.cross(u, v), e1)])  # u × v: the unit normal
         self.omega = 2.0 * np.pi / self.period
         self.duration = float(turns) * self.period + self.ramp / 2.0
 
@@ -174,7 +177,7 @@ class FigureEight(Trajectory):
         self.height = as_scalar(height, "height", minimum=0.0)
         self.period = _seconds(period, "period")
         turns = as_scalar(turns, "turns", minimum=0.0, strict=True)
-        self._basis = np.vstack(_plane_axes(as_vector(normal, "normal", 3)))
+        self._basis = np.vstack(_plane_axes(normal))
         self._origin = self.start_pose[:3, 3].copy()
         self.duration = float(turns) * self.period
 

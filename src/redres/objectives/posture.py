@@ -6,7 +6,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._validate import FloatArray, as_vector
+from .._validate import FloatArray, as_scalar, as_vector
+from ..errors import InvalidParameterError, ShapeError
 from .base import Objective
 
 if TYPE_CHECKING:
@@ -18,20 +19,34 @@ class PostureObjective(Objective):
 
     Args:
         q_ref: reference configuration, shape ``(n,)`` (``None``: the robot's ``neutral()``).
-        weights: per-joint weights, shape ``(n,)`` or a scalar (default 1).
+        weights: per-joint weights, shape ``(n,)`` or a scalar (default 1), each >= 0.
+
+    Raises:
+        InvalidParameterError: a negative weight; ShapeError, NonFiniteError: weights or
+            ``q_ref`` that are not finite numbers, or (when used) not of the robot's size.
     """
 
     name = "posture"
 
     def __init__(self, q_ref: Any = None, weights: Any = 1.0) -> None:
         self.q_ref = None if q_ref is None else as_vector(q_ref, "q_ref")
-        w = np.asarray(weights, dtype=float)
-        if not np.all(np.isfinite(w)) or np.any(w < 0):
-            raise ValueError(f"weights must be finite and >= 0; got {weights}")
-        self.weights = w
+        self.weights: float | FloatArray
+        if np.ndim(weights) == 0:
+            self.weights = as_scalar(weights, "weights", minimum=0.0)
+        else:
+            self.weights = as_vector(weights, "weights")
+            if np.any(self.weights < 0):
+                raise InvalidParameterError(f"weights must be >= 0; got {self.weights}")
 
     def _q_ref(self, robot: Robot) -> FloatArray:
-        return robot.neutral() if self.q_ref is None else self.q_ref
+        q_ref = robot.neutral() if self.q_ref is None else self.q_ref
+        for name, value in (("q_ref", q_ref), ("weights", self.weights)):
+            if np.ndim(value) and np.shape(value)[0] != robot.n:
+                raise ShapeError(
+                    f"PostureObjective {name} has {np.shape(value)[0]} entries but robot "
+                    f"{robot.name!r} has {robot.n} joints"
+                )
+        return q_ref
 
     def cost(self, robot: Robot, q: FloatArray) -> float:
         dq = q - self._q_ref(robot)

@@ -470,6 +470,8 @@ def _limit_vector(value: Any, n: int) -> FloatArray:
 
 def add_frame(model: pin.Model, name: str, parent: str, T_parent_frame: Any) -> int:
     """Add an operational frame to a Pinocchio model; returns its index."""
+    if not isinstance(name, str) or not isinstance(parent, str):
+        raise InvalidParameterError(f"frame names are strings; got {name!r} on {parent!r}")
     if model.existFrame(name):
         raise InvalidParameterError(f"frame {name!r} already exists on model {model.name!r}")
     if not model.existFrame(parent):
