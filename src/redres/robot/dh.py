@@ -106,6 +106,8 @@ class DHLink:
         for key in ("q_min", "q_max", "qd_max", "qdd_max", "tau_max"):
             if rec.get(key) is not None:
                 rec[key] = _number(rec[key], index, key)
+        if rec.get("name") is not None and not isinstance(rec["name"], str):
+            raise DHParameterError(f"DH record {index}: name must be a string; got {rec['name']!r}")
         if rec.get("mass", 0.0) < 0.0 or rec.get("armature", 0.0) < 0.0:
             raise DHParameterError(f"DH record {index}: mass and armature must be >= 0")
         for key in ("qd_max", "qdd_max", "tau_max"):
@@ -131,7 +133,7 @@ class DHLink:
         try:
             com = np.zeros(3) if self.com is None else np.asarray(self.com, dtype=float)
             inertia = np.zeros((3, 3)) if self.inertia is None else np.asarray(self.inertia, float)
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:
             raise DHParameterError(
                 f"DH record {index}: com and inertia must be numbers ({exc})"
             ) from None
@@ -160,7 +162,7 @@ def _finite(value: Any, index: int, key: str) -> float:
 def _number(value: Any, index: int, key: str) -> float:
     try:
         x = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise DHParameterError(
             f"DH record {index}: {key} must be a number; got {value!r}"
         ) from None
