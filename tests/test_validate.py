@@ -34,6 +34,7 @@ def test_public_array_entry_points_refuse_complex_input() -> None:
         "pinv": lambda: rr.linalg.pinv(J + 1j),
         "damped_pinv": lambda: rr.linalg.damped_pinv(J + 1j, 0.1),
         "manipulability": lambda: rr.linalg.manipulability(J + 0j),
+        "joint-limit gradient": lambda: JointLimitObjective().gradient(robot, q + 1j),
         "pinv step": lambda: PseudoInverseScheme().step(robot, q, J, np.zeros(6) + 1j),
         "gradient step": lambda: GradientProjectionScheme([JointLimitObjective()]).step(
             robot, q + 1j, J, np.zeros(6)
@@ -52,3 +53,16 @@ def test_huge_integers_and_ragged_lists_are_shape_errors() -> None:
         as_matrix([[1.0, 2.0], [3.0]], "J")
     with pytest.raises(InvalidParameterError, match=r"gain must be a number; got 1000"):
         as_scalar(10**400, "gain")
+
+
+def test_objectives_check_the_configuration_they_are_given() -> None:
+    """JointLimitObjective().gradient(robot, nan_q) returned NaN (issue 18, item 6)."""
+    from redres.errors import NonFiniteError
+    from redres.objectives import PostureObjective
+
+    robot = rr.models.panda()
+    for objective in (JointLimitObjective(), PostureObjective()):
+        with pytest.raises(NonFiniteError, match="q contains NaN"):
+            objective.gradient(robot, np.full(7, np.nan))
+        with pytest.raises(ShapeError, match=r"q must have shape \(7,\)"):
+            objective.cost(robot, np.zeros(3))

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._validate import FloatArray
+from .._validate import FloatArray, as_vector
 from .base import Objective
 
 if TYPE_CHECKING:
@@ -48,11 +48,11 @@ class JointLimitObjective(Objective):
 
     def cost(self, robot: Robot, q: FloatArray) -> float:
         mid, scale = self._mid_scale(robot)
-        return float(np.sum(0.5 * scale * (q - mid) ** 2))
+        return float(np.sum(0.5 * scale * (as_vector(q, "q", robot.n) - mid) ** 2))
 
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
         mid, scale = self._mid_scale(robot)
-        return scale * (q - mid)
+        return scale * (as_vector(q, "q", robot.n) - mid)
 
     def quadratic_form(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
         """``(2/(q_max − q_min)², q̄)``: the gradient is ``a ∘ (q − q̄)``."""

@@ -49,11 +49,11 @@ class PostureObjective(Objective):
         return q_ref
 
     def cost(self, robot: Robot, q: FloatArray) -> float:
-        dq = q - self._q_ref(robot)
+        dq = as_vector(q, "q", robot.n) - self._q_ref(robot)
         return float(0.5 * np.sum(self.weights * dq * dq))
 
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
-        return self.weights * (q - self._q_ref(robot))
+        return self.weights * (as_vector(q, "q", robot.n) - self._q_ref(robot))
 
     def quadratic_form(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
         """``(weights, q_ref)`` broadcast to ``(n,)``: the gradient is ``w ∘ (q − q_ref)``."""
