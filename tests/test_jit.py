@@ -171,6 +171,7 @@ def test_an_edit_to_a_callee_in_another_file_recompiles_the_caller(tmp_path: Pat
 
 def test_the_cache_falls_back_to_the_user_directory(tmp_path: Path) -> None:
     """A read-only install: the cache goes to $XDG_CACHE_HOME/redres/numba."""
+    without_cache_dir = {k: v for k, v in os.environ.items() if k != "REDRES_CACHE_DIR"}
     out = subprocess.run(
         [sys.executable, "-c", textwrap.dedent("""
             from pathlib import Path
@@ -179,7 +180,7 @@ def test_the_cache_falls_back_to_the_user_directory(tmp_path: Path) -> None:
             print(jit.cache_dir())
         """)],
         capture_output=True, text=True, timeout=120, check=True,
-        env={**os.environ, "XDG_CACHE_HOME": str(tmp_path)},
+        env={**without_cache_dir, "XDG_CACHE_HOME": str(tmp_path)},
     ).stdout.strip()  # fmt: skip
     assert out == str(tmp_path / "redres" / "numba")
 

@@ -20,6 +20,14 @@ from numpy.typing import NDArray
 from .errors import InvalidParameterError, NonFiniteError, ShapeError, UnknownParameterError
 
 FloatArray = NDArray[np.float64]
+
+#: Bound on a model's or an obstacle's lengths, m (link lengths and offsets, centres of
+#: mass, obstacle coordinates and radii). Robots and workcells are metres across, so a
+#: kilometre is a unit slip; the bound also keeps products of lengths (lever arms squared
+#: in the mass matrix, squared distances) far from overflowing.
+MAX_LENGTH = 1e3
+#: Bound on a link's mass, kg (the heaviest industrial arms' links weigh about a tonne).
+MAX_MASS = 1e6
 _F = TypeVar("_F", bound=Callable[..., Any])
 _EYE3 = np.eye(3)
 

@@ -197,3 +197,21 @@ def test_functions_that_need_finite_limits_say_so() -> None:
     for rng in ("x", -1, 1.5):
         with pytest.raises(InvalidParameterError, match="rng must be"):
             arm.random_configuration(rng)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("record", "message"),
+    [
+        (dict(a=1e300, alpha=0.5, d=0.1), r"\|a\| must be <= 1000 \(SI units\); got 1e\+300"),
+        (dict(a=0.1, alpha=0.0, d=-2e3), r"\|d\| must be <= 1000"),
+        (dict(a=0.1, alpha=0.0, d=0.0, mass=1e300), r"\|mass\| must be <= 1e\+06"),
+        (dict(a=0.1, alpha=0.0, d=0.0, com=(0, 0, 1e300)), r"com must be 3 finite numbers within"),
+        (dict(a=0.1, alpha=0.0, d=0.0, name=5), r"name must be a string; got 5"),
+        (dict(a=10**400, alpha=0.0, d=0.0), r"a must be a number"),
+    ],
+)
+def test_non_physical_records_are_refused(record: dict, message: str) -> None:
+    """Found by tests/test_fuzz.py: a = 1e300 gave a NaN mass matrix, a name of 5 and a
+    400-digit integer raw TypeError/OverflowError."""
+    with pytest.raises(DHParameterError, match=message):
+        rr.Robot.from_dh([record])

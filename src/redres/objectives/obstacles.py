@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .._validate import FloatArray, as_scalar, as_vector
+from .._validate import MAX_LENGTH, FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError
 from .base import Objective
 from .geometry import closest_point_on_segment, closest_points_segments
@@ -32,9 +32,6 @@ if TYPE_CHECKING:
     from ..robot import Capsule, Robot
 
 
-#: Bound on obstacle coordinates and radii, m. Workcells are metres across, so a kilometre
-#: is a unit slip; the bound also keeps the penalty's squares far from overflowing.
-MAX_LENGTH = 1e3
 #: Smallest influence distance ``d₀``, m (the penalty divides by it).
 MIN_INFLUENCE = 1e-6
 

@@ -26,7 +26,7 @@ from typing import Any, Literal
 import numpy as np
 import pinocchio as pin
 
-from .._validate import FloatArray, as_transform
+from .._validate import MAX_LENGTH, MAX_MASS, FloatArray, as_transform
 from ..errors import DHParameterError, JointLimitError, NotPositiveDefiniteError
 
 JointType = Literal["revolute", "prismatic"]
@@ -103,6 +103,11 @@ class DHLink:
         for key in ("a", "alpha", "d", "theta", "mass", "armature"):
             if key in rec:
                 rec[key] = _finite(rec[key], index, key)
+        for key, bound in (("a", MAX_LENGTH), ("d", MAX_LENGTH), ("mass", MAX_MASS)):
+            if abs(rec.get(key, 0.0)) > bound:
+                raise DHParameterError(
+                    f"DH record {index}: |{key}| must be <= {bound:g} (SI units); got {rec[key]}"
+                )
         for key in ("q_min", "q_max", "qd_max", "qdd_max", "tau_max"):
             if rec.get(key) is not None:
                 rec[key] = _number(rec[key], index, key)
@@ -137,8 +142,11 @@ class DHLink:
             raise DHParameterError(
                 f"DH record {index}: com and inertia must be numbers ({exc})"
             ) from None
-        if com.shape != (3,) or not np.isfinite(com).all():
-            raise DHParameterError(f"DH record {index}: com must be 3 finite numbers; got {com}")
+        if com.shape != (3,) or not np.isfinite(com).all() or np.abs(com).max() > MAX_LENGTH:
+            raise DHParameterError(
+                f"DH record {index}: com must be 3 finite numbers within ±{MAX_LENGTH:g} m; "
+                f"got {com}"
+            )
         if inertia.shape != (3, 3) or not np.isfinite(inertia).all():
             raise DHParameterError(
                 f"DH record {index}: inertia must be a finite 3x3 matrix; got shape {inertia.shape}"

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from .._validate import MAX_LENGTH, MAX_MASS
 from ..errors import ModelFileNotFoundError, URDFError, describe_os_error, shown_path
 from .dh import MAX_JOINTS
 
@@ -113,8 +114,10 @@ def _check_physical(root: ET.Element, file: Path) -> None:
                     values = []
                 if len(values) != count or not all(map(math.isfinite, values)):
                     raise URDFError(f"{where}: {tag} must be {count} finite number(s)")
-                if element.tag == "mass" and values[0] < 0.0:
-                    raise URDFError(f"{where}: {tag} must be >= 0 kg")
+                if element.tag == "mass" and not 0.0 <= values[0] <= MAX_MASS:
+                    raise URDFError(f"{where}: {tag} must be from 0 to {MAX_MASS:g} kg")
+                if key == "xyz" and element.tag == "origin" and max(map(abs, values)) > MAX_LENGTH:
+                    raise URDFError(f"{where}: {tag} must lie within ±{MAX_LENGTH:g} m")
                 if element.tag == "axis" and math.hypot(*values) < 1e-9:
                     raise URDFError(f'{where}: {tag} is no direction; give one, e.g. "0 0 1"')
 
