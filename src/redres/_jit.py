@@ -376,14 +376,11 @@ def _compile_behind(name: str) -> None:
         return
     if not _take_lock():
         return  # another process compiles into this cache: wait for its markers
-    env = dict(os.environ, REDRES_COMPILE="foreground")
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_PACKAGE.parent),
-                                                      env.get("PYTHONPATH")]))  # fmt: skip
     try:
         with open(_log_file(), "wb") as sink:
             proc = subprocess.Popen(
                 [sys.executable, "-m", "redres._warmup", "--behind", name],
-                stdin=subprocess.DEVNULL, stdout=sink, stderr=sink, env=env,
+                stdin=subprocess.DEVNULL, stdout=sink, stderr=sink, env=child_env(),
                 start_new_session=True,
             )  # fmt: skip
         _lock_file().write_text(str(proc.pid))
@@ -400,6 +397,15 @@ def _compile_behind(name: str) -> None:
         file=sys.stderr,
         flush=True,
     )
+
+
+def child_env() -> dict[str, str]:
+    """Environment of a compiling child process: this redres importable, compiling in
+    its foreground."""
+    env = dict(os.environ, REDRES_COMPILE="foreground")
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_PACKAGE.parent),
+                                                      env.get("PYTHONPATH")]))  # fmt: skip
+    return env
 
 
 def _take_lock() -> bool:

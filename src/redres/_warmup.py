@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import subprocess
 import sys
+import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -96,7 +98,7 @@ GROUPS: dict[str, tuple[tuple[str, ...], Callable[[], None]]] = {
 }  # fmt: skip
 
 
-def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False) -> float:
+def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: int = 2) -> float:
     """Compile the kernels now, on this process's path, and cache them for later
     processes; afterwards this process never answers through the reference path.
 
@@ -105,22 +107,40 @@ def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False) -> float
             ``"hard limits"``, ``"ik"``); default all.
         quiet: print nothing (else one line per group on standard error: what it
             compiled and how long it took).
+        jobs: processes to compile in (``2``: the hard-limit group, the longest, in a
+            second process while this one compiles the rest).
 
     Returns:
-        The total time, s (short when the cache was already warm).
+        The wall-clock time, s (short when the cache was already warm).
     """
-    names = list(GROUPS) if groups is None else list(groups)
+    names = list(GROUPS) if groups is None else list(dict.fromkeys(groups))
     unknown = [g for g in names if g not in GROUPS]
     if unknown:
         from .errors import InvalidParameterError
 
         raise InvalidParameterError(f"unknown warm-up groups {unknown}; known: {list(GROUPS)}")
     _jit.compile_on_first_use()
+    start = time.perf_counter()
+    side = _side_process(names, quiet) if jobs > 1 and len(names) > 1 else None
     _jit._state["quiet"] = True  # one line per group below instead of one per module
     try:
-        return _jit.warmup([(name, _marking(name)) for name in names], quiet=quiet)
+        _jit.warmup([(name, _marking(name)) for name in names], quiet=quiet)
     finally:
         _jit._state["quiet"] = False
+    if side is not None and side.wait() != 0:
+        raise RuntimeError(f"redres: the warm-up process failed (status {side.returncode})")
+    return time.perf_counter() - start
+
+
+def _side_process(names: list[str], quiet: bool) -> subprocess.Popen[bytes] | None:
+    """Start the hard-limit group in a second process (and drop it from ``names``)."""
+    if "hard limits" not in names:
+        return None
+    names.remove("hard limits")
+    args = [sys.executable, "-m", "redres._warmup", "--jobs", "1", "hard limits"]
+    if quiet:
+        args.insert(3, "--quiet")
+    return subprocess.Popen(args, stdin=subprocess.DEVNULL, env=_jit.child_env())
 
 
 def _marking(name: str) -> Callable[[], None]:
@@ -137,7 +157,7 @@ def _behind(first: str) -> None:
         os.nice(10)  # the user's process comes first
     order = sorted(GROUPS, key=lambda g: first not in GROUPS[g][0])
     try:
-        warmup(order, quiet=True)
+        warmup(order, quiet=True, jobs=1)
     finally:
         _jit.release_lock()
 
@@ -145,12 +165,14 @@ def _behind(first: str) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m redres._warmup")
     parser.add_argument("--behind", metavar="MODULE", help="run as the background compiler")
+    parser.add_argument("--quiet", action="store_true", help="print nothing")
+    parser.add_argument("--jobs", type=int, default=2, help="processes to compile in")
     parser.add_argument("groups", nargs="*", help=f"groups of {list(GROUPS)} (default all)")
     args = parser.parse_args(argv)
     if args.behind:
         _behind(args.behind)
     else:
-        warmup(args.groups or None)
+        warmup(args.groups or None, quiet=args.quiet, jobs=args.jobs)
     return 0
 
 
