@@ -130,7 +130,7 @@ print("FIRST_USE_SECONDS", _t.perf_counter() - _t0)
 def time_case(body: str, cache: Path) -> float | None:
     """Seconds from first import to first answer in a fresh process; None if it failed
     (a peer not installed)."""
-    env = dict(os.environ, REDRES_CACHE_DIR=str(cache), PYTHONDONTWRITEBYTECODE="1")
+    env = dict(os.environ, REDRES_CACHE_DIR=str(cache))
     proc = subprocess.run(
         [sys.executable, "-c", _WRAP.format(body=body)],
         capture_output=True,

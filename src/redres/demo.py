@@ -22,6 +22,8 @@ import numpy as np
 from . import linalg, models
 from .control import RunLog
 from .errors import MissingDependencyError
+from .objectives import JointLimitObjective
+from .report.writer import check_out_dir, write_report
 from .runner import format_table, run_scenario
 from .scenario import ScenarioSpec, builtin
 
@@ -70,8 +72,7 @@ def worked_examples() -> list[dict[str, object]]:
     q = panda.neutral()
     J = panda.jacobian(q)
     v = np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
-    mid = (panda.q_min + panda.q_max) / 2
-    grad = 2 * (q - mid) / (panda.q_min - panda.q_max) ** 2  # seed 003's cost D(q)
+    grad = JointLimitObjective().gradient(panda, q)  # seed 003's cost D(q)
     J_pinv = linalg.right_pinv(J)
     N = linalg.nullspace_projector(J, J_pinv)
     qd = J_pinv @ v - 1.0 * N @ grad
@@ -93,7 +94,6 @@ def compiled_loop(steps: int = 1500) -> list[dict[str, object]]:
     position error, for gradient projection (the fused kernel) and, when the ``qp`` extra
     is there, the hard-limit schemes (the kernel's frame front end, then the scheme)."""
     from .control import Controller
-    from .objectives import JointLimitObjective
     from .resolution import GradientProjectionScheme, QPScheme, Scheme, SNSScheme
     from .tasks import FrameTask
 
@@ -128,35 +128,14 @@ def compiled_loop(steps: int = 1500) -> list[dict[str, object]]:
 
 
 def _write_report(
-    out: Path,
-    runs: list[tuple[ScenarioSpec, RunLog]],
-    title: str,
-    description: str,
-    force: bool,
+    out: Path, runs: list[tuple[ScenarioSpec, RunLog]], title: str, description: str, force: bool
 ) -> Path | None:
-    try:
-        from .report import write_report
-    except ImportError:
-        print(
-            "redres: note: the report package is not available; no report written", file=sys.stderr
-        )
-        return None
     pairs = [(spec.robot, log) for spec, log in runs]
     try:
         return Path(write_report(out, pairs, title=title, description=description, force=force))
     except MissingDependencyError as exc:
         print(f"redres: note: {exc}; no report written", file=sys.stderr)
         return None
-
-
-def _check_out(out: Path, force: bool) -> None:
-    """Refuse a report folder that would replace a user's files, before any run (needs the
-    report package; without it no report is written anyway)."""
-    try:
-        from .report.writer import check_out_dir
-    except ImportError:
-        return
-    check_out_dir(out, force=force)
 
 
 def _start_kernel_warmup(specs: Sequence[ScenarioSpec]) -> subprocess.Popen[bytes] | None:
@@ -180,8 +159,8 @@ class Output:
     ``--quiet`` and ``--quick``).
 
     Attributes:
-        folder: the report folder; checked before anything runs (a user's files are never
-            replaced; ``force`` writes into a folder holding other files).
+        folder: the report folder, checked before anything runs (a user's files are never
+            replaced).
         as_json: print one JSON object instead of the table.
         quiet: print only the results.
         force: write the report into a folder that holds other files.
@@ -199,9 +178,8 @@ def run_scenarios(
     specs: Sequence[ScenarioSpec], output: Output, *, title: str, examples: bool = False
 ) -> int:
     """Run ``specs``, print the table (or JSON), write the report; returns the exit code."""
-    out, as_json, quiet, force, quick = (output.folder, output.as_json, output.quiet,
-                                         output.force, output.quick)  # fmt: skip
-    _check_out(out, force)
+    as_json, quiet, quick = output.as_json, output.quiet, output.quick
+    check_out_dir(output.folder, force=output.force)  # before any run
     started = time.perf_counter()
     helper = _start_kernel_warmup(specs)
     loud = not (quiet or as_json)
@@ -215,7 +193,7 @@ def run_scenarios(
     if helper is not None and helper.poll() is None:
         helper.kill()
     description = " ".join(f"{s.description}." for s in specs)
-    report = _write_report(out, runs, title, description, force)
+    report = _write_report(output.folder, runs, title, description, output.force)
     summaries = [log.summary() for _, log in runs]
     steps = 100 if quick else 1500
     if as_json:

@@ -252,10 +252,7 @@ class _Solver:
     def result(
         self, q: FloatArray, ok: bool, iterations: int, restarts: int, start: float, msg: str
     ) -> IKResult:
-        if ok:
-            errors = self.errors(q)
-        else:
-            errors = self.best_errors
+        errors = self.evaluate(q)[1:] if ok else self.best_errors
         return IKResult(
             q.copy(), ok, iterations, restarts, errors[0], errors[1],
             time.perf_counter() - start, msg,
@@ -326,11 +323,6 @@ class _Solver:
         eo = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
         return J, ep, eo
 
-    def errors(self, q: FloatArray) -> tuple[float, float]:
-        """Position and orientation errors at ``q``, m and rad."""
-        _, ep, eo = self.evaluate(q)
-        return ep, eo
-
     def track(self, q: FloatArray, ep: float, eo: float) -> None:
         """Remember the best configuration so far (largest error relative to tolerance)."""
         score = max(ep / self.o.tol_position, eo / self.o.tol_orientation)
@@ -340,12 +332,8 @@ class _Solver:
 
     # ------------------------------------------------------------------ one step
     def step(self, q: FloatArray, J: FloatArray, error: float) -> FloatArray:
-        """Next configuration: damped CLIK step plus null-space term, scaled and clipped.
-
-        Clamping: joints at a limit whose step points outward are taken out of the problem
-        (their Jacobian columns zeroed) and the step recomputed, so that the other joints
-        do the work instead of the clip undoing part of a Newton step.
-        """
+        """Next configuration: damped CLIK step plus null-space term, clamped (:meth:`clamp`),
+        scaled and clipped."""
         o = self.o
         fade = min(1.0, error / _ERROR_SCALE)
         damping = o.damping
@@ -358,10 +346,7 @@ class _Solver:
             parts = self.clamp(q, partial(self.direction, q, J, lam, fade, arm), parts, error)
         task, pref = parts
         dq = task if pref is None else task + self.preference_part(pref)
-        largest = float(abs(dq).max())
-        if largest > o.max_step:
-            dq *= o.max_step / largest
-        q_new = q + dq
+        q_new = q + _cap(dq, o.max_step)
         self.at_limit = bool((q_new <= self.lo).any() or (q_new >= self.hi).any())
         if self.at_limit:
             q_new = np.minimum(np.maximum(q_new, self.lo), self.hi)

@@ -330,8 +330,7 @@ class _SchemeReader(_Reader):
                 return None
             damping = default_damping
         with self.blame("rcond" if "rcond" in given else "damping"):
-            inverse = make_inverse(None, damping, given.get("rcond"))
-        return inverse
+            return make_inverse(None, damping, given.get("rcond"))
 
     def spec(self) -> SchemeSpec:
         """The registered builder of the table's ``type``, run once now to validate."""

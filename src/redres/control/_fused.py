@@ -1,6 +1,6 @@
 """The compiled paths' plumbing for :class:`~redres.control.Controller` (internal).
 
-The fused kernels (``redres.linalg._kernels.clik_step`` and ``frame_command``) read their
+The fused kernels (``redres.control._kernels.clik_step`` and ``frame_command``) read their
 settings and target from one ``config`` vector laid out by the ``CFG_*`` offsets of
 ``redres.linalg._codes``. This module decides which path a task and scheme allow
 (:func:`choose_path`), builds that vector, picks the kernels' entry points and turns their
@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .. import _jit
 from .._validate import FloatArray, as_scalar, as_vector
@@ -20,7 +21,7 @@ from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import _backend as be
 from ..linalg import _codes as codes
 from ..objectives import Objective
-from ..resolution import GradientProjectionScheme, PseudoInverseScheme, Scheme
+from ..resolution import GradientProjectionScheme, Inverse, PseudoInverseScheme, Scheme
 from ..tasks import FrameTask, Task
 
 if TYPE_CHECKING:
@@ -37,19 +38,12 @@ TARGET = slice(codes.CFG_ROTATION, codes.CFG_TWIST + 6)
 
 
 class Fusion(NamedTuple):
-    """What the fused kernel needs of a scheme: the inverse's ``rate_step`` keywords, the
-    null-space gain and the summed quadratic costs ``Σ wᵢ ∇Dᵢ = a ∘ (q − r)`` as ``(a, r)``
-    (None: none)."""
+    """What the fused kernel needs of a scheme: its inverse, the null-space gain and the
+    summed quadratic costs ``Σ wᵢ ∇Dᵢ = a ∘ (q − r)`` as ``(a, r)`` (None: none)."""
 
-    rate_kwargs: dict[str, Any]
+    inverse: Inverse
     k_null: float
     quadratic: tuple[FloatArray, FloatArray] | None
-
-
-def plain_frame_task(task: Task) -> bool:
-    """Whether ``task`` is a :class:`FrameTask` computed by FrameTask's own ``compute``
-    (FrameTask and its row subclasses: the compiled front end evaluates it exactly)."""
-    return isinstance(task, FrameTask) and type(task).compute is FrameTask.compute
 
 
 def fusion(robot: Robot, scheme: Scheme) -> Fusion | None:
@@ -59,60 +53,62 @@ def fusion(robot: Robot, scheme: Scheme) -> Fusion | None:
     objectives all declare a diagonal quadratic form."""
     step = type(scheme)._step
     if step is PseudoInverseScheme._step:
-        return Fusion(scheme.inverse.rate_kwargs(), 0.0, None)  # type: ignore[attr-defined]
+        return Fusion(scheme.inverse, 0.0, None)  # type: ignore[attr-defined]
     if step is not GradientProjectionScheme._step:
         return None
     quadratic = quadratic_coefficients(robot, scheme.objectives)
     if quadratic is None:
         return None
-    k_null: float = scheme.k_null  # type: ignore[attr-defined]
-    return Fusion(scheme.inverse.rate_kwargs(), k_null, quadratic)  # type: ignore[attr-defined]
+    return Fusion(scheme.inverse, scheme.k_null, quadratic)  # type: ignore[attr-defined]
 
 
 def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion | None]:
-    """The controller's path: ``"fused"`` (one kernel for the whole step), ``"frame"``
-    (the kernel's frame front end, then the scheme) or ``"composed"`` (``task.compute``,
-    then the scheme), with the fused settings on the fused path."""
-    if not plain_frame_task(task) or fused_frame_command() is None:
+    """The controller's path (:mod:`redres.control.controller` describes the three), with
+    the fused settings on the fused path."""
+    # A FrameTask computed by FrameTask's own compute (it or a row subclass): the compiled
+    # front end evaluates it exactly.
+    plain = isinstance(task, FrameTask) and type(task).compute is FrameTask.compute
+    if not plain or native("frame_command") is None:
         return "composed", None
     fused = fusion(robot, scheme)
-    if fused is None or fused_clik_step() is None:
+    if fused is None or native("clik_step") is None:
         return "frame", None
     return "fused", fused
 
 
 def fused_config(
-    robot: Robot, gains: FloatArray, dt: float, limit_velocity: bool, fused: Fusion | None
+    robot: Robot,
+    rows: NDArray[np.int64],
+    gain: float | FloatArray,
+    dt: float,
+    limit_velocity: bool,
+    fused: Fusion | None,
 ) -> FloatArray:
-    """The kernels' ``config`` vector for a robot, the six per-row ``gains`` (1/s) and, on
-    the fused path, the scheme's settings (the summed costs' ``a, r`` from CFG_VECTORS on);
-    the target starts as the identity pose at rest."""
+    """The kernels' ``config`` vector for a robot, the task ``rows`` and their validated
+    ``gain`` (1/s, from :func:`task_gains`; other rows 0) and, on the fused path, the
+    scheme's settings (the summed costs' ``a, r`` from CFG_VECTORS on); the target starts
+    as the identity pose at rest."""
     n = robot.n
     config = np.zeros(codes.CFG_VECTORS + 3 * n)
     config[codes.CFG_ROTATION : codes.CFG_ROTATION + 9] = np.eye(3).ravel()
-    config[codes.CFG_GAIN : codes.CFG_GAIN + 6] = gains
+    config[codes.CFG_GAIN + rows] = gain
     config[codes.CFG_DT] = dt
     config[codes.CFG_LIMIT] = 1.0 if limit_velocity else 0.0
     v = codes.CFG_VECTORS
     config[v + 2 * n : v + 3 * n] = robot.qd_max
     if fused is None:
         return config
-    mode, lam, lam_max, eps = be.parse_damping(fused.rate_kwargs["damping"])
+    mode, lam, lam_max, eps = be.parse_damping(fused.inverse.damping)
     config[codes.CFG_K_NULL] = fused.k_null
     config[codes.CFG_DAMPING] = lam
     config[codes.CFG_MAX_DAMPING] = lam_max
     config[codes.CFG_THRESHOLD] = eps
     config[codes.CFG_MODE] = mode
-    config[codes.CFG_RCOND] = fused.rate_kwargs.get("rcond", 1e-10)
+    config[codes.CFG_RCOND] = fused.inverse.rcond
     if fused.quadratic is not None:
         config[codes.CFG_HAS_GRAD] = 1.0
         config[v : v + n], config[v + n : v + 2 * n] = fused.quadratic
     return config
-
-
-def damping_mode(config: FloatArray) -> int:
-    """The damping mode code a config vector holds."""
-    return int(config[codes.CFG_MODE])
 
 
 def quadratic_coefficients(
@@ -139,60 +135,40 @@ def quadratic_coefficients(
     return a, r
 
 
-def row_gains(gain: Any, rows: Sequence[int]) -> FloatArray:
-    """Six per-row gains (unused rows 0) from a scalar or one value per task row."""
-    full = np.zeros(6)
-    full[list(rows)] = task_gains(gain, len(rows))
-    return full
-
-
-def task_gains(gain: Any, m: int) -> float | FloatArray:
-    """The CLIK gain as a float, or one value per task row ``(m,)``, each ≥ 0 (1/s)."""
+def task_gains(gain: Any, m: int, name: str = "gain") -> float | FloatArray:
+    """A task gain as a float, or one value per task row ``(m,)``, each ≥ 0 (1/s or 1/s²);
+    errors name it ``name``."""
     if isinstance(gain, (int, float)) or np.ndim(gain) == 0:
-        return as_scalar(gain, "gain", minimum=0.0)
-    values = as_vector(gain, "gain", m).copy()
+        return as_scalar(gain, name, minimum=0.0)
+    values = as_vector(gain, name, m).copy()
     if np.any(values < 0.0):
-        raise InvalidParameterError(f"gain must be >= 0 on every row; got {values}")
+        raise InvalidParameterError(f"{name} must be >= 0 on every row; got {values}")
     return values
 
 
-def fused_clik_step() -> Callable[..., Any] | None:
-    """Native entry point of the fused CLIK step (``clik_step``), or None.
+def native(name: str) -> Callable[..., Any] | None:
+    """The native entry point of kernel ``name`` (``clik_step``, ``frame_command`` or
+    ``integrate`` of :mod:`redres.control._kernels`), or None without compiled kernels.
 
-    Arguments must be float64 C-contiguous arrays ``J (6, n)``, ``H (4, 4)``, ``q (n,)``,
-    int64 ``rows (m,)``, float64 ``config`` and ``out`` (see the kernel); a mismatched
-    type is not detected by the entry point, so callers check their arrays once.
+    Its arguments must have the types of the kernel's docstring, as float64 (``rows``
+    int64) C-contiguous arrays: a mismatched type is not detected by the entry point, so
+    callers check their arrays once.
     """
-    return be.entry(_KERNELS, "clik_step", (*_frame_warm(), np.zeros(2 + 6)))
+    frame = (np.zeros((6, 1)), np.eye(4), np.zeros(1), np.arange(1, dtype=np.int64),
+             np.zeros(codes.CFG_VECTORS + 3))  # fmt: skip
+    warm = {
+        "clik_step": (*frame, np.zeros(2 + 6)),
+        "frame_command": (*frame, np.zeros((1, 1)), np.zeros(1), np.zeros(6)),
+        "integrate": (np.zeros(1), np.zeros(1), 0.0, np.zeros(1)),
+    }
+    return be.entry(_KERNELS, name, warm[name])
 
 
-def fused_frame_command() -> Callable[..., Any] | None:
-    """Native entry point of ``frame_command`` (the frame-task part of the fused step:
-    ``J (6, n)``, ``H``, ``q``, ``rows``, ``config``, then ``Jm (m, n)``, ``xd (m,)`` and
-    ``e (6,)`` to fill), or None; same argument rules as :func:`fused_clik_step`."""
-    warm = (*_frame_warm(), np.zeros((1, 1)), np.zeros(1), np.zeros(6))
-    return be.entry(_KERNELS, "frame_command", warm)
-
-
-def _frame_warm() -> tuple[Any, ...]:
-    """Warm-up arguments shared by the fused kernels, for one joint: ``J``, ``H``, ``q``,
-    ``rows``, ``config``."""
-    return (np.zeros((6, 1)), np.eye(4), np.zeros(1), np.arange(1, dtype=np.int64),
-            np.zeros(codes.CFG_VECTORS + 3))  # fmt: skip
-
-
-def fused_integrate() -> Callable[..., Any] | None:
-    """Native entry point of ``integrate`` (``out <- q + qd dt`` for float64 C-contiguous
-    vectors and a float; returns whether ``out`` is finite), or None."""
-    warm = (np.zeros(1), np.zeros(1), 0.0, np.zeros(1))
-    return be.entry(_KERNELS, "integrate", warm)
-
-
-def kernel_for(robot: Robot, frame_id: int, entry_point: Any, name: str) -> Any:
-    """A fused kernel's native entry point (from ``entry_point()``) when the arrays
-    Pinocchio returns have the layout it was compiled for (float64, C order), numba's
-    dispatcher ``name`` if not, None without compiled kernels."""
-    entry = entry_point()
+def kernel_for(robot: Robot, frame_id: int, name: str) -> Any:
+    """Kernel ``name``'s :func:`native` entry point when the arrays Pinocchio returns have
+    the layout it was compiled for (float64, C order), numba's dispatcher if not, None
+    without compiled kernels."""
+    entry = native(name)
     if entry is None:
         return None
     placement, J = robot.placement_jacobian(robot.neutral(), frame_id)

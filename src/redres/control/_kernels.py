@@ -77,9 +77,10 @@ def _so3_log(M, out):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _frame_command(J, H, q, rows, config, Jm, xd, e):  # type: ignore[no-untyped-def]
-    """Frame-task error and command of :func:`clik_step` into ``e`` (6), ``Jm`` (m x n)
-    and ``xd`` (m); returns a status."""
+def frame_command(J, H, q, rows, config, Jm, xd, e):  # type: ignore[no-untyped-def]
+    """The frame-task part of :func:`clik_step` (alone: for schemes with their own step):
+    ``e = [p_d - p; log(R_d R^T)]`` into ``e`` (6), the task rows of ``J`` into ``Jm``
+    (m x n) and ``xd = twist_d + gain * e`` into ``xd`` (m). Returns a status."""
     n = q.shape[0]
     if J.shape[0] != 6 or J.shape[1] != n or H.shape[0] != 4 or H.shape[1] != 4:
         return Q_SHAPE
@@ -114,14 +115,6 @@ def _frame_command(J, H, q, rows, config, Jm, xd, e):  # type: ignore[no-untyped
 
 
 @kernel
-def frame_command(J, H, q, rows, config, Jm, xd, e):  # type: ignore[no-untyped-def]
-    """The frame-task part of :func:`clik_step` alone (for schemes with their own step):
-    ``e = [p_d - p; log(R_d R^T)]`` into ``e``, the task rows of ``J`` into ``Jm`` and
-    ``xd = twist_d + gain * e`` into ``xd``. Returns a status."""
-    return _frame_command(J, H, q, rows, config, Jm, xd, e)
-
-
-@kernel
 def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
     """One fused CLIK step on a frame task: pose error, rate step, limits, integration.
 
@@ -138,11 +131,9 @@ def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
 
     with the same floating-point operations as the composed step (the quadratic cost's
     gradient ``a * (q - r)``, the division by the speed ratio), so that both give the same
-    bits where the inverse does.
-
-    and writes ``out[:n] = q+``, ``out[n:2n] = qd``, ``out[2n:2n+6] = e``. Returns
-    ``(status, rank, sigma_min, sigma_max, damping, speed)`` where ``speed`` is
-    ``max_j |qd_j| / qd_max_j`` before scaling (0 when limits are off).
+    bits where the inverse does; writes ``out[:n] = q+``, ``out[n:2n] = qd``,
+    ``out[2n:2n+6] = e``. Returns ``(status, rank, sigma_min, sigma_max, damping, speed)``
+    where ``speed`` is ``max_j |qd_j| / qd_max_j`` before scaling (0 when limits are off).
     """
     n = q.shape[0]
     m = rows.shape[0]
@@ -150,7 +141,7 @@ def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
         return Q_SHAPE, 0, 0.0, 0.0, 0.0, 0.0
     Jm = np.empty((m, n))
     xd = np.empty(m)
-    status = _frame_command(J, H, q, rows, config, Jm, xd, out[2 * n : 2 * n + 6])
+    status = frame_command(J, H, q, rows, config, Jm, xd, out[2 * n : 2 * n + 6])
     if status != OK:
         return status, 0, 0.0, 0.0, 0.0, 0.0
     has_grad = config[CFG_HAS_GRAD] != 0.0

@@ -1,5 +1,6 @@
-"""Shared by the kinematic loop and the dynamic simulator: progress bars and the post-run
-measures of a :class:`~redres.control.RunLog` (computed after the timed loop)."""
+"""Shared by the kinematic loop and the dynamic simulator: the checks of a run's start,
+progress bars and the post-run measures of a :class:`~redres.control.RunLog` (computed
+after the timed loop)."""
 
 from __future__ import annotations
 
@@ -9,11 +10,40 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._validate import FloatArray, as_scalar, as_vector
+from ..errors import InvalidParameterError, JointLimitError
 from ..objectives import Objective, ObstacleObjective
 from .runlog import RunLog
 
 if TYPE_CHECKING:
     from ..robot import Robot
+    from .trajectories import Trajectory
+
+
+def start_configuration(robot: Robot, q0: Any) -> FloatArray:
+    """A copy of ``q0`` (default ``robot.neutral()``), checked to be inside the limits.
+
+    Raises:
+        JointLimitError: a joint outside its limits (the message names it and them).
+    """
+    q = robot.neutral() if q0 is None else as_vector(q0, "q0", robot.n).copy()
+    margin = robot.joint_limit_margin(q)
+    if np.any(margin < 0):
+        j = int(np.argmin(margin))
+        raise JointLimitError(
+            f"q0[{j}] = {q[j]:.6g} is outside the limits "
+            f"[{robot.q_min[j]:.6g}, {robot.q_max[j]:.6g}] of joint {robot.joint_names[j]!r}"
+        )
+    return q
+
+
+def run_duration(trajectory: Trajectory | None, duration: float | None) -> float:
+    """``duration`` (default: the trajectory's), s, > 0."""
+    if duration is None:
+        if trajectory is None:
+            raise InvalidParameterError("give a duration when there is no trajectory")
+        duration = trajectory.duration
+    return as_scalar(duration, "duration", minimum=0.0, strict=True)
 
 
 def progress_bar(total: int, enabled: bool | None, desc: str) -> Any:

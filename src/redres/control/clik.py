@@ -1,12 +1,11 @@
 """``rr.run``: drive a :class:`~redres.control.Controller` along a trajectory and record it.
 
 Each control step, at time ``t = k·dt``, the trajectory's sample becomes the frame task's
-target (pose and twist), then :meth:`Controller.step` does the whole CLIK step (its module
-derives it: ``ẋ = ẋ_d + K e``, the scheme's ``q̇``, uniform velocity scaling,
-``q ← q + q̇ dt``). The loop records what the controller reports after each step; the
-measures that need no timing (joint-limit margins, the task Jacobian's singular values,
-the objectives' costs) are computed from the recorded configurations afterwards
-(:func:`~redres.control.analyse_run`).
+target (pose and twist), then :meth:`Controller.step` does the whole CLIK step (derived in
+:mod:`redres.control.controller`). The loop records what the controller reports after
+each step; the measures that need no timing (joint-limit margins, the task Jacobian's
+singular values, the objectives' costs) are computed from the recorded configurations
+afterwards (:func:`~redres.control.analyse_run`).
 """
 
 from __future__ import annotations
@@ -18,12 +17,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar, as_vector
-from ..errors import InvalidParameterError, JointLimitError, SimulationError
+from .._validate import FloatArray
+from ..errors import InvalidParameterError, SimulationError
 from ..objectives import Objective
 from ..resolution import Scheme
 from ..tasks import FrameTask, Task
-from .analysis import analyse_run, progress_bar
+from .analysis import analyse_run, progress_bar, run_duration, start_configuration
 from .controller import Controller
 from .runlog import RunLog
 from .trajectories import Trajectory
@@ -55,11 +54,9 @@ def run(
             the trajectory sets its target each step.
         trajectory: reference for the task frame (``None``: hold the task's target).
         scheme: the redundancy-resolution scheme.
-        dt: control period, s (> 0).
+        dt, gain, limit_velocity: as for :class:`~redres.control.Controller`.
         duration: s (default: the trajectory's duration).
         q0: start configuration, inside the limits (default ``robot.neutral()``).
-        gain: CLIK gain ``K``, 1/s (≥ 0).
-        limit_velocity: scale commands down uniformly to the joint velocity limits.
         log_objectives: extra costs to record each step (the scheme's own are recorded
             anyway).
         label: name of the run in tables.
@@ -80,19 +77,8 @@ def run(
             "trajectory must be a redres Trajectory (Circle, Line, ...) or None; "
             f"got {trajectory!r}"
         )
-    if duration is None:
-        if trajectory is None:
-            raise InvalidParameterError("give a duration when there is no trajectory")
-        duration = trajectory.duration
-    duration = as_scalar(duration, "duration", minimum=0.0, strict=True)
-    q = robot.neutral() if q0 is None else as_vector(q0, "q0", robot.n).copy()
-    margin0 = robot.joint_limit_margin(q)
-    if np.any(margin0 < 0):
-        j = int(np.argmin(margin0))
-        raise JointLimitError(
-            f"q0[{j}] = {q[j]:.6g} is outside the limits "
-            f"[{robot.q_min[j]:.6g}, {robot.q_max[j]:.6g}] of joint {robot.joint_names[j]!r}"
-        )
+    duration = run_duration(trajectory, duration)
+    q = start_configuration(robot, q0)
     steps = round(duration / dt)
     n = robot.n
     scheme.reset()
@@ -174,18 +160,12 @@ def run(
         step_time_ns=step_ns,
         label=label,
     )
-    log.extra["inverse_sigma_min"] = inv_sigma.copy()
-    log.extra["algorithmic_singularity"] = algorithmic
-    log.extra["final_q"] = q
-    frame = task.frame if isinstance(task, FrameTask) else None
-    rows = task.rows if isinstance(task, FrameTask) else list(range(6))
-    analyse_run(
-        robot,
-        log,
-        frame=frame,
-        rows=rows,
-        objectives=[*(obj for obj, _ in scheme.objectives), *log_objectives],
+    log.extra.update(
+        inverse_sigma_min=inv_sigma.copy(), algorithmic_singularity=algorithmic, final_q=q
     )
+    frame, rows = (frame_task.frame, frame_task.rows) if frame_task else (None, list(range(6)))
+    objectives = [*(obj for obj, _ in scheme.objectives), *log_objectives]
+    analyse_run(robot, log, frame=frame, rows=rows, objectives=objectives)
     return log
 
 

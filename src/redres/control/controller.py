@@ -46,20 +46,17 @@ import numpy as np
 from .._validate import FloatArray, as_scalar, checked_keywords
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError, SimulationError
 from ..linalg import InverseInfo
+from ..linalg._codes import CFG_MODE
 from ..resolution import Scheme, StepResult
 from ..tasks import FrameTask, Task
 from ._fused import (
     TARGET,
     Path,
     choose_path,
-    damping_mode,
-    fused_clik_step,
     fused_config,
-    fused_frame_command,
-    fused_integrate,
     kernel_for,
+    native,
     raise_for_status,
-    row_gains,
     task_gains,
 )
 
@@ -92,17 +89,8 @@ class Controller:
         limit_velocity: scale each command uniformly down to the joint velocity limits
             (never for ``scheme.hard_limits``: those schemes keep every limit already).
 
-    ``q = controller.step(q)`` each period. After a step:
-
-    * :attr:`qd`: the joint velocity applied (after scaling), rad/s;
-    * :attr:`error`: for a frame task its six-row pose error, else the task's error;
-    * :attr:`info`: the inverse's diagnostics (rank, σ_min, σ_max, damping);
-    * :attr:`speed_ratio`, :attr:`scaled`: the velocity scaling;
-    * :attr:`pose`: for a frame task, the frame's pose (4x4);
-    * :attr:`result`: the scheme's :class:`~redres.resolution.StepResult` on the
-      ``"frame"`` and ``"composed"`` paths; None on the ``"fused"`` path, whose kernel
-      returns only what the attributes above hold (the schemes it fuses report nothing
-      else: no bounds, no algorithmic singularity).
+    ``q = controller.step(q)`` each period; then :attr:`qd`, :attr:`error`, :attr:`info`,
+    :attr:`speed_ratio`, :attr:`scaled`, :attr:`pose` and :attr:`result` report the step.
 
     The path (:attr:`path`) and the scheme's settings are read once, at construction.
     On the compiled paths the controller keeps a frame task's target in its kernel's
@@ -156,15 +144,13 @@ class Controller:
         self._config = self._block = _empty(0)
         if path != "composed":
             assert frame is not None
-            gains = row_gains(gain, rows)
-            self._config = fused_config(robot, gains, self._dt, self._limit, fused)
+            self._config = fused_config(robot, self._rows, self._gain, self._dt, self._limit, fused)
             self._block = self._config[TARGET]  # the task's target, from the first step on
             if path == "fused":
-                self._kernel = kernel_for(robot, self._fid, fused_clik_step, "clik_step")
+                self._kernel = kernel_for(robot, self._fid, "clik_step")
             else:
-                self._front = kernel_for(robot, self._fid, fused_frame_command,
-                                         "frame_command")  # fmt: skip
-                self._integrate = fused_integrate()
+                self._front = kernel_for(robot, self._fid, "frame_command")
+                self._integrate = native("integrate")
         # What the last step did.
         self._out: FloatArray = _empty(0)  # the fused kernel's (q_next, qd, e) once stepped
         self._diag: tuple[int, int, float, float, float, float] = (0, 0, 0.0, 0.0, 0.0, 0.0)
@@ -385,13 +371,15 @@ class Controller:
             raise InvalidParameterError("the controller has not made a step yet")
         _, rank, smin, smax, used, _ = self._diag
         full = rank == min(self._rows.shape[0], self._n)
-        label = _LABELS[damping_mode(self._config)]
+        label = _LABELS[int(self._config[CFG_MODE])]
         return _new_info(InverseInfo, (rank, full, smin, smax, used, label))  # type: ignore[no-any-return]
 
     @property
     def result(self) -> StepResult | None:
         """The scheme's :class:`~redres.resolution.StepResult` of the last step (its
-        ``qd`` before scaling); None on the ``"fused"`` path or before a step."""
+        ``qd`` before scaling); None before a step and on the ``"fused"`` path, whose
+        schemes report nothing more than the attributes above (no bounds, no algorithmic
+        singularity)."""
         return self._result
 
     def __repr__(self) -> str:

@@ -1,16 +1,6 @@
-"""Dynamics: the dynamically consistent inverse at work (seed 004).
-
-* :class:`OperationalSpaceController` — Khatib's operational-space torque law with a
-  null-space torque projected by ``I − Jᵀ J̄ᵀ`` (or, to compare, ``I − Jᵀ J⁺ᵀ``);
-  :func:`operational_space_torque` is the same law on bare arrays.
-* :func:`resolve_acceleration` and :class:`AccelerationController` — acceleration-level
-  resolution ``q̈ = J̄ (ẍ − J̇ q̇) + (I − J̄ J) q̈₀`` with computed torque.
-* :func:`simulate` — forward dynamics (Pinocchio ABA, semi-implicit Euler) of any torque
-  law with torque limits and an optional :class:`Payload`, recorded as a
-  :class:`~redres.control.RunLog`.
-
-See docs/dynamics.md.
-"""
+"""Dynamics: the dynamically consistent inverse at work (seed 004): operational-space and
+acceleration-level torque laws and their forward-dynamics :func:`simulate`. See
+docs/dynamics.md."""
 
 from __future__ import annotations
 

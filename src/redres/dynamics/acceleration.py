@@ -35,8 +35,6 @@ from .osc import check_choice, dynamic_inverse
 if TYPE_CHECKING:
     from ..robot import Robot
 
-__all__ = ["AccelerationController", "InverseKind", "resolve_acceleration"]
-
 InverseKind = Literal["dynamic", "kinematic"]
 _INVERSES: tuple[str, ...] = get_args(InverseKind)
 
@@ -107,9 +105,7 @@ class AccelerationController(ServoLaw):
     (same arguments and units).
 
     Args:
-        task: frame task (default: the tip, six rows).
-        kp, kd: task gains, 1/s² and 1/s (``kd=None``: ``2√K_p``).
-        objectives, null_kp, null_kd: the null-space law.
+        task, kp, kd, objectives, null_kp, null_kd: the task servo and null-space law.
         inverse: ``"dynamic"`` or ``"kinematic"``.
         damping, rcond: as for :func:`resolve_acceleration`.
         name: identifier in run logs (default ``acceleration_<inverse>``).

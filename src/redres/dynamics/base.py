@@ -16,21 +16,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._validate import FloatArray, as_scalar, as_vector
-from ..errors import InvalidParameterError, NonFiniteError, ShapeError
+from ..control._fused import task_gains
+from ..errors import InvalidParameterError, ShapeError
 from ..linalg import InverseInfo
 
 if TYPE_CHECKING:
     from ..control import Sample
     from ..robot import Robot
-
-__all__ = [
-    "ControlStep",
-    "GravityCompensation",
-    "TaskGains",
-    "TorqueFunction",
-    "TorqueLaw",
-    "ZeroTorque",
-]
 
 
 @dataclass(frozen=True)
@@ -139,21 +131,6 @@ class TorqueFunction(TorqueLaw):
         return ControlStep(tau)
 
 
-def _gain_vector(value: Any, name: str, m: int) -> FloatArray:
-    arr = np.asarray(value, dtype=float)
-    if arr.ndim == 0:
-        arr = np.full(m, float(arr))
-    if arr.shape != (m,):
-        raise ShapeError(f"{name} must be a scalar or have shape ({m},); got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise NonFiniteError(f"{name} contains NaN or infinity: {arr}")
-    if np.any(arr < 0.0):
-        raise InvalidParameterError(
-            f"{name} must be >= 0 (a negative gain destabilises the loop); got {arr}"
-        )
-    return arr
-
-
 @dataclass(frozen=True)
 class TaskGains:
     """PD gains of a task servo ``ẍ* = ẍ_d + K_d (ẋ_d − J q̇) + K_p e``.
@@ -178,6 +155,6 @@ class TaskGains:
             NonFiniteError: a NaN or infinite gain.
             ShapeError: a vector gain of the wrong length.
         """
-        kp_v = _gain_vector(kp, "kp", m)
-        kd_v = 2.0 * np.sqrt(kp_v) if kd is None else _gain_vector(kd, "kd", m)
+        kp_v = np.full(m, task_gains(kp, m, "kp"))
+        kd_v = 2.0 * np.sqrt(kp_v) if kd is None else np.full(m, task_gains(kd, m, "kd"))
         return cls(kp_v, kd_v)

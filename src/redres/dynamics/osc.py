@@ -62,15 +62,6 @@ if TYPE_CHECKING:
     from ..registry import ScenarioParams
     from ..robot import Robot
 
-__all__ = [
-    "Compensation",
-    "OperationalSpaceController",
-    "OperationalSpaceTorque",
-    "Projector",
-    "operational_space_torque",
-    "task_disturbance",
-]
-
 Projector = Literal["dynamic", "kinematic"]
 Compensation = Literal["joint", "task"]
 _PROJECTORS: tuple[str, ...] = get_args(Projector)

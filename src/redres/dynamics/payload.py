@@ -33,8 +33,6 @@ from ..errors import InvalidParameterError, NotPositiveDefiniteError
 if TYPE_CHECKING:
     from ..robot import Reference, Robot
 
-__all__ = ["Payload", "payload_spatial_inertia", "with_gravity", "with_payload"]
-
 
 def _inertia(value: Any) -> FloatArray:
     I = as_matrix(value, "inertia", (3, 3))

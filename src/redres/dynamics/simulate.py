@@ -31,9 +31,9 @@ import numpy as np
 import pinocchio as pin
 
 from .._validate import FloatArray, as_scalar, as_vector
-from ..control.analysis import analyse_run, progress_bar
+from ..control.analysis import analyse_run, progress_bar, run_duration, start_configuration
 from ..control.runlog import RunLog
-from ..errors import InvalidParameterError, JointLimitError, ShapeError, SimulationError
+from ..errors import InvalidParameterError, ShapeError, SimulationError
 from .base import ControlStep, TorqueLaw
 from .payload import Payload, with_payload
 
@@ -41,25 +41,12 @@ if TYPE_CHECKING:
     from ..control import Trajectory
     from ..robot import Robot
 
-__all__ = ["dynamics_summary", "simulate"]
-
-
-def _start_state(robot: Robot, q0: Any, qd0: Any) -> tuple[FloatArray, FloatArray]:
-    q = robot.neutral() if q0 is None else as_vector(q0, "q0", robot.n).copy()
-    qd = np.zeros(robot.n) if qd0 is None else as_vector(qd0, "qd0", robot.n).copy()
-    margin = robot.joint_limit_margin(q)
-    if np.any(margin < 0):
-        j = int(np.argmin(margin))
-        raise JointLimitError(
-            f"q0[{j}] = {q[j]:.6g} is outside the limits of joint {robot.joint_names[j]!r}"
-        )
-    return q, qd
-
 
 class _Recorder:
     """Per-step arrays of one run (filled inside the loop, no allocation per step)."""
 
-    def __init__(self, steps: int, n: int) -> None:
+    def __init__(self, steps: int, n: int, tau_max: FloatArray) -> None:
+        self.tau_max = tau_max
         self.q = np.empty((steps, n))
         self.qd = np.empty((steps, n))
         self.tau = np.empty((steps, n))
@@ -75,16 +62,10 @@ class _Recorder:
         self.step_ns = np.empty(steps)
 
     def record(
-        self,
-        k: int,
-        q: FloatArray,
-        qd: FloatArray,
-        out: ControlStep,
-        tau: FloatArray,
-        tau_max: FloatArray,
+        self, k: int, q: FloatArray, qd: FloatArray, out: ControlStep, tau: FloatArray
     ) -> None:
         self.q[k], self.qd[k], self.tau_cmd[k], self.tau[k] = q, qd, out.tau, tau
-        self.saturated[k] = np.abs(out.tau) > tau_max
+        self.saturated[k] = np.abs(out.tau) > self.tau_max
         if out.tau_null is not None:
             self.tau_null[k] = out.tau_null
         if out.error is not None:
@@ -145,11 +126,7 @@ def simulate(
     dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
     if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
         raise InvalidParameterError(f"substeps must be an integer >= 1; got {substeps!r}")
-    if duration is None:
-        if trajectory is None:
-            raise InvalidParameterError("give a duration when there is no trajectory")
-        duration = trajectory.duration
-    duration = as_scalar(duration, "duration", minimum=0.0, strict=True)
+    duration = run_duration(trajectory, duration)
     plant = robot if payload is None else with_payload(robot, payload)
     ctrl = robot if controller_robot is None else controller_robot
     if ctrl.n != robot.n:
@@ -157,11 +134,12 @@ def simulate(
             f"controller_robot has {ctrl.n} joints but the robot has {robot.n}; give a "
             "model of the same arm"
         )
-    q, qd = _start_state(robot, q0, qd0)
+    q = start_configuration(robot, q0)
+    qd = np.zeros(robot.n) if qd0 is None else as_vector(qd0, "qd0", robot.n).copy()
     h = dt * substeps
     steps = max(round(duration / h), 1)
     tau_max = plant.tau_max if limit_torque else np.full(robot.n, np.inf)
-    rec = _Recorder(steps, robot.n)
+    rec = _Recorder(steps, robot.n, tau_max)
     law.reset()
     bar = progress_bar(steps, progress, f"{robot.name} {label or law.name}")
     clock = time.perf_counter_ns
@@ -174,7 +152,7 @@ def simulate(
                 rec.step_ns[k] = clock() - t0
                 tau = _checked_torque(out, robot.n, k, k * h, law.name)
                 tau = np.clip(tau, -tau_max, tau_max)
-                rec.record(k, q, qd, out, tau, tau_max)
+                rec.record(k, q, qd, out, tau)
                 for _ in range(substeps):
                     qdd = plant.forward_dynamics(q, qd, tau)
                     qd = qd + dt * qdd

@@ -17,6 +17,7 @@ Sources:
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
 from ..robot import DHLink, Robot, capsule_between
 
@@ -94,16 +95,11 @@ def inertia_matrix(
 
 
 def _rot_z(angle: float) -> np.ndarray:
-    T = np.eye(4)
-    c, s = np.cos(angle), np.sin(angle)
-    T[:2, :2] = [[c, -s], [s, c]]
-    return T
+    return pin.SE3(pin.utils.rotate("z", angle), np.zeros(3)).homogeneous
 
 
 def _trans_z(d: float) -> np.ndarray:
-    T = np.eye(4)
-    T[2, 3] = d
-    return T
+    return pin.SE3(np.eye(3), np.array([0.0, 0.0, d])).homogeneous
 
 
 def panda_links(*, hand: bool = True) -> list[DHLink]:
@@ -112,7 +108,8 @@ def panda_links(*, hand: bool = True) -> list[DHLink]:
     for i, ((a, d, alpha), (mass, com, inertia)) in enumerate(zip(DH, INERTIALS)):
         m, c, I = mass, np.array(com), inertia_matrix(*inertia)
         if hand and i == 6:
-            m, c, I = _merge_hand(m, c, I)
+            body = _merge_hand(m, c, I)
+            m, c, I = body.mass, body.lever, body.inertia
         links.append(
             DHLink(
                 a=a,
@@ -132,19 +129,12 @@ def panda_links(*, hand: bool = True) -> list[DHLink]:
     return links
 
 
-def _merge_hand(m7: float, c7: np.ndarray, I7: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Link 7 and the rigidly attached hand as one body, in the link-7 frame."""
-    T_7_hand = _trans_z(FLANGE_D) @ _rot_z(-np.pi / 4)
-    R, p = T_7_hand[:3, :3], T_7_hand[:3, 3]
-    c_h = p + R @ np.array(HAND_COM)
-    I_h = R @ inertia_matrix(*HAND_INERTIA) @ R.T
-    m = m7 + HAND_MASS
-    c = (m7 * c7 + HAND_MASS * c_h) / m
-
-    def shift(I: np.ndarray, mass: float, r: np.ndarray) -> np.ndarray:  # parallel axis
-        return I + mass * (r @ r * np.eye(3) - np.outer(r, r))
-
-    return m, c, shift(I7, m7, c7 - c) + shift(I_h, HAND_MASS, c_h - c)
+def _merge_hand(m7: float, c7: np.ndarray, I7: np.ndarray) -> pin.Inertia:
+    """Link 7 and the rigidly attached hand as one body, in the link-7 frame (Pinocchio's
+    sum of inertias: combined centre of mass, parallel-axis theorem)."""
+    hand = pin.Inertia(HAND_MASS, np.array(HAND_COM), inertia_matrix(*HAND_INERTIA))
+    T_7_hand = pin.SE3(_trans_z(FLANGE_D) @ _rot_z(-np.pi / 4))
+    return pin.Inertia(m7, c7, I7) + T_7_hand.act(hand)
 
 
 def panda(*, hand: bool = True) -> Robot:

@@ -171,15 +171,7 @@ class ObstacleObjective(Objective):
             origin = pin.updateFramePlacement(model, data, fid).translation
             J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
             n_hat = offset / norm
-            # ∂d/∂q = n̂ᵀ (J_v − [r]× J_ω) = n̂ᵀ J_v + (r × n̂)ᵀ J_ω, r = p − p_frame
-            r = p.point_on_link - origin
-            r_x_n = np.array(
-                [
-                    r[1] * n_hat[2] - r[2] * n_hat[1],
-                    r[2] * n_hat[0] - r[0] * n_hat[2],
-                    r[0] * n_hat[1] - r[1] * n_hat[0],
-                ]
-            )
-            dd_dq = n_hat @ J[:3] + r_x_n @ J[3:]
+            # ∂d/∂q = n̂ᵀ J_p, J_p = J_v − [p − p_frame]× J_ω (module docstring)
+            dd_dq = n_hat @ (J[:3] - pin.skew(p.point_on_link - origin) @ J[3:])
             grad += -2.0 / d0 * (1.0 - p.distance / d0) * dd_dq
         return grad

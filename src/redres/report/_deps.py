@@ -7,8 +7,6 @@ from types import ModuleType
 
 from ..errors import MissingDependencyError
 
-EXTRA_HINT = "pip install 'redres[report]'"
-
 
 def require(module: str) -> ModuleType:
     """Import ``module`` or raise :class:`MissingDependencyError` naming the extra.
@@ -22,7 +20,7 @@ def require(module: str) -> ModuleType:
         package = module.split(".", 1)[0]
         raise MissingDependencyError(
             f"redres reports need {package}, which is not installed; install the report "
-            f"extra with: {EXTRA_HINT}"
+            f"extra with: pip install 'redres[report]'"
         ) from exc
 
 

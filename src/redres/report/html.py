@@ -115,10 +115,6 @@ def _script_json(value: Any) -> str:
     return json.dumps(value, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
 
 
-def _inline_js(source: str) -> str:
-    return source.replace("</script", "<\\/script")
-
-
 def _arm_section(views: Sequence[tuple[str, str, Mapping[str, Any]]]) -> str:
     options: dict[str, list[str]] = {}
     for i, (robot, label, _) in enumerate(views):
@@ -185,12 +181,13 @@ def render_page(
     """
     sections = "".join(_plot_section(p) for p in plots)
     figures = _script_json([fig for _, _, fig in views])
+    inline_js = plotly_js.replace("</script", "<\\/script")  # cannot close its element
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <meta name="generator" content="redres {escape(version)}">
 <title>{escape(title)}</title><style>{CSS}</style>
-<script>{_inline_js(plotly_js)}</script>
+<script>{inline_js}</script>
 </head><body><main>
 <header><h1>{escape(title)}</h1>
 <p class="meta">redres {escape(version)} · {len(views)} runs ·

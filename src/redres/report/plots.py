@@ -45,11 +45,7 @@ def palette(names: Sequence[str]) -> dict[str, str]:
     """A colour (``#rrggbb``) per distinct name, in order of first appearance (tab10)."""
     colors = require("matplotlib.colors")
     cmap = require("matplotlib").colormaps["tab10"]
-    out: dict[str, str] = {}
-    for name in names:
-        if name not in out:
-            out[name] = colors.to_hex(cmap(len(out) % 10))
-    return out
+    return {name: colors.to_hex(cmap(i % 10)) for i, name in enumerate(dict.fromkeys(names))}
 
 
 def _figure(
@@ -233,12 +229,8 @@ def objectives_figure(
     for ax in axes[: len(names)]:
         for handle, label in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(label, handle)
-    _title(
-        fig,
-        f"{robot_name}: secondary objectives (costs, lower is better)",
-        list(handles.values()),
-        list(handles),
-    )
+    title = f"{robot_name}: secondary objectives (costs, lower is better)"
+    _title(fig, title, list(handles.values()), list(handles))
     return fig
 
 

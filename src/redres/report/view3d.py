@@ -3,7 +3,7 @@
 :func:`arm_animation` samples a run (about 80 configurations, forward kinematics on each)
 and :func:`animation_figure` turns it into a plotly figure (plain JSON-ready dicts, so
 plotly.js draws it without the Python plotly objects): the arm, the target and actual
-paths of the task frame, play/pause buttons and a time slider, equal scale on all axes.
+paths of the task frame and a time slider (play/pause are the page's), equal scale.
 """
 
 from __future__ import annotations
@@ -140,33 +140,24 @@ def _scene(anim: ArmAnimation) -> dict[str, Any]:
     }
 
 
-def _path(
-    name: str, points: FloatArray, line: dict[str, Any], mode: str = "lines", **style: Any
-) -> dict[str, Any]:
+def _path(name: str, points: FloatArray, mode: str = "lines", **style: Any) -> dict[str, Any]:
     """A plotly ``scatter3d`` trace through ``points``."""
-    return {"type": "scatter3d", "mode": mode, "name": name, **_xyz(points), "line": line, **style}
+    return {"type": "scatter3d", "mode": mode, "name": name, **_xyz(points), **style}
 
 
 def _traces(anim: ArmAnimation, colour: str) -> list[dict[str, Any]]:
-    first = anim.arm[0]
+    first, now = anim.arm[0], "target now" if anim.target is not None else "tip now"
     markers, grey = {"size": 4, "color": "#333"}, {"color": "#b0b0b0", "width": 4}
-    now = {
-        "type": "scatter3d",
-        "mode": "markers",
-        **_xyz(anim.now[:1]),
-        "name": "target now" if anim.target is not None else "tip now",
-        "marker": {"size": 5, "color": "#d62728", "symbol": "diamond"},
-    }
+    diamond = {"size": 5, "color": "#d62728", "symbol": "diamond"}
     traces = [
-        _path("arm", first, {"color": colour, "width": 8}, "lines+markers", marker=markers),
-        now,
-        _path("arm at t = 0", first, grey, opacity=0.6, visible="legendonly"),
-        _path("actual path", anim.position, {"color": colour, "width": 3}),
+        _path("arm", first, "lines+markers", line={"color": colour, "width": 8}, marker=markers),
+        _path(now, anim.now[:1], "markers", marker=diamond),
+        _path("arm at t = 0", first, line=grey, opacity=0.6, visible="legendonly"),
+        _path("actual path", anim.position, line={"color": colour, "width": 3}),
     ]
     if anim.target is not None:
-        traces.append(
-            _path("target path", anim.target, {"color": "#555", "width": 2, "dash": "dash"})
-        )
+        dashed = {"color": "#555", "width": 2, "dash": "dash"}
+        traces.append(_path("target path", anim.target, line=dashed))
     return traces
 
 

@@ -73,21 +73,17 @@ def _slug(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "robot"
 
 
-def _by_robot(pairs: Sequence[tuple[Robot, RunLog]]) -> dict[str, tuple[Robot, list[RunLog]]]:
-    groups: dict[str, tuple[Robot, list[RunLog]]] = {}
-    for robot, log in pairs:
-        groups.setdefault(robot.name, (robot, []))[1].append(log)
-    return groups
-
-
 def _write_plots(
     staging: Path,
     pairs: Sequence[tuple[Robot, RunLog]],
     colours: Mapping[str, str],
     max_points: int,
 ) -> list[html.RobotPlots]:
+    by_robot: dict[str, tuple[Robot, list[RunLog]]] = {}
+    for robot, log in pairs:
+        by_robot.setdefault(robot.name, (robot, []))[1].append(log)
     out = []
-    for name, (robot, logs) in _by_robot(pairs).items():
+    for name, (robot, logs) in by_robot.items():
         pngs = plots.robot_figures(robot, logs, colours, max_points=max_points)
         files = {kind: f"{_slug(name)}-{kind.replace('_', '-')}.png" for kind in pngs}
         for kind, data in pngs.items():

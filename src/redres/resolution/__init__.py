@@ -1,12 +1,7 @@
 """Redundancy-resolution schemes: one step from task velocity to joint velocity."""
 
 from .augmented import AugmentedJacobianScheme
-from .base import (
-    Inverse,
-    Scheme,
-    StepResult,
-    make_inverse,
-)
+from .base import Inverse, Scheme, StepResult, make_inverse
 from .gradient_projection import GradientProjectionScheme, total_gradient
 from .hard_limits import (
     BOUND_KINDS,

@@ -49,11 +49,9 @@ class AugmentedJacobianScheme(Scheme):
         extra_tasks: tasks whose rows complete the Jacobian (default: one
             :class:`~redres.tasks.ArmAngleTask` holding the initial arm angle).
         gain: CLIK gain of the extra tasks, 1/s (≥ 0).
-        inverse: the :class:`~redres.resolution.Inverse` of ``J_ext``; or give
-            ``damping``/``rcond``. Default: ``AdaptiveDamping(0.05, threshold)``, exact
-            while ``σ_min(J_ext) ≥ threshold``.
-        damping: ``λ ≥ 0`` (units of ``J``) or an :class:`~redres.linalg.AdaptiveDamping`.
-        rcond: relative rank cut of the exact inverse (refused next to a damping).
+        inverse, damping, rcond: the inverse of ``J_ext``, as for
+            :class:`~redres.resolution.PseudoInverseScheme`. Default:
+            ``AdaptiveDamping(0.05, threshold)``, exact while ``σ_min(J_ext) ≥ threshold``.
         threshold: smallest singular value of ``J_ext`` below which a step is reported
             an algorithmic singularity (and the default damping starts), units of ``J``.
 
@@ -67,8 +65,6 @@ class AugmentedJacobianScheme(Scheme):
     """
 
     name = "augmented"
-    #: No null-space term: the extra rows use up the redundancy.
-    k_null: float = 0.0
 
     @checked_keywords
     def __init__(

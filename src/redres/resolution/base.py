@@ -186,6 +186,8 @@ class Scheme(ABC):
     #: The control period the scheme plans over, s (hard-limit schemes), else None: a loop
     #: must run at this period.
     dt: float | None = None
+    #: Gain ``k`` of the secondary (null-space) cost term (0: the scheme has none).
+    k_null: float = 0.0
     #: Weighted secondary costs ``(objective, weight)`` the scheme descends (empty: none).
     objectives: tuple[tuple[Objective, float], ...] = ()
     #: Tasks the scheme evaluates itself at ``q`` (empty: none); reset with the scheme.
@@ -205,7 +207,8 @@ class Scheme(ABC):
 
         Raises:
             ShapeError: the shapes do not match ``robot.n`` and each other.
-            NonFiniteError: an input contains NaN or infinity.
+            NonFiniteError: an input contains NaN or infinity (the message names it).
+            InvalidParameterError: an input is complex (its imaginary part would be lost).
         """
         q, J, xd = step_arrays(q, J, xd, robot.n)
         return self._step(robot, q, J, xd)
@@ -229,13 +232,8 @@ class Scheme(ABC):
 
 
 def step_arrays(q: Any, J: Any, xd: Any, n: int) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """``q``, ``J``, ``xd`` as finite, real, C-contiguous float64 arrays of matching shapes.
-
-    Raises:
-        ShapeError: a shape does not match ``robot.n`` or the others.
-        NonFiniteError: an array holds NaN or infinity (the message names it).
-        InvalidParameterError: an array is complex (its imaginary part would be lost).
-    """
+    """``q``, ``J``, ``xd`` as finite, real, C-contiguous float64 arrays of matching shapes
+    (the errors of :meth:`Scheme.step`)."""
     arrays = []
     for value, name in ((q, "q"), (J, "J"), (xd, "xd")):
         if type(value) is np.ndarray and value.dtype == np.float64 and value.flags.c_contiguous:

@@ -72,11 +72,8 @@ class GradientProjectionScheme(Scheme):
             (ManipulabilityObjective(), 10.0)]``.
         k_null: null-space gain ``k`` of ``−k N ∇D`` (≥ 0; rad²/s per unit of cost when
             ``D`` is dimensionless).
-        inverse: an :class:`~redres.resolution.Inverse`; or give ``damping``/``rcond``
-            (as for :class:`~redres.resolution.PseudoInverseScheme`). ``N`` is the
-            projector of that same inverse.
-        damping: ``λ ≥ 0`` (units of ``J``) or an :class:`~redres.linalg.AdaptiveDamping`.
-        rcond: relative rank cut of the exact inverse (refused next to a damping).
+        inverse, damping, rcond: the inverse, as for
+            :class:`~redres.resolution.PseudoInverseScheme`; ``N`` is its projector.
 
     Identifier ``gradient_projection``.
 

@@ -62,7 +62,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -205,8 +205,10 @@ def _resolve(
     P: FloatArray | None = None  # projector onto the null space of the higher levels
     freedom, levels = n, []
     for k, (J, x) in enumerate(zip(Js, xs)):
+        m = J.shape[0]
         if freedom == 0:
-            levels.append((k, 0, 0, 0.0, np.zeros(n), False, _NO_FREEDOM))
+            levels.append(LevelInfo(k + 1, m, 0, 0, True, 0.0, 0.0, x, x, np.zeros(n), False,
+                                    _NO_FREEDOM))  # fmt: skip
             continue
         A = J if P is None else J @ P
         A_pinv, exact = damped_pinv(A, 0.0, rcond=_projected_rcond(J, A, rcond), return_info=True)
@@ -223,65 +225,44 @@ def _resolve(
         if P is not None:  # in the null space of the higher levels to rounding error
             part = P @ part
         qd = qd + part
-        smin = exact.sigma_min if J.shape[0] <= freedom else singular_values(A)[freedom - 1]
+        smin = exact.sigma_min if m <= freedom else singular_values(A)[freedom - 1]
         singular = P is not None and smin < threshold
         if singular:  # algorithmic only if J_k alone is well conditioned
             singular = (info.sigma_min if method == "robust" else sigma_min(J)) >= threshold
-        levels.append((k, freedom, exact.rank, float(smin), part, singular, info))
+        full = exact.rank == min(m, freedom)
+        levels.append(LevelInfo(k + 1, m, freedom, exact.rank, full, float(smin), info.damping,
+                                x, x, part, bool(singular), info))  # fmt: skip
         if k + 1 < len(Js):
             P = (np.eye(n) if P is None else P) - A_pinv @ A
             freedom = max(freedom - exact.rank, 0)
-    return PriorityResult(qd, [_info(Js, xs, qd, *entry) for entry in levels])
+    # achieved = J_k q̇ of the final q̇ (the loop above held a placeholder)
+    return PriorityResult(qd, [lv._replace(achieved=J @ qd) for lv, J in zip(levels, Js)])
 
 
 _NO_FREEDOM = InverseInfo(0, False, 0.0, 0.0, 0.0, "none")
 
 
-def _per_level(damping: Damping | Sequence[Damping], levels: int) -> list[Damping]:
-    if isinstance(damping, (AdaptiveDamping, int, float, np.floating)):
-        return [damping] * levels
-    out = list(damping)
+def _per_level(value: Any, levels: int, name: str = "damping") -> list[Any]:
+    """``value`` for every level, or its list of one per level."""
+    if isinstance(value, AdaptiveDamping) or np.ndim(value) == 0:
+        return [value] * levels
+    out = list(value)
     if len(out) != levels:
-        raise InvalidParameterError(
-            f"give one damping, or one per level ({levels}); got {len(out)}"
-        )
+        raise InvalidParameterError(f"give one {name}, or one per level ({levels}); got {out}")
     return out
 
 
 def _projected_rcond(J: FloatArray, A: FloatArray, rcond: float) -> float:
-    """Relative tolerance for ``A = J_k P_{k−1}`` that cuts at about ``rcond·‖J_k‖``.
-
-    At an algorithmic singularity *every* singular value of the projected Jacobian may be
-    tiny (a one-row level has only one), and once the higher levels use ``r`` joints
-    ``n − r`` of them are rounding noise; a cut relative to the projected matrix's own
-    largest singular value would invert that noise. The scale is that of the unprojected
-    ``J_k`` (``‖A‖_F ≤ ‖J_k‖_F`` since ``P`` is an orthogonal projector).
-    """
+    """Relative tolerance for ``A = J_k P_{k−1}`` that cuts at about ``rcond·‖J_k‖`` (why:
+    module docstring, "Computation"; ``‖A‖_F ≤ ‖J_k‖_F`` as ``P`` is an orthogonal
+    projector). Once the higher levels use ``r`` joints, ``n − r`` singular values of
+    ``A`` are rounding noise."""
     if A is J:
         return rcond
     norm_a = float(np.vdot(A, A))
     if norm_a == 0.0:
         return rcond
     return max(rcond, min(1.0, rcond * math.sqrt(float(np.vdot(J, J)) / norm_a)))
-
-
-def _info(
-    Js: list[FloatArray],
-    xs: list[FloatArray],
-    qd: FloatArray,
-    k: int,
-    freedom: int,
-    rank: int,
-    smin: float,
-    part: FloatArray,
-    singular: bool,
-    info: InverseInfo,
-) -> LevelInfo:
-    rows = Js[k].shape[0]
-    return LevelInfo(
-        k + 1, rows, freedom, rank, rank == min(rows, freedom), smin, info.damping, xs[k],
-        Js[k] @ qd, part, bool(singular), info,
-    )  # fmt: skip
 
 
 def _validate(
@@ -334,14 +315,10 @@ class PriorityScheme(Scheme):
         levels: lower-priority levels, highest first.
         method: ``"exact"``, ``"robust"`` or ``"damped"`` (module docstring).
         gain: CLIK gain of the scheme's own levels, 1/s (one for all, or one per level).
-        inverse: the :class:`~redres.resolution.Inverse` of every level; or give
-            ``damping``/``rcond``. ``"exact"`` takes an exact inverse only (its ``rcond``
-            is the rank tolerance); ``"robust"`` and ``"damped"`` default to
-            ``AdaptiveDamping(0.05, 0.05)``.
-        damping: damping of the ``"robust"``/``"damped"`` inverses, a ``λ ≥ 0`` in the
-            units of ``J`` or an :class:`~redres.linalg.AdaptiveDamping`.
-        rcond: relative rank tolerance of the exact inverses and null-space projectors
-            (refused next to a damping).
+        inverse, damping, rcond: the inverse of every level, as for
+            :class:`~redres.resolution.PseudoInverseScheme`. ``"exact"`` takes an exact
+            inverse only (its ``rcond`` is also the projectors' rank tolerance); ``"robust"``
+            and ``"damped"`` default to ``AdaptiveDamping(0.05, 0.05)``.
         threshold: singular value below which a level is reported singular.
 
     Identifier ``priority``. ``StepResult.info`` is the inverse of level 1,
@@ -355,8 +332,6 @@ class PriorityScheme(Scheme):
     """
 
     name = "priority"
-    #: No gradient term: the lower levels are tasks (:attr:`gains`), not costs.
-    k_null: float = 0.0
 
     @checked_keywords
     def __init__(
@@ -374,9 +349,7 @@ class PriorityScheme(Scheme):
         self.levels = [[lv] if isinstance(lv, Task) else list(lv) for lv in levels]
         if any(not level or not all(isinstance(t, Task) for t in level) for level in self.levels):
             raise InvalidParameterError("each level must be a Task or a non-empty list of Tasks")
-        gains = [gain] * len(self.levels) if np.ndim(gain) == 0 else list(gain)  # type: ignore[arg-type]
-        if len(gains) != len(self.levels):
-            raise InvalidParameterError(f"give one gain per level ({len(self.levels)}); got {gain}")
+        gains = _per_level(gain, len(self.levels), "gain")
         self.gains = [as_scalar(g, "gain", minimum=0.0) for g in gains]
         self.method: PriorityMethod = method
         if method != "exact" and inverse is None and damping is None and rcond is None:

@@ -37,8 +37,6 @@ class PseudoInverseScheme(Scheme):
         UnknownParameterError: a misspelt keyword (the message names the valid ones).
     """
 
-    #: No null-space term: ``q̇`` is the task term alone.
-    k_null: float = 0.0
     #: Scenario ``type`` names (``dls``: damped, ``damping = 0.05`` unless given).
     scenario_types = ("pinv", "dls")
 

@@ -63,10 +63,8 @@ class WeightedLeastNormScheme(Scheme):
         objectives: optional secondary costs projected with the weighted projector
             ``I − J_W⁺ J``.
         k_null: null-space gain ``k`` of the secondary term (≥ 0).
-        inverse: an :class:`~redres.resolution.Inverse` of the weighted Jacobian
-            (default exact); or give ``damping``/``rcond``.
-        damping: ``λ ≥ 0`` (units of ``J``) or an :class:`~redres.linalg.AdaptiveDamping`.
-        rcond: relative rank cut of the exact inverse (refused next to a damping).
+        inverse, damping, rcond: the inverse of the weighted Jacobian (default exact), as
+            for :class:`~redres.resolution.PseudoInverseScheme`.
 
     Identifier ``wln``. The scheme keeps ``|h|`` of the previous step; :meth:`reset`
     forgets it (the first step of a run uses unit weights for joints not yet moving).

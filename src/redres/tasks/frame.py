@@ -174,10 +174,7 @@ class PlanarTask(FrameTask):
 
     def set_planar_target(self, x: float, y: float, phi: float, velocity: Any = None) -> None:
         """Target ``(x, y)`` in m and ``φ`` in rad; ``velocity`` = ``(ẋ, ẏ, φ̇)``."""
-        c, s = np.cos(phi), np.sin(phi)
-        T = np.eye(4)
-        T[:2, :2] = [[c, -s], [s, c]]
-        T[:2, 3] = [x, y]
+        T = pin.SE3(pin.utils.rotate("z", phi), np.array([x, y, 0.0])).homogeneous
         twist = np.zeros(6)
         if velocity is not None:
             twist[[0, 1, 5]] = as_vector(velocity, "velocity", 3)

@@ -319,21 +319,14 @@ def prologue(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M):  # type: ignore[n
 
 
 @kernel
-def epilogue(J, xd, out, codes, M, wm, full, factored):  # type: ignore[no-untyped-def]
-    """Clip ``q̇ = out[0]`` into the box, mark the active sides (``codes[3]``: +1 upper,
-    -1 lower, 2 both), its null-space component (``out[1]``). Returns ``(#active,
-    ‖J q̇ − ẋ‖)``."""
+def epilogue(J, xd, out, M, wm, full, factored):  # type: ignore[no-untyped-def]
+    """Clip ``q̇ = out[0]`` into the box, its null-space component (``out[1]``). Returns
+    ``(#joints on a bound within 1e-9, ‖J q̇ − ẋ‖)``."""
     m, n = J.shape
     active = 0
     for k in range(n):
         out[0, k] = min(max(out[0, k], out[2, k]), out[3, k])
-        side = 0
-        if out[0, k] >= out[3, k] - 1e-9:
-            side = 1
-        if out[0, k] <= out[2, k] + 1e-9:
-            side = 2 if side == 1 else -1
-        codes[3, k] = side
-        if side != 0:
+        if out[0, k] >= out[3, k] - 1e-9 or out[0, k] <= out[2, k] + 1e-9:
             active += 1
     residual = 0.0
     for i in range(m):
@@ -357,12 +350,12 @@ def epilogue(J, xd, out, codes, M, wm, full, factored):  # type: ignore[no-untyp
 @kernel
 def sns_step(q, prev, dt, lim, J, xd, qd0, use_qd0, tol, out, codes, Jc, M, wm, wn, wb):  # type: ignore[no-untyped-def]
     """Box and SNS step in one call. ``out`` rows: q̇, null term, lower, upper; ``codes``
-    rows: lower kind, upper kind, relaxed, active side; ``Jc``: a copy of ``J``. Returns
+    rows: lower kind, upper kind, relaxed; ``Jc``: a copy of ``J``. Returns
     ``(status, method, scale, #relaxed, #active)``."""
     status, relaxed, full = prologue(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M)
     if status != OK:
         return status, FAILED, 0.0, 0, 0
     method, s, factored = _sns_step(J, xd, out[2], out[3], qd0, use_qd0, tol, out[0], M[0],
                                     M[1], wm, wn, wb, full)  # fmt: skip
-    active, _ = epilogue(J, xd, out, codes, M, wm, full, factored)
+    active, _ = epilogue(J, xd, out, M, wm, full, factored)
     return OK, method, s, relaxed, active

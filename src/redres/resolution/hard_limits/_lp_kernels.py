@@ -1,9 +1,6 @@
-"""Compiled linear program of the hard-limit schemes (internal): the largest task scale.
-
-``max s  s.t.  J q̇ = s ẋ,  lower ≤ q̇ ≤ upper,  0 ≤ s ≤ 1`` by a bounded-variable primal
-simplex with Bland's rule (Dantzig 1963 ch. 18; Chvátal 1983 ch. 8), in two phases or from
-a feasible vertex (the greedy SNS solution). Plain Python written for numba, compiled
-through :mod:`redres._jit`; the public entry point is :func:`redres.resolution.largest_scale`.
+"""Compiled linear program of the hard-limit schemes (internal): the largest task scale of
+:mod:`.lp` (formula and references there), in two phases or from a feasible vertex (the
+greedy SNS solution). Plain Python written for numba, compiled through :mod:`redres._jit`.
 """
 
 from __future__ import annotations
@@ -180,7 +177,6 @@ def largest_scale(J, xd, lo, hi, qd, warm, s_warm):  # type: ignore[no-untyped-d
         cost[n] = 0.0
     for k in range(n):
         is_basic[k] = False
-        low[k], up[k] = max(lo[k], -_CAP), min(hi[k], _CAP)
         at_upper[k] = abs(up[k]) < abs(low[k])
         x[k] = up[k] if at_upper[k] else low[k]
     x[n], at_upper[n], is_basic[n] = 1.0, True, False

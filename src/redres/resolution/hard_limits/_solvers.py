@@ -1,9 +1,6 @@
 """The QP backends of :class:`~redres.resolution.QPScheme` (internal): DAQP called
-directly (warm-started through ``daqp.Model``), any other qpsolvers backend through
-:func:`qpsolvers.solve_problem`, and the sequence of QPs of the priority levels.
-
-DAQP (Arnström, Bemporad, Axehill 2022) is given the dense matrices qpsolvers would build:
-the solve takes about a microsecond, qpsolvers' generic conversions about twenty.
+directly (warm-started through ``daqp.Model``; why: :mod:`.qp`), any other qpsolvers
+backend through :func:`qpsolvers.solve_problem`, and the sequence of QPs of the levels.
 """
 
 from __future__ import annotations
@@ -42,18 +39,6 @@ def backend(solver: str) -> Any:
     return qpsolvers
 
 
-def check_daqp_options(daqp: Any, options: dict[str, Any]) -> None:
-    """Refuse settings DAQP does not know (``daqp.Model`` would ignore them silently)."""
-    if not hasattr(daqp, "Model"):
-        return  # daqp.solve raises on unknown keywords itself
-    known = set(daqp.Model().settings)
-    unknown = sorted(set(options) - known)
-    if unknown:
-        raise InvalidParameterError(
-            f"unknown DAQP setting(s) {unknown}; DAQP's settings are {sorted(known)}"
-        )
-
-
 def sense(n: int, m: int) -> Any:
     """DAQP's constraint flags for ``n`` bounds then ``m`` equality rows."""
     flags = np.zeros(n + m, dtype=np.intc)
@@ -72,9 +57,9 @@ class WarmQP:
 
     Args:
         daqp: the DAQP module.
-        options: DAQP settings (``primal_tol``, ...).
-        data: the first problem: ``H``, ``f``, ``A``, ``bupper``, ``blower`` and ``sense``
-            (DAQP's arguments).
+        options: DAQP settings, already checked (:class:`QPSolver`).
+        data: the first problem: DAQP's arguments ``H``, ``f``, ``A``, ``bupper``,
+            ``blower`` and ``sense``.
     """
 
     def __init__(self, daqp: Any, options: dict[str, Any], **data: Any) -> None:
@@ -83,7 +68,6 @@ class WarmQP:
         if hasattr(daqp, "Model"):
             model = daqp.Model()
             if model.setup(*(data[k] for k in _DAQP_ARGS))[0] >= 0:
-                check_daqp_options(daqp, options)
                 model.settings = dict(options)
                 self._model = model
 
@@ -127,12 +111,14 @@ class QPSolver:
         if self.daqp:
             self.options.setdefault("primal_tol", 1e-10)
         self.module = backend(self.name)
-        if self.daqp:
-            check_daqp_options(self.module, self.options)
-
-    def warm(self, **data: Any) -> WarmQP:
-        """A :class:`WarmQP` of this (DAQP) solver for the problem ``data``."""
-        return WarmQP(self.module, self.options, **data)
+        # daqp.Model would ignore unknown settings silently (daqp.solve refuses them itself)
+        if self.daqp and hasattr(self.module, "Model"):
+            known = set(self.module.Model().settings)
+            unknown = sorted(set(self.options) - known)
+            if unknown:
+                raise InvalidParameterError(
+                    f"unknown DAQP setting(s) {unknown}; DAQP's settings are {sorted(known)}"
+                )
 
     def solve(
         self,
@@ -146,14 +132,10 @@ class QPSolver:
         """The minimiser, or None if the QP is infeasible or the backend failed."""
         n = lo.shape[0]
         if self.daqp:
-            m = 0 if A is None else A.shape[0]
-            bu, bl = np.empty(n + m), np.empty(n + m)
-            bu[:n], bl[:n] = hi, lo
-            if A is not None and b is not None:
-                bu[n:], bl[n:] = b, b
-            else:
-                A = np.zeros((0, n))
-            x, _, flag, _ = self.module.solve(P, c, A, bu, bl, sense(n, m), **self.options)
+            if A is None or b is None:
+                A, b = np.zeros((0, n)), np.zeros(0)
+            bu, bl, flags = np.concatenate([hi, b]), np.concatenate([lo, b]), sense(n, len(b))
+            x, _, flag, _ = self.module.solve(P, c, A, bu, bl, flags, **self.options)
             return x if flag > 0 else None
         problem = self.module.Problem(P, c, None, None, A, b, lo, hi)
         solution = self.module.solve_problem(problem, solver=self.name, **self.options)
@@ -184,8 +166,7 @@ def solve_levels(
         x = qp.solve(eye, -qd0, A, b, lo, hi)
         ok = x is not None
         if x is None:
-            W = task_weights if k == 0 and task_weights is not None else None
-            JW = Jk if W is None else Jk * W[:, None]
+            JW = Jk * task_weights[:, None] if k == 0 and task_weights is not None else Jk
             lam2 = damping**2
             P = JW.T @ Jk + lam2 * eye
             c = -(JW.T @ xk) - lam2 * qd0

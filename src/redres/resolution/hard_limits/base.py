@@ -3,14 +3,14 @@ workspace, the step prologue, the diagnostics and the lazily built list of bindi
 
 A hard-limit step is one compiled call (:mod:`._kernels`): it checks the inputs, builds the
 joint-velocity box of :mod:`.box`, resolves the task inside it and fills preallocated
-rows — ``out`` (q̇, null-space term, lower, upper) and ``codes`` (bound kinds, relaxed,
-active side). Everything a caller may never read (the bindings as namedtuples, the
-singular values of ``J``) is computed on first access.
+rows — ``out`` (q̇, null-space term, lower, upper) and ``codes`` (bound kinds, relaxed).
+Everything a caller may never read (the bindings as namedtuples, the singular values of
+``J``) is computed on first access.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -19,22 +19,16 @@ from numpy.typing import ArrayLike, NDArray
 from ..._validate import FloatArray, as_scalar
 from ...linalg import RCOND, InverseInfo
 from ...linalg._backend import invert
-from ..base import Scheme
+from ..base import Scheme, StepResult
 from ..gradient_projection import WeightedObjective, total_gradient, weighted_objectives
-from ._codes import BOUND_KINDS
-from .box import Binding, JointLimits
+from .box import Binding, JointLimits, binding_bounds
 
 if TYPE_CHECKING:
     from ...registry import ScenarioParams
     from ...robot import Robot
 
-#: Argument names for :func:`~redres.linalg._backend.raise_status` (a step's inputs).
-STEP_NAMES = {
-    "q": "q",
-    "J": "J",
-    "xd": "xd",
-    "grad": "the secondary velocity (objective gradients)",
-}
+#: Argument names for :func:`~redres.linalg._backend.raise_status` other than its own.
+STEP_NAMES = {"grad": "the secondary velocity (objective gradients)"}
 
 
 class Workspace:
@@ -54,32 +48,26 @@ class Workspace:
 
     def outputs(self) -> tuple[FloatArray, NDArray[np.int8], FloatArray]:
         """Fresh per-step outputs: ``out`` (q̇, null term, lower, upper), ``codes`` (bound
-        kinds, relaxed, active side) and ``Jc`` (the kernel's copy of ``J``)."""
+        kinds, relaxed) and ``Jc`` (the kernel's copy of ``J``)."""
         n, m = self.key
-        return np.empty((4, n)), np.empty((4, n), np.int8), np.empty((m, n))
+        return np.empty((4, n)), np.empty((3, n), np.int8), np.empty((m, n))
 
 
 class BindingList(Sequence[Binding]):
-    """The :class:`~redres.resolution.hard_limits.Binding` bounds of a step, built on first
-    access from the kernel's code rows (a list of namedtuples costs microseconds a step;
-    most loops never read it). Compares equal to a list with the same entries."""
+    """The :func:`~redres.resolution.hard_limits.binding_bounds` of a step, built on first
+    access from the kernel's rows (a list of namedtuples costs microseconds a step; most
+    loops never read it). Compares equal to a list with the same entries."""
 
-    __slots__ = ("_codes", "_items", "_relaxed")
+    __slots__ = ("_codes", "_items", "_out")
 
-    def __init__(self, codes: NDArray[np.int8], relaxed: bool) -> None:
-        self._codes, self._relaxed = codes, relaxed
+    def __init__(self, out: FloatArray, codes: NDArray[np.int8]) -> None:
+        self._out, self._codes = out, codes
         self._items: list[Binding] | None = None
 
     def _list(self) -> list[Binding]:
         if self._items is None:
-            codes, relaxed, items = self._codes, self._relaxed, []
-            for j, side in enumerate(codes[3].tolist()):
-                gave_up = relaxed and bool(codes[2, j])
-                if side in (1, 2):
-                    items.append(Binding(j, "upper", BOUND_KINDS[codes[1, j]], gave_up))
-                if side in (-1, 2):
-                    items.append(Binding(j, "lower", BOUND_KINDS[codes[0, j]], gave_up))
-            self._items = items
+            out, codes = self._out, self._codes
+            self._items = binding_bounds(out[0], out[2], out[3], codes[0], codes[1], codes[2])
         return self._items
 
     def __getitem__(self, index: Any) -> Any:
@@ -104,11 +92,6 @@ def step_info(J: FloatArray, method: str) -> InverseInfo:
                    want_pinv=False, want_projector=False).stats  # fmt: skip
     rank = stats.rank
     return InverseInfo(rank, rank == min(J.shape), stats.sigma_min, stats.sigma_max, 0.0, method)
-
-
-def relaxed_joints(codes: NDArray[np.int8], relaxed: int) -> list[int]:
-    """The joints whose box had to give up a limit (``relaxed`` counts them)."""
-    return np.flatnonzero(codes[2]).tolist() if relaxed else []
 
 
 class BoxScheme(Scheme):
@@ -170,3 +153,29 @@ class BoxScheme(Scheme):
             qd0 = (-self.k_null) * total_gradient(robot, q, self.objectives)  # new, C order
         prev = ws.zero if self.qd_prev is None else self.qd_prev
         return ws, qd0, prev
+
+    def _result(
+        self,
+        out: FloatArray,
+        codes: NDArray[np.int8],
+        Jc: FloatArray,
+        feasible: bool,
+        active: int,
+        details: Callable[[], Any],
+    ) -> StepResult:
+        """The step's result from the kernel's rows (``q̇`` also becomes :attr:`qd_prev`);
+        ``info`` and ``details`` are built on first read."""
+        qd = out[0]
+        self.qd_prev = qd.copy()  # the scheme's own copy
+        return StepResult.lazy(
+            qd, lambda: step_info(Jc, self.name), out[1], feasible,
+            BindingList(out, codes) if active else (), details,
+        )  # fmt: skip
+
+
+def box_details(
+    out: FloatArray, codes: NDArray[np.int8], relaxed: int
+) -> tuple[tuple[FloatArray, FloatArray], list[int]]:
+    """The ``bounds`` and ``relaxed`` fields of a step's details: the box and the joints
+    whose box had to give up a limit (``relaxed`` counts them)."""
+    return (out[2], out[3]), np.flatnonzero(codes[2]).tolist() if relaxed else []

@@ -69,11 +69,7 @@ IntArray = NDArray[np.int8]
 
 
 def _limit_array(value: Any, name: str, n: int, *, positive: bool) -> FloatArray:
-    arr = (
-        np.array(np.broadcast_to(np.asarray(value, dtype=float), (n,)))
-        if np.ndim(value) == 0
-        else np.asarray(value, dtype=float).copy()
-    )
+    arr = np.full(n, value, dtype=float) if np.ndim(value) == 0 else np.array(value, dtype=float)
     if arr.shape != (n,):
         raise ShapeError(f"{name} must have shape ({n},) or be a scalar; got shape {arr.shape}")
     if np.isnan(arr).any():
@@ -133,11 +129,9 @@ class JointLimits:
         return cls(
             robot.q_min,
             robot.q_max,
-            robot.qd_max if qd_max is None else _limit_array(qd_max, "qd_max", robot.n,
-                                                              positive=True),
-            robot.qdd_max if qdd_max is None else _limit_array(qdd_max, "qdd_max", robot.n,
-                                                                positive=True),
-        )  # fmt: skip
+            robot.qd_max if qd_max is None else np.asarray(qd_max, dtype=float),
+            robot.qdd_max if qdd_max is None else np.asarray(qdd_max, dtype=float),
+        )  # validated by __post_init__
 
 
 @dataclass(frozen=True)
@@ -172,12 +166,11 @@ class VelocityBounds:
 def braking_velocity(distance: ArrayLike, dt: float, qdd_max: ArrayLike) -> FloatArray:
     """Largest velocity toward a limit ``distance`` away from which the joint can still stop.
 
-    ``v_max(x) = x/(k + 1) + a k/2`` with ``x = distance/dt``, ``a = qdd_max·dt`` and ``k`` the
-    largest integer with ``a k (k + 1)/2 ≤ x`` (module docstring); ``distance/dt`` where
-    ``distance ≤ 0`` or ``qdd_max = inf``. Beyond ``k = 2⁵⁰`` braking steps (distances
-    far beyond any robot's, or ``qdd_max·dt`` underflowing) it is the continuous bound
-    ``√(2 q̈_max·distance)``, which the discrete one equals there to 1e-15: every step
-    ends in a bounded number of operations.
+    The discrete bound ``v_max(x)`` of the module docstring, ``x = distance/dt`` and
+    ``a = qdd_max·dt``; ``x`` where ``distance ≤ 0`` or ``qdd_max = inf``. Beyond
+    ``k = 2⁵⁰`` braking steps (distances far beyond any robot's, or ``qdd_max·dt``
+    underflowing) it is the continuous bound ``√(2 q̈_max·distance)``, which the discrete
+    one equals there to 1e-15: every step ends in a bounded number of operations.
 
     Args:
         distance: distance to the limit, shape ``(n,)`` or scalar, rad (``inf`` allowed).

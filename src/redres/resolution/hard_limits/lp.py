@@ -47,24 +47,16 @@ def largest_scale(J: ArrayLike, xd: ArrayLike, lower: ArrayLike, upper: ArrayLik
         J: task Jacobian, shape ``(m, n)``.
         xd: task velocity, shape ``(m,)``.
         lower, upper: the joint-velocity box, shapes ``(n,)``, rad/s (``lower ≤ upper``).
-
-    Returns:
-        A :class:`ScaleResult` ``(scale, qd, feasible)``.
     """
     J = as_matrix(J, "J")
     m, n = J.shape
     xd = as_vector(xd, "xd", m)
-    lo, hi = _box(lower, upper, n)
-    qd = np.empty(n)
-    method, s = kernels("_lp_kernels").largest_scale(J, xd, lo, hi, qd, False, 0.0)
-    return ScaleResult(float(s), qd, bool(method == LP_SCALED))
-
-
-def _box(lower: ArrayLike, upper: ArrayLike, n: int) -> tuple[FloatArray, FloatArray]:
     lo = np.ascontiguousarray(lower, dtype=float)
     hi = np.ascontiguousarray(upper, dtype=float)
     if lo.shape != (n,) or hi.shape != (n,):
         raise ShapeError(f"lower and upper must have shape ({n},); got {lo.shape}, {hi.shape}")
     if np.isnan(lo).any() or np.isnan(hi).any() or np.any(lo > hi):
         raise ShapeError("lower and upper must be free of NaN with lower <= upper")
-    return lo, hi
+    qd = np.empty(n)
+    method, s = kernels("_lp_kernels").largest_scale(J, xd, lo, hi, qd, False, 0.0)
+    return ScaleResult(float(s), qd, bool(method == LP_SCALED))

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from ... import _jit
 from ..._validate import FloatArray, as_scalar, as_vector, checked_keywords
@@ -58,8 +58,8 @@ from ...tasks import Task, stack
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._compiled import kernels
-from ._solvers import QPSolver, sense, solve_levels
-from .base import STEP_NAMES, BindingList, BoxScheme, Workspace, relaxed_joints, step_info
+from ._solvers import QPSolver, WarmQP, sense, solve_levels
+from .base import STEP_NAMES, BoxScheme, Workspace, box_details
 
 if TYPE_CHECKING:
     from ...robot import Robot
@@ -166,15 +166,15 @@ class QPScheme(BoxScheme):
                                                      self._bl, self._f, w, 1e-6, self._P,
                                                      self._c))  # fmt: skip
         # warm-up calls with full=False: they must not solve with a factor of this J
-        self._end = _jit.entry_point(kq.qp_end, (J, xd, ws.zero, *out[:2], ws.M, ws.wm, False))
-        self._finish = _jit.entry_point(k.epilogue, (J, xd, *out[:2], ws.M, ws.wm, False, False))
+        self._end = _jit.entry_point(kq.qp_end, (J, xd, ws.zero, out[0], ws.M, ws.wm, False))
+        self._finish = _jit.entry_point(k.epilogue, (J, xd, out[0], ws.M, ws.wm, False, False))
         if self._qp.daqp:
-            flags, eye = sense(n, m), np.eye(n)
-            self._exact_qp = self._qp.warm(H=eye, f=self._f, A=J, bupper=self._bu,
-                                           blower=self._bl, sense=flags)  # fmt: skip
-            self._box_qp = self._qp.warm(H=eye, f=self._f, A=np.zeros((0, n)),
-                                         bupper=self._bu[:n], blower=self._bl[:n],
-                                         sense=flags[:n])  # fmt: skip
+            flags, eye, daqp, options = sense(n, m), np.eye(n), self._qp.module, self._qp.options
+            self._exact_qp = WarmQP(daqp, options, H=eye, f=self._f, A=J, bupper=self._bu,
+                                    blower=self._bl, sense=flags)  # fmt: skip
+            self._box_qp = WarmQP(daqp, options, H=eye, f=self._f, A=np.zeros((0, n)),
+                                  bupper=self._bu[:n], blower=self._bl[:n],
+                                  sense=flags[:n])  # fmt: skip
         self._ws, self._robot = ws, robot
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
@@ -187,7 +187,7 @@ class QPScheme(BoxScheme):
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
         finished = None
-        if self.levels:
+        if self.levels or not (inside or self._qp.daqp):  # other backends: no warm start
             rows, targets = self._stack(robot, q, J, xd)
             qd, exact, residuals = solve_levels(self._qp, rows, targets, (out[2], out[3]), qd0,
                                                 self.task_weights, self.damping)  # fmt: skip
@@ -195,43 +195,29 @@ class QPScheme(BoxScheme):
         elif inside:
             exact = [True]
         else:
-            met, finished = self._single(J, xd, qd0, out, codes, full)
+            met, finished = self._single(J, xd, qd0, out, full)
             exact = [met]
         if finished is None:
-            finished = self._finish(J, xd, out, codes, ws.M, ws.wm, full, False)
+            finished = self._finish(J, xd, out, ws.M, ws.wm, full, False)
         active, residual = finished
         levels = residuals if self.levels else [residual]
-        qd = out[0]
-        self.qd_prev = qd.copy()  # the scheme's own copy
-        return StepResult.lazy(
-            qd, lambda: step_info(Jc, "qp"), out[1], all(exact),
-            BindingList(codes, relaxed > 0) if active else (),
-            lambda: QPDetails(residual, levels, (out[2], out[3]),
-                              relaxed_joints(codes, relaxed), self.solver),
+        return self._result(
+            out, codes, Jc, all(exact), active,
+            lambda: QPDetails(residual, levels, *box_details(out, codes, relaxed), self.solver),
         )  # fmt: skip
 
     def _single(
-        self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray,
-        codes: NDArray[np.int8], full: bool,
-    ) -> tuple[bool, tuple[int, float] | None]:  # fmt: skip
-        """One level, bounds active: the exact QP, else the least-violating one (writes
-        ``out[0]``). Returns whether the task is met exactly, and ``(#active, residual)``
-        when the step is already finished (else None: the caller finishes it).
-
-        After an infeasible step the least-violating QP is solved first: if its residual
-        ``r = ẋ − J q̇`` proves the task infeasible (Farkas: ``rᵀẋ > max over the box of
-        rᵀJ q̇``), the exact QP is skipped — one QP per step in both steady states.
-        """
-        if not self._qp.daqp:
-            qd, exact, _ = solve_levels(self._qp, [J], [xd], (out[2], out[3]), qd0,
-                                        self.task_weights, self.damping)  # fmt: skip
-            out[0] = qd
-            return exact[0], None
+        self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray, full: bool
+    ) -> tuple[bool, tuple[int, float] | None]:
+        """One level, bounds active, DAQP: the exact QP, else the least-violating one (writes
+        ``out[0]``; after an infeasible step, the latter first: module docstring). Returns
+        whether the task is met exactly, and ``(#active, residual)`` when the step is
+        already finished (else None: the caller finishes it)."""
         if self._infeasible_before:
             x = self._least_violating(out)
             if x is not None:
                 ws = self._ws
-                proved, active, residual = self._end(J, xd, x, out, codes, ws.M, ws.wm, full)
+                proved, active, residual = self._end(J, xd, x, out, ws.M, ws.wm, full)
                 if proved:
                     return False, (active, residual)
         x, flag = self._exact_qp.solve(None, self._f, J, self._bu, self._bl)

@@ -19,14 +19,11 @@ joint free (``W = I``) and the null-space velocity ``q̇_N`` equal to the second
 The greedy choice of saturated joints does not always find the largest feasible scale
 (nor a feasible solution whenever one exists; on random boxes it misses in about one
 case in four). So when step 4 is reached, this implementation also solves the linear
-program ``max s  s.t.  J q̇ = s ẋ, lower ≤ q̇ ≤ upper, 0 ≤ s ≤ 1`` exactly (a bounded-
-variable primal simplex with Bland's rule, Dantzig 1963 ch. 18; Chvátal 1983 ch. 8) and
-keeps the SNS solution if its scale is that maximum, the simplex vertex otherwise. The
-returned scale is therefore the largest feasible one (tests check it against a brute-
-force line search). If no scale in ``[0, 1]`` is feasible (the joints cannot change their
-velocities fast enough to move along ``ẋ`` at all), the result is the velocity in the box
-whose task velocity is nearest, in the 1-norm, to the segment ``{s ẋ : 0 ≤ s ≤ 1}``
-(phase 1 of the same simplex), reported as infeasible.
+program of :mod:`.lp` exactly and keeps the SNS solution if its scale is that maximum,
+the simplex vertex otherwise: the returned scale is the largest feasible one (tests check
+it against a brute-force line search). If no scale in ``[0, 1]`` is feasible (the joints
+cannot change their velocities fast enough to move along ``ẋ`` at all), the result is
+the LP's nearest velocity, reported as infeasible.
 
 With objectives the secondary velocity is ``q̇_0 = −k_null Σ wᵢ ∇Dᵢ(q)`` (DESIGN.md convention);
 on the free joints SNS then gives the gradient projection ``q̇_0 + (J W)⁺(ẋ − J q̇_N)``. If
@@ -36,8 +33,6 @@ first).
 References:
     F. Flacco, A. De Luca, O. Khatib, "Control of redundant robots under hard joint
     constraints: saturation in the null space", IEEE Trans. Robotics 31(3) (2015) 637–654.
-    G. B. Dantzig, Linear Programming and Extensions, Princeton, 1963.
-    V. Chvátal, Linear Programming, Freeman, 1983.
 """
 
 from __future__ import annotations
@@ -55,7 +50,7 @@ from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._codes import METHODS, NEAREST
 from ._compiled import kernels
-from .base import STEP_NAMES, BindingList, BoxScheme, Workspace, relaxed_joints, step_info
+from .base import STEP_NAMES, BoxScheme, Workspace, box_details
 
 if TYPE_CHECKING:
     from ...robot import Robot
@@ -84,12 +79,9 @@ class SNSDetails:
 class SNSScheme(BoxScheme):
     """Saturation in the null space (Flacco, De Luca, Khatib 2015) within hard limits.
 
-    Every step the joint-velocity box of
-    :func:`~redres.resolution.hard_limits.velocity_bounds` (position, velocity and
-    acceleration limits over one period) is computed at ``q`` from the velocity of the
-    previous step, and the task is solved inside it by SNS (module docstring). The result
-    never leaves the box, so a run through :func:`redres.control.run` keeps every limit (to
-    rounding) — provided ``dt`` is the loop's period.
+    Each step solves the task inside the box of
+    :func:`~redres.resolution.hard_limits.velocity_bounds` (module docstring), so a run
+    through :func:`redres.control.run` at the period ``dt`` keeps every limit, to rounding.
 
     Args:
         dt: control period, s; must equal the ``dt`` of the loop that applies ``q̇``.
@@ -143,11 +135,7 @@ class SNSScheme(BoxScheme):
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
         s = 0.0 if method == NEAREST else s
-        qd = out[0]
-        self.qd_prev = qd.copy()  # the scheme's own copy
-        return StepResult.lazy(
-            qd, lambda: step_info(Jc, "sns"), out[1], s == 1.0,
-            BindingList(codes, relaxed > 0) if active else (),
-            lambda: SNSDetails(s, METHODS[method], (out[2], out[3]),
-                               relaxed_joints(codes, relaxed)),
+        return self._result(
+            out, codes, Jc, s == 1.0, active,
+            lambda: SNSDetails(s, METHODS[method], *box_details(out, codes, relaxed)),
         )  # fmt: skip
