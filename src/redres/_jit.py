@@ -47,6 +47,7 @@ from typing import Any, ClassVar
 __all__ = [
     "KERNEL_MODULES",
     "cache_dir",
+    "cached",
     "compiled",
     "enabled",
     "entry_point",
@@ -353,6 +354,12 @@ def ready(name: str) -> bool:
         return True
     _compile_behind(name)
     return bool(_state.get("foreground"))
+
+
+def cached(name: str) -> bool:
+    """Whether kernel module ``name`` is compiled into the cache at this stamp (its marker
+    exists); also True when nothing would be cached (kernels disabled, no writable cache)."""
+    return not _ENABLED or cache_dir() is None or _marker(name).exists()
 
 
 def pending(name: str) -> bool:

@@ -134,7 +134,7 @@ def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: in
 
 def _side_process(names: list[str], quiet: bool) -> subprocess.Popen[bytes] | None:
     """Start the hard-limit group in a second process (and drop it from ``names``)."""
-    if "hard limits" not in names:
+    if "hard limits" not in names or all(map(_jit.cached, GROUPS["hard limits"][0])):
         return None
     names.remove("hard limits")
     args = [sys.executable, "-m", "redres._warmup", "--jobs", "1", "hard limits"]
@@ -144,9 +144,13 @@ def _side_process(names: list[str], quiet: bool) -> subprocess.Popen[bytes] | No
 
 
 def _marking(name: str) -> Callable[[], None]:
+    modules, workload = GROUPS[name]
+
     def call() -> None:
-        GROUPS[name][1]()
-        _jit.mark_cached(GROUPS[name][0])
+        if modules and all(map(_jit.cached, modules)):
+            return  # loaded from the cache on first use
+        workload()
+        _jit.mark_cached(modules)
 
     return call
 
