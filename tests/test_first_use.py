@@ -82,7 +82,8 @@ def test_a_cold_process_answers_at_once_and_switches_when_compiled(tmp_path: Pat
 def test_a_loop_that_crosses_the_switch_does_not_jump(tmp_path: Path) -> None:
     """The compiled controller in a loop while its kernels compile behind: the path it
     took each step, and the configurations, against a run compiled up front."""
-    loop = """
+    loop = (
+        """
         import json, time
         import numpy as np
         import redres as rr
@@ -90,7 +91,9 @@ def test_a_loop_that_crosses_the_switch_does_not_jump(tmp_path: Path) -> None:
         from redres.objectives import JointLimitObjective
         from redres.resolution import GradientProjectionScheme
         from redres.tasks import FrameTask
-        """ + _STOP_BEHIND + """
+        """
+        + _STOP_BEHIND
+        + """
         robot = rr.models.panda()
         task = FrameTask()
         scheme = GradientProjectionScheme([JointLimitObjective()], k_null=5.0, damping=0.01)
@@ -113,6 +116,7 @@ def test_a_loop_that_crosses_the_switch_does_not_jump(tmp_path: Path) -> None:
         stop_behind()
         print(json.dumps({"qs": qs, "compiled": compiled}))
         """
+    )
     crossing, _ = _run(loop.replace("STEPS_FIXED", "False"), tmp_path / "behind")
     steps = len(crossing["qs"])
     up_front, _ = _run(
