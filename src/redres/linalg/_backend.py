@@ -302,12 +302,25 @@ def finish(parts: Parts, shape: tuple[int, ...], return_info: bool) -> Result:
     return X, InverseInfo(rank, rank == min(shape), smin, smax, used, method)
 
 
-def as_jacobian(J: Any) -> FloatArray:
-    """``J`` as a finite, non-empty float64 matrix (C order), or a clear error."""
-    arr = as_matrix(J, "J")
+def as_jacobian(J: Any, *, check_finite: bool = True) -> FloatArray:
+    """``J`` as a finite, non-empty float64 matrix (C order), or a clear error.
+
+    ``check_finite=False`` skips the finiteness test for a float64 array passed on to
+    :func:`invert` or :func:`task_inertia`, which make it where they read ``J`` (once).
+    """
+    if check_finite or type(J) is not np.ndarray or J.dtype != np.float64 or J.ndim != 2:
+        arr = as_matrix(J, "J")
+    else:
+        arr = J
     if arr.shape[0] == 0 or arr.shape[1] == 0:
         raise ShapeError(f"J must have at least one row and one column; got {arr.shape}")
     return np.ascontiguousarray(arr)
+
+
+def check_finite(J: FloatArray) -> None:
+    """The kernels' finiteness test of ``J`` for the NumPy paths (same error)."""
+    if not np.isfinite(J).all():
+        raise_status(codes.J_NONFINITE, {})
 
 
 def as_rcond(rcond: Any) -> float:
@@ -415,7 +428,7 @@ def invert(
 ) -> Factored:
     """Shared engine of the matrix functions: ``Factored(J#, N, stats, mode)``.
 
-    ``J`` must already be a validated finite float64 matrix. Outputs not wanted are 0 x 0.
+    ``J`` must be a float64 matrix from :func:`as_jacobian`. Outputs not wanted are 0 x 0.
     """
     m, n = J.shape
     mode, lam, lam_max, eps = parse_damping(damping)
@@ -431,6 +444,7 @@ def invert(
         if status:
             raise_status(status, {"J": "J", "W": weights_name})
         return Factored(Jp, N, Stats(rank, smin, smax, used), mode)
+    check_finite(J)
     factor = weight_factor(wmode, wdiag, wfull, weights_name)
     filt = Filtered(weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
     Jp = unweigh_rows(filt.pinv(), wmode, factor) if want_pinv else EMPTY_2D
@@ -449,8 +463,8 @@ def task_inertia(
     want_pinv: bool,
 ) -> Factored | None:
     """``Factored(Lambda, J_bar, stats, mode)`` from one compiled factorisation
-    of ``J L^-T`` (``M = L L^T``, an already validated ``(n, n)`` matrix), or None when the
-    kernels do not cover this size.
+    of ``J L^-T`` (``J`` from :func:`as_jacobian`, ``M = L L^T`` a validated ``(n, n)``
+    matrix), or None when the kernels do not cover this size.
 
     ``Lambda = (J M^-1 J^T + lambda^2 I)^-1`` and ``J_bar = M^-1 J^T Lambda`` (the inverse
     weighted by ``M``); ``J_bar`` is 0 x 0 unless ``want_pinv``. Errors name ``M``.

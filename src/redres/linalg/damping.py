@@ -73,7 +73,7 @@ def damped_pinv(
     Raises:
         InvalidParameterError: ``damping`` is negative.
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     parts = be.matrix_inverse(A, damping=damping, rcond=be.as_rcond(rcond), exact_label="pinv")
     return be.finish(parts, A.shape, return_info)
 
@@ -127,6 +127,6 @@ def adaptive_damped_pinv(
         ``J#``, shape ``(n, m)`` (and the info).
     """
     spec = AdaptiveDamping(max_damping, threshold, selective)
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     parts = be.matrix_inverse(A, damping=spec, rcond=be.as_rcond(rcond))
     return be.finish(parts, A.shape, return_info)

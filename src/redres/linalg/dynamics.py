@@ -80,7 +80,7 @@ def _decompose(
     """``(Lambda, J_bar, J, stats, method)``: from the compiled kernel (one factorisation
     of ``J L^-T``) within the kernels' sizes, else from :func:`_decompose_svd`.
     ``J_bar`` is 0 x 0 unless ``want_pinv``."""
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     n = A.shape[1]
     Mm = as_matrix(M, "M", (n, n))
     rc = be.as_rcond(rcond)
@@ -107,6 +107,7 @@ def _decompose_svd(
 ) -> tuple[FloatArray, FloatArray, FloatArray, be.Stats, str]:
     """The reference path (any size; also the oracle of the kernel in the tests): one
     LAPACK SVD of ``J L^-T``."""
+    be.check_finite(A)
     m, n = A.shape
     L = mass_matrix_factor(M, n)
     mode, lam, lam_max, eps = be.parse_damping(damping)

@@ -95,7 +95,7 @@ def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False)
     Raises:
         ShapeError: if ``m > n`` (use :func:`left_pinv` or :func:`pinv`).
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     if A.shape[0] > A.shape[1]:
         raise ShapeError(
             f"right_pinv needs a wide J (m <= n); got shape {A.shape}. "
@@ -130,7 +130,7 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
     Raises:
         ShapeError: if ``m < n`` (use :func:`right_pinv` or :func:`pinv`).
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     if A.shape[0] < A.shape[1]:
         raise ShapeError(
             f"left_pinv needs a tall J (m >= n); got shape {A.shape}. "
@@ -162,7 +162,7 @@ def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = Fa
     Raises:
         ShapeError: if ``J`` is not square.
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     if A.shape[0] != A.shape[1]:
         raise ShapeError(f"square_inverse needs a square J; got shape {A.shape}. Use pinv.")
     parts = be.matrix_inverse(A, rcond=be.as_rcond(rcond), exact_label="square")
@@ -212,7 +212,7 @@ def weighted_pinv(
         NotPositiveDefiniteError: ``W`` is not symmetric positive definite.
         NonFiniteError: ``J`` or ``W`` contains NaN or infinity.
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     parts = be.matrix_inverse(A, weights=W, damping=damping, rcond=be.as_rcond(rcond))
     return be.finish(parts, A.shape, return_info)
 
@@ -253,7 +253,7 @@ def generalized_inverse(
     Returns:
         The inverse, shape ``(n, m)`` (and the info).
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     m, n = A.shape
     rc = be.as_rcond(rcond)
     if weights is not None or be.parse_damping(damping)[0] != 0:
