@@ -54,20 +54,14 @@ def mass_matrix_factor(M: ArrayLike, n: int) -> FloatArray:
         NonFiniteError: ``M`` contains NaN or infinity.
         NotPositiveDefiniteError: ``M`` is not symmetric or not positive definite.
     """
-    A = as_matrix(M, "M", (n, n))
-    biggest = float(np.abs(A).max())
-    if float(np.abs(A - A.T).max()) > 1e-9 * biggest:
-        raise NotPositiveDefiniteError(
-            "M must be a symmetric positive definite mass matrix; it is not symmetric "
-            "(fill both triangles, or use (M + M.T) / 2 if the asymmetry is rounding)"
-        )
     try:
-        return np.asarray(np.linalg.cholesky(A), dtype=np.float64)
-    except np.linalg.LinAlgError as exc:
-        raise NotPositiveDefiniteError(
-            "M must be a symmetric positive definite mass matrix; its Cholesky "
-            "factorisation failed (a zero or negative inertia, or dependent rows)"
-        ) from exc
+        return be.weight_factor(codes.FULL, be.EMPTY_1D, as_matrix(M, "M", (n, n)), "M")
+    except NotPositiveDefiniteError as exc:
+        raise _not_a_mass_matrix(exc) from exc
+
+
+def _not_a_mass_matrix(exc: NotPositiveDefiniteError) -> NotPositiveDefiniteError:
+    return NotPositiveDefiniteError(f"M must be a symmetric positive definite mass matrix ({exc})")
 
 
 def _decompose(
@@ -87,9 +81,7 @@ def _decompose(
     try:
         parts = be.task_inertia(A, Mm, damping=damping, rcond=rc, want_pinv=want_pinv)
     except NotPositiveDefiniteError as exc:
-        raise NotPositiveDefiniteError(
-            f"M must be a symmetric positive definite mass matrix ({exc})"
-        ) from exc
+        raise _not_a_mass_matrix(exc) from exc
     if parts is None:
         return _decompose_svd(A, Mm, damping, rc)
     Lam, J_bar, stats, mode = parts
