@@ -65,8 +65,7 @@ def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Re
     """
     A = be.as_jacobian(J)
     filt = be.Filtered(A, 0, 0.0, 0.0, 1.0, be.as_rcond(rcond))
-    stats = be.Stats(filt.rank, filt.sigma_min, filt.sigma_max, 0.0)
-    return be.finish((filt.pinv(), stats, "pinv"), A.shape, return_info)
+    return be.finish((filt.pinv(), filt.stats, "pinv"), A.shape, return_info)
 
 
 @overload

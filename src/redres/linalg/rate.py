@@ -182,7 +182,7 @@ def _general_step(
         if status:
             be.raise_status(status, _NAMES)
     else:
-        qd, null, rank, smin, smax, used = _numpy_step(
+        qd, null, (rank, smin, smax, used) = _numpy_step(
             J, xd, grad, k, wmode, wdiag, wfull, (mode, lam, lam_max, eps, rc)
         )
     full = rank == min(m, n)
@@ -234,9 +234,9 @@ def _numpy_step(
     wdiag: FloatArray,
     wfull: FloatArray,
     spec: tuple[int, float, float, float, float],
-) -> tuple[FloatArray, FloatArray, int, float, float, float]:
+) -> tuple[FloatArray, FloatArray, be.Stats]:
     """Reference implementation of the step (any size), same conventions as the kernel:
-    ``(qd, null_term, rank, sigma_min, sigma_max, damping)``."""
+    ``(qd, null_term, stats)``."""
     for arr, name in ((J, "J"), (xd, "xd"), (grad, "grad")):
         if not np.isfinite(arr).all():
             raise NonFiniteError(f"{name} contains NaN or infinity")
@@ -249,5 +249,4 @@ def _numpy_step(
         null = -k * filt.project(be.weigh_up(grad, wmode, factor))
     qd = be.unweigh_rows(task + null, wmode, factor)
     null = be.unweigh_rows(null, wmode, factor)
-    return (np.ascontiguousarray(qd), np.ascontiguousarray(null), filt.rank, filt.sigma_min,
-            filt.sigma_max, filt.damping)  # fmt: skip
+    return np.ascontiguousarray(qd), np.ascontiguousarray(null), filt.stats
