@@ -1,9 +1,8 @@
 """Compiled kernels for the small matrices of robotics (internal).
 
-The public functions of :mod:`redres.linalg` call these for ``m <= 6`` task rows (up to 12
-when ``m <= n``) and ``n <= 50`` joints. They are compiled through
-:mod:`redres._jit` (switch, cache, messages) and imported lazily by
-:mod:`redres.linalg._backend`: ``import redres`` never pays for numba.
+The public functions of :mod:`redres.linalg` call these within the sizes of
+:func:`redres.linalg._backend.use_fast_path`. They are compiled through :mod:`redres._jit`
+and imported lazily by :mod:`redres.linalg._backend`: ``import redres`` never pays for numba.
 
 Every kernel works on a *weighted* Jacobian ``Js = J W^{-1/2}`` (``J L^-T`` for a full
 ``W = L L^T``), divided by its largest entry when that entry is outside ``[1e-100, 1e100]``
@@ -14,11 +13,9 @@ matrix ``A = Js Js^T`` (Householder tridiagonalisation, then Laguerre's method) 
 * well conditioned (``sigma_min >= 1e-3 sigma_max``): ``J# = Js^T (A + lam^2 I)^-1`` by a
   Cholesky solve, a few hundred flops, accurate to ``kappa(A) eps <= 2e-10``; the Gram
   eigenvalues give ``sigma`` to about ``kappa(J)^2 eps <= 2e-10`` relative;
-* near-singular: a one-sided Jacobi SVD (Hestenes 1958) of ``Js``, ``B = G Js`` with
-  orthogonal rows ``sigma_i v_i^T``: ``J# = B^T diag(d) G`` and ``J# J = B^T diag(d) B``
-  with ``d_i = 1 / (sigma_i^2 + lam_i^2)``, or ``1 / sigma_i^2`` above the rank tolerance
-  and ``0`` below it when no damping applies. Its singular values are accurate even when
-  tiny, so the rank and ``sigma_min`` reported near a singularity are those of the SVD.
+* near-singular: a one-sided Jacobi SVD (Hestenes 1958) of ``Js`` (:func:`_core` gives
+  the formulas), whose singular values are accurate even when tiny, so the rank and
+  ``sigma_min`` reported near a singularity are those of the SVD.
 
 Status codes (returned first by each kernel, turned into errors by the caller) name the
 offending argument; the kernels never raise. The small helpers live in
@@ -77,11 +74,8 @@ _CHOLESKY_MIN_RATIO = 1e-3
 
 @kernel
 def _damping_squared(sigma, dmode, lam, lam_max, eps):  # type: ignore[no-untyped-def]
-    """Damping lambda^2 for a singular value ``sigma`` (unscaled units).
-
-    FIXED: lam^2. ADAPTIVE / SELECTIVE: lam_max^2 (1 - (sigma/eps)^2) below eps, else 0
-    (Chiaverini, Siciliano & Egeland 1994; Maciejewski & Klein 1988).
-    """
+    """Damping lambda^2 for a singular value ``sigma`` (unscaled units): FIXED lam^2,
+    ADAPTIVE / SELECTIVE the law of :class:`~redres.linalg.AdaptiveDamping`."""
     if dmode == FIXED:
         return lam * lam
     if dmode == ADAPTIVE or dmode == SELECTIVE:
@@ -102,8 +96,9 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, work):  # type: i
       ``J# = Js^T C^-T C^-1 / s``;
     * otherwise Js is overwritten with ``B = G Js`` (orthogonal rows ``sigma_i v_i^T``), C
       with the rotation ``G`` and ``dvec`` with the filter ``d``: ``J# = B^T diag(d) G / s``
-      and ``J# J = B^T diag(d) B``. Using B itself, not ``G Js``, keeps the tiny rows of the
-      near-singular directions accurate to their own size.
+      and ``J# J = B^T diag(d) B``, ``d_i = 1 / (sigma_i^2 + lam_i^2)``, or, undamped,
+      ``1 / sigma_i^2`` above the rank tolerance and 0 below. Using B itself, not ``G Js``,
+      keeps the tiny rows of the near-singular directions accurate to their own size.
 
     Singular values and damping are in the units of the unscaled matrix. ``work`` is
     scratch space of at least ``2 m^2 + 4 m`` floats; ``dvec`` has length m.

@@ -8,12 +8,9 @@ With ``M`` the joint-space inertia (seed 004 calls it ``A``)::
 
 where the null-space torque ``(I - J^T J_bar^T) tau_0`` produces no task acceleration:
 ``J M^-1 (I - J^T J_bar^T) = 0`` (seed 004, appendix B). ``J_bar`` is the weighted
-pseudo-inverse with ``W = M`` (the inverse that minimises kinetic energy), and it is
-computed the same way: ``M = L L^T`` by Cholesky, ``J_bar = L^-T (J L^-T)^+`` and
-``Lambda = (J L^-T (J L^-T)^T)^+`` from one factorisation of ``J L^-T`` — triangular
-solves only, never an explicit ``M^-1``. For ``m <= 6`` task rows (12 when ``m <= n``)
-and ``n <= 50`` joints this is one compiled kernel call (the weighted inverse's,
-``W = M``); larger problems use LAPACK's SVD.
+pseudo-inverse with ``W = M`` (the inverse that minimises kinetic energy), computed as
+:func:`~redres.linalg.weighted_pinv` is (in the same kernel), with ``Lambda =
+(J L^-T (J L^-T)^T)^+`` from the same factorisation of ``J L^-T`` (``M = L L^T``).
 
 Near a singularity ``J M^-1 J^T`` loses rank and ``Lambda`` grows without bound. With
 ``damping = lambda`` the functions use ``Lambda_lambda = (J M^-1 J^T + lambda^2 I)^-1``
@@ -120,8 +117,7 @@ def _decompose_svd(
     Lam = (U * g) @ U.T
     Lam = 0.5 * (Lam + Lam.T)
     J_bar = solve_triangular(L, (Vt[:k].T * f) @ U[:, :k].T, lower=True, trans="T")
-    smin = float(sigma[-1]) if m <= n else float(sigma[k - 1])
-    stats = be.Stats(rank, smin, float(sigma[0]), used)
+    stats = be.Stats(rank, float(sigma[-1]), float(sigma[0]), used)
     return Lam, np.asarray(J_bar), A, stats, _method(mode)
 
 

@@ -79,9 +79,8 @@ def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False)
 
     The minimum-norm solution of ``J qd = xd`` (seeds 000, 001, 002), with ``J J_r^+ = I``.
     Computed by a Cholesky solve when ``J`` is well conditioned and from the SVD otherwise
-    (the same matrix, without squaring the condition number). If ``J`` is rank-deficient
-    (``J J^T`` singular) the truncated SVD pseudo-inverse is returned instead, with
-    ``info.full_rank == False`` and ``info.method == "pinv"``.
+    (the same matrix, without squaring the condition number); a rank-deficient ``J``
+    gives the truncated SVD pseudo-inverse (module docstring).
 
     Args:
         J: Jacobian, shape ``(m, n)`` with ``m <= n``.
@@ -115,8 +114,7 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
 
     The least-squares solution of an over-constrained ``J qd = xd``: it minimises
     ``||xd - J qd||^2`` and ``J_l^+ J = I`` (seed 002, "Left Pseudo-inverse"). Computed as
-    the transpose of the right pseudo-inverse of ``J^T``; a rank-deficient ``J`` gives the
-    truncated SVD pseudo-inverse, reported in the info.
+    the transpose of the right pseudo-inverse of ``J^T`` (so rank-deficient alike).
 
     Args:
         J: Jacobian, shape ``(m, n)`` with ``m >= n``.
@@ -145,10 +143,8 @@ def square_inverse(
 @overload
 def square_inverse(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
 def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
-    """Inverse ``J^-1`` of a square Jacobian (seed 002, "Square Jacobians").
-
-    A singular ``J`` gives the truncated SVD pseudo-inverse instead (finite, reported with
-    ``info.full_rank == False``), never an error or NaN.
+    """Inverse ``J^-1`` of a square Jacobian (seed 002, "Square Jacobians"); a singular
+    ``J`` gives the truncated SVD pseudo-inverse (module docstring).
 
     Args:
         J: Jacobian, shape ``(n, n)``.
@@ -237,8 +233,7 @@ def generalized_inverse(
     * ``weights`` given: :func:`weighted_pinv` (damped if ``damping`` is set);
     * ``damping`` set: :func:`redres.linalg.damped_pinv` / ``adaptive_damped_pinv``;
     * otherwise square -> :func:`square_inverse`, wide -> :func:`right_pinv`,
-      tall -> :func:`left_pinv`; any of them falls back to the truncated SVD pseudo-inverse
-      (:func:`pinv`) when ``J`` is rank-deficient.
+      tall -> :func:`left_pinv`.
 
     ``info.method`` (with ``return_info=True``) says which one was used.
 

@@ -9,8 +9,7 @@ with ``J#`` the exact, damped, adaptively damped or weighted inverse selected by
 options, ``N`` the projector *of that same inverse*, and diagnostics of the inverse, all
 from one factorisation. ``D(q)`` is a cost to minimise (DESIGN.md convention), so
 ``-k_null grad D`` is a descent direction; a quantity to maximise is passed as its
-negative. For ``m <= 6`` task rows (12 when ``m <= n``) and ``n <= 50`` joints the whole
-step is one compiled kernel call.
+negative. Within the kernels' sizes the whole step is one compiled kernel call.
 """
 
 from __future__ import annotations
@@ -86,9 +85,8 @@ def rate_step(
     * exact inverse (default): ``N`` is the orthogonal null-space projector, ``J N = 0``,
       and the secondary term leaves the task untouched (seed 000 eq. 6);
     * damped (``damping = lambda``): ``qd`` is the exact minimiser of
-      ``||J qd - xd||^2 + lambda^2 ||qd + k_null grad||^2``; ``||J N|| <= lambda/2``, so the
-      secondary term may disturb the task by at most that much, and nothing jumps where
-      the rank changes (see :mod:`redres.linalg.projectors`);
+      ``||J qd - xd||^2 + lambda^2 ||qd + k_null grad||^2``; the secondary term may
+      disturb the task by ``||J N|| <= lambda/2`` (see :mod:`redres.linalg.projectors`);
     * adaptive (``damping = AdaptiveDamping(...)``): exact away from singularities,
       damped near them;
     * weighted (``weights = W``): ``J# = J_W^+`` and ``N = I - J_W^+ J``; ``qd`` minimises
