@@ -23,7 +23,6 @@ from numpy.typing import ArrayLike
 from .._validate import as_scalar
 from ..errors import NonFiniteError, ShapeError
 from . import _backend as be
-from . import _codes as codes
 from ._backend import FloatArray
 from ._info import RCOND, AdaptiveDamping, InverseInfo
 
@@ -141,13 +140,12 @@ def rate_step(
                 status, rank, full, smin, smax, used, mode = lane(  # type: ignore[operator]
                     Ja, xa, ga, qd, null, k_null, damping, rcond
                 )
-            except TypeError:  # a scalar that is not a number: the general path says which
+            except TypeError:  # a scalar that is not a number
                 status = -1
             if not status:
                 info = _new_tuple(InverseInfo, (rank, full, smin, smax, used, _LABELS[mode]))
                 return _new_tuple(RateStep, (qd, info, null if return_null else None))
-            if status > 0:
-                _raise_for_status(status, Ja, xa, ga, grad is not None, k_null, damping, rcond)
+            # else bad input: the general path finds it again and raises the error naming it
     qd, info, null = _general_step(Ja, xa, ga, grad is not None, k_null, damping, weights, rcond)
     return _new_tuple(RateStep, (qd, info, null if return_null else None))
 
@@ -167,7 +165,7 @@ def _general_step(
     m, n = J.shape
     if J.size == 0 or xd.shape != (m,) or (has_grad and grad.shape != (n,)):
         _raise_shape(J, xd, grad, has_grad)
-    k, rc = _scalars(k_null, rcond)
+    k, rc = as_scalar(k_null, "k_null"), be.as_rcond(rcond)
     mode, lam, lam_max, eps = be.parse_damping(damping)
     wmode, wdiag, wfull = be.parse_weights(weights, n, "weights")
     labels = _LABELS if weights is None else _WEIGHTED_LABELS
@@ -185,31 +183,6 @@ def _general_step(
         )
     full = rank == min(m, n)
     return qd, InverseInfo(rank, full, smin, smax, used, labels[mode]), null
-
-
-def _scalars(k_null: Any, rcond: Any) -> tuple[float, float]:
-    """Validated ``(k_null, rcond)``."""
-    return as_scalar(k_null, "k_null"), as_scalar(rcond, "rcond", minimum=0.0)
-
-
-def _raise_for_status(
-    status: int,
-    J: FloatArray,
-    xd: FloatArray,
-    grad: FloatArray,
-    has_grad: bool,
-    k_null: Any,
-    damping: Any,
-    rcond: Any,
-) -> None:
-    """Turn a fast-lane status into the error of the general path (same messages)."""
-    if status in (codes.J_EMPTY, codes.XD_SHAPE, codes.GRAD_SHAPE):
-        _raise_shape(J, xd, grad, has_grad)
-    if status in (codes.K_NONFINITE, codes.RCOND_NONFINITE, codes.RCOND_NEGATIVE):
-        _scalars(k_null, rcond)
-    if status in (codes.DAMPING_NONFINITE, codes.DAMPING_NEGATIVE):
-        be.parse_damping(damping)
-    be.raise_status(status, _NAMES)
 
 
 def _raise_shape(J: FloatArray, xd: FloatArray, grad: FloatArray, has_grad: bool) -> None:
