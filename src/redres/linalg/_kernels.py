@@ -34,19 +34,15 @@ import numpy as np
 from .._jit import kernel
 from ._codes import (
     ADAPTIVE,
-    DAMPING_NEGATIVE,
-    DAMPING_NONFINITE,
     EXACT,
     FIXED,
     GRAD_NONFINITE,
     GRAD_SHAPE,
     J_EMPTY,
     J_NONFINITE,
-    K_NONFINITE,
     NO_WEIGHTS,
     OK,
-    RCOND_NEGATIVE,
-    RCOND_NONFINITE,
+    SCALAR_INVALID,
     SELECTIVE,
     XD_NONFINITE,
     XD_SHAPE,
@@ -294,22 +290,16 @@ def step(J, xd, grad, out, null, k_null, damping, rcond):  # type: ignore[no-unt
 
     ``qd = J# xd - k_null (I - J# J) grad``; ``grad`` of length 0 means no secondary
     objective; ``null`` of length n receives the secondary part (length 0: not wanted).
-    Scalars are validated here. Returns
+    Scalars are checked here (any fault: ``SCALAR_INVALID``). Returns
     ``(status, rank, full_rank, sigma_min, sigma_max, damping, mode)``.
     """
     m, n = J.shape
     if m == 0 or n == 0:
         return J_EMPTY, 0, False, 0.0, 0.0, 0.0, EXACT
-    if k_null * 0.0 != 0.0:
-        return K_NONFINITE, 0, False, 0.0, 0.0, 0.0, EXACT
-    if damping * 0.0 != 0.0:
-        return DAMPING_NONFINITE, 0, False, 0.0, 0.0, 0.0, EXACT
-    if damping < 0.0:
-        return DAMPING_NEGATIVE, 0, False, 0.0, 0.0, 0.0, EXACT
-    if rcond * 0.0 != 0.0:
-        return RCOND_NONFINITE, 0, False, 0.0, 0.0, 0.0, EXACT
-    if rcond < 0.0:
-        return RCOND_NEGATIVE, 0, False, 0.0, 0.0, 0.0, EXACT
+    # x * 0 is NaN exactly for NaN or infinity (a sum that overflows is refused too: the
+    # caller's general path then accepts it)
+    if (k_null + damping + rcond) * 0.0 != 0.0 or not (damping >= 0.0 and rcond >= 0.0):
+        return SCALAR_INVALID, 0, False, 0.0, 0.0, 0.0, EXACT
     mode = FIXED if damping > 0.0 else EXACT
     status, rank, smin, smax, used = _step(
         J, xd, grad, out, null, k_null, NO_WEIGHTS, xd[:0], J[:0, :0], mode, damping, 0.0, 1.0,
