@@ -177,8 +177,6 @@ def raise_status(status: int, names: dict[str, str]) -> None:
     if status in _NONFINITE:
         key = _NONFINITE[status]
         raise NonFiniteError(f"{names.get(key, key)} contains NaN or infinity")
-    if status == codes.J_EMPTY:
-        raise ShapeError(f"{names.get('J', 'J')} must have at least one row and one column")
     w = names.get("W", "W")
     if status == codes.W_NOT_SPD:
         raise NotPositiveDefiniteError(

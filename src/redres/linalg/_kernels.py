@@ -195,8 +195,10 @@ def _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec):  # type: ign
 def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
     """``out <- J# xd - k_null (I - J# J) grad``; ``(status, rank, smin, smax, damping)``.
 
-    When ``null`` has length n it receives the secondary part ``out - J# xd`` (the
-    null-space term), from the same factorisation; pass a length-0 array otherwise.
+    Any weights (``wmode`` selects ``wdiag`` (n,) or ``W`` (n, n); the other may be empty)
+    and damping mode; ``J`` non-empty and the scalars validated by the caller. When
+    ``null`` has length n it receives the secondary part ``out - J# xd`` (the null-space
+    term), from the same factorisation; pass a length-0 array otherwise.
     """
     m, n = J.shape
     has_grad = grad.shape[0] > 0
@@ -306,19 +308,6 @@ def step(J, xd, grad, out, null, k_null, damping, rcond):  # type: ignore[no-unt
         rcond,
     )  # fmt: skip
     return status, rank, rank == min(m, n), smin, smax, used, mode
-
-
-@kernel
-def step_general(J, xd, grad, wdiag, W, out, null, k_null, wmode, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
-    """Rate step with any weights and damping mode (scalars validated by the caller).
-
-    ``wmode`` selects ``wdiag`` (n,) or ``W`` (n, n); the other may be empty; ``null`` as
-    for :func:`step`. Returns ``(status, rank, sigma_min, sigma_max, damping)``.
-    """
-    m, n = J.shape
-    if m == 0 or n == 0:
-        return J_EMPTY, 0, 0.0, 0.0, 0.0
-    return _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond)
 
 
 @kernel

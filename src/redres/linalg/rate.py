@@ -172,8 +172,8 @@ def _general_step(
     kern = be.use_fast_path(m, n)
     if kern is not None:
         qd, null = np.empty(n), np.empty(n)
-        status, rank, smin, smax, used = kern.step_general(
-            J, xd, grad, wdiag, wfull, qd, null, k, wmode, mode, lam, lam_max, eps, rc
+        status, rank, smin, smax, used = kern._step(
+            J, xd, grad, qd, null, k, wmode, wdiag, wfull, mode, lam, lam_max, eps, rc
         )
         if status:
             be.raise_status(status, _NAMES)
