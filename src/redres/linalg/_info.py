@@ -57,11 +57,7 @@ class InverseInfo(NamedTuple):
 
     @property
     def condition(self) -> float:
-        """Condition number ``sigma_max / sigma_min``, capped at ``1 / eps`` (~4.5e15).
-
-        The cap stands for "numerically singular" and keeps the value finite (see
-        :func:`redres.linalg.condition_number`).
-        """
+        """``sigma_max / sigma_min``, capped as :func:`redres.linalg.condition_number` is."""
         return condition_from(self.sigma_max, self.sigma_min)
 
 
