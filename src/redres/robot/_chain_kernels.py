@@ -3,19 +3,20 @@
 The chain is the arrays :class:`redres.robot.chain.SerialChain` extracts once from a
 Pinocchio model, for ``k`` joints from the base to a frame:
 
-- ``placements`` ``(k, 3, 4)``: ``[R | p]`` of joint ``j`` in its parent joint
-  (Pinocchio ``model.jointPlacements``);
+- ``links`` ``(k + 1, 3, 4)``: ``[R | p]`` of joint ``j`` in its parent joint
+  (Pinocchio ``model.jointPlacements``), then, last, the frame's fixed placement in the
+  last joint (``T_tool``);
 - ``axes`` ``(k, 3)``: the joint axis in the joint's own frame (unit vector);
-- ``kinds`` ``(k,)``: :data:`REVOLUTE_X` … :data:`PRISMATIC`;
-- ``tool`` ``(3, 4)``: the frame's fixed placement in the last joint.
+- ``kinds`` ``(k,)``: :data:`REVOLUTE_X` … :data:`PRISMATIC`.
 
 Forward kinematics is the product of exponentials in Pinocchio's form (Siciliano,
 Sciavicco, Villani, Oriolo, *Robotics*, 2009, §2.8; Featherstone 2008, §4.1)::
 
-    T_0f = Π_j  X_j · exp(q_j [a_j])  ·  T_tool,     exp(θ[a]) = Rot(a, θ)  or  Trans(a θ)
+    T_0f = (Π_{j<k} X_j · exp(q_j [a_j])) · T_tool,    X_j = links[j],  T_tool = links[k],
+    exp(θ [a]) = Rot(a, θ) (revolute)  or  Trans(a θ) (prismatic)
 
-with ``Rot(a, θ) = I cos θ + sin θ [a]× + (1 − cos θ) a aᵀ`` (Rodrigues), and only two
-columns of the running rotation touched when ``a`` is a coordinate axis.
+with ``Rot(a, θ) = I cos θ + sin θ [a]× + (1 − cos θ) a aᵀ`` (Rodrigues); when ``a``
+is a coordinate axis only two columns of the running rotation change.
 
 The geometric Jacobian of the frame origin ``p`` (Siciliano et al. 2009, §3.1.3, eq. 3.30),
 world-aligned, column ``j`` with world axis ``z_j = R_0j a_j`` and joint origin ``p_j``::
@@ -104,82 +105,85 @@ def log3(R, out):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _compose(T, X):  # type: ignore[no-untyped-def]
-    """``T[:3] <- T[:3] · X`` for a pose ``T`` (its 3x4 block) and a 3x4 ``X = [R | p]``."""
-    for i in range(3):
-        r0, r1, r2 = T[i, 0], T[i, 1], T[i, 2]
-        T[i, 3] += r0 * X[0, 3] + r1 * X[1, 3] + r2 * X[2, 3]
-        for col in range(3):
-            T[i, col] = r0 * X[0, col] + r1 * X[1, col] + r2 * X[2, col]
+def _chain_pass(links, axes, kinds, q, T, J, columns):  # type: ignore[no-untyped-def]
+    """``T`` (4x4) <- the frame's pose; when ``columns``, ``J[:, j]`` <- ``[p_j; z_j]``
+    for a revolute and ``[z_j; 0]`` for a prismatic joint ``j`` (module docstring).
 
-
-@kernel
-def _move(T, kind, a, x):  # type: ignore[no-untyped-def]
-    """``T[:3] <- T[:3] · exp(x [a])``: turn about, or slide along, axis ``a`` by ``x``."""
-    if kind == PRISMATIC:
-        for i in range(3):
-            T[i, 3] += x * (T[i, 0] * a[0] + T[i, 1] * a[1] + T[i, 2] * a[2])
-        return
-    c, s = math.cos(x), math.sin(x)
-    if kind == REVOLUTE:
-        v = 1.0 - c
-        ax, ay, az = a[0], a[1], a[2]
-        k00, k01, k02 = c + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay
-        k10, k11, k12 = v * ay * ax + s * az, c + v * ay * ay, v * ay * az - s * ax
-        k20, k21, k22 = v * az * ax - s * ay, v * az * ay + s * ax, c + v * az * az
-        for i in range(3):
-            r0, r1, r2 = T[i, 0], T[i, 1], T[i, 2]
-            T[i, 0] = r0 * k00 + r1 * k10 + r2 * k20
-            T[i, 1] = r0 * k01 + r1 * k11 + r2 * k21
-            T[i, 2] = r0 * k02 + r1 * k12 + r2 * k22
-        return
-    # About a coordinate axis: columns (u, v) of R turn into (c u + s v, c v - s u).
-    first, second = (1, 2) if kind == REVOLUTE_X else ((2, 0) if kind == REVOLUTE_Y else (0, 1))
-    for i in range(3):
-        u, w = T[i, first], T[i, second]
-        T[i, first] = c * u + s * w
-        T[i, second] = c * w - s * u
-
-
-@kernel
-def _start(T):  # type: ignore[no-untyped-def]
+    One body without calls (a call per joint, or choosing between two arrays, costs more
+    than the arithmetic): ``T[:3] <- T[:3] · links[j]``, then the joint's motion, which
+    for a coordinate axis turns two columns ``(u, v)`` of R into ``(c u + s v, c v − s u)``.
+    """
     for i in range(4):
         for col in range(4):
             T[i, col] = 1.0 if i == col else 0.0
+    k = kinds.shape[0]
+    for j in range(k + 1):
+        X = links[j]
+        for i in range(3):
+            r0, r1, r2 = T[i, 0], T[i, 1], T[i, 2]
+            T[i, 3] += r0 * X[0, 3] + r1 * X[1, 3] + r2 * X[2, 3]
+            T[i, 0] = r0 * X[0, 0] + r1 * X[1, 0] + r2 * X[2, 0]
+            T[i, 1] = r0 * X[0, 1] + r1 * X[1, 1] + r2 * X[2, 1]
+            T[i, 2] = r0 * X[0, 2] + r1 * X[1, 2] + r2 * X[2, 2]
+        if j == k:
+            return
+        kind, x = kinds[j], q[j]
+        ax, ay, az = axes[j, 0], axes[j, 1], axes[j, 2]
+        if kind == PRISMATIC:
+            for i in range(3):
+                T[i, 3] += x * (T[i, 0] * ax + T[i, 1] * ay + T[i, 2] * az)
+        else:
+            c, s = math.cos(x), math.sin(x)
+            if kind == REVOLUTE_Z:
+                for i in range(3):
+                    u, w = T[i, 0], T[i, 1]
+                    T[i, 0] = c * u + s * w
+                    T[i, 1] = c * w - s * u
+            elif kind == REVOLUTE_X:
+                for i in range(3):
+                    u, w = T[i, 1], T[i, 2]
+                    T[i, 1] = c * u + s * w
+                    T[i, 2] = c * w - s * u
+            elif kind == REVOLUTE_Y:
+                for i in range(3):
+                    u, w = T[i, 2], T[i, 0]
+                    T[i, 2] = c * u + s * w
+                    T[i, 0] = c * w - s * u
+            else:  # R <- R · Rot(a, x), Rodrigues
+                v = 1.0 - c
+                k00, k01, k02 = c + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay
+                k10, k11, k12 = v * ay * ax + s * az, c + v * ay * ay, v * ay * az - s * ax
+                k20, k21, k22 = v * az * ax - s * ay, v * az * ay + s * ax, c + v * az * az
+                for i in range(3):
+                    r0, r1, r2 = T[i, 0], T[i, 1], T[i, 2]
+                    T[i, 0] = r0 * k00 + r1 * k10 + r2 * k20
+                    T[i, 1] = r0 * k01 + r1 * k11 + r2 * k21
+                    T[i, 2] = r0 * k02 + r1 * k12 + r2 * k22
+        if columns:
+            for i in range(3):
+                z = T[i, 0] * ax + T[i, 1] * ay + T[i, 2] * az
+                if kind == PRISMATIC:
+                    J[i, j] = z
+                    J[i + 3, j] = 0.0
+                else:
+                    J[i, j] = T[i, 3]  # the joint origin, until the frame origin is known
+                    J[i + 3, j] = z
 
 
 @kernel
-def fk(placements, axes, kinds, tool, q, T):  # type: ignore[no-untyped-def]
+def fk(links, axes, kinds, q, T):  # type: ignore[no-untyped-def]
     """``T`` (4x4) <- pose of the frame in the world at configuration ``q`` (module
     docstring); ``q`` holds at least ``k`` values, one per joint in chain order."""
-    _start(T)
-    for j in range(kinds.shape[0]):
-        _compose(T, placements[j])
-        _move(T, kinds[j], axes[j], q[j])
-    _compose(T, tool)
+    _chain_pass(links, axes, kinds, q, T, T, False)
 
 
 @kernel
-def jacobian(placements, axes, kinds, tool, q, local, T, J):  # type: ignore[no-untyped-def]
+def jacobian(links, axes, kinds, q, local, T, J):  # type: ignore[no-untyped-def]
     """``T`` (4x4) <- the frame's pose and ``J`` (6 x n, n >= k) <- its geometric
     Jacobian, rows ``[v; ω]``: world-aligned, or in the frame's own axes when ``local``
     (module docstring). Columns past the chain's ``k`` joints are zero."""
-    _start(T)
+    _chain_pass(links, axes, kinds, q, T, J, True)
     k = kinds.shape[0]
-    for j in range(k):
-        _compose(T, placements[j])
-        kind = kinds[j]
-        a = axes[j]
-        _move(T, kind, a, q[j])
-        for i in range(3):
-            z = T[i, 0] * a[0] + T[i, 1] * a[1] + T[i, 2] * a[2]
-            if kind == PRISMATIC:
-                J[i, j] = z
-                J[i + 3, j] = 0.0
-            else:
-                J[i, j] = T[i, 3]  # the joint origin, until the frame origin is known
-                J[i + 3, j] = z
-    _compose(T, tool)
     px, py, pz = T[0, 3], T[1, 3], T[2, 3]
     for j in range(k):
         if kinds[j] != PRISMATIC:
@@ -200,10 +204,10 @@ def jacobian(placements, axes, kinds, tool, q, local, T, J):  # type: ignore[no-
 
 
 @kernel
-def pose_error(placements, axes, kinds, tool, q, target, T, J, e):  # type: ignore[no-untyped-def]
+def pose_error(links, axes, kinds, q, target, T, J, e):  # type: ignore[no-untyped-def]
     """:func:`jacobian` (world-aligned) and ``e`` (6) <- the frame task's error
     ``[p_d − p; log(R_d Rᵀ)]`` against the pose ``target`` (4x4, or its 3x4 block)."""
-    jacobian(placements, axes, kinds, tool, q, False, T, J)
+    jacobian(links, axes, kinds, q, False, T, J)
     for i in range(3):
         e[i] = target[i, 3] - T[i, 3]
     # M = R_d Rᵀ, entry (i, j) = row i of R_d · row j of R.

@@ -116,27 +116,28 @@ class SerialChain:
         path = _path(model, frame_id, self.frame)
         codes = _kind_codes()
         k = len(path)
-        placements = np.empty((k, 3, 4))
+        links = np.empty((k + 1, 3, 4))
         axes = np.empty((k, 3))
         kinds = np.empty(k, dtype=np.int64)
         for row, j in enumerate(path):
             joint = model.joints[j]
             kind = _JOINT_KINDS[joint.shortname()]
-            placements[row] = model.jointPlacements[j].homogeneous[:3]
+            links[row] = model.jointPlacements[j].homogeneous[:3]
             axes[row] = _axis(joint, kind)
             kinds[row] = codes[kind]
+        links[k] = placement.placement.homogeneous[:3]
         self.joints = tuple(str(model.names[j]) for j in path)
-        tool = np.ascontiguousarray(placement.placement.homogeneous[:3])
-        for array in (placements, axes, kinds, tool):
+        for array in (links, axes, kinds):
             array.flags.writeable = False
-        self._arrays = (placements, axes, kinds, tool)
+        self._arrays = (links, axes, kinds)
 
     # ------------------------------------------------------------------ kernels
     @property
-    def arrays(self) -> tuple[FloatArray, FloatArray, Any, FloatArray]:
-        """``(placements (k, 3, 4), axes (k, 3), kinds (k,) int64, tool (3, 4))``: the
-        leading arguments of every kernel of :mod:`redres.robot._chain_kernels`
-        (read-only, C-contiguous)."""
+    def arrays(self) -> tuple[FloatArray, FloatArray, Any]:
+        """``(links (k + 1, 3, 4), axes (k, 3), kinds (k,) int64)``: the joint placements
+        in their parents and, last, the frame's in its joint; the joint axes; the joint
+        kinds. The leading arguments of every kernel of
+        :mod:`redres.robot._chain_kernels` (read-only, C-contiguous)."""
         return self._arrays
 
     @staticmethod
@@ -145,9 +146,9 @@ class SerialChain:
         arrays, ``kinds`` int64 and ``local`` a bool (the plain-Python function when
         ``REDRES_DISABLE_JIT=1``). Signatures, writing into the last arguments::
 
-            fk(placements, axes, kinds, tool, q, T)
-            jacobian(placements, axes, kinds, tool, q, local, T, J)
-            pose_error(placements, axes, kinds, tool, q, target, T, J, e)
+            fk(links, axes, kinds, q, T)
+            jacobian(links, axes, kinds, q, local, T, J)
+            pose_error(links, axes, kinds, q, target, T, J, e)
             log3(R, out)
 
         with ``q (n,)``, ``T (4, 4)``, ``J (6, n)``, ``target (4, 4)``, ``e (6,)``,
@@ -301,7 +302,7 @@ def _entry(name: str) -> Any:
     entry = _ENTRIES.get(name)
     if entry is None:
         module = _module()
-        chain = (np.zeros((1, 3, 4)), np.eye(3)[2:], np.array([2], dtype=np.int64), np.eye(4)[:3])
+        chain = (np.zeros((2, 3, 4)), np.eye(3)[2:], np.array([2], dtype=np.int64))
         for array in chain:  # the types of SerialChain.arrays, read-only
             array.flags.writeable = False
         q, T, J, e = np.zeros(1), np.zeros((4, 4)), np.zeros((6, 1)), np.zeros(6)
