@@ -303,6 +303,8 @@ def test_pose_error_equals_the_frame_task(rng: np.random.Generator) -> None:
             task.set_target(target)
             state = task.compute(robot, q)
             result = robot.chain().pose_error(q, target)
+            unchecked = robot.chain().pose_error(q, target, validate=False)
+            close(unchecked.error, result.error, "unchecked target")
             close(result.error, state.error, "error")
             close(result.jacobian, state.jacobian, "Jacobian")
             close(result.pose, robot.fk(q), "pose")
@@ -331,8 +333,13 @@ def test_outputs_are_written_in_place_and_checked(rng: np.random.Generator) -> N
         chain.jacobian(q, out=np.empty((6, 6)))
     with pytest.raises(ShapeError, match="C-contiguous"):
         chain.jacobian(q, out=np.empty((7, 6)).T)
-    with pytest.raises(NonFiniteError, match="q"):
-        chain.fk(np.full(7, np.nan))
+    for call in (chain.fk, chain.jacobian, lambda q: chain.pose_error(q, np.eye(4))):
+        with pytest.raises(NonFiniteError, match="q contains NaN or infinity"):
+            call(np.array([0.0, 1.0, np.inf, 0.0, 0.0, 0.0, 0.0]))
+        with pytest.raises(NonFiniteError, match="q contains NaN or infinity"):
+            call([0.0, 1.0, 0.0, 0.0, 0.0, 0.0, np.nan])
+    with pytest.raises(ShapeError, match="T_target"):
+        chain.pose_error(q, np.eye(3), validate=False)
     with pytest.raises(ShapeError, match="q"):
         chain.fk(np.zeros(6))
     with pytest.raises(ValueError, match="reference must be 'world' or 'local'"):
@@ -349,8 +356,13 @@ def test_the_raw_kernels_take_the_chain_arrays(rng: np.random.Generator) -> None
     chain.kernel("jacobian")(*chain.arrays, q, True, T, J)
     close(J, robot.jacobian(q, reference="local"), "local")
     target = robot.fk(robot.random_configuration(rng))
-    chain.kernel("pose_error")(*chain.arrays, q, target, T, J, e)
+    assert chain.kernel("pose_error")(*chain.arrays, q, target, T, J, e)
     close(e, chain.pose_error(q, target).error, "pose error")
+    # Every entry of q is checked, also those of joints past the frame.
+    q[6] = np.nan
+    assert not chain.kernel("fk")(*chain.arrays, q, T)
+    with pytest.raises(NonFiniteError):
+        robot.chain("link2").jacobian(q)
 
 
 def plain_python_kernels(monkeypatch: pytest.MonkeyPatch) -> ModuleType:

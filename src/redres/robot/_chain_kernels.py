@@ -108,11 +108,15 @@ def log3(R, out):  # type: ignore[no-untyped-def]
 def _chain_pass(links, axes, kinds, q, T, J, columns):  # type: ignore[no-untyped-def]
     """``T`` (4x4) <- the frame's pose; when ``columns``, ``J[:, j]`` <- ``[p_j; z_j]``
     for a revolute and ``[z_j; 0]`` for a prismatic joint ``j`` (module docstring).
+    Returns whether every entry of ``q`` is finite (``x · 0`` is 0 but for NaN and ±inf).
 
     One body without calls (a call per joint, or choosing between two arrays, costs more
     than the arithmetic): ``T[:3] <- T[:3] · links[j]``, then the joint's motion, which
     for a coordinate axis turns two columns ``(u, v)`` of R into ``(c u + s v, c v − s u)``.
     """
+    nonfinite = 0.0
+    for x in q:
+        nonfinite += x * 0.0
     for i in range(4):
         for col in range(4):
             T[i, col] = 1.0 if i == col else 0.0
@@ -126,7 +130,7 @@ def _chain_pass(links, axes, kinds, q, T, J, columns):  # type: ignore[no-untype
             T[i, 1] = r0 * X[0, 1] + r1 * X[1, 1] + r2 * X[2, 1]
             T[i, 2] = r0 * X[0, 2] + r1 * X[1, 2] + r2 * X[2, 2]
         if j == k:
-            return
+            break
         kind, x = kinds[j], q[j]
         ax, ay, az = axes[j, 0], axes[j, 1], axes[j, 2]
         if kind == PRISMATIC:
@@ -168,21 +172,24 @@ def _chain_pass(links, axes, kinds, q, T, J, columns):  # type: ignore[no-untype
                 else:
                     J[i, j] = T[i, 3]  # the joint origin, until the frame origin is known
                     J[i + 3, j] = z
+    return nonfinite == 0.0
 
 
 @kernel
 def fk(links, axes, kinds, q, T):  # type: ignore[no-untyped-def]
     """``T`` (4x4) <- pose of the frame in the world at configuration ``q`` (module
-    docstring); ``q`` holds at least ``k`` values, one per joint in chain order."""
-    _chain_pass(links, axes, kinds, q, T, T, False)
+    docstring); ``q`` holds at least ``k`` values, one per joint in chain order. Returns
+    False when ``q`` holds NaN or ±inf (then ``T`` is meaningless)."""
+    return _chain_pass(links, axes, kinds, q, T, T, False)
 
 
 @kernel
 def jacobian(links, axes, kinds, q, local, T, J):  # type: ignore[no-untyped-def]
     """``T`` (4x4) <- the frame's pose and ``J`` (6 x n, n >= k) <- its geometric
     Jacobian, rows ``[v; ω]``: world-aligned, or in the frame's own axes when ``local``
-    (module docstring). Columns past the chain's ``k`` joints are zero."""
-    _chain_pass(links, axes, kinds, q, T, J, True)
+    (module docstring). Columns past the chain's ``k`` joints are zero. Returns False
+    when ``q`` holds NaN or ±inf."""
+    finite = _chain_pass(links, axes, kinds, q, T, J, True)
     k = kinds.shape[0]
     px, py, pz = T[0, 3], T[1, 3], T[2, 3]
     for j in range(k):
@@ -201,13 +208,15 @@ def jacobian(links, axes, kinds, q, local, T, J):  # type: ignore[no-untyped-def
                 x, y, z = J[half, j], J[half + 1, j], J[half + 2, j]
                 for i in range(3):
                     J[half + i, j] = T[0, i] * x + T[1, i] * y + T[2, i] * z
+    return finite
 
 
 @kernel
 def pose_error(links, axes, kinds, q, target, T, J, e):  # type: ignore[no-untyped-def]
     """:func:`jacobian` (world-aligned) and ``e`` (6) <- the frame task's error
-    ``[p_d − p; log(R_d Rᵀ)]`` against the pose ``target`` (4x4, or its 3x4 block)."""
-    jacobian(links, axes, kinds, q, False, T, J)
+    ``[p_d − p; log(R_d Rᵀ)]`` against the pose ``target`` (4x4, or its 3x4 block).
+    Returns False when ``q`` holds NaN or ±inf."""
+    finite = jacobian(links, axes, kinds, q, False, T, J)
     for i in range(3):
         e[i] = target[i, 3] - T[i, 3]
     # M = R_d Rᵀ, entry (i, j) = row i of R_d · row j of R.
@@ -225,6 +234,7 @@ def pose_error(links, axes, kinds, q, target, T, J, e):  # type: ignore[no-untyp
     e[3] = x
     e[4] = y
     e[5] = z
+    return finite
 
 
 @kernel

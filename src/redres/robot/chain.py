@@ -32,7 +32,13 @@ import pinocchio as pin
 
 from .. import _jit
 from .._validate import FloatArray, as_transform, as_vector
-from ..errors import InvalidParameterError, MissingDependencyError, RedresError, ShapeError
+from ..errors import (
+    InvalidParameterError,
+    MissingDependencyError,
+    NonFiniteError,
+    RedresError,
+    ShapeError,
+)
 from .robot import Reference
 
 __all__ = ["ChainPoseError", "NotSerialChainError", "SerialChain"]
@@ -152,7 +158,8 @@ class SerialChain:
             log3(R, out)
 
         with ``q (n,)``, ``T (4, 4)``, ``J (6, n)``, ``target (4, 4)``, ``e (6,)``,
-        ``R (3, 3)``, ``out (3,)``. Nothing is checked: pass valid arrays.
+        ``R (3, 3)``, ``out (3,)``. The first three return False when ``q`` holds NaN or
+        ±inf (the one check they make); shapes and types are not checked.
         """
         return _entry(name)
 
@@ -161,7 +168,9 @@ class SerialChain:
         """Pose of the frame in the world, ``(4, 4)``, at ``q`` ``(n,)`` (= Pinocchio
         ``oMf``); written into ``out`` when given."""
         T = _output(out, (4, 4), "out")
-        _entry("fk")(*self._arrays, self._q(q), T)
+        qv = self._q(q)
+        if not _entry("fk")(*self._arrays, qv, T):
+            _nonfinite(qv)
         return T
 
     def jacobian(
@@ -186,23 +195,47 @@ class SerialChain:
             raise InvalidParameterError(f"reference must be 'world' or 'local'; got {reference!r}")
         T = _output(pose, (4, 4), "pose")
         J = _output(jacobian, (6, self.n), "jacobian")
-        _entry("jacobian")(*self._arrays, self._q(q), reference == "local", T, J)
+        qv = self._q(q)
+        if not _entry("jacobian")(*self._arrays, qv, reference == "local", T, J):
+            _nonfinite(qv)
         return T, J
 
-    def pose_error(self, q: Any, T_target: Any) -> ChainPoseError:
+    def pose_error(self, q: Any, T_target: Any, *, validate: bool = True) -> ChainPoseError:
         """Pose, world-aligned Jacobian and the frame task's error against ``T_target``
         (4x4, world): ``[p_d − p; log(R_d Rᵀ)]`` (docs/conventions.md, the error of
-        :class:`redres.tasks.FrameTask`)."""
-        target = np.ascontiguousarray(as_transform(T_target, "T_target"))
+        :class:`redres.tasks.FrameTask`). ``validate=False`` skips the checks of
+        ``T_target`` (finite, homogeneous, a rotation block; about 10 µs) for loops
+        whose targets are already checked; its shape is always checked."""
+        if validate:
+            target = np.ascontiguousarray(as_transform(T_target, "T_target"))
+        else:
+            target = np.ascontiguousarray(T_target, dtype=np.float64)
+            if target.shape != (4, 4):
+                raise ShapeError(f"T_target must have shape (4, 4); got shape {target.shape}")
         T, J, e = np.empty((4, 4)), np.empty((6, self.n)), np.empty(6)
-        _entry("pose_error")(*self._arrays, self._q(q), target, T, J, e)
+        qv = self._q(q)
+        if not _entry("pose_error")(*self._arrays, qv, target, T, J, e):
+            _nonfinite(qv)
         return ChainPoseError(T, J, e)
 
     def __repr__(self) -> str:
         return f"SerialChain(frame={self.frame!r}, joints={len(self.joints)}, n={self.n})"
 
     def _q(self, q: Any) -> FloatArray:
+        """``q`` as a C-contiguous float64 vector of size ``n``; its finiteness is checked
+        by the kernels (they return False), not here."""
+        if (
+            type(q) is np.ndarray
+            and q.dtype == np.float64
+            and q.shape == (self.n,)
+            and q.flags.c_contiguous
+        ):
+            return q
         return np.ascontiguousarray(as_vector(q, "q", self.n))
+
+
+def _nonfinite(q: FloatArray) -> None:
+    raise NonFiniteError(f"q contains NaN or infinity: {q}")
 
 
 def log3(R: Any) -> FloatArray:
