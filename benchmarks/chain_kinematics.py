@@ -11,6 +11,10 @@ For the Panda (TCP) and the iiwa 14 (flange), times one call that yields the tip
   ``Robot.placement_jacobian`` does for ``reference="world"``);
 * ``robot.fk(q)`` + ``robot.jacobian(q)`` and ``robot.kinematics(q)`` (public API).
 
+A second table gives the kernel's cost where the fused step and compiled IK will call
+it, inside compiled code (a numba loop of calls, no Python between them), and the checked
+``pose_error`` call.
+
 All results are checked equal (1e-12) before timing. Cases are interleaved in every round
 (``_common.interleaved``) and the table gives the median per call and each case's time
 divided by the compiled kernel's (> 1: the kernel is faster), with the load average.
@@ -23,6 +27,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -90,6 +95,49 @@ def measure(arm: str, rounds: int, batch: int) -> dict[str, float]:
     return {name: median(values) for name, values in samples.items()}
 
 
+def in_compiled_code(arm: str, calls: int = 200_000) -> tuple[float, float]:
+    """µs per call of the ``jacobian`` and ``pose_error`` kernels from a compiled loop
+    (best of 5 loops: the least disturbed by the rest of the machine)."""
+    import numba
+
+    from redres import _jit
+
+    kernels = _jit.load("redres.robot._chain_kernels")
+    assert kernels is not None
+    jacobian, pose_error = kernels.jacobian, kernels.pose_error  # what compiled code calls
+    robot = rr.models.load(arm)
+    links, axes, kinds = robot.chain().arrays
+    q = robot.random_configuration(np.random.default_rng(7))
+    target = robot.fk(robot.random_configuration(np.random.default_rng(8)))
+    T, J, e = np.empty((4, 4)), np.empty((6, robot.n)), np.empty(6)
+
+    @numba.njit  # type: ignore[misc]
+    def jacobian_loop(links, axes, kinds, q, T, J, calls):  # type: ignore[no-untyped-def]
+        for _ in range(calls):
+            q[0] += 1e-12  # a new configuration every call
+            jacobian(links, axes, kinds, q, False, T, J)
+
+    @numba.njit  # type: ignore[misc]
+    def error_loop(links, axes, kinds, q, target, T, J, e, calls):  # type: ignore[no-untyped-def]
+        for _ in range(calls):
+            q[0] += 1e-12
+            pose_error(links, axes, kinds, q, target, T, J, e)
+
+    def best(run: Callable[[int], object]) -> float:
+        run(10)
+        times = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            run(calls)
+            times.append((time.perf_counter() - t0) / calls * 1e6)
+        return min(times)
+
+    return (
+        best(lambda c: jacobian_loop(links, axes, kinds, q, T, J, c)),
+        best(lambda c: error_loop(links, axes, kinds, q, target, T, J, e, c)),
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="few rounds (a smoke run)")
@@ -114,6 +162,17 @@ def main() -> None:
         f"{'/'.join(f'{v:.2f}' for v in load_after)} after.\n"
     )
     print(table(headers, rows))
+    compiled = {arm: in_compiled_code(arm) for arm in ARMS}
+    print("\nInside compiled code (a numba loop of calls; best of 5 x 200,000), µs per call:\n")
+    print(
+        table(
+            ["kernel", *ARMS],
+            [
+                ["jacobian (pose + world Jacobian)", *(f"{compiled[a][0]:.3f}" for a in ARMS)],
+                ["pose_error (pose + Jacobian + error)", *(f"{compiled[a][1]:.3f}" for a in ARMS)],
+            ],
+        )
+    )
 
 
 if __name__ == "__main__":
