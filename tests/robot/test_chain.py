@@ -6,7 +6,9 @@ that are not serial chains; the SO(3) logarithm near 0 and π; the frame task's 
 
 from __future__ import annotations
 
+import copy
 import importlib.util
+import pickle
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
@@ -345,6 +347,9 @@ def test_outputs_are_written_in_place_and_checked(rng: np.random.Generator) -> N
     with pytest.raises(ValueError, match="reference must be 'world' or 'local'"):
         chain.kinematics(q, "base")  # type: ignore[arg-type]
     assert robot.chain() is chain  # cached
+    for copied in (pickle.loads(pickle.dumps(robot)).chain(), copy.deepcopy(chain)):
+        assert not copied.arrays[0].flags.writeable
+        close(copied.jacobian(q), robot.jacobian(q), "copy")
 
 
 def test_the_raw_kernels_take_the_chain_arrays(rng: np.random.Generator) -> None:

@@ -9,8 +9,10 @@ Pinocchio model, for ``k`` joints from the base to a frame:
 - ``axes`` ``(k, 3)``: the joint axis in the joint's own frame (unit vector);
 - ``kinds`` ``(k,)``: :data:`REVOLUTE_X` … :data:`PRISMATIC`.
 
-Forward kinematics is the product of exponentials in Pinocchio's form (Siciliano,
-Sciavicco, Villani, Oriolo, *Robotics*, 2009, §2.8; Featherstone 2008, §4.1)::
+Forward kinematics is the product of the homogeneous transforms along the chain
+(Siciliano, Sciavicco, Villani, Oriolo, *Robotics*, 2009, ch. 2, direct kinematics), in
+the form Pinocchio composes them (``oMi = oMparent · jointPlacement · M_joint(q)``;
+Carpentier et al., "The Pinocchio C++ library", 2019)::
 
     T_0f = (Π_{j<k} X_j · exp(q_j [a_j])) · T_tool,    X_j = links[j],  T_tool = links[k],
     exp(θ [a]) = Rot(a, θ) (revolute)  or  Trans(a θ) (prismatic)
@@ -18,7 +20,7 @@ Sciavicco, Villani, Oriolo, *Robotics*, 2009, §2.8; Featherstone 2008, §4.1)::
 with ``Rot(a, θ) = I cos θ + sin θ [a]× + (1 − cos θ) a aᵀ`` (Rodrigues); when ``a``
 is a coordinate axis only two columns of the running rotation change.
 
-The geometric Jacobian of the frame origin ``p`` (Siciliano et al. 2009, §3.1.3, eq. 3.30),
+The geometric Jacobian of the frame origin ``p`` (Siciliano et al. 2009, §3.1.3),
 world-aligned, column ``j`` with world axis ``z_j = R_0j a_j`` and joint origin ``p_j``::
 
     revolute:  [z_j × (p − p_j); z_j]        prismatic:  [z_j; 0]
@@ -52,7 +54,7 @@ def _rotation_log(m00, m01, m02, m10, m11, m12, m20, m21, m22):  # type: ignore[
     """The rotation vector ``θ u = log(M)`` of a rotation matrix ``M`` (entries ``mij``).
 
     Sola, Deray, Atchuthan, "A micro Lie theory for state estimation in robotics", 2018,
-    eqs. (141)–(143): with ``w = vee(M − Mᵀ) = 2 sin θ u`` and ``cos θ = (tr M − 1)/2``,
+    the logarithmic map of SO(3): with ``w = vee(M − Mᵀ) = 2 sin θ u`` and ``cos θ = (tr M − 1)/2``,
     ``θ = atan2(|w|/2, cos θ)`` is accurate at every angle, and ``log M = θ/(2 sin θ) w``.
     The axis from ``w`` has an absolute error of about ``ε / sin θ``; the symmetric part
     ``(M + Mᵀ)/2 = cos θ I + (1 − cos θ) u uᵀ`` gives it with an error of about

@@ -116,8 +116,7 @@ class SerialChain:
 
     def __init__(self, model: pin.Model, frame: str | int) -> None:
         frame_id = _frame_index(model, frame)
-        placement = model.frames[frame_id]
-        self.frame = str(placement.name)
+        self.frame = str(model.frames[frame_id].name)
         self.n = int(model.nv)
         path = _path(model, frame_id, self.frame)
         codes = _kind_codes()
@@ -131,7 +130,7 @@ class SerialChain:
             links[row] = model.jointPlacements[j].homogeneous[:3]
             axes[row] = _axis(joint, kind)
             kinds[row] = codes[kind]
-        links[k] = placement.placement.homogeneous[:3]
+        links[k] = model.frames[frame_id].placement.homogeneous[:3]
         self.joints = tuple(str(model.names[j]) for j in path)
         for array in (links, axes, kinds):
             array.flags.writeable = False
@@ -217,6 +216,12 @@ class SerialChain:
         if not _entry("pose_error")(*self._arrays, qv, target, T, J, e):
             _nonfinite(qv)
         return ChainPoseError(T, J, e)
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        # Copies and pickles come back writeable: keep the kernels' read-only types.
+        self.__dict__.update(state)
+        for array in self._arrays:
+            array.flags.writeable = False
 
     def __repr__(self) -> str:
         return f"SerialChain(frame={self.frame!r}, joints={len(self.joints)}, n={self.n})"
