@@ -67,6 +67,7 @@ KERNEL_MODULES: tuple[str, ...] = (
     "redres.linalg._kernels",
     "redres.control._kernels",
     "redres.robot._kernels",
+    "redres.robot._chain_kernels",
     "redres.resolution.hard_limits._kernels",
     "redres.resolution.hard_limits._lp_kernels",
     "redres.resolution.hard_limits._qp_kernels",

@@ -21,6 +21,7 @@ from .derivatives import revolute_jacobian_derivatives
 
 if TYPE_CHECKING:
     from .capsules import Capsule
+    from .chain import SerialChain
     from .dh import DHLink
 
 Reference = Literal["world", "local"]
@@ -83,6 +84,7 @@ class Robot:
         self._tau_max = np.abs(np.array(model.upperEffortLimit, dtype=float))
         self._qdd_max = np.full(n, np.inf) if qdd_max is None else _limit_vector(qdd_max, n)
         self._frame_ids: dict[str, int] = {}
+        self._chains: dict[int, SerialChain] = {}
         self._refresh_frames()
         self._all_revolute = all(
             j.shortname()
@@ -272,6 +274,23 @@ class Robot:
                 f"unknown frame {frame!r} on robot {self.name!r}; valid frames: "
                 f"{', '.join(self._frame_ids)}"
             ) from None
+
+    def chain(self, frame: str | None = None) -> SerialChain:
+        """Compiled kinematics of the chain from the base to ``frame`` (default: tip):
+        pose, Jacobians and pose error without Pinocchio calls, equal to :meth:`fk` and
+        :meth:`jacobian` (:mod:`redres.robot.chain`). Built on first use, then cached.
+
+        Raises:
+            NotSerialChainError: the model is not a serial chain of revolute and
+                prismatic joints up to ``frame`` (use :meth:`fk` and :meth:`jacobian`).
+        """
+        fid = self.frame_id(frame)
+        found = self._chains.get(fid)
+        if found is None:
+            from .chain import SerialChain
+
+            found = self._chains[fid] = SerialChain(self.model, fid)
+        return found
 
     def add_frame(self, name: str, parent: str, T_parent_frame: Any) -> None:
         """Add a frame rigidly attached to ``parent`` at pose ``T_parent_frame`` (4x4)."""
