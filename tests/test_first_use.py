@@ -24,11 +24,15 @@ pytestmark = pytest.mark.skipif(not _jit.enabled(), reason="the compiled kernels
 LINALG = "redres.linalg._kernels"
 
 
+def _script(*parts: str) -> str:
+    return "\n".join(textwrap.dedent(part) for part in parts)
+
+
 def _run(code: str, cache: Path, policy: str = "background", timeout: float = 600) -> Any:
     """Run ``code`` in a fresh process on ``cache``; it prints one JSON line last."""
     env = {**os.environ, "REDRES_CACHE_DIR": str(cache), "REDRES_COMPILE": policy}
     proc = subprocess.run(
-        [sys.executable, "-c", textwrap.dedent(code)],
+        [sys.executable, "-c", code],
         capture_output=True, text=True, env=env, timeout=timeout,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
@@ -46,14 +50,15 @@ def stop_behind():
 
 def test_a_cold_process_answers_at_once_and_switches_when_compiled(tmp_path: Path) -> None:
     out, err = _run(
-        """
+        _script(
+            """
         import json, sys, time
         import numpy as np
         import redres as rr
         import redres._jit as jit
-        """
-        + _STOP_BEHIND
-        + """
+        """,
+            _STOP_BEHIND,
+            """
         J = rr.models.panda().jacobian(rr.models.panda().neutral())
         first = rr.linalg.damped_pinv(J, 0.01)
         numba_at_first = "numba" in sys.modules
@@ -70,6 +75,7 @@ def test_a_cold_process_answers_at_once_and_switches_when_compiled(tmp_path: Pat
                           "hits": hits, "misses": misses,
                           "diff": float(np.abs(first - after).max())}))
         """,
+        ),
         tmp_path,
     )
     assert "compiling kernels in a background process" in err
@@ -82,7 +88,7 @@ def test_a_cold_process_answers_at_once_and_switches_when_compiled(tmp_path: Pat
 def test_a_loop_that_crosses_the_switch_does_not_jump(tmp_path: Path) -> None:
     """The compiled controller in a loop while its kernels compile behind: the path it
     took each step, and the configurations, against a run compiled up front."""
-    loop = (
+    loop = _script(
         """
         import json, time
         import numpy as np
@@ -91,9 +97,9 @@ def test_a_loop_that_crosses_the_switch_does_not_jump(tmp_path: Path) -> None:
         from redres.objectives import JointLimitObjective
         from redres.resolution import GradientProjectionScheme
         from redres.tasks import FrameTask
+        """,
+        _STOP_BEHIND,
         """
-        + _STOP_BEHIND
-        + """
         robot = rr.models.panda()
         task = FrameTask()
         scheme = GradientProjectionScheme([JointLimitObjective()], k_null=5.0, damping=0.01)
@@ -115,7 +121,7 @@ def test_a_loop_that_crosses_the_switch_does_not_jump(tmp_path: Path) -> None:
                 break
         stop_behind()
         print(json.dumps({"qs": qs, "compiled": compiled}))
-        """
+        """,
     )
     crossing, _ = _run(loop.replace("STEPS_FIXED", "False"), tmp_path / "behind")
     steps = len(crossing["qs"])
@@ -136,7 +142,7 @@ def test_a_loop_that_crosses_the_switch_does_not_jump(tmp_path: Path) -> None:
 
 def test_opting_out_compiles_on_the_callers_path(tmp_path: Path) -> None:
     out, err = _run(
-        """
+        textwrap.dedent("""
         import json, sys
         import numpy as np
         import redres as rr
@@ -144,7 +150,7 @@ def test_opting_out_compiles_on_the_callers_path(tmp_path: Path) -> None:
         rr.linalg.damped_pinv(np.eye(2, 3), 0.1)
         print(json.dumps({"compiled": ("redres.linalg._kernels", True) in jit._modules,
                           "behind": "behind" in jit._state}))
-        """,
+        """),
         tmp_path,
         policy="foreground",
     )
@@ -161,10 +167,12 @@ def test_warmup_fills_the_cache_so_that_a_second_process_compiles_nothing(
         [sys.executable, "-m", "redres", "warmup"],
         capture_output=True, text=True, env=env, timeout=600, check=True,
     )  # fmt: skip
-    groups = [line.split(":")[1].strip() for line in first.stderr.splitlines()]
-    assert groups == ["linalg", "controller", "hard limits", "ik"], first.stderr
+    lines = first.stderr.splitlines()
+    groups = {line.split(":")[1].strip() for line in lines[:-1]}
+    assert groups == {"linalg", "controller", "hard limits", "ik"}, first.stderr
+    assert lines[-1].startswith("redres: warm-up done in"), first.stderr
     out, err = _run(
-        """
+        textwrap.dedent("""
         import json
         import redres._jit as jit
         import redres._warmup as warm
@@ -176,10 +184,10 @@ def test_warmup_fills_the_cache_so_that_a_second_process_compiles_nothing(
             "hits": sum(sum(d.stats.cache_hits.values()) for d in kernels),
             "modules": sorted(jit._state["kernels"]),
         }))
-        """,
+        """),
         tmp_path,
     )
-    assert out["misses"] == 0 and out["hits"] > 10
+    assert out["misses"] == 0 and out["hits"] > 0
     assert set(out["modules"]) == set(_jit.KERNEL_MODULES)
     assert "compiling" not in err
 
@@ -188,7 +196,7 @@ def test_a_background_compile_that_fails_falls_back_to_compiling_on_first_use(
     tmp_path: Path,
 ) -> None:
     out, err = _run(
-        """
+        textwrap.dedent("""
         import json, sys, time
         import numpy as np
         import redres._jit as jit
@@ -200,7 +208,7 @@ def test_a_background_compile_that_fails_falls_back_to_compiling_on_first_use(
             time.sleep(0.1)
         rr.linalg.damped_pinv(np.eye(2, 3), 0.1)
         print(json.dumps({"compiled": ("redres.linalg._kernels", True) in jit._modules}))
-        """,
+        """),
         tmp_path,
     )
     assert "the background compilation failed (it exited with status 1" in err

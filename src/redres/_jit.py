@@ -343,15 +343,15 @@ def ready(name: str) -> bool:
     (``REDRES_COMPILE=foreground``, no writable cache, a failed background compile). Else
     starts (once) the background compilation and returns False until it has cached the
     module; callers keep asking on each call and switch when it says True."""
-    if not _ENABLED or (name, True) in _modules:
-        return True
-    if _state.get("foreground") or cache_dir() is None:
+    found: set[str] = _state.setdefault("ready", set())
+    if not _ENABLED or name in found or _state.get("foreground") or cache_dir() is None:
         return True
     now = time.monotonic()
-    if now < _state.get("next_poll", {}).get(name, 0.0):
+    if now < _state.setdefault("next_poll", {}).get(name, 0.0):
         return False
-    _state.setdefault("next_poll", {})[name] = now + _POLL_SECONDS
-    if _marker(name).exists():
+    _state["next_poll"][name] = now + _POLL_SECONDS
+    if (name, True) in _modules or _marker(name).exists():
+        found.add(name)
         return True
     _compile_behind(name)
     return bool(_state.get("foreground"))
@@ -387,7 +387,7 @@ def _compile_behind(name: str) -> None:
     try:
         with open(_log_file(), "wb") as sink:
             proc = subprocess.Popen(
-                [sys.executable, "-m", "redres._warmup", "--behind", name],
+                [sys.executable, "-m", "redres", "warmup", "--behind", name],
                 stdin=subprocess.DEVNULL, stdout=sink, stderr=sink, env=child_env(),
                 start_new_session=True,
             )  # fmt: skip

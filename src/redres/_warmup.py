@@ -3,7 +3,7 @@ background compilation of :mod:`redres._jit`.
 
 Each *group* is a short workload through the public API (so that it compiles exactly the
 argument types the library's own calls use) and the kernel modules it fills the cache of.
-``python -m redres._warmup --behind MODULE`` is the background process ``redres._jit``
+``redres warmup --behind MODULE`` is the background process :mod:`redres._jit`
 starts on a cold cache: it compiles the group of ``MODULE`` first, then the others, and
 marks each module as cached as soon as its group is done, so that the process that
 started it switches to the compiled path group by group.
@@ -11,7 +11,6 @@ started it switches to the compiled path group by group.
 
 from __future__ import annotations
 
-import argparse
 import os
 import subprocess
 import sys
@@ -45,6 +44,10 @@ def _linalg() -> None:
         linalg.rate_step(J, xd, g, damping=damping, return_null=True)
         linalg.rate_step(J, xd, damping=damping)
     robot.jacobian_derivatives(q)
+    chain = robot.chain()
+    chain.kinematics(q)
+    chain.kinematics(q, "local")
+    chain.pose_error(q, robot.fk(q))
 
 
 def _controller() -> None:
@@ -85,7 +88,8 @@ def _ik() -> None:
 GROUPS: dict[str, tuple[tuple[str, ...], Callable[[], None]]] = {
     "linalg": (
         ("redres.linalg._kernels", "redres.linalg._dense_kernels",
-         "redres.linalg._eigen_kernels", "redres.robot._kernels"),
+         "redres.linalg._eigen_kernels", "redres.robot._kernels",
+         "redres.robot._chain_kernels"),
         _linalg,
     ),
     "controller": (("redres.control._kernels",), _controller),
@@ -121,25 +125,27 @@ def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: in
         raise InvalidParameterError(f"unknown warm-up groups {unknown}; known: {list(GROUPS)}")
     _jit.compile_on_first_use()
     start = time.perf_counter()
-    side = _side_process(names, quiet) if jobs > 1 and len(names) > 1 else None
+    side = _side_process(names) if jobs > 1 and len(names) > 1 else None
     _jit._state["quiet"] = True  # one line per group below instead of one per module
     try:
         _jit.warmup([(name, _marking(name)) for name in names], quiet=quiet)
     finally:
         _jit._state["quiet"] = False
-    if side is not None and side.wait() != 0:
-        raise RuntimeError(f"redres: the warm-up process failed (status {side.returncode})")
+    if side is not None:
+        if side.wait() != 0:
+            raise RuntimeError(f"redres: the warm-up process failed (status {side.returncode})")
+        if not quiet:
+            print(f"redres: hard limits: {time.perf_counter() - start:.1f} s (second process)",
+                  file=sys.stderr, flush=True)  # fmt: skip
     return time.perf_counter() - start
 
 
-def _side_process(names: list[str], quiet: bool) -> subprocess.Popen[bytes] | None:
+def _side_process(names: list[str]) -> subprocess.Popen[bytes] | None:
     """Start the hard-limit group in a second process (and drop it from ``names``)."""
     if "hard limits" not in names or all(map(_jit.cached, GROUPS["hard limits"][0])):
         return None
     names.remove("hard limits")
-    args = [sys.executable, "-m", "redres._warmup", "--jobs", "1", "hard limits"]
-    if quiet:
-        args.insert(3, "--quiet")
+    args = [sys.executable, "-m", "redres", "warmup", "--jobs", "1", "--quiet", "hard limits"]
     return subprocess.Popen(args, stdin=subprocess.DEVNULL, env=_jit.child_env())
 
 
@@ -155,7 +161,7 @@ def _marking(name: str) -> Callable[[], None]:
     return call
 
 
-def _behind(first: str) -> None:
+def behind(first: str) -> None:
     """The background process: the group caching module ``first``, then the rest."""
     if hasattr(os, "nice"):
         os.nice(10)  # the user's process comes first
@@ -164,21 +170,3 @@ def _behind(first: str) -> None:
         warmup(order, quiet=True, jobs=1)
     finally:
         _jit.release_lock()
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m redres._warmup")
-    parser.add_argument("--behind", metavar="MODULE", help="run as the background compiler")
-    parser.add_argument("--quiet", action="store_true", help="print nothing")
-    parser.add_argument("--jobs", type=int, default=2, help="processes to compile in")
-    parser.add_argument("groups", nargs="*", help=f"groups of {list(GROUPS)} (default all)")
-    args = parser.parse_args(argv)
-    if args.behind:
-        _behind(args.behind)
-    else:
-        warmup(args.groups or None, quiet=args.quiet, jobs=args.jobs)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

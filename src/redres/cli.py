@@ -93,8 +93,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_warmup(args: argparse.Namespace) -> int:
     from . import _jit
-    from ._warmup import GROUPS, warmup
+    from ._warmup import GROUPS, behind, warmup
 
+    if args.behind:  # the background compiler of redres._jit
+        behind(args.behind)
+        return 0
     if args.list:
         for name, (modules, _) in GROUPS.items():
             state = (
@@ -102,7 +105,7 @@ def _cmd_warmup(args: argparse.Namespace) -> int:
             )
             print(f"{name:12s} {state:10s} {', '.join(m.removeprefix('redres.') for m in modules)}")
         return 0
-    seconds = warmup(args.groups or None, quiet=args.quiet)
+    seconds = warmup(args.groups or None, quiet=args.quiet, jobs=args.jobs)
     if not args.quiet:
         print(f"redres: warm-up done in {seconds:.1f} s; cached in {_jit.cache_dir()}",
               file=sys.stderr)  # fmt: skip
@@ -165,6 +168,8 @@ def build_parser() -> argparse.ArgumentParser:
     warm.add_argument("groups", nargs="*", help="what to compile (default all; see --list)")
     warm.add_argument("--list", action="store_true", help="list the groups and what is cached")
     warm.add_argument("--quiet", action="store_true", help="print nothing")
+    warm.add_argument("--jobs", type=int, default=2, help="processes to compile in (default 2)")
+    warm.add_argument("--behind", metavar="MODULE", help=argparse.SUPPRESS)
     warm.set_defaults(func=_cmd_warmup)
     bench = sub.add_parser("bench", help="run the control-step benchmark against peers")
     bench.set_defaults(func=_cmd_bench)

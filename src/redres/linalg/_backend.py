@@ -6,8 +6,8 @@ Every inverse of :mod:`redres.linalg` is a *filtered SVD inverse* of the weighte
     Jw = U diag(sigma) V^T,   Jw# = V diag(f) U^T,   J# = L^-T Jw#,
     N = I - J# J = L^-T (I - V diag(sigma f) V^T) L^T
 
-with one filter ``f`` per method (seed 002 for the SVD form; damped least squares of
-Nakamura & Hanafusa 1986 and Wampler 1986 for ``f = sigma / (sigma^2 + lambda^2)``):
+with one filter ``f`` per method (damped least squares of Nakamura & Hanafusa 1986 and
+Wampler 1986 for ``f = sigma / (sigma^2 + lambda^2)``):
 
 * exact: ``f = 1/sigma`` above ``rcond * sigma_max``, ``0`` below (truncated SVD);
 * damped: ``f = sigma / (sigma^2 + lambda^2)`` (equals ``J^T (J J^T + lambda^2 I)^-1``);
@@ -50,17 +50,22 @@ EMPTY_2D: FloatArray = np.zeros((0, 0))
 
 _state: dict[str, Any] = {"enabled": _jit.enabled()}
 
+_LINALG = "redres.linalg._kernels"
 loaded: ModuleType | None = None
 """The kernel module once imported and enabled."""
 
 
 def kernels() -> ModuleType | None:
-    """The compiled kernel module, imported on first use; None if disabled or unavailable."""
+    """The compiled kernel module; None if disabled, unavailable, or compiling behind
+    (NumPy answers meanwhile; the switch, for good, runs the :data:`_on_switch` hooks)."""
     global loaded
     if loaded is not None or not _state["enabled"] or _state.get("failed"):
         return loaded
-    loaded = _jit.load("redres.linalg._kernels")
-    if loaded is None:  # numba missing or broken: keep working on NumPy
+    loaded = _jit.compiled(_LINALG)
+    if loaded is not None:
+        for hook in _on_switch:
+            hook()
+    elif not _jit.pending(_LINALG):  # numba missing or broken: keep working on NumPy
         _state["failed"] = True
         warnings.warn(
             "redres.linalg: compiled kernels unavailable (numba cannot be imported); using NumPy",
@@ -72,8 +77,9 @@ def kernels() -> ModuleType | None:
 
 def entry(module: str, name: str, warm: tuple[Any, ...]) -> Callable[..., Any] | None:
     """The native entry point of kernel ``module.name`` for the types of ``warm``
-    (:func:`redres._jit.entry_point`); None when the kernels are off or unavailable."""
-    if kernels() is None:
+    (:func:`redres._jit.entry_point`; plain Python while it compiles behind); None when
+    the kernels are off or unavailable."""
+    if not _state["enabled"] or _state.get("failed"):
         return None
     kern = _jit.load(module)
     return None if kern is None else _jit.entry_point(getattr(kern, name), warm)
@@ -82,14 +88,15 @@ def entry(module: str, name: str, warm: tuple[Any, ...]) -> Callable[..., Any] |
 def fast_step() -> Callable[..., Any] | None:
     """Native entry point of ``_kernels.step`` (no per-call type dispatch): callers must
     pass float64 C-contiguous arrays (``J`` 2-D, the rest 1-D) and Python floats."""
+    if kernels() is None:
+        return None
     warm = (np.zeros((1, 1)), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0, 0.0)
-    return entry("redres.linalg._kernels", "step", warm)
+    return entry(_LINALG, "step", warm)
 
 
 def set_jit_enabled(enabled: bool) -> bool:
-    """Route :mod:`redres.linalg` and the controller to the compiled kernels or to their
-    NumPy paths (for tests and comparisons); returns the old value. Without compiled
-    kernels at all (``REDRES_DISABLE_JIT=1``) enabling changes nothing."""
+    """Route :mod:`redres.linalg` and the controller to the kernels or to NumPy (tests,
+    comparisons; a no-op under ``REDRES_DISABLE_JIT=1``); returns the old value."""
     global loaded
     previous = bool(_state["enabled"])
     _state["enabled"] = bool(enabled) and _jit.enabled()
@@ -100,14 +107,12 @@ def set_jit_enabled(enabled: bool) -> bool:
     return previous
 
 
-_on_switch: list[Callable[[], None]] = []
-"""Callbacks run by :func:`set_jit_enabled` (modules that cache a kernel entry point)."""
+_on_switch: list[Callable[[], None]] = []  # run when the routing changes (cached entries)
 
 
 @contextmanager
 def jit_enabled(enabled: bool) -> Iterator[None]:
-    """Run a block with the kernels switched on or off (:func:`set_jit_enabled`), then
-    restore the previous setting."""
+    """A block with the kernels on or off (:func:`set_jit_enabled`), then as before."""
     previous = set_jit_enabled(enabled)
     try:
         yield
