@@ -2,7 +2,8 @@
 
 Every case runs in a fresh Python process, twice: *cold* with an empty compiled-code cache
 (``REDRES_CACHE_DIR`` set to a new, empty folder, as on a fresh install) and *warm* in a
-second process with the cache the first one filled. The time is measured inside the
+second process with the cache the first one filled (after the background compilation the
+cold run started has finished). The time is measured inside the
 child, from before its first import to its first answer, so interpreter start-up (the
 same for every library) is left out. The peers' first solves run the same way:
 
@@ -28,6 +29,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -107,6 +109,7 @@ mink.solve_ik(configuration, [frame, posture], 1e-3, "daqp", damping=1e-6, limit
     "robotics-toolbox first ik_LM": f"""
 import sys
 import tempfile
+import time
 from pathlib import Path
 sys.path.insert(0, {str(HERE)!r})
 import numpy as np
@@ -146,6 +149,15 @@ def time_case(body: str, cache: Path) -> float | None:
     return None
 
 
+def wait_for_background(cache: Path, limit: float = 900.0) -> None:
+    """Wait until the background compilation a cold run started has filled ``cache`` (its
+    lock file is gone), so that the warm run finds the cache complete and the next case
+    does not share the cores with it."""
+    deadline = time.monotonic() + limit
+    while list(cache.glob("compiling-*.pid")) and time.monotonic() < deadline:
+        time.sleep(0.5)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=1, help="runs per case (median)")
@@ -161,6 +173,7 @@ def main() -> None:
                     seconds = time_case(body, Path(tmp))
                     if seconds is not None:
                         sink.append(seconds)
+                    wait_for_background(Path(tmp))
         results[name] = {
             "cold_s": statistics.median(cold) if cold else None,
             "warm_s": statistics.median(warm) if warm else None,
