@@ -122,6 +122,25 @@ ets.ik_LM(ets.fkine(q + 0.2).A, q0=q, ilimit=30, slimit=1, tol=1e-13)
 """,
 }
 
+#: Loops that step until the compiled path is taken, on a cold cache (compiling behind),
+#: against the first step compiled on the caller's path (``REDRES_COMPILE=foreground``).
+SWITCH: dict[str, str] = {
+    "controller (fused path)": CASES["first controller step"].replace(
+        "controller.step(q)\n",
+        "while True:\n    q = controller.step(q)\n    if controller.compiled:\n        break\n",
+    ),
+    "SNS hard-limit step": _PANDA
+    + """
+import numpy as np
+from redres.resolution import SNSScheme
+scheme, J = SNSScheme(dt=1e-3), robot.jacobian(q)
+while True:
+    scheme.step(robot, q, J, np.zeros(6))
+    if not scheme._pending:
+        break
+""",
+}
+
 _WRAP = """
 import time as _t
 _t0 = _t.perf_counter()
@@ -130,10 +149,10 @@ print("FIRST_USE_SECONDS", _t.perf_counter() - _t0)
 """
 
 
-def time_case(body: str, cache: Path) -> float | None:
+def time_case(body: str, cache: Path, policy: str = "background") -> float | None:
     """Seconds from first import to first answer in a fresh process; None if it failed
     (a peer not installed)."""
-    env = dict(os.environ, REDRES_CACHE_DIR=str(cache))
+    env = dict(os.environ, REDRES_CACHE_DIR=str(cache), REDRES_COMPILE=policy)
     proc = subprocess.run(
         [sys.executable, "-c", _WRAP.format(body=body)],
         capture_output=True,
@@ -190,8 +209,23 @@ def main() -> None:
           "filled.\n")  # fmt: skip
     rows = [[name, cell(r["cold_s"]), cell(r["warm_s"])] for name, r in results.items()]
     print(table(["first use", "cold, s", "warm, s"], rows))
+    switch: dict[str, dict[str, float | None]] = {}
+    for name, body in SWITCH.items():
+        row: dict[str, float | None] = {}
+        for policy in ("background", "foreground"):
+            with tempfile.TemporaryDirectory(prefix="redres-first-use-") as tmp:
+                row[policy] = time_case(body, Path(tmp), policy)
+                wait_for_background(Path(tmp))
+        switch[name] = row
+        print(f"  {name}: {row}", file=sys.stderr)
+    print("\nCold cache: seconds from the first import until the loop's step runs compiled "
+          "code (compiling behind, answering through the reference path meanwhile), and "
+          "until the first step returns when it compiles on the caller's path "
+          "(`REDRES_COMPILE=foreground`).\n")  # fmt: skip
+    rows = [[name, cell(r["background"]), cell(r["foreground"])] for name, r in switch.items()]
+    print(table(["loop", "compiled path from, s (behind)", "first step, s (foreground)"], rows))
     if args.json:
-        args.json.write_text(json.dumps(results, indent=2))
+        args.json.write_text(json.dumps({**results, "switch": switch}, indent=2))
 
 
 if __name__ == "__main__":
