@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+
+# Compile on first use in the tests' own process (a cold cache must not route them to the
+# reference paths while a background process compiles); tests/test_first_use.py covers
+# compiling behind in processes of its own.
+os.environ.setdefault("REDRES_COMPILE", "foreground")
 
 import numpy as np
 import pytest

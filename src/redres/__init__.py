@@ -14,6 +14,7 @@ Quick start::
 from __future__ import annotations
 
 from . import control, dynamics, errors, linalg, models, objectives, resolution, tasks
+from ._warmup import warmup
 from .control import Controller, run
 from .errors import RedresError
 from .ik import IKResult, ik
@@ -38,4 +39,5 @@ __all__ = [
     "resolution",
     "run",
     "tasks",
+    "warmup",
 ]

@@ -34,8 +34,10 @@ from __future__ import annotations
 import hashlib
 import importlib
 import os
+import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -45,10 +47,15 @@ from typing import Any, ClassVar
 __all__ = [
     "KERNEL_MODULES",
     "cache_dir",
+    "cached",
+    "compiled",
     "enabled",
     "entry_point",
+    "is_compiled",
     "kernel",
     "load",
+    "pending",
+    "ready",
     "warmup",
 ]
 
@@ -60,6 +67,7 @@ KERNEL_MODULES: tuple[str, ...] = (
     "redres.linalg._kernels",
     "redres.control._kernels",
     "redres.robot._kernels",
+    "redres.robot._chain_kernels",
     "redres.resolution.hard_limits._kernels",
     "redres.resolution.hard_limits._lp_kernels",
     "redres.resolution.hard_limits._qp_kernels",
@@ -190,8 +198,9 @@ def _cache_root() -> Path:
 def kernel(func: Callable[..., Any]) -> Any:
     """Mark ``func`` as a kernel: compiled by numba (``nogil``, NumPy error model, cached
     as the module docstring says) on its first call, or left as plain Python when the
-    switch is off. Typed ``Any`` so that kernels calling kernels type-check."""
-    if not _ENABLED:
+    switch is off or its module is imported as the reference path. Typed ``Any`` so that
+    kernels calling kernels type-check."""
+    if not _ENABLED or _state.get("plain_import"):
         return func
     import numba
 
@@ -205,21 +214,71 @@ def kernel(func: Callable[..., Any]) -> Any:
     return dispatcher
 
 
+# --------------------------------------------------------------------------- loading
+
+_LOCK = threading.RLock()
+#: Imported kernel modules by (name, compiled): the compiled module and its plain-Python
+#: twin (the reference path while it compiles behind) are separate module objects.
+_modules: dict[tuple[str, bool], ModuleType] = {}
+
+
 def load(name: str) -> ModuleType | None:
-    """Kernel module ``name`` (of :data:`KERNEL_MODULES`), imported on first use; None
-    when it cannot be imported (numba missing or broken: the caller says what it falls
-    back to). Announces a first compilation on standard error (module docstring)."""
+    """Kernel module ``name`` (of :data:`KERNEL_MODULES`): compiled when it is ready
+    (:func:`ready`), else its plain-Python twin while it compiles behind; None when numba
+    cannot be imported (the caller says what it falls back to)."""
+    return _get(name, compiled=ready(name))
+
+
+def compiled(name: str) -> ModuleType | None:
+    """Kernel module ``name`` compiled, if it is ready (:func:`ready`); None while it
+    compiles behind (the caller takes its NumPy path meanwhile) or when numba cannot be
+    imported (:func:`pending` tells the two apart)."""
+    return _get(name, compiled=True) if ready(name) else None
+
+
+def _get(name: str, *, compiled: bool) -> ModuleType | None:
     if name not in KERNEL_MODULES:
         raise ValueError(f"{name} is not a kernel module of redres._jit.KERNEL_MODULES")
-    if name in sys.modules:
-        return sys.modules[name]
+    compiled = compiled and _ENABLED
+    found = _modules.get((name, compiled))
+    if found is not None:
+        return found
+    if compiled and cache_dir() is not None and not _marker(name).exists():
+        _announce(name)
     try:
-        module = importlib.import_module(name)
+        return _import(name, compiled)
     except ImportError:
         return None
-    if _ENABLED and cache_dir() is not None and not _marker(name).exists():
-        _announce(name)
-    return module
+
+
+def _import(name: str, compiled: bool) -> ModuleType:
+    """Import kernel module ``name`` (and the kernel modules it imports) compiled or as
+    plain Python. ``sys.modules`` shows each kernel module in one form only, so during the
+    import it holds only modules of the form asked for; afterwards the compiled ones."""
+    with _LOCK:
+        if (name, compiled) in _modules:
+            return _modules[(name, compiled)]
+        for other in KERNEL_MODULES:
+            sys.modules.pop(other, None)
+            if (other, compiled) in _modules:
+                sys.modules[other] = _modules[(other, compiled)]
+        _state["plain_import"] = not compiled
+        try:
+            importlib.import_module(name)
+        finally:
+            _state["plain_import"] = False
+            for other in KERNEL_MODULES:
+                if other in sys.modules:
+                    _modules.setdefault((other, compiled), sys.modules.pop(other))
+                shown = _modules.get((other, True)) or _modules.get((other, False))
+                if shown is not None:
+                    sys.modules[other] = shown
+        return _modules[(name, compiled)]
+
+
+def is_compiled(module: ModuleType) -> bool:
+    """Whether ``module`` (from :func:`load`) is the compiled form of its kernel module."""
+    return _modules.get((module.__name__, True)) is module
 
 
 def _marker(name: str) -> Path:
@@ -228,32 +287,182 @@ def _marker(name: str) -> Path:
 
 
 def _announce(name: str) -> None:
-    """One line on standard error before a module's first compilation into this cache;
-    the marker is written once this process has compiled something of it."""
-    seconds = _COLD_SECONDS.get(name)
-    about = f", about {seconds:.0f} s" if seconds else ""
-    print(
-        f"redres: compiling {name.removeprefix('redres.')} kernels on first use{about}; "
-        f"cached in {cache_dir()} for later runs",
-        file=sys.stderr,
-        flush=True,
-    )
+    """One line on standard error before a module's first compilation on the caller's
+    path (none during :func:`redres.warmup`, which says what it compiles); its marker is
+    written when this process exits, if it compiled something of it."""
     pending = _state.setdefault("pending", set())
     if not pending:
         import atexit
 
-        atexit.register(_write_markers)
+        atexit.register(lambda: mark_cached(pending))
     pending.add(name)
+    if _state.get("quiet"):
+        return
+    seconds = _COLD_SECONDS.get(name)
+    about = f", about {seconds:.0f} s" if seconds else ""
+    print(
+        f"redres: compiling {name.removeprefix('redres.')} kernels on first use{about}; "
+        f"cached in {cache_dir()} for later runs (`redres warmup` compiles them up front)",
+        file=sys.stderr,
+        flush=True,
+    )
 
 
-def _write_markers() -> None:
-    for name in _state.get("pending", ()):
+# --------------------------------------------------------------------------- compile behind
+
+#: ``REDRES_COMPILE`` (read once, at import): ``background`` (default) compiles a cold
+#: kernel module in a second process while the caller answers through the reference
+#: path; ``foreground`` compiles it on the caller's path, on first use.
+_POLICY = os.environ.get("REDRES_COMPILE", "background").strip().lower() or "background"
+_POLL_SECONDS = 0.05  # how often a waiting caller looks for the compiled cache
+if _POLICY == "foreground":
+    _state["foreground"] = True
+
+
+def compile_on_first_use() -> None:
+    """From now on compile cold kernel modules on this process's path, on first use (as
+    ``REDRES_COMPILE=foreground``): :func:`redres.warmup` and the background process."""
+    _state["foreground"] = True
+
+
+def mark_cached(names: Iterable[str]) -> None:
+    """Write the markers of the kernel modules ``names`` that this process has compiled
+    something of, so that other processes see them cached (:func:`ready`)."""
+    for name in names:
         if any(d.signatures for d in _state.get("kernels", {}).get(name, ())):
             try:
                 _marker(name).parent.mkdir(parents=True, exist_ok=True)
                 _marker(name).touch()
             except OSError:  # pragma: no cover - the cache went read-only meanwhile
                 pass
+
+
+def ready(name: str) -> bool:
+    """Whether kernel module ``name`` can run compiled without compiling on the caller's
+    path: it is loaded, or cached at this stamp, or compiling happens on first use anyway
+    (``REDRES_COMPILE=foreground``, no writable cache, a failed background compile). Else
+    starts (once) the background compilation and returns False until it has cached the
+    module; callers keep asking on each call and switch when it says True."""
+    found: set[str] = _state.setdefault("ready", set())
+    if not _ENABLED or name in found or _state.get("foreground") or cache_dir() is None:
+        return True
+    now = time.monotonic()
+    if now < _state.setdefault("next_poll", {}).get(name, 0.0):
+        return False
+    _state["next_poll"][name] = now + _POLL_SECONDS
+    if (name, True) in _modules or _marker(name).exists():
+        found.add(name)
+        return True
+    _compile_behind(name)
+    return bool(_state.get("foreground"))
+
+
+def cached(name: str) -> bool:
+    """Whether kernel module ``name`` is compiled into the cache at this stamp (its marker
+    exists); also True when nothing would be cached (kernels disabled, no writable cache)."""
+    return not _ENABLED or cache_dir() is None or _marker(name).exists()
+
+
+def pending(name: str) -> bool:
+    """Whether kernel module ``name`` is compiling behind (not ready, numba importable)."""
+    return _ENABLED and not ready(name)
+
+
+def _lock_file() -> Path:
+    return _cache_root() / f"compiling-{stamp()[:16]}.pid"
+
+
+def _compile_behind(name: str) -> None:
+    """Make sure a background process compiles the kernel modules into the cache, the
+    group of ``name`` first (:mod:`redres._warmup`); notice when it has ended."""
+    proc: subprocess.Popen[bytes] | None = _state.get("behind")
+    if proc is not None:
+        if proc.poll() is not None and not _marker(name).exists():
+            if proc.returncode:
+                _behind_failed(f"it exited with status {proc.returncode}")
+            compile_on_first_use()  # it compiled everything but this: compile it here
+        return
+    if not _take_lock():
+        return  # another process compiles into this cache: wait for its markers
+    try:
+        with open(_log_file(), "wb") as sink:
+            proc = subprocess.Popen(
+                [sys.executable, "-m", "redres", "warmup", "--behind", name],
+                stdin=subprocess.DEVNULL, stdout=sink, stderr=sink, env=child_env(),
+                start_new_session=True,
+            )  # fmt: skip
+        _lock_file().write_text(str(proc.pid))
+    except OSError as exc:
+        _lock_file().unlink(missing_ok=True)
+        _behind_failed(f"it could not start ({exc})")
+        return
+    _state["behind"] = proc
+    seconds = sum(_COLD_SECONDS.values())
+    print(
+        f"redres: compiling kernels in a background process (about {seconds:.0f} s on one "
+        f"core, cached in {cache_dir()}); until then results come from the reference path "
+        "(same answers, slower); `redres warmup` compiles them up front",
+        file=sys.stderr,
+        flush=True,
+    )
+
+
+def child_env() -> dict[str, str]:
+    """Environment of a compiling child process: this redres importable, compiling in
+    its foreground."""
+    env = dict(os.environ, REDRES_COMPILE="foreground")
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_PACKAGE.parent),
+                                                      env.get("PYTHONPATH")]))  # fmt: skip
+    return env
+
+
+def _take_lock() -> bool:
+    """Create the lock file of a background compilation (holding this process's id until
+    the child's replaces it); False if a live process holds it."""
+    for _ in range(2):
+        try:
+            fd = os.open(_lock_file(), os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            if _lock_holder() is not None:
+                return False
+            _lock_file().unlink(missing_ok=True)  # its process died: stale
+            continue
+        except OSError:
+            return False
+        with os.fdopen(fd, "w") as f:
+            f.write(str(os.getpid()))
+        return True
+    return False
+
+
+def release_lock() -> None:
+    """Remove the lock file if this process holds it (the background child, at its end)."""
+    if _lock_holder() == os.getpid():
+        _lock_file().unlink(missing_ok=True)
+
+
+def _log_file() -> Path:
+    return _cache_root() / f"compiling-{stamp()[:16]}.log"
+
+
+def _lock_holder() -> int | None:
+    """Process id of a live background compilation into this cache, or None."""
+    try:
+        pid = int(_lock_file().read_text())
+        os.kill(pid, 0)
+    except (OSError, ValueError):
+        return None
+    return pid
+
+
+def _behind_failed(why: str) -> None:
+    _state["foreground"] = True
+    print(
+        f"redres: the background compilation failed ({why}; see {_log_file()}); kernels "
+        "are compiled on first use instead",
+        file=sys.stderr,
+        flush=True,
+    )
 
 
 def entry_point(dispatcher: Any, args: tuple[Any, ...]) -> Callable[..., Any]:
@@ -266,7 +475,7 @@ def entry_point(dispatcher: Any, args: tuple[Any, ...]) -> Callable[..., Any]:
     the kernel itself when it is plain Python or numba's internals differ.
     """
     dispatcher(*args)
-    if not _ENABLED:
+    if not hasattr(dispatcher, "overloads"):  # plain Python (disabled, or compiling behind)
         return dispatcher  # type: ignore[no-any-return]
     try:
         import numba

@@ -1,20 +1,71 @@
-"""Compile the numba kernels of the hard-limit schemes ahead of use.
+"""Compile the kernels ahead of use: ``redres warmup``, :func:`warmup`, and the
+background compilation of :mod:`redres._jit`.
 
-``redres demo`` starts this in a second process on a cold start, so that the JIT work of
-the QP/SNS kernels overlaps with the first runs on the other core; the compiled code lands
-in numba's disk cache, which the demo's own process then loads. If the demo reaches those
-runs first it simply compiles them itself.
+Each *group* is a short workload through the public API (so that it compiles exactly the
+argument types the library's own calls use) and the kernel modules it fills the cache of.
+``redres warmup --behind MODULE`` is the background process :mod:`redres._jit`
+starts on a cold cache: it compiles the group of ``MODULE`` first, then the others, and
+marks each module as cached as soon as its group is done, so that the process that
+started it switches to the compiled path group by group.
 """
 
 from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from . import _jit
 
+__all__ = ["GROUPS", "warmup"]
 
-def compile_hard_limit_kernels() -> None:
-    """One step of each hard-limit scheme on the Panda (compiles and caches the kernels)."""
+
+def _linalg() -> None:
+    from . import linalg
+    from .models import panda
+
+    robot = panda()
+    q = robot.neutral()
+    J, M = robot.jacobian(q), robot.mass_matrix(q)
+    xd, g = np.ones(6), np.ones(robot.n)
+    linalg.damped_pinv(J, 0.01)
+    linalg.pinv(J)
+    linalg.weighted_pinv(J, M)
+    linalg.adaptive_damped_pinv(J, 0.1, 0.05)
+    linalg.nullspace_projector(J)
+    linalg.dynamically_consistent_pinv(J, M)
+    linalg.manipulability(J)
+    for damping in (0.0, 0.01, linalg.AdaptiveDamping(0.1, 0.05)):
+        linalg.rate_step(J, xd, g, damping=damping)
+        linalg.rate_step(J, xd, g, damping=damping, return_null=True)
+        linalg.rate_step(J, xd, damping=damping)
+    robot.jacobian_derivatives(q)
+    chain = robot.chain()
+    chain.kinematics(q)
+    chain.kinematics(q, "local")
+    chain.pose_error(q, robot.fk(q))
+
+
+def _controller() -> None:
+    from .control import Controller
+    from .models import panda
+    from .objectives import JointLimitObjective
+    from .resolution import GradientProjectionScheme, PseudoInverseScheme
+    from .tasks import FrameTask
+
+    robot = panda()
+    for scheme in (
+        GradientProjectionScheme([JointLimitObjective()], k_null=5.0, damping=0.01),
+        PseudoInverseScheme(),
+    ):
+        Controller(robot, FrameTask(), scheme, dt=1e-3).step(robot.neutral())
+
+
+def _hard_limits() -> None:
     from .models import panda
     from .resolution import QPScheme, SNSScheme
 
@@ -25,5 +76,97 @@ def compile_hard_limit_kernels() -> None:
         scheme.step(robot, q, J, np.zeros(6))
 
 
-if __name__ == "__main__":
-    _jit.warmup([("hard-limit kernels (SNS, QP)", compile_hard_limit_kernels)], quiet=True)
+def _ik() -> None:
+    from .ik import ik
+    from .models import panda
+
+    robot = panda()
+    ik(robot, robot.fk(robot.neutral() + 0.2), seed=0)
+
+
+#: Group name -> (kernel modules it caches, workload).
+GROUPS: dict[str, tuple[tuple[str, ...], Callable[[], None]]] = {
+    "linalg": (
+        ("redres.linalg._kernels", "redres.linalg._dense_kernels",
+         "redres.linalg._eigen_kernels", "redres.robot._kernels",
+         "redres.robot._chain_kernels"),
+        _linalg,
+    ),
+    "controller": (("redres.control._kernels",), _controller),
+    "hard limits": (
+        ("redres.resolution.hard_limits._kernels", "redres.resolution.hard_limits._lp_kernels",
+         "redres.resolution.hard_limits._qp_kernels"),
+        _hard_limits,
+    ),
+    "ik": ((), _ik),
+}  # fmt: skip
+
+
+def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: int = 2) -> float:
+    """Compile the kernels now, on this process's path, and cache them for later
+    processes; afterwards this process never answers through the reference path.
+
+    Args:
+        groups: names of :data:`GROUPS` (``"linalg"``, ``"controller"``,
+            ``"hard limits"``, ``"ik"``); default all.
+        quiet: print nothing (else one line per group on standard error: what it
+            compiled and how long it took).
+        jobs: processes to compile in (``2``: the hard-limit group, the longest, in a
+            second process while this one compiles the rest).
+
+    Returns:
+        The wall-clock time, s (short when the cache was already warm).
+    """
+    names = list(GROUPS) if groups is None else list(dict.fromkeys(groups))
+    unknown = [g for g in names if g not in GROUPS]
+    if unknown:
+        from .errors import InvalidParameterError
+
+        raise InvalidParameterError(f"unknown warm-up groups {unknown}; known: {list(GROUPS)}")
+    _jit.compile_on_first_use()
+    start = time.perf_counter()
+    side = _side_process(names) if jobs > 1 and len(names) > 1 else None
+    _jit._state["quiet"] = True  # one line per group below instead of one per module
+    try:
+        _jit.warmup([(name, _marking(name)) for name in names], quiet=quiet)
+    finally:
+        _jit._state["quiet"] = False
+    if side is not None:
+        if side.wait() != 0:
+            raise RuntimeError(f"redres: the warm-up process failed (status {side.returncode})")
+        if not quiet:
+            print(f"redres: hard limits: {time.perf_counter() - start:.1f} s (second process)",
+                  file=sys.stderr, flush=True)  # fmt: skip
+    return time.perf_counter() - start
+
+
+def _side_process(names: list[str]) -> subprocess.Popen[bytes] | None:
+    """Start the hard-limit group in a second process (and drop it from ``names``)."""
+    if "hard limits" not in names or all(map(_jit.cached, GROUPS["hard limits"][0])):
+        return None
+    names.remove("hard limits")
+    args = [sys.executable, "-m", "redres", "warmup", "--jobs", "1", "--quiet", "hard limits"]
+    return subprocess.Popen(args, stdin=subprocess.DEVNULL, env=_jit.child_env())
+
+
+def _marking(name: str) -> Callable[[], None]:
+    modules, workload = GROUPS[name]
+
+    def call() -> None:
+        if modules and all(map(_jit.cached, modules)):
+            return  # loaded from the cache on first use
+        workload()
+        _jit.mark_cached(modules)
+
+    return call
+
+
+def behind(first: str) -> None:
+    """The background process: the group caching module ``first``, then the rest."""
+    if hasattr(os, "nice"):
+        os.nice(10)  # the user's process comes first
+    order = sorted(GROUPS, key=lambda g: first not in GROUPS[g][0])
+    try:
+        warmup(order, quiet=True, jobs=1)
+    finally:
+        _jit.release_lock()

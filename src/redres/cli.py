@@ -1,4 +1,4 @@
-"""The ``redres`` command: ``redres robots``, ``redres demo``, ``redres run``, ``redres bench``.
+"""The ``redres`` command: ``redres robots``, ``demo``, ``run``, ``warmup``, ``bench``.
 
 Exit codes: 0 success, 2 bad usage, bad input or a file that cannot be read or written
 (one line on stderr: ``redres: error: ...`` naming the value or path and the fix).
@@ -92,6 +92,27 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return run_scenarios([spec], _output(args), title=spec.name)
 
 
+def _cmd_warmup(args: argparse.Namespace) -> int:
+    from . import _jit
+    from ._warmup import GROUPS, behind, warmup
+
+    if args.behind:  # the background compiler of redres._jit
+        behind(args.behind)
+        return 0
+    if args.list:
+        for name, (modules, _) in GROUPS.items():
+            state = (
+                ("cached" if all(map(_jit.cached, modules)) else "not cached") if modules else "-"
+            )
+            print(f"{name:12s} {state:10s} {', '.join(m.removeprefix('redres.') for m in modules)}")
+        return 0
+    seconds = warmup(args.groups or None, quiet=args.quiet, jobs=args.jobs)
+    if not args.quiet:
+        print(f"redres: warm-up done in {seconds:.1f} s; cached in {_jit.cache_dir()}",
+              file=sys.stderr)  # fmt: skip
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     import runpy
 
@@ -144,6 +165,13 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--list", action="store_true", help="list the built-in scenarios")
     _output_options(run)
     run.set_defaults(func=_cmd_run)
+    warm = sub.add_parser("warmup", help="compile the kernels now (a first call is then fast)")
+    warm.add_argument("groups", nargs="*", help="what to compile (default all; see --list)")
+    warm.add_argument("--list", action="store_true", help="list the groups and what is cached")
+    warm.add_argument("--quiet", action="store_true", help="print nothing")
+    warm.add_argument("--jobs", type=int, default=2, help="processes to compile in (default 2)")
+    warm.add_argument("--behind", metavar="MODULE", help=argparse.SUPPRESS)
+    warm.set_defaults(func=_cmd_warmup)
     bench = sub.add_parser("bench", help="run the control-step benchmark against peers")
     bench.set_defaults(func=_cmd_bench)
     return parser

@@ -9,7 +9,6 @@ then the same Panda circle in the compiled 1 kHz loop (:func:`compiled_loop`).
 from __future__ import annotations
 
 import json
-import subprocess
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -20,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from . import linalg, models
+from ._warmup import warmup
 from .control import RunLog
 from .errors import MissingDependencyError
 from .objectives import JointLimitObjective
@@ -138,19 +138,13 @@ def _write_report(
         return None
 
 
-def _start_kernel_warmup(specs: Sequence[ScenarioSpec]) -> subprocess.Popen[bytes] | None:
-    """Compile the QP/SNS kernels in a second process when a scenario needs them (their
-    JIT then overlaps with the first runs instead of adding to them)."""
-    if not any(s.kind in ("qp", "sns") for spec in specs for s in spec.schemes):
-        return None
-    try:
-        return subprocess.Popen(
-            [sys.executable, "-m", "redres._warmup"],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )
-    except OSError:
-        return None
+def _warm_up(specs: Sequence[ScenarioSpec], loud: bool) -> None:
+    """Compile what the runs need before they are timed (on a cold cache they would
+    otherwise run, and be timed, on the reference path while it compiles behind)."""
+    groups = ["linalg", "controller"]
+    if any(s.kind in ("qp", "sns") for spec in specs for s in spec.schemes):
+        groups.append("hard limits")
+    warmup(groups, quiet=not loud)
 
 
 @dataclass(frozen=True)
@@ -181,8 +175,8 @@ def run_scenarios(
     as_json, quiet, quick = output.as_json, output.quiet, output.quick
     check_out_dir(output.folder, force=output.force)  # before any run
     started = time.perf_counter()
-    helper = _start_kernel_warmup(specs)
     loud = not (quiet or as_json)
+    _warm_up(specs, loud)
     runs: list[tuple[ScenarioSpec, RunLog]] = []
     for spec in specs:
         if quick:
@@ -190,8 +184,6 @@ def run_scenarios(
         if loud:
             print(f"{spec.name}: {spec.description}", file=sys.stderr)
         runs += [(spec, log) for log in run_scenario(spec, progress=None if loud else False)]
-    if helper is not None and helper.poll() is None:
-        helper.kill()
     description = " ".join(f"{s.description}." for s in specs)
     report = _write_report(output.folder, runs, title, description, output.force)
     summaries = [log.summary() for _, log in runs]

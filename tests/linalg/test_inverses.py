@@ -235,6 +235,13 @@ def test_info_condition_is_finite() -> None:
         lambda J: rl.damped_pinv(J, 0.1),
         lambda J: rl.square_inverse(J[:, :2]),
         lambda J: rl.generalized_inverse(J),
+        lambda J: rl.left_pinv(J.T),
+        lambda J: rl.adaptive_damped_pinv(J, 0.1, 0.05),
+        lambda J: rl.nullspace_projector(J),
+        lambda J: rl.nullspace_projector(J, np.zeros((3, 2))),
+        lambda J: rl.dynamically_consistent_pinv(J, np.eye(3)),
+        lambda J: rl.damped_pinv(np.tile(J, 20), 0.1),  # 2 x 60: beyond the kernels
+        lambda J: rl.task_space_inertia(np.tile(J, 20), np.eye(60)),
     ],
 )
 def test_non_finite_jacobian_is_rejected_by_name(backend: str, bad: float, call) -> None:

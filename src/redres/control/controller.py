@@ -43,13 +43,16 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
+from .. import _jit
 from .._validate import FloatArray, as_scalar, checked_keywords
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError, SimulationError
 from ..linalg import InverseInfo
+from ..linalg import _backend as be
 from ..linalg._codes import CFG_MODE
 from ..resolution import Scheme, StepResult
 from ..tasks import FrameTask, Task
 from ._fused import (
+    _KERNELS,
     TARGET,
     Path,
     choose_path,
@@ -146,11 +149,8 @@ class Controller:
             assert frame is not None
             self._config = fused_config(robot, self._rows, self._gain, self._dt, self._limit, fused)
             self._block = self._config[TARGET]  # the task's target, from the first step on
-            if path == "fused":
-                self._kernel = kernel_for(robot, self._fid, "clik_step")
-            else:
-                self._front = kernel_for(robot, self._fid, "frame_command")
-                self._integrate = native("integrate")
+        self._pending = False
+        self._bind()
         # What the last step did.
         self._out: FloatArray = _empty(0)  # the fused kernel's (q_next, qd, e) once stepped
         self._diag: tuple[int, int, float, float, float, float] = (0, 0, 0.0, 0.0, 0.0, 0.0)
@@ -199,6 +199,24 @@ class Controller:
         """``"fused"``, ``"frame"`` or ``"composed"`` (see the module documentation)."""
         return self._path
 
+    @property
+    def compiled(self) -> bool:
+        """Whether the step runs compiled code now: False while the kernels of a cold cache
+        compile behind and the step takes their reference path (docs/architecture.md)."""
+        if self._path == "composed":
+            return be.kernels() is not None
+        return not self._pending
+
+    def _bind(self) -> None:
+        """The path's kernels: compiled, or their plain-Python twins while they compile
+        behind (then bound again, compiled, at the first step after they are ready)."""
+        if self._path == "fused":
+            self._kernel = kernel_for(self._robot, self._fid, "clik_step")
+        elif self._path == "frame":
+            self._front = kernel_for(self._robot, self._fid, "frame_command")
+            self._integrate = native("integrate")
+        self._pending = self._path != "composed" and not _jit.ready(_KERNELS)
+
     # -- the step -----------------------------------------------------------------------
 
     def step(self, q: Any) -> FloatArray:
@@ -219,6 +237,8 @@ class Controller:
             raise ShapeError(f"q must be an array of {n} numbers: {exc}") from exc
         if qa.ndim != 1 or qa.shape[0] != n:
             raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
+        if self._pending and _jit.ready(_KERNELS):
+            self._bind()
         kernel = self._kernel
         if kernel is None:
             return self._resolved_step(qa)

@@ -6,17 +6,16 @@ Every inverse of :mod:`redres.linalg` is a *filtered SVD inverse* of the weighte
     Jw = U diag(sigma) V^T,   Jw# = V diag(f) U^T,   J# = L^-T Jw#,
     N = I - J# J = L^-T (I - V diag(sigma f) V^T) L^T
 
-with one filter ``f`` per method (seed 002 for the SVD form; damped least squares of
-Nakamura & Hanafusa 1986 and Wampler 1986 for ``f = sigma / (sigma^2 + lambda^2)``):
+with one filter ``f`` per method (damped least squares of Nakamura & Hanafusa 1986 and
+Wampler 1986 for ``f = sigma / (sigma^2 + lambda^2)``):
 
 * exact: ``f = 1/sigma`` above ``rcond * sigma_max``, ``0`` below (truncated SVD);
 * damped: ``f = sigma / (sigma^2 + lambda^2)`` (equals ``J^T (J J^T + lambda^2 I)^-1``);
 * adaptive / selective: the same with ``lambda`` from :class:`AdaptiveDamping`.
 
-For ``m <= 6`` rows (12 when ``m <= n``) and ``n <= 50`` columns the compiled kernels of
-:mod:`redres.linalg._kernels` compute the same quantities (by a Cholesky solve when the
-matrix is well conditioned); otherwise NumPy's SVD does. The environment variable
-``REDRES_DISABLE_JIT=1`` (read by :mod:`redres._jit`) makes every call use NumPy.
+Within the sizes of :func:`use_fast_path` the compiled kernels of
+:mod:`redres.linalg._kernels` compute the same quantities; otherwise NumPy's SVD does
+(always with ``REDRES_DISABLE_JIT=1``, read by :mod:`redres._jit`).
 """
 
 from __future__ import annotations
@@ -30,14 +29,11 @@ from typing import Any, NamedTuple, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import solve_triangular
 
 from .. import _jit
 from .._validate import as_matrix, as_scalar
-from ..errors import (
-    NonFiniteError,
-    NotPositiveDefiniteError,
-    ShapeError,
-)
+from ..errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
 from . import _codes as codes
 from ._info import AdaptiveDamping, InverseInfo
 
@@ -54,17 +50,22 @@ EMPTY_2D: FloatArray = np.zeros((0, 0))
 
 _state: dict[str, Any] = {"enabled": _jit.enabled()}
 
+_LINALG = "redres.linalg._kernels"
 loaded: ModuleType | None = None
 """The kernel module once imported and enabled."""
 
 
 def kernels() -> ModuleType | None:
-    """The compiled kernel module, imported on first use; None if disabled or unavailable."""
+    """The compiled kernel module; None if disabled, unavailable, or compiling behind
+    (NumPy answers meanwhile; the switch, for good, runs the :data:`_on_switch` hooks)."""
     global loaded
     if loaded is not None or not _state["enabled"] or _state.get("failed"):
         return loaded
-    loaded = _jit.load("redres.linalg._kernels")
-    if loaded is None:  # numba missing or broken: keep working on NumPy
+    loaded = _jit.compiled(_LINALG)
+    if loaded is not None:
+        for hook in _on_switch:
+            hook()
+    elif not _jit.pending(_LINALG):  # numba missing or broken: keep working on NumPy
         _state["failed"] = True
         warnings.warn(
             "redres.linalg: compiled kernels unavailable (numba cannot be imported); using NumPy",
@@ -75,31 +76,27 @@ def kernels() -> ModuleType | None:
 
 
 def entry(module: str, name: str, warm: tuple[Any, ...]) -> Callable[..., Any] | None:
-    """The native entry point of kernel ``name`` of kernel module ``module`` for the types
-    of ``warm`` (see :func:`redres._jit.entry_point`); None when the kernels are disabled
-    (:func:`set_jit_enabled`) or unavailable, so that the caller takes its NumPy path."""
-    if kernels() is None:
+    """The native entry point of kernel ``module.name`` for the types of ``warm``
+    (:func:`redres._jit.entry_point`; plain Python while it compiles behind); None when
+    the kernels are off or unavailable."""
+    if not _state["enabled"] or _state.get("failed"):
         return None
     kern = _jit.load(module)
     return None if kern is None else _jit.entry_point(getattr(kern, name), warm)
 
 
 def fast_step() -> Callable[..., Any] | None:
-    """The compiled fast-lane step for float64 C-contiguous arrays and float scalars.
-
-    Returns the native entry point of ``_kernels.step`` for exactly those argument types,
-    which skips numba's per-call type dispatch; callers must pass float64 C-contiguous
-    arrays (``J`` 2-D, the rest 1-D) and Python floats. None when the kernels are
-    unavailable.
-    """
+    """Native entry point of ``_kernels.step`` (no per-call type dispatch): callers must
+    pass float64 C-contiguous arrays (``J`` 2-D, the rest 1-D) and Python floats."""
+    if kernels() is None:
+        return None
     warm = (np.zeros((1, 1)), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0, 0.0)
-    return entry("redres.linalg._kernels", "step", warm)
+    return entry(_LINALG, "step", warm)
 
 
 def set_jit_enabled(enabled: bool) -> bool:
-    """Route :mod:`redres.linalg` and the controller to the compiled kernels or to their
-    NumPy paths (for tests and comparisons); returns the old value. Without compiled
-    kernels at all (``REDRES_DISABLE_JIT=1``) enabling changes nothing."""
+    """Route :mod:`redres.linalg` and the controller to the kernels or to NumPy (tests,
+    comparisons; a no-op under ``REDRES_DISABLE_JIT=1``); returns the old value."""
     global loaded
     previous = bool(_state["enabled"])
     _state["enabled"] = bool(enabled) and _jit.enabled()
@@ -110,14 +107,12 @@ def set_jit_enabled(enabled: bool) -> bool:
     return previous
 
 
-_on_switch: list[Callable[[], None]] = []
-"""Callbacks run by :func:`set_jit_enabled` (modules that cache a kernel entry point)."""
+_on_switch: list[Callable[[], None]] = []  # run when the routing changes (cached entries)
 
 
 @contextmanager
 def jit_enabled(enabled: bool) -> Iterator[None]:
-    """Run a block with the kernels switched on or off (:func:`set_jit_enabled`), then
-    restore the previous setting."""
+    """A block with the kernels on or off (:func:`set_jit_enabled`), then as before."""
     previous = set_jit_enabled(enabled)
     try:
         yield
@@ -187,8 +182,6 @@ def raise_status(status: int, names: dict[str, str]) -> None:
     if status in _NONFINITE:
         key = _NONFINITE[status]
         raise NonFiniteError(f"{names.get(key, key)} contains NaN or infinity")
-    if status == codes.J_EMPTY:
-        raise ShapeError(f"{names.get('J', 'J')} must have at least one row and one column")
     w = names.get("W", "W")
     if status == codes.W_NOT_SPD:
         raise NotPositiveDefiniteError(
@@ -231,8 +224,6 @@ def weigh(J: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
         return J
     if mode == codes.DIAGONAL:
         return J / factor
-    from scipy.linalg import solve_triangular
-
     return np.asarray(solve_triangular(factor, J.T, lower=True).T)
 
 
@@ -242,8 +233,6 @@ def unweigh_rows(X: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
         return X
     if mode == codes.DIAGONAL:
         return X / (factor if X.ndim == 1 else factor[:, None])
-    from scipy.linalg import solve_triangular
-
     return np.asarray(solve_triangular(factor, X, lower=True, trans="T"))
 
 
@@ -270,8 +259,7 @@ WithInfo = tuple[FloatArray, InverseInfo]
 
 
 class ExactOptions(TypedDict, total=False):
-    """The keyword options of the matrix functions, for their typed overloads (each
-    function's own signature has the defaults and its docstring the meaning)."""
+    """Keyword options of the matrix functions, for their typed overloads."""
 
     rcond: float
 
@@ -302,12 +290,25 @@ def finish(parts: Parts, shape: tuple[int, ...], return_info: bool) -> Result:
     return X, InverseInfo(rank, rank == min(shape), smin, smax, used, method)
 
 
-def as_jacobian(J: Any) -> FloatArray:
-    """``J`` as a finite, non-empty float64 matrix (C order), or a clear error."""
-    arr = as_matrix(J, "J")
+def as_jacobian(J: Any, *, check_finite: bool = True) -> FloatArray:
+    """``J`` as a finite, non-empty float64 matrix (C order), or a clear error.
+
+    ``check_finite=False`` skips the finiteness test for a float64 array passed on to
+    :func:`invert` or :func:`task_inertia`, which make it where they read ``J`` (once).
+    """
+    if check_finite or type(J) is not np.ndarray or J.dtype != np.float64 or J.ndim != 2:
+        arr = as_matrix(J, "J")
+    else:
+        arr = J
     if arr.shape[0] == 0 or arr.shape[1] == 0:
         raise ShapeError(f"J must have at least one row and one column; got {arr.shape}")
     return np.ascontiguousarray(arr)
+
+
+def check_finite(J: FloatArray) -> None:
+    """The kernels' finiteness test of ``J`` for the NumPy paths (same error)."""
+    if not np.isfinite(J).all():
+        raise_status(codes.J_NONFINITE, {})
 
 
 def as_rcond(rcond: Any) -> float:
@@ -318,13 +319,13 @@ def as_rcond(rcond: Any) -> float:
 def filter_factors(
     sigma: FloatArray, mode: int, lam: float, lam_max: float, eps: float, rcond: float
 ) -> tuple[FloatArray, FloatArray, int, float]:
-    """Filter of one inverse for singular values ``sigma`` (descending).
+    """Filter of one inverse for singular values ``sigma`` (descending, at least one).
 
     Returns ``(f, lam2, rank, damping)``: the inverse is ``V diag(f) U^T`` and ``lam2`` the
     squared damping applied to each singular value.
     """
-    sigma_max = float(sigma[0]) if sigma.size else 0.0
-    sigma_min = float(sigma[-1]) if sigma.size else 0.0
+    sigma_max = float(sigma[0])
+    sigma_min = float(sigma[-1])
     significant = sigma > rcond * sigma_max
     if sigma_max == 0.0:
         significant[:] = False
@@ -336,7 +337,7 @@ def filter_factors(
         below = ref < eps
         ratio = ref[below] / eps
         lam2[below] = lam_max * lam_max * (1.0 - ratio * ratio)
-    damping = math.sqrt(float(lam2.max())) if lam2.size else 0.0
+    damping = math.sqrt(float(lam2.max()))
     if sigma_max == 0.0 and mode != codes.EXACT:
         damping = lam if mode == codes.FIXED else lam_max
     f = np.zeros_like(sigma)
@@ -354,17 +355,15 @@ def filter_factors(
 class Filtered:
     """SVD of a (weighted) matrix and the filter of one inverse (NumPy reference path)."""
 
-    __slots__ = ("U", "Vt", "damping", "f", "p", "rank", "sigma", "sigma_max", "sigma_min")
+    __slots__ = ("U", "Vt", "f", "p", "stats")
 
     def __init__(
         self, Jw: FloatArray, mode: int, lam: float, lam_max: float, eps: float, rcond: float
     ) -> None:
-        U, sigma, Vt = np.linalg.svd(Jw, full_matrices=False)
-        self.U, self.sigma, self.Vt = U, sigma, Vt
-        self.sigma_max = float(sigma[0]) if sigma.size else 0.0
-        self.sigma_min = float(sigma[-1]) if sigma.size else 0.0
-        self.f, _, self.rank, self.damping = filter_factors(sigma, mode, lam, lam_max, eps, rcond)
+        self.U, sigma, self.Vt = np.linalg.svd(Jw, full_matrices=False)
+        self.f, _, rank, damping = filter_factors(sigma, mode, lam, lam_max, eps, rcond)
         self.p = sigma * self.f  # weights of the row-space projector J# J in the V basis
+        self.stats = Stats(rank, float(sigma[-1]), float(sigma[0]), damping)
 
     def pinv(self) -> FloatArray:
         """``V diag(f) U^T`` (n x m)."""
@@ -385,7 +384,7 @@ class Filtered:
 
 
 class Stats(NamedTuple):
-    """What a factorisation says about the matrix it inverted (internal)."""
+    """What a factorisation says about the matrix it inverted."""
 
     rank: int
     sigma_min: float
@@ -394,8 +393,8 @@ class Stats(NamedTuple):
 
 
 class Factored(NamedTuple):
-    """The outputs of the shared engine (internal): the wanted matrices (0 x 0 when not
-    wanted), the statistics of the factorisation and the damping mode used."""
+    """Outputs of the shared engine: the matrices (0 x 0 when not wanted), the statistics
+    of the factorisation and the damping mode used."""
 
     first: FloatArray  # J# (invert) or Lambda (task_inertia)
     second: FloatArray  # N (invert) or J_bar (task_inertia)
@@ -415,7 +414,7 @@ def invert(
 ) -> Factored:
     """Shared engine of the matrix functions: ``Factored(J#, N, stats, mode)``.
 
-    ``J`` must already be a validated finite float64 matrix. Outputs not wanted are 0 x 0.
+    ``J`` must be a float64 matrix from :func:`as_jacobian`. Outputs not wanted are 0 x 0.
     """
     m, n = J.shape
     mode, lam, lam_max, eps = parse_damping(damping)
@@ -431,13 +430,14 @@ def invert(
         if status:
             raise_status(status, {"J": "J", "W": weights_name})
         return Factored(Jp, N, Stats(rank, smin, smax, used), mode)
+    check_finite(J)
     factor = weight_factor(wmode, wdiag, wfull, weights_name)
     filt = Filtered(weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
     Jp = unweigh_rows(filt.pinv(), wmode, factor) if want_pinv else EMPTY_2D
     N = EMPTY_2D
     if want_projector:
         N = times_lt(unweigh_rows(filt.projector(), wmode, factor), wmode, factor)
-    return Factored(Jp, N, Stats(filt.rank, filt.sigma_min, filt.sigma_max, filt.damping), mode)
+    return Factored(Jp, N, filt.stats, mode)
 
 
 def task_inertia(
@@ -449,8 +449,8 @@ def task_inertia(
     want_pinv: bool,
 ) -> Factored | None:
     """``Factored(Lambda, J_bar, stats, mode)`` from one compiled factorisation
-    of ``J L^-T`` (``M = L L^T``, an already validated ``(n, n)`` matrix), or None when the
-    kernels do not cover this size.
+    of ``J L^-T`` (``J`` from :func:`as_jacobian`, ``M = L L^T`` a validated ``(n, n)``
+    matrix), or None when the kernels do not cover this size.
 
     ``Lambda = (J M^-1 J^T + lambda^2 I)^-1`` and ``J_bar = M^-1 J^T Lambda`` (the inverse
     weighted by ``M``); ``J_bar`` is 0 x 0 unless ``want_pinv``. Errors name ``M``.

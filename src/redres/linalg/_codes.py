@@ -18,11 +18,8 @@ XD_SHAPE = 7
 GRAD_SHAPE = 8
 W_SHAPE = 9
 J_EMPTY = 10
-K_NONFINITE = 11
-DAMPING_NONFINITE = 12
-DAMPING_NEGATIVE = 13
-RCOND_NONFINITE = 14
-RCOND_NEGATIVE = 15
+SCALAR_INVALID = 11  # k_null, damping or rcond of the fast lane (rate_step says which)
+# 12 to 15: free
 
 # Damping modes.
 EXACT = 0

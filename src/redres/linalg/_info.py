@@ -43,7 +43,7 @@ class InverseInfo(NamedTuple):
         damping: Damping ``lambda`` actually applied, in the units of the singular values
             (0 for an exact inverse; for selective damping, the largest one applied).
         method: Which inverse was computed: ``"square"``, ``"right"``, ``"left"``,
-            ``"svd"``, ``"damped"``, ``"adaptive"``, ``"selective"``, prefixed with
+            ``"pinv"``, ``"damped"``, ``"adaptive"``, ``"selective"``, prefixed with
             ``"weighted-"`` when weights were used (``"dynamically-consistent"`` and
             ``"dynamically-consistent-damped"`` for :mod:`redres.linalg.dynamics`).
     """
@@ -57,11 +57,7 @@ class InverseInfo(NamedTuple):
 
     @property
     def condition(self) -> float:
-        """Condition number ``sigma_max / sigma_min``, capped at ``1 / eps`` (~4.5e15).
-
-        The cap stands for "numerically singular" and keeps the value finite (see
-        :func:`redres.linalg.condition_number`).
-        """
+        """``sigma_max / sigma_min``, capped as :func:`redres.linalg.condition_number` is."""
         return condition_from(self.sigma_max, self.sigma_min)
 
 
@@ -139,16 +135,12 @@ class AdaptiveDamping:
 
 
 def adaptive_damping(sigma_min: float, max_damping: float, threshold: float) -> float:
-    """The adaptive damping law of :class:`AdaptiveDamping`, as a function.
+    """The damping ``lambda`` of the law of :class:`AdaptiveDamping`, as a function.
 
     Args:
         sigma_min: Smallest singular value (>= 0), units of the Jacobian.
         max_damping: ``lambda_max`` (>= 0), same units.
         threshold: ``eps`` (> 0), same units.
-
-    Returns:
-        ``lambda = lambda_max sqrt(1 - (sigma_min/eps)^2)`` below ``eps``, else 0
-        (Chiaverini, Siciliano & Egeland 1994).
     """
     if sigma_min >= threshold:
         return 0.0

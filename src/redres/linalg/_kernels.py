@@ -1,9 +1,8 @@
 """Compiled kernels for the small matrices of robotics (internal).
 
-The public functions of :mod:`redres.linalg` call these for ``m <= 6`` task rows (up to 12
-when ``m <= n``) and ``n <= 50`` joints. They are compiled through
-:mod:`redres._jit` (switch, cache, messages) and imported lazily by
-:mod:`redres.linalg._backend`: ``import redres`` never pays for numba.
+The public functions of :mod:`redres.linalg` call these within the sizes of
+:func:`redres.linalg._backend.use_fast_path`. They are compiled through :mod:`redres._jit`
+and imported lazily by :mod:`redres.linalg._backend`: ``import redres`` never pays for numba.
 
 Every kernel works on a *weighted* Jacobian ``Js = J W^{-1/2}`` (``J L^-T`` for a full
 ``W = L L^T``), divided by its largest entry when that entry is outside ``[1e-100, 1e100]``
@@ -14,11 +13,9 @@ matrix ``A = Js Js^T`` (Householder tridiagonalisation, then Laguerre's method) 
 * well conditioned (``sigma_min >= 1e-3 sigma_max``): ``J# = Js^T (A + lam^2 I)^-1`` by a
   Cholesky solve, a few hundred flops, accurate to ``kappa(A) eps <= 2e-10``; the Gram
   eigenvalues give ``sigma`` to about ``kappa(J)^2 eps <= 2e-10`` relative;
-* near-singular: a one-sided Jacobi SVD (Hestenes 1958) of ``Js``, ``B = G Js`` with
-  orthogonal rows ``sigma_i v_i^T``: ``J# = B^T diag(d) G`` and ``J# J = B^T diag(d) B``
-  with ``d_i = 1 / (sigma_i^2 + lam_i^2)``, or ``1 / sigma_i^2`` above the rank tolerance
-  and ``0`` below it when no damping applies. Its singular values are accurate even when
-  tiny, so the rank and ``sigma_min`` reported near a singularity are those of the SVD.
+* near-singular: a one-sided Jacobi SVD (Hestenes 1958) of ``Js`` (:func:`_core` gives
+  the formulas), whose singular values are accurate even when tiny, so the rank and
+  ``sigma_min`` reported near a singularity are those of the SVD.
 
 Status codes (returned first by each kernel, turned into errors by the caller) name the
 offending argument; the kernels never raise. The small helpers live in
@@ -37,19 +34,15 @@ import numpy as np
 from .._jit import kernel
 from ._codes import (
     ADAPTIVE,
-    DAMPING_NEGATIVE,
-    DAMPING_NONFINITE,
     EXACT,
     FIXED,
     GRAD_NONFINITE,
     GRAD_SHAPE,
     J_EMPTY,
     J_NONFINITE,
-    K_NONFINITE,
     NO_WEIGHTS,
     OK,
-    RCOND_NEGATIVE,
-    RCOND_NONFINITE,
+    SCALAR_INVALID,
     SELECTIVE,
     XD_NONFINITE,
     XD_SHAPE,
@@ -77,11 +70,8 @@ _CHOLESKY_MIN_RATIO = 1e-3
 
 @kernel
 def _damping_squared(sigma, dmode, lam, lam_max, eps):  # type: ignore[no-untyped-def]
-    """Damping lambda^2 for a singular value ``sigma`` (unscaled units).
-
-    FIXED: lam^2. ADAPTIVE / SELECTIVE: lam_max^2 (1 - (sigma/eps)^2) below eps, else 0
-    (Chiaverini, Siciliano & Egeland 1994; Maciejewski & Klein 1988).
-    """
+    """Damping lambda^2 for a singular value ``sigma`` (unscaled units): FIXED lam^2,
+    ADAPTIVE / SELECTIVE the law of :class:`~redres.linalg.AdaptiveDamping`."""
     if dmode == FIXED:
         return lam * lam
     if dmode == ADAPTIVE or dmode == SELECTIVE:
@@ -102,8 +92,9 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, work):  # type: i
       ``J# = Js^T C^-T C^-1 / s``;
     * otherwise Js is overwritten with ``B = G Js`` (orthogonal rows ``sigma_i v_i^T``), C
       with the rotation ``G`` and ``dvec`` with the filter ``d``: ``J# = B^T diag(d) G / s``
-      and ``J# J = B^T diag(d) B``. Using B itself, not ``G Js``, keeps the tiny rows of the
-      near-singular directions accurate to their own size.
+      and ``J# J = B^T diag(d) B``, ``d_i = 1 / (sigma_i^2 + lam_i^2)``, or, undamped,
+      ``1 / sigma_i^2`` above the rank tolerance and 0 below. Using B itself, not ``G Js``,
+      keeps the tiny rows of the near-singular directions accurate to their own size.
 
     Singular values and damping are in the units of the unscaled matrix. ``work`` is
     scratch space of at least ``2 m^2 + 4 m`` floats; ``dvec`` has length m.
@@ -204,8 +195,10 @@ def _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec):  # type: ign
 def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
     """``out <- J# xd - k_null (I - J# J) grad``; ``(status, rank, smin, smax, damping)``.
 
-    When ``null`` has length n it receives the secondary part ``out - J# xd`` (the
-    null-space term), from the same factorisation; pass a length-0 array otherwise.
+    Any weights (``wmode`` selects ``wdiag`` (n,) or ``W`` (n, n); the other may be empty)
+    and damping mode; ``J`` non-empty and the scalars validated by the caller. When
+    ``null`` has length n it receives the secondary part ``out - J# xd`` (the null-space
+    term), from the same factorisation; pass a length-0 array otherwise.
     """
     m, n = J.shape
     has_grad = grad.shape[0] > 0
@@ -299,41 +292,22 @@ def step(J, xd, grad, out, null, k_null, damping, rcond):  # type: ignore[no-unt
 
     ``qd = J# xd - k_null (I - J# J) grad``; ``grad`` of length 0 means no secondary
     objective; ``null`` of length n receives the secondary part (length 0: not wanted).
-    Scalars are validated here. Returns
+    Scalars are checked here (any fault: ``SCALAR_INVALID``). Returns
     ``(status, rank, full_rank, sigma_min, sigma_max, damping, mode)``.
     """
     m, n = J.shape
     if m == 0 or n == 0:
         return J_EMPTY, 0, False, 0.0, 0.0, 0.0, EXACT
-    if k_null * 0.0 != 0.0:
-        return K_NONFINITE, 0, False, 0.0, 0.0, 0.0, EXACT
-    if damping * 0.0 != 0.0:
-        return DAMPING_NONFINITE, 0, False, 0.0, 0.0, 0.0, EXACT
-    if damping < 0.0:
-        return DAMPING_NEGATIVE, 0, False, 0.0, 0.0, 0.0, EXACT
-    if rcond * 0.0 != 0.0:
-        return RCOND_NONFINITE, 0, False, 0.0, 0.0, 0.0, EXACT
-    if rcond < 0.0:
-        return RCOND_NEGATIVE, 0, False, 0.0, 0.0, 0.0, EXACT
+    # x * 0 is NaN exactly for NaN or infinity (a sum that overflows is refused too: the
+    # caller's general path then accepts it)
+    if (k_null + damping + rcond) * 0.0 != 0.0 or not (damping >= 0.0 and rcond >= 0.0):
+        return SCALAR_INVALID, 0, False, 0.0, 0.0, 0.0, EXACT
     mode = FIXED if damping > 0.0 else EXACT
     status, rank, smin, smax, used = _step(
         J, xd, grad, out, null, k_null, NO_WEIGHTS, xd[:0], J[:0, :0], mode, damping, 0.0, 1.0,
         rcond,
     )  # fmt: skip
     return status, rank, rank == min(m, n), smin, smax, used, mode
-
-
-@kernel
-def step_general(J, xd, grad, wdiag, W, out, null, k_null, wmode, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
-    """Rate step with any weights and damping mode (scalars validated by the caller).
-
-    ``wmode`` selects ``wdiag`` (n,) or ``W`` (n, n); the other may be empty; ``null`` as
-    for :func:`step`. Returns ``(status, rank, sigma_min, sigma_max, damping)``.
-    """
-    m, n = J.shape
-    if m == 0 or n == 0:
-        return J_EMPTY, 0, 0.0, 0.0, 0.0
-    return _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond)
 
 
 @kernel

@@ -52,11 +52,9 @@ def damped_pinv(
     rcond: float = RCOND,
     return_info: bool = False,
 ) -> Result:
-    """Damped least-squares inverse ``J^T (J J^T + damping^2 I)^-1``.
+    """Damped least-squares inverse ``J^T (J J^T + damping^2 I)^-1`` (module docstring).
 
-    (Nakamura & Hanafusa 1986; Wampler 1986.) Finite for every finite ``J``, including
-    singular ones; its entries are bounded by ``1 / (2 damping)``. For ``m <= 6`` and
-    ``n <= 50`` it runs in a compiled kernel.
+    Finite for every finite ``J``, including singular ones.
 
     Args:
         J: Jacobian, shape ``(m, n)``.
@@ -73,7 +71,7 @@ def damped_pinv(
     Raises:
         InvalidParameterError: ``damping`` is negative.
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     parts = be.matrix_inverse(A, damping=damping, rcond=be.as_rcond(rcond), exact_label="pinv")
     return be.finish(parts, A.shape, return_info)
 
@@ -107,12 +105,8 @@ def adaptive_damped_pinv(
 ) -> Result:
     """Damped inverse whose damping is zero away from singularities.
 
-    ``lambda^2 = (1 - (sigma_min / threshold)^2) max_damping^2`` when
-    ``sigma_min < threshold``, else 0 (Chiaverini, Siciliano & Egeland 1994, after
-    Maciejewski & Klein 1988); with ``selective=True`` only the singular values below the
-    threshold are damped (Chiaverini 1997). Shorthand for
-    ``damped_pinv(J, AdaptiveDamping(max_damping, threshold, selective))``; see
-    :class:`AdaptiveDamping` for the references.
+    Shorthand for ``damped_pinv(J, AdaptiveDamping(max_damping, threshold, selective))``;
+    :class:`AdaptiveDamping` states the law and its references.
 
     Args:
         J: Jacobian, shape ``(m, n)``.
@@ -127,6 +121,6 @@ def adaptive_damped_pinv(
         ``J#``, shape ``(n, m)`` (and the info).
     """
     spec = AdaptiveDamping(max_damping, threshold, selective)
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     parts = be.matrix_inverse(A, damping=spec, rcond=be.as_rcond(rcond))
     return be.finish(parts, A.shape, return_info)

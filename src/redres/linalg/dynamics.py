@@ -8,12 +8,9 @@ With ``M`` the joint-space inertia (seed 004 calls it ``A``)::
 
 where the null-space torque ``(I - J^T J_bar^T) tau_0`` produces no task acceleration:
 ``J M^-1 (I - J^T J_bar^T) = 0`` (seed 004, appendix B). ``J_bar`` is the weighted
-pseudo-inverse with ``W = M`` (the inverse that minimises kinetic energy), and it is
-computed the same way: ``M = L L^T`` by Cholesky, ``J_bar = L^-T (J L^-T)^+`` and
-``Lambda = (J L^-T (J L^-T)^T)^+`` from one factorisation of ``J L^-T`` — triangular
-solves only, never an explicit ``M^-1``. For ``m <= 6`` task rows (12 when ``m <= n``)
-and ``n <= 50`` joints this is one compiled kernel call (the weighted inverse's,
-``W = M``); larger problems use LAPACK's SVD.
+pseudo-inverse with ``W = M`` (the inverse that minimises kinetic energy), computed as
+:func:`~redres.linalg.weighted_pinv` is (in the same kernel), with ``Lambda =
+(J L^-T (J L^-T)^T)^+`` from the same factorisation of ``J L^-T`` (``M = L L^T``).
 
 Near a singularity ``J M^-1 J^T`` loses rank and ``Lambda`` grows without bound. With
 ``damping = lambda`` the functions use ``Lambda_lambda = (J M^-1 J^T + lambda^2 I)^-1``
@@ -54,20 +51,14 @@ def mass_matrix_factor(M: ArrayLike, n: int) -> FloatArray:
         NonFiniteError: ``M`` contains NaN or infinity.
         NotPositiveDefiniteError: ``M`` is not symmetric or not positive definite.
     """
-    A = as_matrix(M, "M", (n, n))
-    biggest = float(np.abs(A).max())
-    if float(np.abs(A - A.T).max()) > 1e-9 * biggest:
-        raise NotPositiveDefiniteError(
-            "M must be a symmetric positive definite mass matrix; it is not symmetric "
-            "(fill both triangles, or use (M + M.T) / 2 if the asymmetry is rounding)"
-        )
     try:
-        return np.asarray(np.linalg.cholesky(A), dtype=np.float64)
-    except np.linalg.LinAlgError as exc:
-        raise NotPositiveDefiniteError(
-            "M must be a symmetric positive definite mass matrix; its Cholesky "
-            "factorisation failed (a zero or negative inertia, or dependent rows)"
-        ) from exc
+        return be.weight_factor(codes.FULL, be.EMPTY_1D, as_matrix(M, "M", (n, n)), "M")
+    except NotPositiveDefiniteError as exc:
+        raise _not_a_mass_matrix(exc) from exc
+
+
+def _not_a_mass_matrix(exc: NotPositiveDefiniteError) -> NotPositiveDefiniteError:
+    return NotPositiveDefiniteError(f"M must be a symmetric positive definite mass matrix ({exc})")
 
 
 def _decompose(
@@ -80,16 +71,14 @@ def _decompose(
     """``(Lambda, J_bar, J, stats, method)``: from the compiled kernel (one factorisation
     of ``J L^-T``) within the kernels' sizes, else from :func:`_decompose_svd`.
     ``J_bar`` is 0 x 0 unless ``want_pinv``."""
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     n = A.shape[1]
     Mm = as_matrix(M, "M", (n, n))
     rc = be.as_rcond(rcond)
     try:
         parts = be.task_inertia(A, Mm, damping=damping, rcond=rc, want_pinv=want_pinv)
     except NotPositiveDefiniteError as exc:
-        raise NotPositiveDefiniteError(
-            f"M must be a symmetric positive definite mass matrix ({exc})"
-        ) from exc
+        raise _not_a_mass_matrix(exc) from exc
     if parts is None:
         return _decompose_svd(A, Mm, damping, rc)
     Lam, J_bar, stats, mode = parts
@@ -107,6 +96,7 @@ def _decompose_svd(
 ) -> tuple[FloatArray, FloatArray, FloatArray, be.Stats, str]:
     """The reference path (any size; also the oracle of the kernel in the tests): one
     LAPACK SVD of ``J L^-T``."""
+    be.check_finite(A)
     m, n = A.shape
     L = mass_matrix_factor(M, n)
     mode, lam, lam_max, eps = be.parse_damping(damping)
@@ -127,8 +117,7 @@ def _decompose_svd(
     Lam = (U * g) @ U.T
     Lam = 0.5 * (Lam + Lam.T)
     J_bar = solve_triangular(L, (Vt[:k].T * f) @ U[:, :k].T, lower=True, trans="T")
-    smin = float(sigma[-1]) if m <= n else float(sigma[k - 1])
-    stats = be.Stats(rank, smin, float(sigma[0]), used)
+    stats = be.Stats(rank, float(sigma[-1]), float(sigma[0]), used)
     return Lam, np.asarray(J_bar), A, stats, _method(mode)
 
 

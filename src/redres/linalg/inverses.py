@@ -65,8 +65,7 @@ def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Re
     """
     A = be.as_jacobian(J)
     filt = be.Filtered(A, 0, 0.0, 0.0, 1.0, be.as_rcond(rcond))
-    stats = be.Stats(filt.rank, filt.sigma_min, filt.sigma_max, 0.0)
-    return be.finish((filt.pinv(), stats, "pinv"), A.shape, return_info)
+    return be.finish((filt.pinv(), filt.stats, "pinv"), A.shape, return_info)
 
 
 @overload
@@ -80,9 +79,8 @@ def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False)
 
     The minimum-norm solution of ``J qd = xd`` (seeds 000, 001, 002), with ``J J_r^+ = I``.
     Computed by a Cholesky solve when ``J`` is well conditioned and from the SVD otherwise
-    (the same matrix, without squaring the condition number). If ``J`` is rank-deficient
-    (``J J^T`` singular) the truncated SVD pseudo-inverse is returned instead, with
-    ``info.full_rank == False`` and ``info.method == "pinv"``.
+    (the same matrix, without squaring the condition number); a rank-deficient ``J``
+    gives the truncated SVD pseudo-inverse (module docstring).
 
     Args:
         J: Jacobian, shape ``(m, n)`` with ``m <= n``.
@@ -95,7 +93,7 @@ def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False)
     Raises:
         ShapeError: if ``m > n`` (use :func:`left_pinv` or :func:`pinv`).
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     if A.shape[0] > A.shape[1]:
         raise ShapeError(
             f"right_pinv needs a wide J (m <= n); got shape {A.shape}. "
@@ -116,8 +114,7 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
 
     The least-squares solution of an over-constrained ``J qd = xd``: it minimises
     ``||xd - J qd||^2`` and ``J_l^+ J = I`` (seed 002, "Left Pseudo-inverse"). Computed as
-    the transpose of the right pseudo-inverse of ``J^T``; a rank-deficient ``J`` gives the
-    truncated SVD pseudo-inverse, reported in the info.
+    the transpose of the right pseudo-inverse of ``J^T`` (so rank-deficient alike).
 
     Args:
         J: Jacobian, shape ``(m, n)`` with ``m >= n``.
@@ -130,7 +127,7 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
     Raises:
         ShapeError: if ``m < n`` (use :func:`right_pinv` or :func:`pinv`).
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     if A.shape[0] < A.shape[1]:
         raise ShapeError(
             f"left_pinv needs a tall J (m >= n); got shape {A.shape}. "
@@ -146,10 +143,8 @@ def square_inverse(
 @overload
 def square_inverse(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
 def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
-    """Inverse ``J^-1`` of a square Jacobian (seed 002, "Square Jacobians").
-
-    A singular ``J`` gives the truncated SVD pseudo-inverse instead (finite, reported with
-    ``info.full_rank == False``), never an error or NaN.
+    """Inverse ``J^-1`` of a square Jacobian (seed 002, "Square Jacobians"); a singular
+    ``J`` gives the truncated SVD pseudo-inverse (module docstring).
 
     Args:
         J: Jacobian, shape ``(n, n)``.
@@ -162,7 +157,7 @@ def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = Fa
     Raises:
         ShapeError: if ``J`` is not square.
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     if A.shape[0] != A.shape[1]:
         raise ShapeError(f"square_inverse needs a square J; got shape {A.shape}. Use pinv.")
     parts = be.matrix_inverse(A, rcond=be.as_rcond(rcond), exact_label="square")
@@ -212,7 +207,7 @@ def weighted_pinv(
         NotPositiveDefiniteError: ``W`` is not symmetric positive definite.
         NonFiniteError: ``J`` or ``W`` contains NaN or infinity.
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     parts = be.matrix_inverse(A, weights=W, damping=damping, rcond=be.as_rcond(rcond))
     return be.finish(parts, A.shape, return_info)
 
@@ -238,8 +233,7 @@ def generalized_inverse(
     * ``weights`` given: :func:`weighted_pinv` (damped if ``damping`` is set);
     * ``damping`` set: :func:`redres.linalg.damped_pinv` / ``adaptive_damped_pinv``;
     * otherwise square -> :func:`square_inverse`, wide -> :func:`right_pinv`,
-      tall -> :func:`left_pinv`; any of them falls back to the truncated SVD pseudo-inverse
-      (:func:`pinv`) when ``J`` is rank-deficient.
+      tall -> :func:`left_pinv`.
 
     ``info.method`` (with ``return_info=True``) says which one was used.
 
@@ -253,7 +247,7 @@ def generalized_inverse(
     Returns:
         The inverse, shape ``(n, m)`` (and the info).
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     m, n = A.shape
     rc = be.as_rcond(rcond)
     if weights is not None or be.parse_damping(damping)[0] != 0:

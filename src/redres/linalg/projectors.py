@@ -82,7 +82,7 @@ def nullspace_projector(
     Returns:
         ``N``, shape ``(n, n)`` (and the info).
     """
-    A = be.as_jacobian(J)
+    A = be.as_jacobian(J, check_finite=False)
     m, n = A.shape
     if J_pinv is not None:
         if weights is not None or isinstance(damping, AdaptiveDamping) or damping != 0.0:
@@ -94,6 +94,7 @@ def nullspace_projector(
                 "return_info=True needs J_pinv=None: the diagnostics belong to the inverse "
                 "this function computes"
             )
+        be.check_finite(A)
         return np.eye(n) - as_matrix(J_pinv, "J_pinv", (n, m)) @ A
     _, N, stats, mode = be.invert(
         A,

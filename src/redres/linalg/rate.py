@@ -9,8 +9,7 @@ with ``J#`` the exact, damped, adaptively damped or weighted inverse selected by
 options, ``N`` the projector *of that same inverse*, and diagnostics of the inverse, all
 from one factorisation. ``D(q)`` is a cost to minimise (DESIGN.md convention), so
 ``-k_null grad D`` is a descent direction; a quantity to maximise is passed as its
-negative. For ``m <= 6`` task rows (12 when ``m <= n``) and ``n <= 50`` joints the whole
-step is one compiled kernel call.
+negative. Within the kernels' sizes the whole step is one compiled kernel call.
 """
 
 from __future__ import annotations
@@ -24,7 +23,6 @@ from numpy.typing import ArrayLike
 from .._validate import as_scalar
 from ..errors import NonFiniteError, ShapeError
 from . import _backend as be
-from . import _codes as codes
 from ._backend import FloatArray
 from ._info import RCOND, AdaptiveDamping, InverseInfo
 
@@ -86,9 +84,8 @@ def rate_step(
     * exact inverse (default): ``N`` is the orthogonal null-space projector, ``J N = 0``,
       and the secondary term leaves the task untouched (seed 000 eq. 6);
     * damped (``damping = lambda``): ``qd`` is the exact minimiser of
-      ``||J qd - xd||^2 + lambda^2 ||qd + k_null grad||^2``; ``||J N|| <= lambda/2``, so the
-      secondary term may disturb the task by at most that much, and nothing jumps where
-      the rank changes (see :mod:`redres.linalg.projectors`);
+      ``||J qd - xd||^2 + lambda^2 ||qd + k_null grad||^2``; the secondary term may
+      disturb the task by ``||J N|| <= lambda/2`` (see :mod:`redres.linalg.projectors`);
     * adaptive (``damping = AdaptiveDamping(...)``): exact away from singularities,
       damped near them;
     * weighted (``weights = W``): ``J# = J_W^+`` and ``N = I - J_W^+ J``; ``qd`` minimises
@@ -143,13 +140,12 @@ def rate_step(
                 status, rank, full, smin, smax, used, mode = lane(  # type: ignore[operator]
                     Ja, xa, ga, qd, null, k_null, damping, rcond
                 )
-            except TypeError:  # a scalar that is not a number: the general path says which
+            except TypeError:  # a scalar that is not a number
                 status = -1
             if not status:
                 info = _new_tuple(InverseInfo, (rank, full, smin, smax, used, _LABELS[mode]))
                 return _new_tuple(RateStep, (qd, info, null if return_null else None))
-            if status > 0:
-                _raise_for_status(status, Ja, xa, ga, grad is not None, k_null, damping, rcond)
+            # else bad input: the general path finds it again and raises the error naming it
     qd, info, null = _general_step(Ja, xa, ga, grad is not None, k_null, damping, weights, rcond)
     return _new_tuple(RateStep, (qd, info, null if return_null else None))
 
@@ -169,49 +165,24 @@ def _general_step(
     m, n = J.shape
     if J.size == 0 or xd.shape != (m,) or (has_grad and grad.shape != (n,)):
         _raise_shape(J, xd, grad, has_grad)
-    k, rc = _scalars(k_null, rcond)
+    k, rc = as_scalar(k_null, "k_null"), be.as_rcond(rcond)
     mode, lam, lam_max, eps = be.parse_damping(damping)
     wmode, wdiag, wfull = be.parse_weights(weights, n, "weights")
     labels = _LABELS if weights is None else _WEIGHTED_LABELS
     kern = be.use_fast_path(m, n)
     if kern is not None:
         qd, null = np.empty(n), np.empty(n)
-        status, rank, smin, smax, used = kern.step_general(
-            J, xd, grad, wdiag, wfull, qd, null, k, wmode, mode, lam, lam_max, eps, rc
+        status, rank, smin, smax, used = kern._step(
+            J, xd, grad, qd, null, k, wmode, wdiag, wfull, mode, lam, lam_max, eps, rc
         )
         if status:
             be.raise_status(status, _NAMES)
     else:
-        qd, null, rank, smin, smax, used = _numpy_step(
+        qd, null, (rank, smin, smax, used) = _numpy_step(
             J, xd, grad, k, wmode, wdiag, wfull, (mode, lam, lam_max, eps, rc)
         )
     full = rank == min(m, n)
     return qd, InverseInfo(rank, full, smin, smax, used, labels[mode]), null
-
-
-def _scalars(k_null: Any, rcond: Any) -> tuple[float, float]:
-    """Validated ``(k_null, rcond)``."""
-    return as_scalar(k_null, "k_null"), as_scalar(rcond, "rcond", minimum=0.0)
-
-
-def _raise_for_status(
-    status: int,
-    J: FloatArray,
-    xd: FloatArray,
-    grad: FloatArray,
-    has_grad: bool,
-    k_null: Any,
-    damping: Any,
-    rcond: Any,
-) -> None:
-    """Turn a fast-lane status into the error of the general path (same messages)."""
-    if status in (codes.J_EMPTY, codes.XD_SHAPE, codes.GRAD_SHAPE):
-        _raise_shape(J, xd, grad, has_grad)
-    if status in (codes.K_NONFINITE, codes.RCOND_NONFINITE, codes.RCOND_NEGATIVE):
-        _scalars(k_null, rcond)
-    if status in (codes.DAMPING_NONFINITE, codes.DAMPING_NEGATIVE):
-        be.parse_damping(damping)
-    be.raise_status(status, _NAMES)
 
 
 def _raise_shape(J: FloatArray, xd: FloatArray, grad: FloatArray, has_grad: bool) -> None:
@@ -234,9 +205,9 @@ def _numpy_step(
     wdiag: FloatArray,
     wfull: FloatArray,
     spec: tuple[int, float, float, float, float],
-) -> tuple[FloatArray, FloatArray, int, float, float, float]:
+) -> tuple[FloatArray, FloatArray, be.Stats]:
     """Reference implementation of the step (any size), same conventions as the kernel:
-    ``(qd, null_term, rank, sigma_min, sigma_max, damping)``."""
+    ``(qd, null_term, stats)``."""
     for arr, name in ((J, "J"), (xd, "xd"), (grad, "grad")):
         if not np.isfinite(arr).all():
             raise NonFiniteError(f"{name} contains NaN or infinity")
@@ -249,5 +220,4 @@ def _numpy_step(
         null = -k * filt.project(be.weigh_up(grad, wmode, factor))
     qd = be.unweigh_rows(task + null, wmode, factor)
     null = be.unweigh_rows(null, wmode, factor)
-    return (np.ascontiguousarray(qd), np.ascontiguousarray(null), filt.rank, filt.sigma_min,
-            filt.sigma_max, filt.damping)  # fmt: skip
+    return np.ascontiguousarray(qd), np.ascontiguousarray(null), filt.stats

@@ -1,7 +1,17 @@
 """Robot models: kinematics and dynamics of one serial chain, on Pinocchio."""
 
 from .capsules import Capsule, capsule_between
+from .chain import ChainPoseError, NotSerialChainError, SerialChain
 from .dh import DHLink
 from .robot import Reference, Robot
 
-__all__ = ["Capsule", "DHLink", "Reference", "Robot", "capsule_between"]
+__all__ = [
+    "Capsule",
+    "ChainPoseError",
+    "DHLink",
+    "NotSerialChainError",
+    "Reference",
+    "Robot",
+    "SerialChain",
+    "capsule_between",
+]

@@ -17,8 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from .. import _jit
 from .._validate import FloatArray
 
+_MODULE = "redres.robot._kernels"
 _KERNEL: list[Any] = [None]
 
 
@@ -48,11 +50,11 @@ def _kernel() -> Any:
     """The compiled kernel's entry point, None without the kernels (or when switched off)."""
     from ..linalg import _backend
 
-    if _backend.kernels() is None:
+    if _backend.kernels() is None or not _jit.ready(_MODULE):
         return None
     if _KERNEL[0] is None:
         warm = (np.zeros((6, 1)), np.zeros((1, 6, 1)))
-        _KERNEL[0] = _backend.entry("redres.robot._kernels", "revolute_jacobian_derivatives", warm)
+        _KERNEL[0] = _backend.entry(_MODULE, "revolute_jacobian_derivatives", warm)
     return _KERNEL[0]
 
 

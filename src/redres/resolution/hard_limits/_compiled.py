@@ -11,7 +11,8 @@ _PACKAGE = "redres.resolution.hard_limits."
 
 
 def kernels(name: str = "_kernels") -> ModuleType:
-    """Kernel module ``name`` of this package (``_kernels``, ``_lp_kernels``, ``_qp_kernels``).
+    """Kernel module ``name`` of this package (``_kernels``, ``_lp_kernels``, ``_qp_kernels``):
+    compiled, or its plain-Python twin while it compiles behind (:func:`redres._jit.load`).
 
     Raises:
         MissingDependencyError: numba cannot be imported (the hard-limit schemes have no
@@ -24,3 +25,9 @@ def kernels(name: str = "_kernels") -> ModuleType:
             "imported; reinstall it, or set REDRES_DISABLE_JIT=1 to run them as plain Python"
         )
     return module
+
+
+def pending(*names: str) -> tuple[str, ...]:
+    """Those of the kernel modules ``names`` that are still compiling behind: a scheme
+    that prepared its entry points on their plain twins prepares again once none is."""
+    return tuple(_PACKAGE + n for n in names if not _jit.is_compiled(kernels(n)) and _jit.enabled())

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ... import _jit
 from ..._validate import FloatArray, as_scalar
 from ...linalg import RCOND, InverseInfo
 from ...linalg._backend import invert
@@ -117,6 +118,9 @@ class BoxScheme(Scheme):
         self.qd_prev: FloatArray | None = None
         self._robot: Any = None
         self._ws: Any = None
+        #: Kernel modules the entry points were prepared on as plain Python (compiling
+        #: behind, :mod:`redres._jit`); prepared again, compiled, once they are ready.
+        self._pending: tuple[str, ...] = ()
 
     @classmethod
     def from_scenario(cls, params: ScenarioParams) -> Scheme:
@@ -145,7 +149,11 @@ class BoxScheme(Scheme):
         """The step prologue: ``(workspace, qd0, qd_prev)``, the workspace rebuilt when the
         robot or the task size changes, ``qd0 = −k_null Σ wᵢ ∇Dᵢ`` the secondary velocity
         (zeros without objectives)."""
-        if robot is not self._robot or self._ws.key[1] != xd.shape[0]:
+        if (
+            robot is not self._robot
+            or self._ws.key[1] != xd.shape[0]
+            or (self._pending and all(map(_jit.ready, self._pending)))
+        ):
             self._prepare(robot, q, J, xd)
         ws = self._ws
         qd0 = ws.zero

@@ -57,7 +57,7 @@ from ...linalg._backend import raise_status
 from ...tasks import Task, stack
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective
-from ._compiled import kernels
+from ._compiled import kernels, pending
 from ._solvers import QPSolver, WarmQP, sense, solve_levels
 from .base import STEP_NAMES, BoxScheme, Workspace, box_details
 
@@ -175,7 +175,7 @@ class QPScheme(BoxScheme):
             self._box_qp = WarmQP(daqp, options, H=eye, f=self._f, A=np.zeros((0, n)),
                                   bupper=self._bu[:n], blower=self._bl[:n],
                                   sense=flags[:n])  # fmt: skip
-        self._ws, self._robot = ws, robot
+        self._ws, self._robot, self._pending = ws, robot, pending("_kernels", "_qp_kernels")
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         ws, qd0, prev = self._inputs(robot, q, J, xd)

@@ -49,7 +49,7 @@ from ...linalg._backend import raise_status
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._codes import METHODS, NEAREST
-from ._compiled import kernels
+from ._compiled import kernels, pending
 from .base import STEP_NAMES, BoxScheme, Workspace, box_details
 
 if TYPE_CHECKING:
@@ -123,7 +123,7 @@ class SNSScheme(BoxScheme):
         args = (q, ws.zero, self.dt, ws.lim, J, xd, ws.zero, False, self.tolerance,
                 *ws.outputs(), ws.M, ws.wm, ws.wn, ws.wb)  # fmt: skip
         self._kernel = _jit.entry_point(kernels().sns_step, args)
-        self._ws, self._robot = ws, robot
+        self._ws, self._robot, self._pending = ws, robot, pending("_kernels")
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         ws, qd0, prev = self._inputs(robot, q, J, xd)
