@@ -118,6 +118,20 @@ def as_scalar(
     return x
 
 
+def as_rng(rng: Any, name: str = "rng") -> np.random.Generator:
+    """A NumPy generator from a generator, a seed (an integer >= 0) or None (fresh)."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is None or (
+        isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) and rng >= 0
+    ):
+        return np.random.default_rng(rng)
+    raise InvalidParameterError(
+        f"{name} must be a numpy.random.Generator, a seed (an integer >= 0) or None; got "
+        f"{short_repr(rng)}"
+    )
+
+
 def short_repr(value: Any, limit: int = 80) -> str:
     """``repr(value)`` cut to ``limit`` characters, for a one-line message."""
     text = repr(value)

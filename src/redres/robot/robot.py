@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import pinocchio as pin
 
-from .._validate import FloatArray, as_scalar, as_vector
+from .._validate import FloatArray, as_rng, as_scalar, as_vector
 from ..errors import FrameNotFoundError, InvalidParameterError, JointLimitError, ShapeError
 from ._frames import add_frame
 from .derivatives import revolute_jacobian_derivatives
@@ -269,16 +269,10 @@ class Robot:
             margin: keep this distance (rad or m, >= 0) from every limit.
 
         Raises:
-            InvalidParameterError: an ``rng`` that is neither, a negative ``margin`` or one
-                wider than a joint range.
+            InvalidParameterError: a bad ``rng``, or ``margin`` < 0 or over a joint range.
             JointLimitError: a joint without finite limits (no uniform draw exists).
         """
-        seed = isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) and rng >= 0
-        if rng is not None and not seed and not isinstance(rng, np.random.Generator):
-            raise InvalidParameterError(
-                f"rng must be a numpy.random.Generator, a seed (an integer >= 0) or None; "
-                f"got {rng!r}"
-            )
+        gen = as_rng(rng)
         margin = as_scalar(margin, "margin", minimum=0.0)
         unbounded = np.flatnonzero(~(np.isfinite(self._q_min) & np.isfinite(self._q_max)))
         if unbounded.size:
@@ -288,7 +282,6 @@ class Robot:
                 f"{self.joint_names[j]!r} has [{self._q_min[j]}, {self._q_max[j]}]: give it "
                 "q_min and q_max, or draw that joint yourself"
             )
-        gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         lo, hi = self._q_min + margin, self._q_max - margin
         if np.any(lo > hi):
             raise InvalidParameterError(f"margin={margin} is wider than a joint range")
