@@ -34,7 +34,6 @@ from __future__ import annotations
 import hashlib
 import importlib
 import os
-import subprocess
 import sys
 import tempfile
 import threading
@@ -353,7 +352,9 @@ def ready(name: str) -> bool:
     if (name, True) in _modules or _marker(name).exists():
         found.add(name)
         return True
-    _compile_behind(name)
+    from . import _behind  # the background process and its lock (not needed before)
+
+    _behind.compile_behind(name)
     return bool(_state.get("foreground"))
 
 
@@ -366,103 +367,6 @@ def cached(name: str) -> bool:
 def pending(name: str) -> bool:
     """Whether kernel module ``name`` is compiling behind (not ready, numba importable)."""
     return _ENABLED and not ready(name)
-
-
-def _lock_file() -> Path:
-    return _cache_root() / f"compiling-{stamp()[:16]}.pid"
-
-
-def _compile_behind(name: str) -> None:
-    """Make sure a background process compiles the kernel modules into the cache, the
-    group of ``name`` first (:mod:`redres._warmup`); notice when it has ended."""
-    proc: subprocess.Popen[bytes] | None = _state.get("behind")
-    if proc is not None:
-        if proc.poll() is not None and not _marker(name).exists():
-            if proc.returncode:
-                _behind_failed(f"it exited with status {proc.returncode}")
-            compile_on_first_use()  # it compiled everything but this: compile it here
-        return
-    if not _take_lock():
-        return  # another process compiles into this cache: wait for its markers
-    try:
-        with open(_log_file(), "wb") as sink:
-            proc = subprocess.Popen(
-                [sys.executable, "-m", "redres", "warmup", "--behind", name],
-                stdin=subprocess.DEVNULL, stdout=sink, stderr=sink, env=child_env(),
-                start_new_session=True,
-            )  # fmt: skip
-        _lock_file().write_text(str(proc.pid))
-    except OSError as exc:
-        _lock_file().unlink(missing_ok=True)
-        _behind_failed(f"it could not start ({exc})")
-        return
-    _state["behind"] = proc
-    seconds = sum(_COLD_SECONDS.values())
-    print(
-        f"redres: compiling kernels in a background process (about {seconds:.0f} s on one "
-        f"core, cached in {cache_dir()}); until then results come from the reference path "
-        "(same answers, slower); `redres warmup` compiles them up front",
-        file=sys.stderr,
-        flush=True,
-    )
-
-
-def child_env() -> dict[str, str]:
-    """Environment of a compiling child process: this redres importable, compiling in
-    its foreground."""
-    env = dict(os.environ, REDRES_COMPILE="foreground")
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_PACKAGE.parent),
-                                                      env.get("PYTHONPATH")]))  # fmt: skip
-    return env
-
-
-def _take_lock() -> bool:
-    """Create the lock file of a background compilation (holding this process's id until
-    the child's replaces it); False if a live process holds it."""
-    for _ in range(2):
-        try:
-            fd = os.open(_lock_file(), os.O_CREAT | os.O_EXCL | os.O_WRONLY)
-        except FileExistsError:
-            if _lock_holder() is not None:
-                return False
-            _lock_file().unlink(missing_ok=True)  # its process died: stale
-            continue
-        except OSError:
-            return False
-        with os.fdopen(fd, "w") as f:
-            f.write(str(os.getpid()))
-        return True
-    return False
-
-
-def release_lock() -> None:
-    """Remove the lock file if this process holds it (the background child, at its end)."""
-    if _lock_holder() == os.getpid():
-        _lock_file().unlink(missing_ok=True)
-
-
-def _log_file() -> Path:
-    return _cache_root() / f"compiling-{stamp()[:16]}.log"
-
-
-def _lock_holder() -> int | None:
-    """Process id of a live background compilation into this cache, or None."""
-    try:
-        pid = int(_lock_file().read_text())
-        os.kill(pid, 0)
-    except (OSError, ValueError):
-        return None
-    return pid
-
-
-def _behind_failed(why: str) -> None:
-    _state["foreground"] = True
-    print(
-        f"redres: the background compilation failed ({why}; see {_log_file()}); kernels "
-        "are compiled on first use instead",
-        file=sys.stderr,
-        flush=True,
-    )
 
 
 def entry_point(dispatcher: Any, args: tuple[Any, ...]) -> Callable[..., Any]:

@@ -19,7 +19,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from . import _jit
+from . import _behind, _jit
 
 __all__ = ["GROUPS", "warmup"]
 
@@ -146,7 +146,7 @@ def _side_process(names: list[str]) -> subprocess.Popen[bytes] | None:
         return None
     names.remove("hard limits")
     args = [sys.executable, "-m", "redres", "warmup", "--jobs", "1", "--quiet", "hard limits"]
-    return subprocess.Popen(args, stdin=subprocess.DEVNULL, env=_jit.child_env())
+    return subprocess.Popen(args, stdin=subprocess.DEVNULL, env=_behind.child_env())
 
 
 def _marking(name: str) -> Callable[[], None]:
@@ -169,4 +169,4 @@ def behind(first: str) -> None:
     try:
         warmup(order, quiet=True, jobs=1)
     finally:
-        _jit.release_lock()
+        _behind.release_lock()
