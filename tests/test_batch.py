@@ -112,6 +112,20 @@ def test_results_do_not_depend_on_the_number_of_threads(rng: np.random.Generator
         assert np.array_equal(kin.jacobians, kin_one.jacobians)
 
 
+def test_read_only_input_reuses_the_compiled_kernels(rng: np.random.Generator) -> None:
+    robot = rr.models.panda()
+    q, xd, w = configurations(robot, rng, 10), rng.normal(size=6), np.ones(robot.n)
+    expected = batch.rate_step(robot, q, xd, damping=0.01, weights=w).qd
+    for array in (q, xd, w):
+        array.flags.writeable = False
+    kernels = _jit.compiled("redres._batch_kernels")
+    if kernels is None or not hasattr(kernels.rate_steps, "signatures"):
+        pytest.skip("the batch kernels are not compiled")
+    before = len(kernels.rate_steps.signatures)
+    assert np.array_equal(batch.rate_step(robot, q, xd, damping=0.01, weights=w).qd, expected)
+    assert len(kernels.rate_steps.signatures) == before  # no second compilation
+
+
 def test_the_reference_loop_gives_the_same_answers(
     rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
 ) -> None:

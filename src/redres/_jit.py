@@ -88,7 +88,7 @@ _COLD_SECONDS: dict[str, float] = {
     "redres.linalg._kernels": 20.0,
     "redres.control._kernels": 8.0,
     "redres.robot._kernels": 2.0,
-    "redres._batch_kernels": 15.0,
+    "redres._batch_kernels": 30.0,
     "redres.resolution.hard_limits._kernels": 20.0,  # with _lp_kernels (SNS's simplex)
     "redres.resolution.hard_limits._qp_kernels": 4.0,
 }

@@ -221,6 +221,7 @@ def rate_step(
     k, rc = as_scalar(k_null, "k_null"), be.as_rcond(rcond)
     mode, lam, lam_max, eps = be.parse_damping(damping)
     wmode, wdiag, wfull = be.parse_weights(weights, n, "weights")
+    wdiag, wfull = _typed(wdiag), _typed(wfull)
     method = (_LABELS if weights is None else _WEIGHTED_LABELS)[mode]
     kernels = _jit.compiled(_MODULE)
     if kernels is None or be.use_fast_path(_TASK_ROWS, n) is None:
@@ -249,12 +250,19 @@ def _rows(value: Any, name: str, width: int, count: int | None = None) -> FloatA
             f"{name} must be an array of numbers of shape (N, {width}): {exc}"
         ) from exc
     if count is not None and array.shape == (width,):
-        return np.ascontiguousarray(array[None])
+        return _typed(array[None])
     expected = f"(N, {width})" if count is None else f"({count}, {width}) or ({width},)"
     if array.ndim != 2 or array.shape[1] != width or count not in (None, len(array)):
         hint = f"; for one item use {name}[None]" if array.shape == (width,) else ""
         raise ShapeError(f"{name} must have shape {expected}; got shape {array.shape}{hint}")
-    return np.ascontiguousarray(array)
+    return _typed(array)
+
+
+def _typed(array: FloatArray) -> FloatArray:
+    """``array`` C-contiguous and writeable: the one array type the kernels are compiled
+    (and cached) for; a read-only input would compile them again."""
+    out = np.ascontiguousarray(array)
+    return out if out.flags.writeable and out.flags.aligned else out.copy()
 
 
 def _ragged(value: Any, name: str, width: int) -> ShapeError | None:
