@@ -42,8 +42,9 @@ import numpy as np
 
 from . import _jit
 from ._validate import FloatArray, as_scalar
-from .errors import InvalidParameterError, RedresError, ShapeError
+from .errors import InvalidParameterError, ShapeError
 from .linalg import _backend as be
+from .linalg import _codes as codes
 from .linalg import rate_step as _single_rate_step
 from .linalg._info import RCOND, AdaptiveDamping, InverseInfo
 from .robot import Robot, SerialChain
@@ -125,9 +126,9 @@ def fk(robot: Robot, q: Any, frame: str | None = None, *, threads: int | None = 
     chain = robot.chain(frame)
     qs = _rows(q, "q", chain.n)
     T = np.empty((len(qs), 4, 4))
-    kernels = _jit.compiled(_MODULE)
+    kernels = _compiled(threads)
     if kernels is None:
-        _loop(len(qs), lambda i: chain.fk(qs[i], out=T[i]))
+        _loop(len(qs), lambda i: chain.fk(qs[i], out=T[i]), (qs, codes.Q_NONFINITE))
         return T
     status = np.empty(len(qs), dtype=np.int64)
     _launch(kernels.poses, (*chain.arrays, qs, T, status), threads)
@@ -164,9 +165,10 @@ def kinematics(
     chain = robot.chain(frame)
     qs = _rows(q, "q", chain.n)
     T, J = np.empty((len(qs), 4, 4)), np.empty((len(qs), _TASK_ROWS, chain.n))
-    kernels = _jit.compiled(_MODULE)
+    kernels = _compiled(threads)
     if kernels is None:
-        _loop(len(qs), lambda i: chain.kinematics(qs[i], reference, pose=T[i], jacobian=J[i]))
+        _loop(len(qs), lambda i: chain.kinematics(qs[i], reference, pose=T[i], jacobian=J[i]),
+              (qs, codes.Q_NONFINITE))  # fmt: skip
         return BatchKinematics(T, J)
     status = np.empty(len(qs), dtype=np.int64)
     _launch(kernels.jacobians, (*chain.arrays, qs, reference == "local", T, J, status), threads)
@@ -223,7 +225,7 @@ def rate_step(
     wmode, wdiag, wfull = be.parse_weights(weights, n, "weights")
     wdiag, wfull = _typed(wdiag), _typed(wfull)
     method = (_LABELS if weights is None else _WEIGHTED_LABELS)[mode]
-    kernels = _jit.compiled(_MODULE)
+    kernels = _compiled(threads)
     if kernels is None or be.use_fast_path(_TASK_ROWS, n) is None:
         options = {"k_null": k, "damping": damping, "weights": weights, "rcond": rc}
         return _rate_loop(chain, qs, xs, gs, options, method)
@@ -284,10 +286,18 @@ def _ragged(value: Any, name: str, width: int) -> ShapeError | None:
     return None
 
 
+def _compiled(threads: int | None) -> Any:
+    """The compiled batch kernels, or None: compiling behind, or plain Python (then the
+    functions loop over the single calls, which are as fast as the plain kernels).
+    Checks ``threads`` first, so that both paths refuse the same input."""
+    if threads is not None and (isinstance(threads, bool) or int(threads) < 1):
+        raise InvalidParameterError(f"threads must be a positive integer or None; got {threads}")
+    kernels = _jit.compiled(_MODULE)
+    return kernels if kernels is not None and _jit.is_compiled(kernels) else None
+
+
 def _launch(kernel: Any, args: tuple[Any, ...], threads: int | None) -> None:
     """Run a parallel kernel with ``threads`` threads (one launch at a time)."""
-    if threads is not None and int(threads) < 1:
-        raise InvalidParameterError(f"threads must be a positive integer or None; got {threads}")
     with _LOCK:
         previous = _jit.threads(threads)
         try:
@@ -306,13 +316,16 @@ def _check(status: Any, per_xd: bool = True, per_grad: bool = True) -> None:
         be.raise_status(int(status[i]), names)
 
 
-def _loop(count: int, call: Callable[[int], object]) -> None:
-    """The reference path: ``call(i)`` for each item; its errors name the item."""
+def _loop(count: int, call: Callable[[int], object], *rows: tuple[FloatArray, int]) -> None:
+    """The reference path: ``call(i)`` for each item, after the finiteness checks of the
+    kernels on ``rows`` (``(array, status code)`` pairs), with the same messages."""
+    status = np.zeros(count, dtype=np.int64)
+    for array, code in reversed(rows):  # the first pair wins, as in the kernels
+        if len(array):
+            status[np.broadcast_to(~np.isfinite(array).all(axis=1), (count,))] = code
+    _check(status, *(len(array) > 1 for array, _ in rows[1:]))
     for i in range(count):
-        try:
-            call(i)
-        except RedresError as exc:
-            raise type(exc)(f"item {i}: {exc}") from exc
+        call(i)
 
 
 def _rate_loop(
@@ -335,6 +348,7 @@ def _rate_loop(
         qd[i], rank[i] = step.qd, step.info.rank
         stats[i] = step.info.sigma_min, step.info.sigma_max, step.info.damping
 
-    _loop(count, item)
+    _loop(count, item, (qs, codes.Q_NONFINITE), (xs, codes.XD_NONFINITE),
+          (gs, codes.GRAD_NONFINITE))  # fmt: skip
     full = rank == min(_TASK_ROWS, n)
     return BatchRateStep(qd, rank, full, stats[:, 0], stats[:, 1], stats[:, 2], method)
