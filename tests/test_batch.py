@@ -45,10 +45,11 @@ def test_fk_and_jacobians_equal_the_single_calls(robot: rr.Robot, rng: np.random
         T = batch.fk(robot, q, frame)
         assert T.shape == (N, 4, 4)
         for reference in ("world", "local"):
-            both = batch.kinematics(robot, q, frame, reference)
-            J = batch.jacobian(robot, q, frame, reference)
+            poses = np.empty((N, 4, 4))
+            J = batch.jacobian(robot, q, frame, reference, poses=poses)
             assert J.shape == (N, 6, robot.n)
-            assert np.array_equal(J, both.jacobians) and np.array_equal(T, both.poses)
+            assert np.array_equal(J, batch.jacobian(robot, q, frame, reference))
+            assert np.array_equal(T, poses)
             for i in range(N):
                 assert np.array_equal(J[i], chain.jacobian(q[i], reference)), (frame, i)
             for i in range(0, N, 37):  # Pinocchio, the reference
@@ -102,14 +103,18 @@ def test_results_do_not_depend_on_the_number_of_threads(rng: np.random.Generator
     robot = rr.models.panda()
     q, xd, grad = configurations(robot, rng, 1000), rng.normal(size=(1000, 6)), rng.normal(size=7)
     one = batch.rate_step(robot, q, xd, grad, damping=0.01, threads=1)
-    kin_one = batch.kinematics(robot, q, threads=1)
+    T_one = np.empty((1000, 4, 4))
+    J_one = batch.jacobian(robot, q, reference="local", poses=T_one, threads=1)
     for threads in (2, None):
         many = batch.rate_step(robot, q, xd, grad, damping=0.01, threads=threads)
         for a, b in zip(one[:-1], many[:-1], strict=True):
             assert np.array_equal(a, b)
-        kin = batch.kinematics(robot, q, threads=threads)
-        assert np.array_equal(kin.poses, kin_one.poses)
-        assert np.array_equal(kin.jacobians, kin_one.jacobians)
+        T = np.empty((1000, 4, 4))
+        assert np.array_equal(
+            batch.jacobian(robot, q, None, "local", poses=T, threads=threads), J_one
+        )
+        assert np.array_equal(T, T_one)
+        assert np.array_equal(batch.fk(robot, q, threads=threads), T_one)
 
 
 def test_read_only_input_reuses_the_compiled_kernels(rng: np.random.Generator) -> None:
@@ -131,14 +136,16 @@ def test_the_reference_loop_gives_the_same_answers(
 ) -> None:
     robot = rr.models.iiwa14()
     q, xd = configurations(robot, rng, 40), rng.normal(size=(40, 6))
-    compiled = (batch.kinematics(robot, q, reference="local"), batch.fk(robot, q),
-                batch.rate_step(robot, q, xd, q, damping=0.05))  # fmt: skip
+
+    def calls() -> list[object]:
+        T = np.empty((40, 4, 4))
+        J = batch.jacobian(robot, q, reference="local", poses=T)
+        return [J, T, batch.fk(robot, q), *batch.rate_step(robot, q, xd, q, damping=0.05)]
+
+    compiled = calls()
     monkeypatch.setattr(_jit, "compiled", lambda name: None)  # as while compiling behind
-    looped = (batch.kinematics(robot, q, reference="local"), batch.fk(robot, q),
-              batch.rate_step(robot, q, xd, q, damping=0.05))  # fmt: skip
-    for a, b in zip(compiled, looped, strict=True):
-        for x, y in zip(a, b, strict=True) if isinstance(a, tuple) else [(a, b)]:
-            assert np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y
+    for x, y in zip(compiled, calls(), strict=True):
+        assert np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y
     q[3, 2] = np.nan
     with pytest.raises(NonFiniteError, match=r"q\[3\] contains NaN"):
         batch.rate_step(robot, q, xd)
@@ -169,6 +176,8 @@ def test_ragged_and_misshaped_input_name_the_item(builtin_robots: dict[str, rr.R
         batch.rate_step(robot, good, np.zeros(6), np.zeros((4, 6)))
     with pytest.raises(InvalidParameterError, match="reference must be 'world' or 'local'"):
         batch.jacobian(robot, good, reference="base")  # type: ignore[arg-type]
+    with pytest.raises(ShapeError, match=r"poses must be a writeable .* \(4, 4, 4\)"):
+        batch.jacobian(robot, good, poses=np.empty((3, 4, 4)))
     with pytest.raises(InvalidParameterError, match="threads must be a positive integer"):
         batch.fk(robot, good, threads=0)
     with pytest.raises(InvalidParameterError, match="damping"):

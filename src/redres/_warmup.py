@@ -91,8 +91,8 @@ def _batch() -> None:
     robot = panda()
     q = np.tile(robot.neutral(), (2, 1))
     batch.fk(robot, q)
-    batch.kinematics(robot, q)
-    batch.kinematics(robot, q, reference="local")
+    batch.jacobian(robot, q, poses=np.empty((2, 4, 4)))
+    batch.jacobian(robot, q, reference="local")
     for damping in (0.0, 0.01, linalg.AdaptiveDamping(0.1, 0.05)):
         batch.rate_step(robot, q, np.ones(6), damping=damping)
         batch.rate_step(robot, q, np.ones((2, 6)), q, damping=damping)

@@ -48,9 +48,10 @@ from .linalg import _codes as codes
 from .linalg import rate_step as _single_rate_step
 from .linalg._info import RCOND, AdaptiveDamping, InverseInfo
 from .robot import Robot, SerialChain
+from .robot.chain import _output  # the check of SerialChain's output arrays
 from .robot.robot import Reference
 
-__all__ = ["BatchKinematics", "BatchRateStep", "fk", "jacobian", "kinematics", "rate_step"]
+__all__ = ["BatchRateStep", "fk", "jacobian", "rate_step"]
 
 _MODULE = "redres._batch_kernels"
 _LOCK = threading.Lock()
@@ -58,18 +59,6 @@ _TASK_ROWS = 6  # rows of a frame Jacobian
 # InverseInfo.method by damping mode (EXACT, FIXED, ADAPTIVE, SELECTIVE), as rate_step's.
 _LABELS = tuple(be.method_label(mode, False, "pinv") for mode in range(4))
 _WEIGHTED_LABELS = tuple(be.method_label(mode, True, "") for mode in range(4))
-
-
-class BatchKinematics(NamedTuple):
-    """Poses and Jacobians of a batch, from one pass per item.
-
-    Attributes:
-        poses: the frame's poses in the world, ``(N, 4, 4)``.
-        jacobians: its geometric Jacobians, ``(N, 6, n)``, rows ``[v; ω]``.
-    """
-
-    poses: FloatArray
-    jacobians: FloatArray
 
 
 class BatchRateStep(NamedTuple):
@@ -142,38 +131,29 @@ def jacobian(
     frame: str | None = None,
     reference: Reference = "world",
     *,
+    poses: FloatArray | None = None,
     threads: int | None = None,
 ) -> FloatArray:
     """Geometric Jacobians of ``frame`` at each row of ``q``, ``(N, 6, n)``, rows
     ``[v; ω]``: world-aligned axes (``"world"``) or the frame's own (``"local"``), as
-    :meth:`redres.robot.Robot.jacobian`. Arguments and errors as :func:`fk`."""
-    return kinematics(robot, q, frame, reference, threads=threads).jacobians
-
-
-def kinematics(
-    robot: Robot,
-    q: Any,
-    frame: str | None = None,
-    reference: Reference = "world",
-    *,
-    threads: int | None = None,
-) -> BatchKinematics:
-    """Poses ``(N, 4, 4)`` and Jacobians ``(N, 6, n)`` of ``frame`` at each row of ``q``,
-    from one pass per item (:func:`fk` and :func:`jacobian` in one)."""
+    :meth:`redres.robot.Robot.jacobian`. ``poses``, a writeable C-contiguous float64
+    ``(N, 4, 4)`` array, receives the poses from the same pass (:func:`fk`'s). Other
+    arguments and errors as :func:`fk`."""
     if reference not in ("world", "local"):
         raise InvalidParameterError(f"reference must be 'world' or 'local'; got {reference!r}")
     chain = robot.chain(frame)
     qs = _rows(q, "q", chain.n)
-    T, J = np.empty((len(qs), 4, 4)), np.empty((len(qs), _TASK_ROWS, chain.n))
+    T = _output(poses, (len(qs), 4, 4), "poses")
+    J = np.empty((len(qs), _TASK_ROWS, chain.n))
     kernels = _compiled(threads)
     if kernels is None:
         _loop(len(qs), lambda i: chain.kinematics(qs[i], reference, pose=T[i], jacobian=J[i]),
               (qs, codes.Q_NONFINITE))  # fmt: skip
-        return BatchKinematics(T, J)
+        return J
     status = np.empty(len(qs), dtype=np.int64)
     _launch(kernels.jacobians, (*chain.arrays, qs, reference == "local", T, J, status), threads)
     _check(status)
-    return BatchKinematics(T, J)
+    return J
 
 
 def rate_step(
@@ -182,11 +162,11 @@ def rate_step(
     xd: Any,
     grad: Any | None = None,
     *,
+    frame: str | None = None,
     k_null: float = 1.0,
     damping: float | AdaptiveDamping = 0.0,
     weights: Any | None = None,
     rcond: float = RCOND,
-    frame: str | None = None,
     threads: int | None = None,
 ) -> BatchRateStep:
     """The rate step ``qd = J# xd − k_null N grad`` of each row of ``q``, with ``J`` the
@@ -199,9 +179,9 @@ def rate_step(
         xd: task velocities ``[v; ω]``, ``(N, 6)``, or ``(6,)`` for every item (m/s, rad/s).
         grad: gradients of the secondary cost, ``(N, n)`` or ``(n,)`` for every item;
             ``None`` for none.
+        frame: the task frame (default: tip).
         k_null, damping, weights, rcond: as :func:`redres.linalg.rate_step` (one value
             for all items).
-        frame: the task frame (default: tip).
         threads: threads for this call (``None``: all).
 
     Returns:
