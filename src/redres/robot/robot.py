@@ -8,6 +8,7 @@ axes (Pinocchio ``LOCAL``). Angles in radians, lengths in metres, SI everywhere.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -15,8 +16,9 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import pinocchio as pin
 
-from .._validate import FloatArray, as_transform, as_vector
+from .._validate import FloatArray, as_vector
 from ..errors import FrameNotFoundError, InvalidParameterError, JointLimitError, ShapeError
+from ._frames import add_frame
 from .derivatives import revolute_jacobian_derivatives
 
 if TYPE_CHECKING:
@@ -47,7 +49,9 @@ class Robot:
 
     Attributes:
         model: the Pinocchio model (read it, do not resize it).
-        data: the Pinocchio data this robot computes into.
+
+    Threads may share a ``Robot``: :attr:`data` is each calling thread's own Pinocchio
+    data. Add frames (:meth:`add_frame`) before sharing it.
     """
 
     def __init__(
@@ -66,7 +70,8 @@ class Robot:
                 "converts continuous joints."
             )
         self.model = model
-        self.data = model.createData()
+        self._local = threading.local()  # per-thread Pinocchio data (the ``data`` property)
+        self._model_version = 0
         self.name = name
         n = model.nv
         q_min = np.array(model.lowerPositionLimit, dtype=float)
@@ -102,6 +107,21 @@ class Robot:
         self._home = home_q
         #: Capsules approximating the links, for obstacle distances (built-in arms set them).
         self.capsules: list[Capsule] = []
+
+    @property
+    def data(self) -> pin.Data:
+        """The Pinocchio data this robot computes into: the calling thread's own."""
+        local = self._local
+        if getattr(local, "version", -1) != self._model_version:
+            local.data, local.version = self.model.createData(), self._model_version
+        return local.data
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k != "_local"}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._local = threading.local()
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -295,7 +315,7 @@ class Robot:
     def add_frame(self, name: str, parent: str, T_parent_frame: Any) -> None:
         """Add a frame rigidly attached to ``parent`` at pose ``T_parent_frame`` (4x4)."""
         add_frame(self.model, name, parent, T_parent_frame)
-        self.data = self.model.createData()
+        self._model_version += 1  # every thread's data is rebuilt for the new model
         self._refresh_frames()
 
     def __repr__(self) -> str:
@@ -465,20 +485,3 @@ def _limit_vector(value: Any, n: int) -> FloatArray:
     if np.isnan(arr).any() or np.any(arr <= 0):
         raise InvalidParameterError(f"qdd_max must be positive (inf: unknown); got {arr}")
     return arr
-
-
-def add_frame(model: pin.Model, name: str, parent: str, T_parent_frame: Any) -> int:
-    """Add an operational frame to a Pinocchio model; returns its index."""
-    if model.existFrame(name):
-        raise InvalidParameterError(f"frame {name!r} already exists on model {model.name!r}")
-    if not model.existFrame(parent):
-        names = [str(f.name) for f in model.frames][1:]
-        raise FrameNotFoundError(
-            f"unknown parent frame {parent!r}; valid frames: {', '.join(names)}"
-        )
-    T = as_transform(T_parent_frame, f"pose of frame {name!r}")
-    parent_id = model.getFrameId(parent)
-    parent_frame = model.frames[parent_id]
-    placement = parent_frame.placement * pin.SE3(T[:3, :3], T[:3, 3])
-    frame = pin.Frame(name, parent_frame.parentJoint, parent_id, placement, pin.FrameType.OP_FRAME)
-    return int(model.addFrame(frame))
