@@ -100,6 +100,11 @@ BENCHES = [
           "fresh process, with an empty compiled-code cache (cold) and with the cache the cold "
           "run filled (warm), for redres' entry points and the peers' first solves.",
           json=True),
+    Bench("batch", "batch.py", "Batches: Jacobian + damped step per item (Panda)",
+          "`benchmarks/batch.py`: `rr.batch.rate_step` on one thread and on all cores "
+          "against a NumPy-vectorised batch (Pinocchio loop + batched solve) and a Python "
+          "loop of single calls, as items per second; then the first batch call of a fresh "
+          "process with an empty and a warm cache.", quick=["--quick"]),
     Bench("dynamics", "dynamics.py", "Operational-space control step (Panda)",
           "`benchmarks/dynamics.py` (redres alone).", quick=["--rounds", "3"], markdown=False),
 ]  # fmt: skip

@@ -13,7 +13,7 @@ Quick start::
 
 from __future__ import annotations
 
-from . import control, dynamics, errors, linalg, models, objectives, resolution, tasks
+from . import batch, control, dynamics, errors, linalg, models, objectives, resolution, tasks
 from ._warmup import warmup
 from .control import Controller, run
 from .errors import RedresError
@@ -29,6 +29,7 @@ __all__ = [
     "RedresError",
     "Robot",
     "__version__",
+    "batch",
     "control",
     "dynamics",
     "errors",

@@ -53,8 +53,10 @@ __all__ = [
     "is_compiled",
     "kernel",
     "load",
+    "parallel_range",
     "pending",
     "ready",
+    "threads",
     "warmup",
 ]
 
@@ -67,6 +69,7 @@ KERNEL_MODULES: tuple[str, ...] = (
     "redres.control._kernels",
     "redres.robot._kernels",
     "redres.robot._chain_kernels",
+    "redres._batch_kernels",
     "redres.resolution.hard_limits._kernels",
     "redres.resolution.hard_limits._lp_kernels",
     "redres.resolution.hard_limits._qp_kernels",
@@ -84,6 +87,7 @@ _COLD_SECONDS: dict[str, float] = {
     "redres.linalg._kernels": 20.0,
     "redres.control._kernels": 8.0,
     "redres.robot._kernels": 2.0,
+    "redres._batch_kernels": 30.0,
     "redres.resolution.hard_limits._kernels": 20.0,  # with _lp_kernels (SNS's simplex)
     "redres.resolution.hard_limits._qp_kernels": 4.0,
 }
@@ -194,16 +198,20 @@ def _cache_root() -> Path:
 # --------------------------------------------------------------------------- kernels
 
 
-def kernel(func: Callable[..., Any]) -> Any:
+def kernel(func: Callable[..., Any] | None = None, *, parallel: bool = False) -> Any:
     """Mark ``func`` as a kernel: compiled by numba (``nogil``, NumPy error model, cached
     as the module docstring says) on its first call, or left as plain Python when the
     switch is off or its module is imported as the reference path. Typed ``Any`` so that
-    kernels calling kernels type-check."""
+    kernels calling kernels type-check. ``@kernel(parallel=True)``: numba's
+    ``parallel=True``, loops over :func:`parallel_range` on its threads (:func:`threads`)."""
+    if func is None:
+        return lambda f: kernel(f, parallel=parallel)
     if not _ENABLED or _state.get("plain_import"):
         return func
     import numba
 
-    dispatcher = numba.njit(**_OPTIONS)(func)
+    options = dict(_OPTIONS, parallel=True) if parallel else _OPTIONS
+    dispatcher = numba.njit(**options)(func)
     if cache_dir() is not None:
         try:
             dispatcher._cache = _cache_class()(dispatcher.py_func)
@@ -211,6 +219,26 @@ def kernel(func: Callable[..., Any]) -> Any:
             pass  # compiled in memory: correct, only slower to start
     _state.setdefault("kernels", {}).setdefault(func.__module__, []).append(dispatcher)
     return dispatcher
+
+
+def parallel_range() -> Any:
+    """``numba.prange`` for ``@kernel(parallel=True)`` loops, ``range`` in plain Python;
+    a kernel module takes it at import (``prange = parallel_range()``), once per twin."""
+    plain = not _ENABLED or _state.get("plain_import")
+    return range if plain else importlib.import_module("numba").prange
+
+
+def threads(count: int | None) -> int:
+    """Threads of the parallel kernels launched from this thread from now on (``None``:
+    all of numba's); returns the previous count (no-op, 1, when kernels are plain)."""
+    if not _ENABLED:
+        return 1
+    import numba
+
+    previous: int = numba.get_num_threads()
+    top: int = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
+    numba.set_num_threads(top if count is None else max(1, min(int(count), top)))
+    return previous
 
 
 # --------------------------------------------------------------------------- loading

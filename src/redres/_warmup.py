@@ -84,6 +84,22 @@ def _ik() -> None:
     ik(robot, robot.fk(robot.neutral() + 0.2), seed=0)
 
 
+def _batch() -> None:
+    from . import batch, linalg
+    from .models import panda
+
+    robot = panda()
+    q = np.tile(robot.neutral(), (2, 1))
+    batch.fk(robot, q)
+    batch.jacobian(robot, q, poses=np.empty((2, 4, 4)))
+    batch.jacobian(robot, q, reference="local")
+    for damping in (0.0, 0.01, linalg.AdaptiveDamping(0.1, 0.05)):
+        batch.rate_step(robot, q, np.ones(6), damping=damping)
+        batch.rate_step(robot, q, np.ones((2, 6)), q, damping=damping)
+    batch.rate_step(robot, q, np.ones(6), weights=np.ones(robot.n))
+    batch.rate_step(robot, q, np.ones(6), weights=np.eye(robot.n))
+
+
 #: Group name -> (kernel modules it caches, workload).
 GROUPS: dict[str, tuple[tuple[str, ...], Callable[[], None]]] = {
     "linalg": (
@@ -99,6 +115,7 @@ GROUPS: dict[str, tuple[tuple[str, ...], Callable[[], None]]] = {
         _hard_limits,
     ),
     "ik": ((), _ik),
+    "batch": (("redres._batch_kernels",), _batch),
 }  # fmt: skip
 
 
@@ -108,7 +125,7 @@ def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: in
 
     Args:
         groups: names of :data:`GROUPS` (``"linalg"``, ``"controller"``,
-            ``"hard limits"``, ``"ik"``); default all.
+            ``"hard limits"``, ``"ik"``, ``"batch"``); default all.
         quiet: print nothing (else one line per group on standard error: what it
             compiled and how long it took).
         jobs: processes to compile in (``2``: the hard-limit group, the longest, in a

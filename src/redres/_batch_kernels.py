@@ -1,0 +1,84 @@
+"""Compiled batches (internal): per-item kernels over a leading axis, on all cores.
+
+Each kernel runs the per-item kernels of :mod:`redres.robot._chain_kernels` (pose,
+Jacobian) and :mod:`redres.linalg._kernels` (the rate step, ``_step``, the one behind
+:func:`redres.linalg.rate_step`) on item ``i`` of arrays with a leading batch axis, in a
+numba ``prange`` loop (``@kernel(parallel=True)``). Items are independent and every
+item is computed by the same per-item code with the same arguments as the single call,
+so the results do not depend on the number of threads and equal the single calls bit
+for bit. The loop runs over chunks of :data:`CHUNK` items, each with its own scratch
+(the frame pose, the Jacobian), so that nothing is allocated per item but what
+``_step`` allocates itself.
+
+Every kernel writes a per-item status (a status code of :mod:`redres.linalg._codes`;
+``Q_NONFINITE`` for a configuration with NaN or ±inf) and never raises; :mod:`redres.batch`
+turns the first nonzero one into an error naming the item.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._jit import kernel, parallel_range
+from .linalg._codes import OK, Q_NONFINITE
+from .linalg._kernels import _step
+from .robot._chain_kernels import fk, jacobian
+
+prange = parallel_range()
+
+#: Items per chunk of the parallel loop (its scratch is reused within a chunk).
+CHUNK = 64
+
+
+@kernel(parallel=True)
+def poses(links, axes, kinds, q, T, status):  # type: ignore[no-untyped-def]
+    """``T[i]`` (4x4) <- pose of the chain's frame at ``q[i]``, for every row of ``q``
+    (N x n); ``status[i]`` <- ``OK`` or ``Q_NONFINITE``."""
+    count = q.shape[0]
+    for i in prange(count):
+        status[i] = OK if fk(links, axes, kinds, q[i], T[i]) else Q_NONFINITE
+
+
+@kernel(parallel=True)
+def jacobians(links, axes, kinds, q, local, T, J, status):  # type: ignore[no-untyped-def]
+    """``T[i]`` (4x4) and ``J[i]`` (6 x n) <- pose and Jacobian (world-aligned, or the
+    frame's axes when ``local``) at ``q[i]``; ``status[i]`` as :func:`poses`."""
+    count = q.shape[0]
+    for i in prange(count):
+        ok = jacobian(links, axes, kinds, q[i], local, T[i], J[i])
+        status[i] = OK if ok else Q_NONFINITE
+
+
+@kernel(parallel=True)
+def rate_steps(links, axes, kinds, q, xd, grad, k_null, weights, spec, qd, rank, stats, status):  # type: ignore[no-untyped-def]
+    """``qd[i]`` <- ``J# xd - k_null (I - J# J) grad`` with ``J`` the world-aligned
+    Jacobian at ``q[i]`` (N x n), as ``_kernels._step`` computes it: ``xd`` (N x 6, or
+    1 x 6 for all items), ``grad`` (N x n, 1 x n for all, or 0 x n for none),
+    ``weights = (wmode, wdiag, W)`` and ``spec = (dmode, lam, lam_max, eps, rcond)``, the
+    arguments of ``_step``. ``rank[i]``, ``stats[i]`` <-
+    ``(sigma_min, sigma_max, damping)`` and ``status[i]`` (a linalg code)."""
+    count, n = q.shape
+    wmode, wdiag, W = weights
+    dmode, lam, lam_max, eps, rcond = spec
+    chunks = (count + CHUNK - 1) // CHUNK
+    for c in prange(chunks):
+        T = np.empty((4, 4))
+        J = np.empty((6, n))
+        none = np.empty(0)
+        for i in range(c * CHUNK, min(count, (c + 1) * CHUNK)):
+            if not jacobian(links, axes, kinds, q[i], False, T, J):
+                status[i] = Q_NONFINITE
+                continue
+            x = xd[i] if xd.shape[0] > 1 else xd[0]
+            if grad.shape[0] == 0:
+                g = none
+            else:
+                g = grad[i] if grad.shape[0] > 1 else grad[0]
+            code, r, smin, smax, used = _step(
+                J, x, g, qd[i], none, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond
+            )
+            status[i] = code
+            rank[i] = r
+            stats[i, 0] = smin
+            stats[i, 1] = smax
+            stats[i, 2] = used

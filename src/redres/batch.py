@@ -1,0 +1,334 @@
+"""Batches: kinematics and the rate step of many configurations at once, on all cores.
+
+Each function takes configurations with a leading batch axis, ``q`` of shape ``(N, n)``,
+and gives for every row what the single call gives for that row:
+
+* :func:`fk`: poses ``(N, 4, 4)``, as :meth:`redres.robot.SerialChain.fk`;
+* :func:`jacobian`: geometric Jacobians ``(N, 6, n)``, world-aligned or local, as
+  :meth:`~redres.robot.SerialChain.jacobian` (both to 1e-12 of :meth:`Robot.fk
+  <redres.robot.Robot.fk>` and :meth:`Robot.jacobian <redres.robot.Robot.jacobian>`,
+  which use Pinocchio);
+* :func:`rate_step`: the joint velocities ``qd = J# xd − k_null N ∇D`` of
+  :func:`redres.linalg.rate_step` with each row's world-aligned Jacobian, and the
+  diagnostics of each inverse (:class:`BatchRateStep`).
+
+They run one compiled kernel per call (:mod:`redres._batch_kernels`), a parallel loop
+over the items that calls the same per-item kernels as the single calls, so the results
+equal the single calls bit for bit and do not depend on the number of threads
+(``threads=`` sets it for one call; default: all of numba's, ``NUMBA_NUM_THREADS``).
+Calls from several Python threads take turns (numba's default thread pool is not
+re-entrant); each uses all its threads.
+
+The compiled kinematics are those of a serial chain (:mod:`redres.robot.chain`): a model
+that is not one up to ``frame`` is refused with
+:class:`~redres.robot.chain.NotSerialChainError` (loop over :meth:`Robot.jacobian
+<redres.robot.Robot.jacobian>` for those). While the kernels compile behind on a cold
+cache (:mod:`redres._jit`), under ``REDRES_DISABLE_JIT=1``, with the linalg kernels
+switched off and for more than 50 joints, each function loops over the single calls
+instead (same answers, much slower).
+
+Errors name the offending item: a ragged or mis-shaped input raises
+:class:`~redres.errors.ShapeError`, NaN or infinity :class:`~redres.errors.NonFiniteError`
+(``"q[17] contains NaN or infinity"``).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from . import _jit
+from ._validate import FloatArray, as_scalar
+from .errors import InvalidParameterError, ShapeError
+from .linalg import _backend as be
+from .linalg import _codes as codes
+from .linalg import rate_step as _single_rate_step
+from .linalg._info import RCOND, AdaptiveDamping, InverseInfo
+from .robot import Robot, SerialChain
+from .robot.chain import _output  # the check of SerialChain's output arrays
+from .robot.robot import Reference
+
+__all__ = ["BatchRateStep", "fk", "jacobian", "rate_step"]
+
+_MODULE = "redres._batch_kernels"
+_LOCK = threading.Lock()
+_TASK_ROWS = 6  # rows of a frame Jacobian
+# InverseInfo.method by damping mode (EXACT, FIXED, ADAPTIVE, SELECTIVE), as rate_step's.
+_LABELS = tuple(be.method_label(mode, False, "pinv") for mode in range(4))
+_WEIGHTED_LABELS = tuple(be.method_label(mode, True, "") for mode in range(4))
+
+
+class BatchRateStep(NamedTuple):
+    """The result of :func:`rate_step`: item ``i`` is :func:`redres.linalg.rate_step`'s
+    ``qd`` and ``info`` for row ``i`` (:meth:`info` rebuilds the latter).
+
+    Attributes:
+        qd: joint velocities, ``(N, n)``, rad/s.
+        rank: rank of each inverse (``int64``, ``(N,)``).
+        full_rank: ``rank == min(6, n)``, ``(N,)``.
+        sigma_min: smallest singular value of each Jacobian, ``(N,)``.
+        sigma_max: largest singular value, ``(N,)``.
+        damping: damping applied to each item, ``(N,)`` (units of ``J``).
+        method: the inverse, as :attr:`redres.linalg.InverseInfo.method`
+            (``"pinv"``, ``"damped"``, ``"adaptive"``, ``"weighted-…"``).
+    """
+
+    qd: FloatArray
+    rank: Any
+    full_rank: Any
+    sigma_min: FloatArray
+    sigma_max: FloatArray
+    damping: FloatArray
+    method: str
+
+    def info(self, i: int) -> InverseInfo:
+        """The :class:`~redres.linalg.InverseInfo` of item ``i``."""
+        return InverseInfo(
+            int(self.rank[i]), bool(self.full_rank[i]), float(self.sigma_min[i]),
+            float(self.sigma_max[i]), float(self.damping[i]), self.method,
+        )  # fmt: skip
+
+
+# ---------------------------------------------------------------------- public functions
+
+
+def fk(robot: Robot, q: Any, frame: str | None = None, *, threads: int | None = None) -> FloatArray:
+    """Poses of ``frame`` (default: tip) in the world at each row of ``q``.
+
+    Args:
+        robot: the robot (a serial chain up to ``frame``).
+        q: configurations, ``(N, n)``, rad (m for prismatic joints).
+        frame: a frame name of ``robot.frames()``; ``None`` for the tip.
+        threads: threads for this call (``None``: all).
+
+    Returns:
+        ``(N, 4, 4)`` homogeneous transforms.
+
+    Raises:
+        ShapeError: ``q`` is ragged or not ``(N, n)`` (the message names the row).
+        NonFiniteError: a row of ``q`` holds NaN or infinity (named).
+        NotSerialChainError: the model is not a serial chain up to ``frame``.
+    """
+    chain = robot.chain(frame)
+    qs = _rows(q, "q", chain.n)
+    T = np.empty((len(qs), 4, 4))
+    kernels = _compiled(threads)
+    if kernels is None:
+        _loop(len(qs), lambda i: chain.fk(qs[i], out=T[i]), (qs, codes.Q_NONFINITE))
+        return T
+    status = np.empty(len(qs), dtype=np.int64)
+    _launch(kernels.poses, (*chain.arrays, qs, T, status), threads)
+    _check(status)
+    return T
+
+
+def jacobian(
+    robot: Robot,
+    q: Any,
+    frame: str | None = None,
+    reference: Reference = "world",
+    *,
+    poses: FloatArray | None = None,
+    threads: int | None = None,
+) -> FloatArray:
+    """Geometric Jacobians of ``frame`` at each row of ``q``, ``(N, 6, n)``, rows
+    ``[v; ω]``: world-aligned axes (``"world"``) or the frame's own (``"local"``), as
+    :meth:`redres.robot.Robot.jacobian`. ``poses``, a writeable C-contiguous float64
+    ``(N, 4, 4)`` array, receives the poses from the same pass (:func:`fk`'s). Other
+    arguments and errors as :func:`fk`."""
+    if reference not in ("world", "local"):
+        raise InvalidParameterError(f"reference must be 'world' or 'local'; got {reference!r}")
+    chain = robot.chain(frame)
+    qs = _rows(q, "q", chain.n)
+    T = _output(poses, (len(qs), 4, 4), "poses")
+    J = np.empty((len(qs), _TASK_ROWS, chain.n))
+    kernels = _compiled(threads)
+    if kernels is None:
+        _loop(len(qs), lambda i: chain.kinematics(qs[i], reference, pose=T[i], jacobian=J[i]),
+              (qs, codes.Q_NONFINITE))  # fmt: skip
+        return J
+    status = np.empty(len(qs), dtype=np.int64)
+    _launch(kernels.jacobians, (*chain.arrays, qs, reference == "local", T, J, status), threads)
+    _check(status)
+    return J
+
+
+def rate_step(
+    robot: Robot,
+    q: Any,
+    xd: Any,
+    grad: Any | None = None,
+    *,
+    frame: str | None = None,
+    k_null: float = 1.0,
+    damping: float | AdaptiveDamping = 0.0,
+    weights: Any | None = None,
+    rcond: float = RCOND,
+    threads: int | None = None,
+) -> BatchRateStep:
+    """The rate step ``qd = J# xd − k_null N grad`` of each row of ``q``, with ``J`` the
+    world-aligned Jacobian of ``frame`` there: row ``i`` is
+    ``redres.linalg.rate_step(robot.chain(frame).jacobian(q[i]), xd[i], grad[i], ...)``.
+
+    Args:
+        robot: the robot (a serial chain up to ``frame``).
+        q: configurations, ``(N, n)``, rad.
+        xd: task velocities ``[v; ω]``, ``(N, 6)``, or ``(6,)`` for every item (m/s, rad/s).
+        grad: gradients of the secondary cost, ``(N, n)`` or ``(n,)`` for every item;
+            ``None`` for none.
+        frame: the task frame (default: tip).
+        k_null, damping, weights, rcond: as :func:`redres.linalg.rate_step` (one value
+            for all items).
+        threads: threads for this call (``None``: all).
+
+    Returns:
+        A :class:`BatchRateStep`: ``qd (N, n)`` and each item's diagnostics.
+
+    Raises:
+        ShapeError: an input is ragged or of the wrong shape (the message names the row).
+        NonFiniteError: a row of ``q``, ``xd`` or ``grad`` holds NaN or infinity (named).
+        InvalidParameterError: negative ``damping`` or ``rcond``.
+        NotPositiveDefiniteError: ``weights`` is not positive definite.
+        NotSerialChainError: the model is not a serial chain up to ``frame``.
+    """
+    chain = robot.chain(frame)
+    n = chain.n
+    qs = _rows(q, "q", n)
+    count = len(qs)
+    xs = _rows(xd, "xd", _TASK_ROWS, count)
+    gs = np.empty((0, n)) if grad is None else _rows(grad, "grad", n, count)
+    k, rc = as_scalar(k_null, "k_null"), be.as_rcond(rcond)
+    mode, lam, lam_max, eps = be.parse_damping(damping)
+    wmode, wdiag, wfull = be.parse_weights(weights, n, "weights")
+    wdiag, wfull = _typed(wdiag), _typed(wfull)
+    method = (_LABELS if weights is None else _WEIGHTED_LABELS)[mode]
+    kernels = _compiled(threads)
+    if kernels is None or be.use_fast_path(_TASK_ROWS, n) is None:
+        options = {"k_null": k, "damping": damping, "weights": weights, "rcond": rc}
+        return _rate_loop(chain, qs, xs, gs, options, method)
+    qd, rank = np.empty((count, n)), np.zeros(count, dtype=np.int64)
+    stats, status = np.zeros((count, 3)), np.zeros(count, dtype=np.int64)
+    args = (*chain.arrays, qs, xs, gs, k, (wmode, wdiag, wfull), (mode, lam, lam_max, eps, rc))
+    _launch(kernels.rate_steps, (*args, qd, rank, stats, status), threads)
+    _check(status, len(xs) > 1, len(gs) > 1)
+    full = rank == min(_TASK_ROWS, n)
+    return BatchRateStep(qd, rank, full, stats[:, 0], stats[:, 1], stats[:, 2], method)
+
+
+# ---------------------------------------------------------------------- helpers
+
+
+def _rows(value: Any, name: str, width: int, count: int | None = None) -> FloatArray:
+    """``value`` as a C-contiguous float64 ``(N, width)`` array: ``N`` rows, or, when
+    ``count`` is given, ``count`` rows or one ``(width,)`` vector for all (kept as one
+    row). Ragged or mis-shaped input raises :class:`ShapeError` naming the row."""
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise _ragged(value, name, width) or ShapeError(
+            f"{name} must be an array of numbers of shape (N, {width}): {exc}"
+        ) from exc
+    if count is not None and array.shape == (width,):
+        return _typed(array[None])
+    expected = f"(N, {width})" if count is None else f"({count}, {width}) or ({width},)"
+    if array.ndim != 2 or array.shape[1] != width or count not in (None, len(array)):
+        hint = f"; for one item use {name}[None]" if array.shape == (width,) else ""
+        raise ShapeError(f"{name} must have shape {expected}; got shape {array.shape}{hint}")
+    return _typed(array)
+
+
+def _typed(array: FloatArray) -> FloatArray:
+    """``array`` C-contiguous and writeable: the one array type the kernels are compiled
+    (and cached) for; a read-only input would compile them again."""
+    out = np.ascontiguousarray(array)
+    return out if out.flags.writeable and out.flags.aligned else out.copy()
+
+
+def _ragged(value: Any, name: str, width: int) -> ShapeError | None:
+    """The error naming the first row of ``value`` that is not ``width`` numbers."""
+    try:
+        rows = list(value)
+    except TypeError:
+        return None
+    for i, row in enumerate(rows):
+        try:
+            shape = np.asarray(row, dtype=np.float64).shape
+        except (TypeError, ValueError) as exc:
+            return ShapeError(f"{name}[{i}] is not a vector of {width} numbers: {exc}")
+        if shape != (width,):
+            return ShapeError(
+                f"{name}[{i}] has shape {shape}; every row of {name} must have shape "
+                f"({width},) (ragged input)"
+            )
+    return None
+
+
+def _compiled(threads: int | None) -> Any:
+    """The compiled batch kernels, or None: compiling behind, or plain Python (then the
+    functions loop over the single calls, which are as fast as the plain kernels).
+    Checks ``threads`` first, so that both paths refuse the same input."""
+    if threads is not None and (isinstance(threads, bool) or int(threads) < 1):
+        raise InvalidParameterError(f"threads must be a positive integer or None; got {threads}")
+    kernels = _jit.compiled(_MODULE)
+    return kernels if kernels is not None and _jit.is_compiled(kernels) else None
+
+
+def _launch(kernel: Any, args: tuple[Any, ...], threads: int | None) -> None:
+    """Run a parallel kernel with ``threads`` threads (one launch at a time)."""
+    with _LOCK:
+        previous = _jit.threads(threads)
+        try:
+            kernel(*args)
+        finally:
+            _jit.threads(previous)
+
+
+def _check(status: Any, per_xd: bool = True, per_grad: bool = True) -> None:
+    """Raise the error of the first item whose status is not OK, naming the item."""
+    bad = np.flatnonzero(status)
+    if bad.size:
+        i = int(bad[0])
+        names = {"q": f"q[{i}]", "xd": f"xd[{i}]" if per_xd else "xd",
+                 "grad": f"grad[{i}]" if per_grad else "grad", "W": "weights"}  # fmt: skip
+        be.raise_status(int(status[i]), names)
+
+
+def _loop(count: int, call: Callable[[int], object], *rows: tuple[FloatArray, int]) -> None:
+    """The reference path: ``call(i)`` for each item, after the finiteness checks of the
+    kernels on ``rows`` (``(array, status code)`` pairs), with the same messages."""
+    status = np.zeros(count, dtype=np.int64)
+    for array, code in reversed(rows):  # the first pair wins, as in the kernels
+        if len(array):
+            status[np.broadcast_to(~np.isfinite(array).all(axis=1), (count,))] = code
+    _check(status, *(len(array) > 1 for array, _ in rows[1:]))
+    for i in range(count):
+        call(i)
+
+
+def _rate_loop(
+    chain: SerialChain,
+    qs: FloatArray,
+    xs: FloatArray,
+    gs: FloatArray,
+    options: dict[str, Any],
+    method: str,
+) -> BatchRateStep:
+    """:func:`rate_step` as a loop over the single calls (the reference path)."""
+    count, n = qs.shape
+    qd, rank = np.empty((count, n)), np.zeros(count, dtype=np.int64)
+    stats = np.zeros((count, 3))
+
+    def item(i: int) -> None:
+        J = chain.jacobian(qs[i])
+        grad = None if not len(gs) else gs[i if len(gs) > 1 else 0]
+        step = _single_rate_step(J, xs[i if len(xs) > 1 else 0], grad, **options)
+        qd[i], rank[i] = step.qd, step.info.rank
+        stats[i] = step.info.sigma_min, step.info.sigma_max, step.info.damping
+
+    _loop(count, item, (qs, codes.Q_NONFINITE), (xs, codes.XD_NONFINITE),
+          (gs, codes.GRAD_NONFINITE))  # fmt: skip
+    full = rank == min(_TASK_ROWS, n)
+    return BatchRateStep(qd, rank, full, stats[:, 0], stats[:, 1], stats[:, 2], method)
