@@ -4,7 +4,8 @@ The redres step is the full CLIK step of the redundancy-resolution issue, throug
 public API: forward kinematics and Jacobian of the TCP, the pose error (SO(3) log), the
 damped inverse with seed 003's joint-limit gradient projected into its null space,
 velocity scaling and the integration ``q + q̇ dt`` — by ``Controller.step`` (its fused
-path: one Pinocchio call, one compiled kernel), and the same step composed from
+path: one compiled kernel, the TCP's kinematics from the Panda's serial chain inside it),
+and the same step composed from
 ``FrameTask``, the objective and ``rate_step`` (no velocity scaling). Peers do their
 equivalent step on the same Panda:
 
@@ -69,6 +70,7 @@ def controller_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Calla
     controller = Controller(robot, task, scheme, gain=GAIN, dt=DT)
     if controller.path != "fused":
         raise AssertionError(f"expected the fused path; got {controller.path}")
+    print(f"Controller.step: path {controller.path}, kinematics from {controller.kinematics}")
     task.set_target(target)
     step = controller.step
     return lambda: step(q)

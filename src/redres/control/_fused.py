@@ -1,10 +1,12 @@
 """The compiled paths' plumbing for :class:`~redres.control.Controller` (internal).
 
-The fused kernels (``redres.control._kernels.clik_step`` and ``frame_command``) read their
-settings and target from one ``config`` vector laid out by the ``CFG_*`` offsets of
-``redres.linalg._codes``. This module decides which path a task and scheme allow
-(:func:`choose_path`), builds that vector, picks the kernels' entry points and turns their
-status codes into errors.
+The fused kernels (``redres.control._kernels.clik_step`` and ``frame_command``, and their
+serial-chain forms ``chain_step`` and ``chain_command``) read their settings and target
+from one ``config`` vector laid out by the ``CFG_*`` offsets of ``redres.linalg._codes``
+and write their results into one output block (:func:`block_size`). This module decides
+which path a task and scheme allow (:func:`choose_path`) and whether the frame's
+kinematics come from its serial chain (:func:`serial_chain`), builds that vector, picks
+the kernels' entry points and turns their status codes into errors.
 """
 
 from __future__ import annotations
@@ -26,11 +28,13 @@ from ..tasks import FrameTask, Task
 
 if TYPE_CHECKING:
     from ..robot import Robot
+    from ..robot.chain import SerialChain
 
 Path = Literal["fused", "frame", "composed"]
 
 _F64 = np.float64
 _KERNELS = "redres.control._kernels"
+_CHAIN = "redres.robot._chain_kernels"
 #: The slots of the kernels' config vector holding the target: the rotation row-major,
 #: the position, the twist (CFG_ROTATION, CFG_POSITION, CFG_TWIST = 0, 9, 12), the layout in
 #: which a FrameTask keeps its target (FrameTask._share_target).
@@ -66,14 +70,42 @@ def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion 
     """The controller's path (:mod:`redres.control.controller` describes the three), with
     the fused settings on the fused path."""
     # A FrameTask computed by FrameTask's own compute (it or a row subclass): the compiled
-    # front end evaluates it exactly.
+    # front end evaluates it exactly. Every entry point is made ready here, so that any
+    # controller of a frame task (the warm-up's) compiles and caches all four.
     plain = isinstance(task, FrameTask) and type(task).compute is FrameTask.compute
-    if not plain or native("frame_command") is None:
+    if not plain or any(native(name) is None for name in _FRONT):
         return "composed", None
     fused = fusion(robot, scheme)
-    if fused is None or native("clik_step") is None:
+    if fused is None:
         return "frame", None
     return "fused", fused
+
+
+_FRONT = ("frame_command", "chain_command", "clik_step", "chain_step")
+
+
+def serial_chain(robot: Robot, frame: str | None) -> SerialChain | None:
+    """``frame``'s serial chain (:meth:`redres.Robot.chain`), or None when the robot is not
+    a serial chain up to it (then Pinocchio computes its kinematics)."""
+    from ..robot.chain import NotSerialChainError
+
+    try:
+        return robot.chain(frame)
+    except NotSerialChainError:
+        return None
+
+
+def block_size(n: int) -> int:
+    """Length of the fused kernels' output block for ``n`` joints: ``q+``, ``qd`` (n each),
+    five diagnostics, ``e`` (6), the pose (16) and the Jacobian (6 n)
+    (``redres.control._kernels.clik_step``)."""
+    return 8 * n + 27
+
+
+def ready() -> bool:
+    """Whether the fused kernels (and the chain kernels they call) run compiled
+    (:func:`redres._jit.ready`; False while they compile behind)."""
+    return _jit.ready(_KERNELS) and _jit.ready(_CHAIN)
 
 
 def fused_config(
@@ -83,19 +115,27 @@ def fused_config(
     dt: float,
     limit_velocity: bool,
     fused: Fusion | None,
+    chain: SerialChain | None = None,
 ) -> FloatArray:
-    """The kernels' ``config`` vector for a robot, the task ``rows`` and their validated
-    ``gain`` (1/s, from :func:`task_gains`; other rows 0) and, on the fused path, the
-    scheme's settings (the summed costs' ``a, r`` from CFG_VECTORS on); the target starts
-    as the identity pose at rest."""
+    """The kernels' ``config`` vector (layout: the ``CFG_*`` offsets) for a robot, the
+    task ``rows`` and their validated ``gain`` (1/s, from :func:`task_gains`; other rows
+    0), on the fused path the scheme's settings (the summed costs' ``a, r``) and, for the
+    chain kernels, the frame's serial ``chain`` (its arrays flattened: one argument for
+    the kernel instead of four); the target starts as the identity pose at rest."""
     n = robot.n
-    config = np.zeros(codes.CFG_VECTORS + 3 * n)
+    links, axes, kinds = chain.arrays if chain is not None else (np.zeros(0),) * 3
+    v = codes.CFG_VECTORS
+    config = np.zeros(v + 3 * n + len(rows))
     config[codes.CFG_ROTATION : codes.CFG_ROTATION + 9] = np.eye(3).ravel()
     config[codes.CFG_GAIN + rows] = gain
     config[codes.CFG_DT] = dt
     config[codes.CFG_LIMIT] = 1.0 if limit_velocity else 0.0
-    v = codes.CFG_VECTORS
+    config[codes.CFG_ROWS] = len(rows)
+    config[codes.CFG_JOINTS] = len(kinds)
     config[v + 2 * n : v + 3 * n] = robot.qd_max
+    config[v + 3 * n :] = rows
+    if chain is not None:
+        config = np.concatenate([config, links.ravel(), axes.ravel(), kinds])
     if fused is None:
         return config
     mode, lam, lam_max, eps = be.parse_damping(fused.inverse.damping)
@@ -147,18 +187,27 @@ def task_gains(gain: Any, m: int, name: str = "gain") -> float | FloatArray:
 
 
 def native(name: str) -> Callable[..., Any] | None:
-    """The native entry point of kernel ``name`` (``clik_step``, ``frame_command`` or
-    ``integrate`` of :mod:`redres.control._kernels`), or None without compiled kernels.
+    """The native entry point of kernel ``name`` (``clik_step``, ``chain_step``,
+    ``frame_command``, ``chain_command`` or ``integrate`` of
+    :mod:`redres.control._kernels`), or None without compiled kernels.
 
-    Its arguments must have the types of the kernel's docstring, as float64 (``rows``
-    int64) C-contiguous arrays: a mismatched type is not detected by the entry point, so
-    callers check their arrays once.
+    Its arguments must have the types of the kernel's docstring, as float64 C-contiguous
+    arrays: a mismatched type is not detected by the entry point, so callers check their
+    arrays once.
     """
-    frame = (np.zeros((6, 1)), np.eye(4), np.zeros(1), np.arange(1, dtype=np.int64),
-             np.zeros(codes.CFG_VECTORS + 3))  # fmt: skip
+    # One joint, one task row; the chain kernels' config holds a one-joint chain
+    # (links 2 x 12, axis 3, kind 1).
+    config = np.zeros(codes.CFG_VECTORS + 3 + 1)
+    config[codes.CFG_ROWS] = 1.0
+    chain = np.concatenate([config, np.zeros(12 * 2 + 3 + 1)])
+    chain[codes.CFG_JOINTS] = 1.0
+    frame = (np.zeros((6, 1)), np.eye(4), np.zeros(1), config)
+    task = (np.zeros((1, 1)), np.zeros(1))
     warm = {
-        "clik_step": (*frame, np.zeros(2 + 6)),
-        "frame_command": (*frame, np.zeros((1, 1)), np.zeros(1), np.zeros(6)),
+        "clik_step": (*frame, np.zeros(block_size(1))),
+        "chain_step": (chain, np.zeros(1), np.zeros(block_size(1))),
+        "frame_command": (*frame, *task, np.zeros(6)),
+        "chain_command": (chain, np.zeros(1), np.zeros(22 + 6), *task),
         "integrate": (np.zeros(1), np.zeros(1), 0.0, np.zeros(1)),
     }
     return be.entry(_KERNELS, name, warm[name])
@@ -167,10 +216,10 @@ def native(name: str) -> Callable[..., Any] | None:
 def kernel_for(robot: Robot, frame_id: int, name: str) -> Any:
     """Kernel ``name``'s :func:`native` entry point when the arrays Pinocchio returns have
     the layout it was compiled for (float64, C order), numba's dispatcher if not, None
-    without compiled kernels."""
+    without compiled kernels (a chain kernel's entry point as it is)."""
     entry = native(name)
-    if entry is None:
-        return None
+    if entry is None or name.startswith("chain"):
+        return entry
     placement, J = robot.placement_jacobian(robot.neutral(), frame_id)
     H = placement.homogeneous
     if all(x.dtype == _F64 and x.flags.c_contiguous for x in (J, H)):

@@ -2,7 +2,13 @@
 logarithm, the rate step of :mod:`redres.linalg._kernels`, velocity scaling and
 integration in one call, for the controller's fast path. Compiled through
 :mod:`redres._jit`; the ``config`` vector's layout is the ``CFG_*`` offsets of
-:mod:`redres.linalg._codes`."""
+:mod:`redres.linalg._codes`.
+
+Each kernel comes in two forms: fed the frame's pose and Jacobian by Pinocchio
+(:func:`clik_step`, :func:`frame_command`), or computing them itself from the frame's
+serial chain with :mod:`redres.robot._chain_kernels` (:func:`chain_step`,
+:func:`chain_command`), so that a step is one compiled call. Both then run the same
+code on the same numbers."""
 
 from __future__ import annotations
 
@@ -16,6 +22,7 @@ from ..linalg._codes import (
     CFG_DT,
     CFG_GAIN,
     CFG_HAS_GRAD,
+    CFG_JOINTS,
     CFG_K_NULL,
     CFG_LIMIT,
     CFG_MAX_DAMPING,
@@ -23,6 +30,7 @@ from ..linalg._codes import (
     CFG_POSITION,
     CFG_RCOND,
     CFG_ROTATION,
+    CFG_ROWS,
     CFG_THRESHOLD,
     CFG_TWIST,
     CFG_VECTORS,
@@ -34,6 +42,7 @@ from ..linalg._codes import (
 )
 from ..linalg._dense_kernels import _finite_1d
 from ..linalg._kernels import _step
+from ..robot._chain_kernels import jacobian
 
 
 @kernel
@@ -77,17 +86,28 @@ def _so3_log(M, out):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def frame_command(J, H, q, rows, config, Jm, xd, e):  # type: ignore[no-untyped-def]
+def _rows_at(config, n):  # type: ignore[no-untyped-def]
+    """Offset of the task rows in ``config`` and their number ``m``; ``-1, 0`` when
+    ``config`` is too short for them."""
+    start = CFG_VECTORS + 3 * n
+    if config.shape[0] < start:
+        return -1, 0
+    m = int(config[CFG_ROWS])
+    if m < 0 or config.shape[0] < start + m:
+        return -1, 0
+    return start, m
+
+
+@kernel
+def frame_command(J, H, q, config, Jm, xd, e):  # type: ignore[no-untyped-def]
     """The frame-task part of :func:`clik_step` (alone: for schemes with their own step):
     ``e = [p_d - p; log(R_d R^T)]`` into ``e`` (6), the task rows of ``J`` into ``Jm``
     (m x n) and ``xd = twist_d + gain * e`` into ``xd`` (m). Returns a status."""
     n = q.shape[0]
     if J.shape[0] != 6 or J.shape[1] != n or H.shape[0] != 4 or H.shape[1] != 4:
         return Q_SHAPE
-    if config.shape[0] != CFG_VECTORS + 3 * n or e.shape[0] != 6:
-        return Q_SHAPE
-    m = rows.shape[0]
-    if Jm.shape[0] != m or Jm.shape[1] != n or xd.shape[0] != m:
+    rows, m = _rows_at(config, n)
+    if rows < 0 or e.shape[0] != 6 or Jm.shape[0] != m or Jm.shape[1] != n or xd.shape[0] != m:
         return Q_SHAPE
     if not _finite_1d(q):
         return Q_NONFINITE
@@ -107,7 +127,7 @@ def frame_command(J, H, q, rows, config, Jm, xd, e):  # type: ignore[no-untyped-
             M[i, j] = acc
     _so3_log(M, e[3:])
     for i in range(m):
-        r = rows[i]
+        r = int(config[rows + i])
         xd[i] = config[CFG_TWIST + r] + config[CFG_GAIN + r] * e[r]
         for j in range(n):
             Jm[i, j] = J[r, j]
@@ -115,37 +135,100 @@ def frame_command(J, H, q, rows, config, Jm, xd, e):  # type: ignore[no-untyped-
 
 
 @kernel
-def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
+def chain_command(config, q, block, Jm, xd):  # type: ignore[no-untyped-def]
+    """:func:`frame_command` with the frame's pose and Jacobian from its serial chain
+    (:func:`redres.robot._chain_kernels.jacobian`, world-aligned), which ``config`` holds
+    after the task rows (``links, axes, kinds`` of
+    :attr:`redres.robot.chain.SerialChain.arrays`, flattened; ``CFG_JOINTS`` = k),
+    instead of Pinocchio. ``block`` (``22 + 6 n``) receives
+    ``[e (6) | T (4x4, row-major) | J (6 x n, row-major)]``. Returns a status."""
+    n = q.shape[0]
+    rows, m = _rows_at(config, n)
+    k = int(config[CFG_JOINTS])
+    start = rows + m
+    if rows < 0 or k < 0 or config.shape[0] != start + 16 * k + 12 or block.shape[0] != 22 + 6 * n:
+        return Q_SHAPE
+    axes_at = start + 12 * (k + 1)
+    links = config[start:axes_at].reshape((k + 1, 3, 4))
+    axes = config[axes_at : axes_at + 3 * k].reshape((k, 3))
+    kinds = config[axes_at + 3 * k :]
+    T = block[6:22].reshape((4, 4))
+    J = block[22:].reshape((6, n))
+    jacobian(links, axes, kinds, q, False, T, J)  # (q's finiteness: frame_command checks)
+    return frame_command(J, T, q, config, Jm, xd, block[:6])
+
+
+@kernel
+def clik_step(J, H, q, config, out):  # type: ignore[no-untyped-def]
     """One fused CLIK step on a frame task: pose error, rate step, limits, integration.
 
     Inputs: ``J`` the frame's 6 x n world-aligned Jacobian, ``H`` its 4 x 4 placement,
-    ``q`` (n,), ``rows`` the task rows (indices into ``[x, y, z, rx, ry, rz]``) and
-    ``config`` laid out as the ``CFG_*`` offsets say, with ``a, r, qd_max`` (n each) from
+    ``q`` (n,) and ``config`` laid out as the ``CFG_*`` offsets say, with ``a, r, qd_max``
+    (n each) and the task rows (m, indices into ``[x, y, z, rx, ry, rz]``) from
     ``CFG_VECTORS`` on. Computes::
 
         e  = [p_d - p; log(R_d R^T)]                      (six rows)
-        xd = twist_d + gain * e                          (the selected rows)
+        xd = twist_d + gain * e                          (the task rows)
         qd = J# xd - k_null (I - J# J) (a * (q - r))     (damping mode CFG_MODE)
         qd <- qd / max(1, max_j |qd_j| / qd_max_j)        (when CFG_LIMIT is 1)
         q+ = q + qd dt
 
     with the same floating-point operations as the composed step (the quadratic cost's
     gradient ``a * (q - r)``, the division by the speed ratio), so that both give the same
-    bits where the inverse does; writes ``out[:n] = q+``, ``out[n:2n] = qd``,
-    ``out[2n:2n+6] = e``. Returns ``(status, rank, sigma_min, sigma_max, damping, speed)``
-    where ``speed`` is ``max_j |qd_j| / qd_max_j`` before scaling (0 when limits are off).
+    bits where the inverse does. Writes the output block ``out`` (``8 n + 27``)::
+
+        [q+ (n) | qd (n) | rank, sigma_min, sigma_max, damping, speed (5)
+         | e (6) | H (4x4, row-major) | J (6 x n, row-major)]
+
+    where ``speed`` is ``max_j |qd_j| / qd_max_j`` before scaling (0 when limits are
+    off); its tail from ``e`` on is :func:`chain_command`'s block. Returns a status.
     """
     n = q.shape[0]
-    m = rows.shape[0]
-    if out.shape[0] != 2 * n + 6:
-        return Q_SHAPE, 0, 0.0, 0.0, 0.0, 0.0
-    Jm = np.empty((m, n))
-    xd = np.empty(m)
-    status = frame_command(J, H, q, rows, config, Jm, xd, out[2 * n : 2 * n + 6])
+    rows, m = _rows_at(config, n)
+    if rows < 0 or out.shape[0] != 8 * n + 27:
+        return Q_SHAPE
+    work = np.empty(m * n + m + n)  # Jm, xd, the cost's gradient: one allocation
+    Jm = work[: m * n].reshape((m, n))
+    xd = work[m * n : m * n + m]
+    block = out[2 * n + 5 :]
+    status = frame_command(J, H, q, config, Jm, xd, block[:6])
     if status != OK:
-        return status, 0, 0.0, 0.0, 0.0, 0.0
+        return status
+    for i in range(4):
+        for j in range(4):
+            block[6 + 4 * i + j] = H[i, j]
+    for i in range(6):
+        for j in range(n):
+            block[22 + n * i + j] = J[i, j]
+    return _resolve(Jm, xd, work[m * n + m :], q, config, out)
+
+
+@kernel
+def chain_step(config, q, out):  # type: ignore[no-untyped-def]
+    """:func:`clik_step` with the frame's pose and Jacobian from its serial chain (as
+    :func:`chain_command`): the whole step without Pinocchio, in three arguments (each
+    array argument costs its conversion on every call). Same output block and status."""
+    n = q.shape[0]
+    rows, m = _rows_at(config, n)
+    if rows < 0 or out.shape[0] != 8 * n + 27:
+        return Q_SHAPE
+    work = np.empty(m * n + m + n)
+    Jm = work[: m * n].reshape((m, n))
+    xd = work[m * n : m * n + m]
+    status = chain_command(config, q, out[2 * n + 5 :], Jm, xd)
+    if status != OK:
+        return status
+    return _resolve(Jm, xd, work[m * n + m :], q, config, out)
+
+
+@kernel
+def _resolve(Jm, xd, scratch, q, config, out):  # type: ignore[no-untyped-def]
+    """The rest of :func:`clik_step` from the task rows ``Jm``, ``xd``: the rate step,
+    velocity scaling and integration into ``out[:2n]``, the diagnostics into
+    ``out[2n:2n+5]``; ``scratch`` (n) holds the cost's gradient. Returns a status."""
+    n = q.shape[0]
     has_grad = config[CFG_HAS_GRAD] != 0.0
-    grad = np.empty(n if has_grad else 0)
+    grad = scratch[:n] if has_grad else scratch[:0]
     if has_grad:
         for j in range(n):
             grad[j] = config[CFG_VECTORS + j] * (q[j] - config[CFG_VECTORS + n + j])
@@ -155,20 +238,26 @@ def clik_step(J, H, q, rows, config, out):  # type: ignore[no-untyped-def]
         int(config[CFG_MODE]), config[CFG_DAMPING], config[CFG_MAX_DAMPING],
         config[CFG_THRESHOLD], config[CFG_RCOND],
     )  # fmt: skip
-    if status != OK:
-        return status, rank, smin, smax, used, 0.0
     speed = 0.0
-    if config[CFG_LIMIT] != 0.0:
+    if status == OK and config[CFG_LIMIT] != 0.0:
         limits = config[CFG_VECTORS + 2 * n : CFG_VECTORS + 3 * n]
         for j in range(n):
             speed = max(speed, abs(qd[j]) / limits[j])
         if speed > 1.0:
             for j in range(n):
                 qd[j] /= speed
+    diag = out[2 * n : 2 * n + 5]
+    diag[0] = rank
+    diag[1] = smin
+    diag[2] = smax
+    diag[3] = used
+    diag[4] = speed
+    if status != OK:
+        return status
     dt = config[CFG_DT]
     for j in range(n):
         out[j] = q[j] + qd[j] * dt
-    return OK, rank, smin, smax, used, speed
+    return OK
 
 
 @kernel

@@ -27,13 +27,18 @@ chosen at construction (:attr:`Controller.path`), all computing the same step:
 
 * ``"fused"``: a plain frame task with a :class:`~redres.resolution.PseudoInverseScheme`
   or a :class:`~redres.resolution.GradientProjectionScheme` whose costs are diagonal
-  quadratics (joint-limit mid-range, posture): one Pinocchio call (placement and
-  Jacobian) and one compiled kernel (pose error, inverse, null-space term, scaling,
-  integration) per step;
+  quadratics (joint-limit mid-range, posture): one compiled kernel per step (the frame's
+  placement and Jacobian, pose error, inverse, null-space term, scaling, integration);
 * ``"frame"``: a plain frame task with any other scheme: the kernel's front end gives the
   task rows of ``J`` and ``ẋ``, the scheme's ``_step`` resolves them;
 * ``"composed"``: any other task (or no compiled kernels): ``task.compute`` and the
   scheme's ``step``.
+
+On the first two the kernel computes the frame's placement and Jacobian itself from the
+robot's serial chain (:meth:`redres.Robot.chain`, equal to Pinocchio's to rounding) when
+the robot is one up to the frame (:attr:`Controller.kinematics` ``"chain"``), else one
+Pinocchio call gives them to it (``"pinocchio"``: a tree, a joint the chain kernels do
+not take).
 """
 
 from __future__ import annotations
@@ -43,7 +48,6 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
-from .. import _jit
 from .._validate import FloatArray, as_scalar, checked_keywords
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError, SimulationError
 from ..linalg import InverseInfo
@@ -52,19 +56,22 @@ from ..linalg._codes import CFG_MODE
 from ..resolution import Scheme, StepResult
 from ..tasks import FrameTask, Task
 from ._fused import (
-    _KERNELS,
     TARGET,
     Path,
+    block_size,
     choose_path,
     fused_config,
     kernel_for,
     native,
     raise_for_status,
+    ready,
+    serial_chain,
     task_gains,
 )
 
 if TYPE_CHECKING:
     from ..robot import Robot
+    from ..robot.chain import SerialChain
 
 
 _F64 = np.float64
@@ -140,20 +147,24 @@ class Controller:
         self._path: Path = path
         self._fid = robot.frame_id(frame.frame) if frame is not None else -1
         self._rows = np.array(rows, dtype=np.int64)
-        self._size = 2 * self._n + 6
+        self._size = block_size(self._n)
+        self._shape = (self._n,)
         self._kernel: Any = None
         self._front: Any = None
         self._integrate: Any = None
+        self._chain: SerialChain | None = None  # the frame's, when the robot is one up to it
         self._config = self._block = _empty(0)
         if path != "composed":
             assert frame is not None
-            self._config = fused_config(robot, self._rows, self._gain, self._dt, self._limit, fused)
+            self._chain = serial_chain(robot, frame.frame)
+            self._config = fused_config(
+                robot, self._rows, self._gain, self._dt, self._limit, fused, self._chain
+            )
             self._block = self._config[TARGET]  # the task's target, from the first step on
         self._pending = False
         self._bind()
         # What the last step did.
-        self._out: FloatArray = _empty(0)  # the fused kernel's (q_next, qd, e) once stepped
-        self._diag: tuple[int, int, float, float, float, float] = (0, 0, 0.0, 0.0, 0.0, 0.0)
+        self._out: FloatArray = _empty(0)  # the fused kernel's output block once stepped
         self._qd: FloatArray = self._out[:0]
         self._error: FloatArray = self._out[:0]
         self._pose: Any = None
@@ -200,6 +211,15 @@ class Controller:
         return self._path
 
     @property
+    def kinematics(self) -> str:
+        """Where the compiled paths get the frame's placement and Jacobian: ``"chain"``
+        (the robot's serial chain, inside the kernel), ``"pinocchio"`` (one Pinocchio
+        call per step), or ``"task"`` on the composed path (``task.compute``)."""
+        if self._path == "composed":
+            return "task"
+        return "pinocchio" if self._chain is None else "chain"
+
+    @property
     def compiled(self) -> bool:
         """Whether the step runs compiled code now: False while the kernels of a cold cache
         compile behind and the step takes their reference path (docs/architecture.md)."""
@@ -210,12 +230,15 @@ class Controller:
     def _bind(self) -> None:
         """The path's kernels: compiled, or their plain-Python twins while they compile
         behind (then bound again, compiled, at the first step after they are ready)."""
+        chain = self._chain is not None  # the kernels' two forms
         if self._path == "fused":
-            self._kernel = kernel_for(self._robot, self._fid, "clik_step")
+            step = "chain_step" if chain else "clik_step"
+            self._kernel = kernel_for(self._robot, self._fid, step)
         elif self._path == "frame":
-            self._front = kernel_for(self._robot, self._fid, "frame_command")
+            front = "chain_command" if chain else "frame_command"
+            self._front = kernel_for(self._robot, self._fid, front)
             self._integrate = native("integrate")
-        self._pending = self._path != "composed" and not _jit.ready(_KERNELS)
+        self._pending = self._path != "composed" and not ready()
 
     # -- the step -----------------------------------------------------------------------
 
@@ -235,41 +258,38 @@ class Controller:
             qa = _contiguous(q, _F64)
         except (TypeError, ValueError) as exc:
             raise ShapeError(f"q must be an array of {n} numbers: {exc}") from exc
-        if qa.ndim != 1 or qa.shape[0] != n:
+        if qa.shape != self._shape:
             raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
-        if self._pending and _jit.ready(_KERNELS):
+        if self._pending and ready():
             self._bind()
         kernel = self._kernel
         if kernel is None:
             return self._resolved_step(qa)
-        placement, J = self._robot.placement_jacobian(qa, self._fid)  # (_frame, inlined)
-        H = placement.homogeneous
         if self._task._target is not self._block:  # type: ignore[attr-defined]
-            self._adopt(qa, H)
+            self._adopt(qa)
         out = _empty(self._size)
-        diag = kernel(J, H, qa, self._rows, self._config, out)
-        if diag[0]:
-            raise_for_status(diag[0], n)
-        self._out, self._diag, self._pose = out, diag, H
+        if self._chain is None:
+            placement, J = self._robot.placement_jacobian(qa, self._fid)
+            status = kernel(J, placement.homogeneous, qa, self._config, out)
+        else:
+            status = kernel(self._config, qa, out)
+        if status:
+            raise_for_status(status, n)
+        self._out = out
         return out[:n]
 
-    def _frame(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """The frame's world-aligned Jacobian ``(6, n)`` and pose (4x4) at ``q``, from one
-        Pinocchio pass, with the task's target in the kernel's settings."""
-        placement, J = self._robot.placement_jacobian(q, self._fid)
-        H = placement.homogeneous
-        if self._task._target is not self._block:  # type: ignore[attr-defined]
-            self._adopt(q, H)
-        return J, H
-
-    def _adopt(self, q: FloatArray, H: FloatArray) -> None:
+    def _adopt(self, q: FloatArray) -> None:
         """Make the kernel's settings hold the frame task's target (at the first step, or
-        after another controller stepped the same task); without a target, the pose ``H``
-        at ``q`` becomes it (hold still)."""
+        after another controller stepped the same task); without a target, the frame's
+        pose at ``q`` becomes it (hold still), computed as the step computes it."""
         task: FrameTask = self._task  # type: ignore[assignment]
         if not task._has_target:
             if not np.all(np.isfinite(q)):
                 raise NonFiniteError("q contains NaN or infinity")
+            if self._chain is None:
+                H = self._robot.placement_jacobian(q, self._fid)[0].homogeneous
+            else:
+                H = self._chain.fk(q)
             task.set_target(H, validate=False)
         task._share_target(self._block)  # set_target writes the kernel's slots from now on
 
@@ -278,10 +298,18 @@ class Controller:
         robot, scheme, n = self._robot, self._scheme, self._n
         front = self._front
         if front is not None:
-            J, H = self._frame(q)
+            if self._task._target is not self._block:  # type: ignore[attr-defined]
+                self._adopt(q)
             m = self._rows.shape[0]
-            Jm, xd, e = _empty((m, n)), _empty(m), _empty(6)
-            status = front(J, H, q, self._rows, self._config, Jm, xd, e)
+            Jm, xd = _empty((m, n)), _empty(m)
+            if self._chain is None:
+                placement, J = robot.placement_jacobian(q, self._fid)
+                e, H = _empty(6), placement.homogeneous
+                status = front(J, H, q, self._config, Jm, xd, e)
+            else:
+                block = _empty(6 * n + 22)  # [e | H | J], the fused block's tail
+                status = front(self._config, q, block, Jm, xd)
+                e, H = block[:6], block[6:22].reshape(4, 4)
             if status:
                 raise_for_status(status, n)
             self._error, self._pose = e, H
@@ -351,11 +379,17 @@ class Controller:
         error ``(m,)``."""
         if self._kernel is None:
             return self._error
-        return self._out[2 * self._n :]
+        k = 2 * self._n + 5
+        return self._out[k : k + 6]
 
     @property
     def pose(self) -> FloatArray | None:
         """The frame task's frame pose at the last step (4x4, world), else None."""
+        if self._kernel is not None:
+            if not self._out.shape[0]:
+                return None
+            k = 2 * self._n + 11
+            return self._out[k : k + 16].reshape(4, 4)
         pose = self._pose
         if pose is None or isinstance(pose, _ndarray):
             return pose
@@ -369,8 +403,10 @@ class Controller:
             if self._speed is None:  # nothing was scaled: the applied velocity's ratio
                 self._speed = float(_max(_abs(self._qd) / self._robot.qd_max))
             return self._speed
+        if not self._out.shape[0]:
+            return 0.0
         if self._limit:
-            return self._diag[5]
+            return float(self._out[2 * self._n + 4])
         return float(_max(_abs(self.qd) / self._robot.qd_max))
 
     @property
@@ -378,7 +414,7 @@ class Controller:
         """Whether the last command was scaled down to the velocity limits."""
         if self._kernel is None:
             return self._scaled
-        return self._diag[5] > 1.0
+        return self._out.shape[0] > 0 and bool(self._out[2 * self._n + 4] > 1.0)
 
     @property
     def info(self) -> InverseInfo:
@@ -389,7 +425,8 @@ class Controller:
             return self._result.info
         if not self._out.shape[0]:
             raise InvalidParameterError("the controller has not made a step yet")
-        _, rank, smin, smax, used, _ = self._diag
+        rank, smin, smax, used = self._out[2 * self._n : 2 * self._n + 4].tolist()
+        rank = int(rank)
         full = rank == min(self._rows.shape[0], self._n)
         label = _LABELS[int(self._config[CFG_MODE])]
         return _new_info(InverseInfo, (rank, full, smin, smax, used, label))  # type: ignore[no-any-return]

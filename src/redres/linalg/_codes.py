@@ -32,14 +32,16 @@ NO_WEIGHTS = 0
 DIAGONAL = 1
 FULL = 2
 
-# Codes of the fused CLIK step (clik_step), after the rate-step codes.
+# Codes of the fused CLIK step (redres.control._kernels), after the rate-step codes.
 Q_NONFINITE = 16
 Q_SHAPE = 17
 POSE_NONFINITE = 18
 
-# Layout of the ``config`` vector of ``_kernels.clik_step`` (n joints): target rotation
-# (row-major), target position, feedforward twist, per-row gain, then the scalars, then the
-# quadratic cost coefficients and the velocity limits.
+# Layout of the ``config`` vector of ``redres.control._kernels`` (n joints, m task rows, k
+# chain joints): target rotation (row-major), target position, feedforward twist, per-row
+# gain, then the scalars (CFG_ROWS = m, CFG_JOINTS = k), then from CFG_VECTORS on the
+# quadratic cost coefficients a, r and the velocity limits (n each), the task rows (m) and,
+# for the chain kernels, the frame's serial chain: links (12 (k + 1)), axes (3 k), kinds (k).
 CFG_ROTATION = 0
 CFG_POSITION = 9
 CFG_TWIST = 12
@@ -53,4 +55,6 @@ CFG_DT = 29
 CFG_RCOND = 30
 CFG_LIMIT = 31
 CFG_HAS_GRAD = 32
-CFG_VECTORS = 33
+CFG_ROWS = 33
+CFG_JOINTS = 34
+CFG_VECTORS = 35
