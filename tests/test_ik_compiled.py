@@ -76,6 +76,32 @@ def test_restarts_and_budgets_match_the_reference(
     assert abs(fast.position_error - slow.position_error) < 0.1
 
 
+@pytest.mark.parametrize("lam", [0.0, 1e-3, 0.05])
+@pytest.mark.parametrize("blocked", [[1, 3], [0, 2, 5], [0, 1, 2, 3, 4, 5, 6]])
+def test_dual_step_equals_the_rate_step_with_zeroed_columns(
+    lam: float, blocked: list[int], builtin_robots: dict
+) -> None:
+    """The dual form over the free columns = redres.linalg.rate_step on J with the
+    blocked columns zeroed (its SVD path), task part and null-space part."""
+    module = _jit.compiled("redres._ik_kernels")
+    robot = builtin_robots["panda"]
+    rng = np.random.default_rng(len(blocked))
+    for _ in range(10):
+        J = robot.jacobian(robot.random_configuration(rng))
+        e, grad = rng.normal(size=6), rng.normal(size=7)
+        mask = np.zeros(7, dtype=bool)
+        mask[blocked] = True
+        grad[mask] = 0.0
+        Jz = np.where(mask, 0.0, J)
+        ref = rr.linalg.rate_step(Jz, e, grad, k_null=0.3, damping=lam, return_null=True)
+        out, null = np.empty(7), np.empty(7)
+        ok = module._dual_step(J, e, 6, mask, int((~mask).sum()), grad, 0.3, lam, out, null)
+        assert ok
+        scale = 1.0 + np.abs(ref.qd).max()
+        assert np.abs(out - ref.qd).max() < 1e-9 * scale
+        assert np.abs(null - ref.null_term).max() < 1e-9 * scale
+
+
 def test_restart_generator() -> None:
     compiled = _jit.compiled("redres._ik_kernels")
     plain = _jit._get("redres._ik_kernels", compiled=False)

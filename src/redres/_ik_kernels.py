@@ -29,6 +29,7 @@ import math
 import numpy as np
 
 from ._jit import kernel
+from .linalg._dense_kernels import _cholesky, _cholesky_solve
 from .linalg._kernels import step as _rate_step
 from .robot._chain_kernels import pose_error
 
@@ -113,11 +114,81 @@ def _direction(J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k, lam, 
         else:
             grad[j] = weight[j] * (q[j] - mid[j])
     null = pref if prefer else pref[:0]
-    result = _rate_step(Jb[:rows], e[:rows], grad, task, null, k, lam, _RCOND)
+    free = 0
+    for j in range(n):
+        if not blocked[j]:
+            free += 1
+    if free < rows and _dual_step(J, e, rows, blocked, free, grad, k, lam, task, null):
+        sigma = 0.0  # as the reference: σ_rows of J with blocked columns, rank < rows
+    else:
+        sigma = _rate_step(Jb[:rows], e[:rows], grad, task, null, k, lam, _RCOND)[3]
     if prefer:
         for j in range(n):
             task[j] -= pref[j]
-    return result[3]
+    return sigma
+
+
+@kernel
+def _dual_step(J, e, rows, blocked, free, grad, k, lam, out, null):  # type: ignore[no-untyped-def]
+    """``out <- J# e − k (I − J# J) grad`` (``null`` <- its second part, if of length n)
+    for a Jacobian whose ``free`` unblocked columns are fewer than its rows, in the dual
+    form ``J# = (JᵀJ + λ² I)⁻¹ Jᵀ`` over the free columns (Cholesky of the small
+    ``free x free`` Gram matrix). It equals the inverse of
+    :func:`redres.linalg._kernels.step` on the Jacobian with the blocked columns zeroed,
+    ``Jᵀ (J Jᵀ + λ² I)⁻¹`` (the push-through identity; blocked joints get
+    ``−k grad = 0``), which must take its Jacobi SVD there (``J Jᵀ`` is singular), 30
+    times slower. Returns False, leaving that path to the caller, when ``λ = 0`` and the
+    free columns are not well conditioned (``κ(JᵀJ) > 1e8``).
+    """
+    n = blocked.shape[0]
+    index = np.empty(free, dtype=np.int64)
+    f = 0
+    for j in range(n):
+        if not blocked[j]:
+            index[f] = j
+            f += 1
+    G = np.empty((free, free))
+    L = np.empty((free, free))
+    r = np.empty(free)
+    rt = np.empty(free)
+    largest = 0.0
+    for a in range(free):
+        for b in range(a + 1):
+            acc = 0.0
+            for i in range(rows):
+                acc += J[i, index[a]] * J[i, index[b]]
+            G[a, b] = acc
+            G[b, a] = acc
+        largest = max(largest, G[a, a])
+    if free > 0:
+        if not _cholesky(G, L, free, lam * lam):
+            return False
+        if lam == 0.0:
+            for a in range(free):
+                if L[a, a] * L[a, a] < 1e-8 * largest:
+                    return False
+    for a in range(free):
+        acc = 0.0
+        for i in range(rows):
+            acc += J[i, index[a]] * e[i]
+        rt[a] = acc
+        acc2 = 0.0
+        for b in range(free):
+            acc2 += G[a, b] * grad[index[b]]
+        r[a] = acc + k * acc2
+    _cholesky_solve(L, r, free)
+    _cholesky_solve(L, rt, free)
+    want_null = null.shape[0] == n
+    for j in range(n):
+        out[j] = -k * grad[j]
+        if want_null:
+            null[j] = out[j]
+    for a in range(free):
+        j = index[a]
+        out[j] += r[a]
+        if want_null:
+            null[j] = out[j] - rt[a]
+    return True
 
 
 @kernel
