@@ -97,9 +97,12 @@ def _cap(dq, largest):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _direction(J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k, lam, grad, task, pref):  # type: ignore[no-untyped-def]
+def _direction(
+    J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k, lam, threshold, grad, task, pref
+):  # type: ignore[no-untyped-def]
     """``task`` (and, in phase 2, ``pref``) <- the two parts of the step with the
-    ``blocked`` joints' columns removed; returns ``σ_min`` of the (blocked) Jacobian.
+    ``blocked`` joints' columns removed; returns ``σ_min`` of the (blocked) Jacobian, or
+    ``threshold`` when it is at least that (the damping law needs no more).
     Phase 1: the joint-limit term is in ``task``; phase 2: ``pref`` is the null-space
     step toward ``q_pref``."""
     n = q.shape[0]
@@ -120,12 +123,62 @@ def _direction(J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k, lam, 
             free += 1
     if free < rows and _dual_step(J, e, rows, blocked, free, grad, k, lam, task, null):
         sigma = 0.0  # as the reference: σ_rows of J with blocked columns, rank < rows
-    else:
+    elif not _primal_step(Jb, e, rows, grad, k, lam, threshold, task, null):
         sigma = _rate_step(Jb[:rows], e[:rows], grad, task, null, k, lam, _RCOND)[3]
+    else:
+        sigma = threshold  # σ_min >= threshold: all the next damping law needs
     if prefer:
         for j in range(n):
             task[j] -= pref[j]
     return sigma
+
+
+@kernel
+def _primal_step(J, e, rows, grad, k, lam, threshold, out, null):  # type: ignore[no-untyped-def]
+    """``out <- Jᵀ (J Jᵀ + λ² I)⁻¹ (e + k J grad) − k grad`` (``null`` <- its second
+    part, if of length n) when ``σ_min(J) >= threshold``, found by the Cholesky
+    factorisation of ``J Jᵀ − threshold² I`` succeeding; else False. There
+    :func:`redres.linalg._kernels.step` takes the same Cholesky path (``σ_min/σ_max``
+    is far above its 1e-3), so this is its formula without the eigenvalues it computes
+    for ``σ_min`` (the reference's damping law gives 0 for any ``σ_min >= threshold``).
+    """
+    n = J.shape[1]
+    if not threshold > 0.0:
+        return False
+    A = np.empty((rows, rows))
+    L = np.empty((rows, rows))
+    r = np.empty(rows)
+    rt = np.empty(rows)
+    for a in range(rows):
+        for b in range(a + 1):
+            acc = 0.0
+            for j in range(n):
+                acc += J[a, j] * J[b, j]
+            A[a, b] = acc
+    if not _cholesky(A, L, rows, -threshold * threshold):
+        return False
+    if not _cholesky(A, L, rows, lam * lam):  # pragma: no cover - A ≻ threshold² I
+        return False
+    for a in range(rows):
+        acc = 0.0
+        for j in range(n):
+            acc += J[a, j] * grad[j]
+        r[a] = e[a] + k * acc
+        rt[a] = e[a]
+    _cholesky_solve(L, r, rows)
+    want_null = null.shape[0] == n
+    if want_null:
+        _cholesky_solve(L, rt, rows)
+    for j in range(n):
+        acc = -k * grad[j]
+        task = 0.0
+        for a in range(rows):
+            acc += J[a, j] * r[a]
+            task += J[a, j] * rt[a]
+        out[j] = acc
+        if want_null:
+            null[j] = acc - task
+    return True
 
 
 @kernel
@@ -387,12 +440,12 @@ def _attempt(  # type: ignore[no-untyped-def]
                 recompute = recompute or sticky[j]
         if not recompute:
             sigma = _direction(J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k,
-                               lam, grad, task, pref)  # fmt: skip
+                               lam, threshold, grad, task, pref)  # fmt: skip
         if at_limit:
             for _ in range(3):
                 if recompute:
                     sigma = _direction(J, Jb, e, rows, q, blocked, prefer, q_pref, mid,
-                                       weight, k, lam, grad, task, pref)  # fmt: skip
+                                       weight, k, lam, threshold, grad, task, pref)  # fmt: skip
                 if not _blocked_more(q, lo, hi, task, pref, prefer, blocked):
                     break
                 recompute = True
