@@ -25,6 +25,10 @@ Each iteration, from the error ``e = [p_d − p; log(R_d Rᵀ)]`` (docs/conventi
   solution set (first-order condition ``N (q − q_preferred) = 0`` away from limits);
   joints stopped at a limit stay clamped. If the budget runs out first, the last
   configuration that met the target is returned, converged, with a note in ``message``.
+  An ``arm_angle`` missed by more than ``ARM_ANGLE_TOL`` (the branch of the self-motion
+  reached may not contain it within the limits) is sought again from random
+  configurations while the budget lasts; the result closest to it is returned, with
+  ``arm_angle`` (reached) and ``preference_met`` set, and the miss in ``message``.
 * ``s ≤ 1`` scales the step so that no joint moves more than ``max_step`` per iteration,
   then joints are clipped into their limits. Before that, joints at a limit that the step
   pushes outward are *clamped*: their Jacobian columns are zeroed and the step recomputed
@@ -59,6 +63,7 @@ target of the wrong shape or a 4x4 that is not a homogeneous transform raises
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from typing import TYPE_CHECKING, Any
@@ -70,7 +75,7 @@ from . import _jit
 from ._ik_reference import ReferenceSolver
 from ._validate import FloatArray, as_scalar, as_vector
 from .errors import InvalidParameterError
-from .ik_types import IKResult, _Options, _options, _parse_target
+from .ik_types import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target
 from .linalg import AdaptiveDamping, rate_step
 
 if TYPE_CHECKING:
@@ -173,11 +178,55 @@ def ik(
             q_start, False, 0, 0, math.inf, math.inf, time.perf_counter() - start,
             "target contains NaN or infinity: nothing to solve",
         )  # fmt: skip
-    if arm_angle is not None:
-        arm_angle = as_scalar(arm_angle, "arm_angle")
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    solver = ReferenceSolver(robot, fid, spec, options, q_pref, arm_angle)  # type: ignore[arg-type]
+    if arm_angle is not None:
+        return _arm_angle_solve(robot, fid, spec, options, as_scalar(arm_angle, "arm_angle"),
+                                q_start, rng, start)  # fmt: skip
+    solver = ReferenceSolver(robot, fid, spec, options, q_pref, None)
     return solver.solve(q_start, rng, start)
+
+
+def _arm_angle_solve(
+    robot: Robot,
+    fid: int,
+    spec: tuple[FloatArray, FloatArray | None],
+    options: _Options,
+    phi: float,
+    q_start: FloatArray,
+    rng: np.random.Generator,
+    start: float,
+) -> IKResult:
+    """The reference path with the arm-angle preference, re-solved from random
+    configurations (other branches of the self-motion) while the preference is missed
+    and the budget lasts (``max_restarts`` solves, ``timeout_s``): the result closest
+    to ``phi`` is returned, with the angle reached and whether it is met."""
+    from .tasks import ArmAngleTask, wrap_angle
+
+    arm, best, best_miss = ArmAngleTask(), None, math.inf
+    q, deadline = q_start, start + options.timeout_s
+    for _ in range(options.max_restarts + 1):
+        solver = ReferenceSolver(robot, fid, spec, options, None, phi)
+        result = solver.solve(q, rng, start)
+        if result.converged:
+            reached = float(arm.value(robot, result.q))
+            miss = abs(wrap_angle(reached - phi))
+            if miss < best_miss:
+                best, best_miss = dataclasses.replace(result, arm_angle=reached), miss
+        elif best is None:
+            best = result
+        if best_miss <= ARM_ANGLE_TOL or time.perf_counter() > deadline:
+            break
+        q = rng.uniform(solver.sample_lo, solver.sample_hi)
+    assert best is not None
+    if not best.converged:
+        return best
+    met = best_miss <= ARM_ANGLE_TOL
+    note = "" if met else (
+        f"; arm-angle preference not met: reached {best.arm_angle:.4f} rad, wanted "
+        f"{phi:.4f} rad (the closest of the solutions found)"
+    )  # fmt: skip
+    return dataclasses.replace(best, preference_met=met, message=best.message + note,
+                               time_s=time.perf_counter() - start)  # fmt: skip
 
 
 _WARM: set[str] = set()
