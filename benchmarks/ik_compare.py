@@ -16,6 +16,10 @@ configurations, else the run aborts). Every library gets the same harness:
   tight enough that meeting it meets ours:
 
   - redres ``ik(..., q0=start, max_restarts=0)`` (100 iterations, stall detection);
+  - redres with its own restarts, as a user calls it: ``ik(..., q0=start, seed=k,
+    timeout_s=time left)`` (restarts from its own seeded draws, inside the budget);
+  - TRAC-IK (``pytracik``, the C++ library: KDL Newton and SQP in two threads, random
+    restarts inside its own timeout, set to the time limit), ``Speed``, ``epsilon=1e-7``;
   - robotics-toolbox ``ik_LM`` (Levenberg–Marquardt, Chan's damping, C++), ``ilimit=30``,
     one search per attempt, ``tol=1e-13`` on ½‖e‖², its joint-limit check on;
   - KDL ``ChainIkSolverPos_NR_JL`` (Newton–Raphson on ``ChainIkSolverVel_pinv``, joints
@@ -28,7 +32,11 @@ configurations, else the run aborts). Every library gets the same harness:
 
 Times are per target, all attempts included, failures at their elapsed time.
 
-Run: ``python benchmarks/ik_compare.py [--targets 1000] [--seed 7] [--limit 0.5]``.
+The default time limit is the TRAC-IK protocol's 5 ms per target (Beeson & Ames,
+"TRAC-IK", Humanoids 2015).
+
+Run: ``python benchmarks/ik_compare.py [--targets 1000] [--seed 7] [--limit 0.005]
+[--libraries redres KDL ...]`` (``--libraries``: substrings of the rows to run).
 """
 
 from __future__ import annotations
@@ -36,6 +44,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import re
 import sys
 import time
 import warnings
@@ -51,7 +61,7 @@ from tqdm import tqdm
 sys.path.insert(0, str(Path(__file__).parent))
 
 import peers
-from _common import table
+from _common import machine, table
 
 import redres as rr
 from redres.ik import ik
@@ -78,6 +88,39 @@ def redres_attempt(name: str, robot: rr.Robot) -> Attempt:
 
     def attempt(T: np.ndarray, start: np.ndarray, left: float) -> np.ndarray:
         return ik(robot, T, frame, q0=start, max_restarts=0, timeout_s=max(left, 1e-6)).q
+
+    return attempt
+
+
+def redres_own_attempt(name: str, robot: rr.Robot) -> Attempt:
+    frame = peers.TIP_FRAME[name]
+    calls = [0]
+
+    def attempt(T: np.ndarray, start: np.ndarray, left: float) -> np.ndarray:
+        calls[0] += 1
+        return ik(robot, T, frame, q0=start, seed=calls[0], timeout_s=max(left, 1e-6)).q
+
+    return attempt
+
+
+def tracik_attempt(name: str, robot: rr.Robot, tmp: Path, limit: float) -> Attempt | None:
+    try:
+        import pytracik
+    except ImportError:
+        peers.note("TRAC-IK (pip install pytracik) is not installed: skipped")
+        return None
+    path = peers.write_urdf(name, tmp)
+    text = path.read_text()
+    children = set(re.findall(r"<child\s+link=\"([^\"]+)\"", text))
+    base = next(x for x in re.findall(r"<link\s+name=\"([^\"]+)\"", text) if x not in children)
+    solver = pytracik.TRAC_IK(base, peers.TIP_LINK[name], text, limit, 1e-7,
+                              pytracik.SolveType.Speed)  # fmt: skip
+    pytracik.set_joint_limits(solver, robot.q_min.tolist(), robot.q_max.tolist())
+
+    def attempt(T: np.ndarray, start: np.ndarray, left: float) -> np.ndarray:
+        quat = pin.Quaternion(T[:3, :3])
+        r = pytracik.ik(solver, start, T[0, 3], T[1, 3], T[2, 3], quat.x, quat.y, quat.z, quat.w)
+        return np.asarray(r[1:]) if r[0] >= 0 else start
 
     return attempt
 
@@ -217,26 +260,34 @@ def solve(attempt: Attempt, robot: rr.Robot, frame: str, T: np.ndarray,
         start = robot.random_configuration(rng)
 
 
-def contenders(name: str, robot: rr.Robot, tmp: Path) -> dict[str, Attempt]:
-    found = {
-        "redres": redres_attempt(name, robot),
-        "robotics-toolbox ik_LM": rtb_attempt(name, robot, tmp),
-        "KDL ChainIkSolverPos_NR_JL": kdl_attempt(name, robot),
-        "ikpy": ikpy_attempt(name, robot, tmp),
-        "pink (iterated)": pink_attempt(name, robot),
-        "mink (iterated)": mink_attempt(name, robot),
+def contenders(
+    name: str, robot: rr.Robot, tmp: Path, limit: float, wanted: list[str] | None
+) -> dict[str, Attempt]:
+    makers: dict[str, Callable[[], Attempt | None]] = {
+        "redres": lambda: redres_attempt(name, robot),
+        "redres (own restarts)": lambda: redres_own_attempt(name, robot),
+        "TRAC-IK (pytracik)": lambda: tracik_attempt(name, robot, tmp, limit),
+        "robotics-toolbox ik_LM": lambda: rtb_attempt(name, robot, tmp),
+        "KDL ChainIkSolverPos_NR_JL": lambda: kdl_attempt(name, robot),
+        "ikpy": lambda: ikpy_attempt(name, robot, tmp),
+        "pink (iterated)": lambda: pink_attempt(name, robot),
+        "mink (iterated)": lambda: mink_attempt(name, robot),
     }
+    chosen = [k for k in makers if wanted is None or any(w.lower() in k.lower() for w in wanted)]
+    found = {k: makers[k]() for k in chosen}
     return {k: v for k, v in found.items() if v is not None}
 
 
-def run_arm(name: str, count: int, seed: int, limit: float, tmp: Path) -> list[dict[str, Any]]:
+def run_arm(
+    name: str, count: int, seed: int, limit: float, tmp: Path, wanted: list[str] | None
+) -> list[dict[str, Any]]:
     robot = rr.models.load(name)
     frame = peers.TIP_FRAME[name]
     peers.check_same_robot(name, tmp)
     rng = np.random.default_rng(seed)
     targets = [robot.fk(robot.random_configuration(rng), frame) for _ in range(count)]
     rows = []
-    for label, attempt in contenders(name, robot, tmp).items():
+    for label, attempt in contenders(name, robot, tmp, limit, wanted).items():
         attempt(targets[0], robot.neutral(), limit)  # warm-up: imports, compiled kernels
         ok, times, attempts = 0, [], []
         for k, T in enumerate(tqdm(targets, desc=f"IK {name} {label}", leave=False)):
@@ -257,15 +308,19 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--targets", type=int, default=1000)
     parser.add_argument("--seed", type=int, default=7)
-    parser.add_argument("--limit", type=float, default=0.5, help="time limit per target, s")
+    parser.add_argument("--limit", type=float, default=0.005, help="time limit per target, s")
+    parser.add_argument("--libraries", nargs="+", help="substrings of the rows to run")
     parser.add_argument("--arms", nargs="+", default=list(peers.ARMS))
     parser.add_argument("--json", type=Path, help="also write the figures to this file")
     args = parser.parse_args()
     warnings.simplefilter("ignore")  # rtb's and ikpy's deprecation notices
+    rr.warmup(["linalg", "ik"], quiet=True)  # compiled before timing, not behind
     rows: list[dict[str, Any]] = []
     with TemporaryDirectory() as tmp:
         for name in args.arms:
-            rows += run_arm(name, args.targets, args.seed, args.limit, Path(tmp))
+            rows += run_arm(name, args.targets, args.seed, args.limit, Path(tmp), args.libraries)
+    load = " ".join(f"{x:.2f}" for x in os.getloadavg())
+    print(f"{machine()}; load average at the end {load}")
     print(
         f"{args.targets} random reachable pose targets per arm (seed {args.seed}), tolerance "
         f"{TOL_POSITION:g} m and {TOL_ORIENTATION:g} rad checked with redres forward "

@@ -70,6 +70,7 @@ KERNEL_MODULES: tuple[str, ...] = (
     "redres.robot._kernels",
     "redres.robot._chain_kernels",
     "redres._batch_kernels",
+    "redres._ik_kernels",
     "redres.resolution.hard_limits._kernels",
     "redres.resolution.hard_limits._lp_kernels",
     "redres.resolution.hard_limits._qp_kernels",

@@ -114,7 +114,7 @@ GROUPS: dict[str, tuple[tuple[str, ...], Callable[[], None]]] = {
          "redres.resolution.hard_limits._qp_kernels"),
         _hard_limits,
     ),
-    "ik": ((), _ik),
+    "ik": (("redres._ik_kernels",), _ik),
     "batch": (("redres._batch_kernels",), _batch),
 }  # fmt: skip
 

@@ -25,6 +25,10 @@ Each iteration, from the error ``e = [p_d − p; log(R_d Rᵀ)]`` (docs/conventi
   solution set (first-order condition ``N (q − q_preferred) = 0`` away from limits);
   joints stopped at a limit stay clamped. If the budget runs out first, the last
   configuration that met the target is returned, converged, with a note in ``message``.
+  An ``arm_angle`` missed by more than ``ARM_ANGLE_TOL`` (the branch of the self-motion
+  reached may not contain it within the limits) is sought again from random
+  configurations while the budget lasts; the result closest to it is returned, with
+  ``arm_angle`` (reached) and ``preference_met`` set, and the miss in ``message``.
 * ``s ≤ 1`` scales the step so that no joint moves more than ``max_step`` per iteration,
   then joints are clipped into their limits. Before that, joints at a limit that the step
   pushes outward are *clamped*: their Jacobian columns are zeroed and the step recomputed
@@ -36,10 +40,20 @@ Each iteration, from the error ``e = [p_d − p; log(R_d Rᵀ)]`` (docs/conventi
   ``timeout_s``. The best configuration found is returned with ``converged=False`` when
   the budget runs out (unreachable targets).
 
-Speed: inputs are validated once; the loop then calls Pinocchio on ``robot.model`` and
-``robot.data`` directly (so, like :class:`~redres.Robot`'s own methods, it writes into
-``robot.data``: do not share one ``Robot`` between threads) and
-:func:`~redres.linalg.rate_step` once per iteration (twice when clamping).
+Speed: inputs are validated once. For a frame at the end of a serial chain
+(:class:`~redres.robot.SerialChain`) the iteration then runs compiled, one kernel call
+per attempt (:mod:`redres._ik_kernels`: the chain kernels for the error and Jacobian,
+the compiled rate step of :mod:`redres.linalg`, no Pinocchio call, nothing written into
+``robot.data``), the clock read between attempts: the time budget is checked once per
+attempt (at most ``max_iterations`` iterations, tens of microseconds), not every
+iteration. The restart configurations come from that module's counter-based generator,
+keyed by the first draw of the generator ``seed`` gives (so ``seed=7`` and
+``default_rng(7)`` still agree, and the draws no longer depend on any generator's later
+state). The arm-angle preference, frames that are not at the end of a serial chain, and
+processes whose kernels are still compiling behind take the reference path
+(:mod:`redres._ik_reference`: the same iteration in Python on Pinocchio, writing into
+``robot.data``, the clock read every iteration, restarts drawn by the generator itself);
+``tests/test_ik_compiled.py`` checks the two against each other.
 
 Bad input: a target containing NaN or infinity returns ``converged=False`` with a
 message and no iteration (a sensor glitch should not raise inside a control program); a
@@ -49,32 +63,27 @@ target of the wrong shape or a 4x4 that is not a homogeneous transform raises
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
-from collections.abc import Callable
-from functools import partial
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
+from weakref import WeakKeyDictionary
 
 import numpy as np
-import pinocchio as pin
-from numpy.typing import NDArray
 
+from . import _jit
+from ._ik_reference import ReferenceSolver
 from ._validate import FloatArray, as_scalar, as_vector
 from .errors import InvalidParameterError
-from .ik_types import IKResult, _Options, _options, _parse_target
-from .linalg import AdaptiveDamping, adaptive_damping, rate_step
+from .ik_types import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target
+from .linalg import AdaptiveDamping, rate_step
 
 if TYPE_CHECKING:
     from .robot import Robot
-    from .tasks import TaskState
 
 __all__ = ["IKResult", "ik"]
 
-_WORLD = pin.LOCAL_WORLD_ALIGNED
-_ERROR_SCALE = 0.1  # m or rad: damping and the joint-limit term fade out below this error
-_PREFERENCE_GAIN = 0.5  # fraction of the distance to the preference covered per iteration
-_PREFERENCE_STEP = 0.1  # rad: largest joint motion per iteration toward the preference
-_STICKY_ERROR = 1e-3  # m + rad: above this error in phase 2, clamped joints are released
+_MODULE = "redres._ik_kernels"
 
 
 def ik(
@@ -138,12 +147,16 @@ def ik(
     """
     _warm_up(arm_angle is not None)
     start = time.perf_counter()
-    options = _options(
+    options, packed = _options_of(
         tol_position, tol_orientation, max_iterations, max_restarts, timeout_s,
         max_step, k_limits, damping, patience, preference_tol,
     )  # fmt: skip
     fid = robot.frame_id(frame)
-    spec = _parse_target(target, position_only)
+    compiled = _compiled(robot, fid) if arm_angle is None else None
+    # A float64 4x4 pose is checked inside the kernel (as_transform's checks); a failed
+    # check comes back here, to _parse_target, for the message.
+    raw = compiled is not None and _is_float_pose(target)
+    spec = None if raw else _parse_target(target, position_only)
     if q_preferred is not None and arm_angle is not None:
         raise InvalidParameterError("give q_preferred or arm_angle, not both")
     q_pref = None if q_preferred is None else as_vector(q_preferred, "q_preferred", robot.n)
@@ -151,17 +164,69 @@ def ik(
         q_start = as_vector(q0, "q0", robot.n)
     else:
         q_start = q_pref if q_pref is not None else robot.neutral()
+    if compiled is not None and (raw or spec is not None):
+        problem = _problem(target if raw else spec, packed, q_pref)
+        rows = 3 if position_only or (spec is not None and spec[1] is None) else 6
+        result = _solve_compiled(compiled, problem, rows, q_start, q_pref is not None,
+                                 options, seed, start)  # fmt: skip
+        if result is not None:
+            return result
+        spec = _parse_target(target, position_only)  # raises, or None: not finite
     q_start = np.clip(q_start, robot.q_min, robot.q_max)
     if spec is None:
         return IKResult(
             q_start, False, 0, 0, math.inf, math.inf, time.perf_counter() - start,
             "target contains NaN or infinity: nothing to solve",
         )  # fmt: skip
-    if arm_angle is not None:
-        arm_angle = as_scalar(arm_angle, "arm_angle")
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    solver = _Solver(robot, fid, spec, options, q_pref, arm_angle)
+    if arm_angle is not None:
+        return _arm_angle_solve(robot, fid, spec, options, as_scalar(arm_angle, "arm_angle"),
+                                q_start, rng, start)  # fmt: skip
+    solver = ReferenceSolver(robot, fid, spec, options, q_pref, None)
     return solver.solve(q_start, rng, start)
+
+
+def _arm_angle_solve(
+    robot: Robot,
+    fid: int,
+    spec: tuple[FloatArray, FloatArray | None],
+    options: _Options,
+    phi: float,
+    q_start: FloatArray,
+    rng: np.random.Generator,
+    start: float,
+) -> IKResult:
+    """The reference path with the arm-angle preference, re-solved from random
+    configurations (other branches of the self-motion) while the preference is missed
+    and the budget lasts (``max_restarts`` solves, ``timeout_s``): the result closest
+    to ``phi`` is returned, with the angle reached and whether it is met."""
+    from .tasks import ArmAngleTask, wrap_angle
+
+    arm, best, best_miss = ArmAngleTask(), None, math.inf
+    q, deadline = q_start, start + options.timeout_s
+    for _ in range(options.max_restarts + 1):
+        solver = ReferenceSolver(robot, fid, spec, options, None, phi)
+        result = solver.solve(q, rng, start)
+        if result.converged:
+            reached = float(arm.value(robot, result.q))
+            miss = abs(wrap_angle(reached - phi))
+            if miss < best_miss:
+                best, best_miss = dataclasses.replace(result, arm_angle=reached), miss
+        elif best is None:
+            best = result
+        if best_miss <= ARM_ANGLE_TOL or time.perf_counter() > deadline:
+            break
+        q = rng.uniform(solver.sample_lo, solver.sample_hi)
+    assert best is not None
+    if not best.converged:
+        return best
+    met = best_miss <= ARM_ANGLE_TOL
+    note = "" if met else (
+        f"; arm-angle preference not met: reached {best.arm_angle:.4f} rad, wanted "
+        f"{phi:.4f} rad (the closest of the solutions found)"
+    )  # fmt: skip
+    return dataclasses.replace(best, preference_met=met, message=best.message + note,
+                               time_s=time.perf_counter() - start)  # fmt: skip
 
 
 _WARM: set[str] = set()
@@ -170,6 +235,8 @@ _WARM: set[str] = set()
 def _warm_up(priority: bool) -> None:
     """Load the compiled kernels once per process, outside the time budget (the first call
     of a numba kernel loads or compiles it, which takes far longer than a solve)."""
+    if not _ENTRY:
+        _load_entry()
     if "rate" not in _WARM:
         J = np.eye(3, 4)
         rate_step(J, np.ones(3), np.ones(4), k_null=0.1, damping=0.01)
@@ -183,262 +250,169 @@ def _warm_up(priority: bool) -> None:
         _WARM.add("priority")
 
 
-_CONVERGED, _STALLED, _BUDGET, _TIMEOUT = range(4)
-#: ``(task part, preference part)`` of a step; :meth:`_Solver.direction` at one ``q``.
-_Parts = tuple[FloatArray, FloatArray | None]
-_Direction = Callable[[NDArray[np.bool_] | None], _Parts]
+# ---------------------------------------------------------------------- compiled path
+#: Validated options by the raw values given (most programs use one set).
+_OPTIONS: dict[tuple[Any, ...], tuple[_Options, FloatArray]] = {}
+#: Per robot and frame: the kernel's leading arguments, or None (not a serial chain).
+_CHAINS: WeakKeyDictionary[Robot, dict[int, tuple[Any, ...] | None]] = WeakKeyDictionary()
+_ENTRY: list[Any] = []  # the native entry point of _ik_kernels.solve, once loaded
 
 
-class _Solver:
-    """The iteration, with everything validated and preallocated once (internal)."""
-
-    def __init__(
-        self,
-        robot: Robot,
-        fid: int,
-        spec: tuple[FloatArray, FloatArray | None],
-        options: _Options,
-        q_pref: FloatArray | None,
-        arm_angle: float | None,
-    ) -> None:
-        self.robot, self.model, self.data, self.fid = robot, robot.model, robot.data, fid
-        self.p_d, self.R_d = spec
-        self.o = options
-        self.lo, self.hi = robot.q_min, robot.q_max
-        finite = np.isfinite(self.lo) & np.isfinite(self.hi)
-        span = np.where(finite, self.hi - self.lo, 1.0)
-        self.sample_lo = np.where(finite, self.lo, np.maximum(self.lo, -math.pi))
-        self.sample_hi = np.where(finite, self.hi, np.minimum(self.hi, math.pi))
-        self.mid = np.where(finite, (self.lo + self.hi) / 2.0, 0.0)
-        self.limit_weight = np.where(finite & (span > 0), 2.0 / (span * span), 0.0)
-        self.q_pref = q_pref
-        self.arm_task = None
-        if arm_angle is not None:
-            from .tasks import ArmAngleTask
-
-            self.arm_task = ArmAngleTask(target=arm_angle)
-        self.rows = 3 if self.R_d is None else 6
-        self.has_preference = q_pref is not None or arm_angle is not None
-        self.e = np.zeros(self.rows)
-        self.sigma = 0.0
-        self.best_q = np.zeros(robot.n)
-        self.best_score = math.inf
-        self.best_errors = (math.inf, math.inf)
-        self.candidate: FloatArray | None = None
-        self.prefer = False
-        self.note = ""
-        self.at_limit = True  # some joint may be at a limit: check before stepping
-        self.sticky = np.zeros(robot.n, dtype=bool)
-        self.preference_scale = 1.0
-        self.last_preference: FloatArray | None = None
-
-    # ------------------------------------------------------------------ outer loop
-    def solve(self, q: FloatArray, rng: np.random.Generator, start: float) -> IKResult:
-        deadline = start + self.o.timeout_s
-        iterations = restarts = 0
-        while True:
-            q, status, used = self.attempt(q, deadline)
-            iterations += used
-            if status == _CONVERGED:
-                return self.result(q, True, iterations, restarts, start, "converged" + self.note)
-            if status == _TIMEOUT or restarts >= self.o.max_restarts:
-                break
-            restarts += 1
-            q = rng.uniform(self.sample_lo, self.sample_hi)
-        why = "time budget" if status == _TIMEOUT else "iteration and restart budget"
-        message = f"not converged: {why} exhausted; returning the best configuration found"
-        return self.result(self.best_q, False, iterations, restarts, start, message)
-
-    def result(
-        self, q: FloatArray, ok: bool, iterations: int, restarts: int, start: float, msg: str
-    ) -> IKResult:
-        errors = self.evaluate(q)[1:] if ok else self.best_errors
-        return IKResult(
-            q.copy(), ok, iterations, restarts, errors[0], errors[1],
-            time.perf_counter() - start, msg,
-        )  # fmt: skip
-
-    # ------------------------------------------------------------------ one attempt
-    def attempt(self, q: FloatArray, deadline: float) -> tuple[FloatArray, int, int]:
-        """Iterate from ``q``; returns ``(q, status, iterations used)``.
-
-        Phase 1 drives the error within tolerance; with a preference, phase 2 then adds
-        the preference step (keeping the task) until the joints move less than
-        ``preference_tol`` per iteration. The preference thus never hinders convergence.
-        """
-        o = self.o
-        self.sigma, self.candidate, self.prefer, self.note = 0.0, None, False, ""
-        self.at_limit = True
-        moved = math.inf
-        check_error, check_at = math.inf, 0
-        clock = time.perf_counter
-        it, limit = 0, o.max_iterations
-        while it < limit:
-            J, ep, eo = self.evaluate(q)
-            self.track(q, ep, eo)
-            if ep <= o.tol_position and eo <= o.tol_orientation:
-                if not self.has_preference or (self.prefer and moved <= o.preference_tol):
-                    return q, _CONVERGED, it
-                self.candidate = q
-                if not self.prefer:  # phase 2, with a budget of its own
-                    self.prefer, moved, limit = True, math.inf, it + o.max_iterations
-                    self.sticky = np.zeros(q.size, dtype=bool)
-                    self.preference_scale, self.last_preference = 1.0, None
-            elif self.candidate is None:
-                if it - check_at >= o.patience:
-                    if ep + eo > 0.5 * check_error:
-                        return (*self.end(q, _STALLED), it)
-                    check_error, check_at = ep + eo, it
-                elif it == 0:
-                    check_error = ep + eo
-            if clock() > deadline:
-                return (*self.end(q, _TIMEOUT), it)
-            q_new = self.step(q, J, ep + eo)
-            moved = float(abs(q_new - q).max())
-            q, it = q_new, it + 1
-        return (*self.end(q, _BUDGET), it)
-
-    def end(self, q: FloatArray, status: int) -> tuple[FloatArray, int]:
-        """End of an attempt: converged if the task was met on the way (the preference
-        had not settled), else ``status``."""
-        if self.candidate is not None:
-            self.note = " (the preference had not settled when the budget ran out)"
-            return self.candidate, _CONVERGED
-        return q, status
-
-    # ------------------------------------------------------------------ kinematics
-    def evaluate(self, q: FloatArray) -> tuple[FloatArray, float, float]:
-        """Jacobian rows of the task, position and orientation errors; fills ``self.e``."""
-        model, data = self.model, self.data
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacement(model, data, self.fid)
-        pose = data.oMf[self.fid]
-        e = self.e
-        e[:3] = self.p_d - pose.translation
-        ep = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-        J = pin.getFrameJacobian(model, data, self.fid, _WORLD)
-        if self.R_d is None:
-            return J[:3], ep, 0.0
-        e[3:] = pin.log3(self.R_d @ pose.rotation.T)
-        eo = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
-        return J, ep, eo
-
-    def track(self, q: FloatArray, ep: float, eo: float) -> None:
-        """Remember the best configuration so far (largest error relative to tolerance)."""
-        score = max(ep / self.o.tol_position, eo / self.o.tol_orientation)
-        if score < self.best_score:
-            self.best_score, self.best_errors = score, (ep, eo)
-            self.best_q[:] = q
-
-    # ------------------------------------------------------------------ one step
-    def step(self, q: FloatArray, J: FloatArray, error: float) -> FloatArray:
-        """Next configuration: damped CLIK step plus null-space term, clamped (:meth:`clamp`),
-        scaled and clipped."""
-        o = self.o
-        fade = min(1.0, error / _ERROR_SCALE)
-        damping = o.damping
-        lam = adaptive_damping(self.sigma, damping.max_damping, damping.threshold) * fade
-        arm = None
-        if self.prefer and self.arm_task is not None:
-            arm = self.arm_task.compute(self.robot, q)
-        parts = self.direction(q, J, lam, fade, arm, None)
-        if self.at_limit:
-            parts = self.clamp(q, partial(self.direction, q, J, lam, fade, arm), parts, error)
-        task, pref = parts
-        dq = task if pref is None else task + self.preference_part(pref)
-        q_new = q + _cap(dq, o.max_step)
-        self.at_limit = bool((q_new <= self.lo).any() or (q_new >= self.hi).any())
-        if self.at_limit:
-            q_new = np.minimum(np.maximum(q_new, self.lo), self.hi)
-        return q_new
-
-    def clamp(self, q: FloatArray, redo: _Direction, parts: _Parts, error: float) -> _Parts:
-        """Recompute the step (``redo``: :meth:`direction` at this ``q``) without the
-        joints it pushes against their limits, until none is (at most three passes). In
-        phase 2 a clamped joint stays clamped while the task holds (no chattering against
-        the limit)."""
-        task, pref = parts
-        blocked = np.zeros(q.size, dtype=bool)
-        if self.prefer:
-            if error > _STICKY_ERROR:
-                self.sticky[:] = False
-            blocked |= self.sticky
-        recompute = bool(blocked.any())
-        for _ in range(3):
-            if recompute:
-                task, pref = redo(blocked)
-            dq = task if pref is None else task + pref
-            out = (((q <= self.lo) & (dq < 0.0)) | ((q >= self.hi) & (dq > 0.0))) & ~blocked
-            if not out.any():
-                break
-            blocked |= out
-            recompute = True
-        if self.prefer:
-            self.sticky = blocked
-        return task, pref
-
-    def direction(
-        self,
-        q: FloatArray,
-        J: FloatArray,
-        lam: float,
-        fade: float,
-        arm: TaskState | None,
-        blocked: NDArray[np.bool_] | None,
-    ) -> _Parts:
-        """``(task part, preference part)`` of the step, the ``blocked`` joints' columns
-        removed (in phase 1 the joint-limit term is in the task part, preference None)."""
-        if blocked is not None:
-            J = J.copy()
-            J[:, blocked] = 0.0
-        if arm is not None:
-            return self.arm_angle_step(J, arm, lam, blocked)
-        if self.prefer and self.q_pref is not None:
-            grad, k = q - self.q_pref, _PREFERENCE_GAIN
-        else:
-            grad, k = self.limit_weight * (q - self.mid), self.o.k_limits * fade
-        if blocked is not None:
-            grad = np.where(blocked, 0.0, grad)
-        step = rate_step(J, self.e, grad, k_null=k, damping=lam, return_null=True)
-        self.sigma = step.info.sigma_min
-        if not self.prefer:
-            return step.qd, None
-        null = cast("FloatArray", step.null_term)  # computed: return_null=True
-        return step.qd - null, null
-
-    def arm_angle_step(
-        self, J: FloatArray, arm: TaskState, lam: float, blocked: NDArray[np.bool_] | None
-    ) -> tuple[FloatArray, FloatArray]:
-        """Pose first, arm angle second: the priority recursion, the arm-angle level with
-        the adaptive damping of ``options.damping`` so that its step stays bounded where the
-        self-motion barely changes the arm angle (an algorithmic singularity)."""
-        from .resolution.priority import prioritized_velocity
-
-        J_arm = arm.jacobian
-        if blocked is not None:
-            J_arm = np.where(blocked, 0.0, J_arm)
-        levels = prioritized_velocity(
-            [J, J_arm],
-            [self.e, _PREFERENCE_GAIN * arm.error],
-            method="damped",
-            damping=[lam, self.o.damping],
-        ).levels
-        self.sigma = levels[0].sigma_min
-        return levels[0].contribution, levels[1].contribution
-
-    def preference_part(self, pref: FloatArray) -> FloatArray:
-        """The preference step, capped to ``_PREFERENCE_STEP`` and halved for good each
-        time it reverses direction (an overshoot on the curved self-motion manifold,
-        where the linearised step ignores the curvature)."""
-        step = _cap(pref, _PREFERENCE_STEP) * self.preference_scale
-        if self.last_preference is not None and float(step @ self.last_preference) < 0.0:
-            self.preference_scale *= 0.5
-            step *= 0.5
-        self.last_preference = step
-        return step
+def _options_of(*values: Any) -> tuple[_Options, FloatArray]:
+    """:func:`redres.ik_types._options`, and the ``options`` array of the kernel."""
+    try:
+        found = _OPTIONS.get(values)
+    except TypeError:  # an unhashable value: validate (and refuse) it below
+        found = None
+    if found is None:
+        o = _options(*values)
+        d = o.damping
+        packed = np.array([
+            o.tol_position, o.tol_orientation, o.max_step, o.k_limits, d.max_damping,
+            d.threshold, o.preference_tol, o.max_iterations, o.patience,
+        ])  # fmt: skip
+        found = (o, packed)
+        if len(_OPTIONS) < 64:
+            _OPTIONS[values] = found
+    return found
 
 
-def _cap(dq: FloatArray, largest: float) -> FloatArray:
-    """``dq`` scaled down so that no entry exceeds ``largest`` in magnitude."""
-    peak = float(abs(dq).max())
-    return dq * (largest / peak) if peak > largest else dq
+def _compiled(robot: Robot, fid: int) -> tuple[Any, ...] | None:
+    """``(entry point, leading arguments)`` of the compiled solve for this frame, or None
+    for the reference path (kernels compiling behind or disabled, not a serial chain)."""
+    if not _ENTRY and not _load_entry():
+        return None
+    per_robot = _CHAINS.get(robot)
+    if per_robot is None:
+        per_robot = _CHAINS[robot] = {}
+    if fid not in per_robot:
+        per_robot[fid] = _chain_arguments(robot, fid)
+    found = per_robot[fid]
+    return None if found is None else (_ENTRY[0], found)
+
+
+def _load_entry() -> bool:
+    """Load the compiled solve if it is ready (:func:`redres._jit.compiled`)."""
+    module = _jit.compiled(_MODULE) if _jit.enabled() else None
+    if module is None:
+        return False
+    _ENTRY.append(_jit.entry_point(module.solve_packed, _warm_arguments()))
+    return True
+
+
+def _chain_arguments(robot: Robot, fid: int) -> tuple[Any, ...] | None:
+    from .robot import NotSerialChainError
+
+    try:
+        chain = robot.chain(robot.model.frames[fid].name)
+    except NotSerialChainError:
+        return None
+    return (*chain.arrays, _limits(robot.q_min, robot.q_max))
+
+
+def _limits(lo: FloatArray, hi: FloatArray) -> FloatArray:
+    """``[lo, hi, sample_lo, sample_hi, mid, weight]`` (6, n), as the reference solver."""
+    finite = np.isfinite(lo) & np.isfinite(hi)
+    span = np.where(finite, hi - lo, 1.0)
+    return np.array(
+        (
+            lo, hi, np.where(finite, lo, np.maximum(lo, -math.pi)),
+            np.where(finite, hi, np.minimum(hi, math.pi)),
+            np.where(finite, (lo + hi) / 2.0, 0.0),
+            np.where(finite & (span > 0), 2.0 / (span * span), 0.0),
+        ),
+        dtype=np.float64,
+    )  # fmt: skip
+
+
+def _warm_arguments() -> tuple[Any, ...]:
+    """Arguments of the types :func:`_solve_compiled` passes (one revolute joint)."""
+    chain = (np.zeros((2, 3, 4)), np.eye(3)[2:], np.array([2], dtype=np.int64))
+    for array in chain:  # the types of SerialChain.arrays, read-only
+        array.flags.writeable = False
+    limits = _limits(np.array([-1.0]), np.array([1.0]))
+    problem = np.zeros(16 + 9)
+    problem[:16] = np.eye(4).ravel()
+    problem[16:19] = 1.0
+    io = np.zeros(2 + 6)
+    return (*chain, limits, problem, io, 6, False, 0, 0, 1)
+
+
+def _is_float_pose(target: Any) -> bool:
+    return type(target) is np.ndarray and target.dtype == np.float64 and target.shape == (4, 4)
+
+
+def _problem(target: Any, packed: FloatArray, q_pref: FloatArray | None) -> FloatArray:
+    """The ``problem`` array of :func:`redres._ik_kernels.solve_packed`: the 4x4 target
+    (a float64 array, or ``(p_d, R_d)`` parsed), the options, ``q_pref``."""
+    n_pref = 0 if q_pref is None else q_pref.shape[0]
+    problem = np.empty(16 + packed.shape[0] + n_pref)
+    if type(target) is tuple:
+        T = problem[:16].reshape(4, 4)
+        T[:] = _EYE4
+        T[:3, 3] = target[0]
+        if target[1] is not None:
+            T[:3, :3] = target[1]
+    else:
+        problem[:16] = target.ravel()
+    problem[16 : 16 + packed.shape[0]] = packed
+    if q_pref is not None:
+        problem[16 + packed.shape[0] :] = q_pref
+    return problem
+
+
+_EYE4 = np.eye(4)
+
+
+def _restart_key(seed: int | np.random.Generator | None) -> int:
+    """The key of the restart configurations (:mod:`redres._ik_kernels`): the first
+    draw of the seeded generator, so that ``seed=7`` and ``default_rng(7)`` agree."""
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    return int(rng.integers(0, 2**62))
+
+
+def _solve_compiled(
+    compiled: tuple[Any, ...],
+    problem: FloatArray,
+    rows: int,
+    q: FloatArray,
+    has_pref: bool,
+    options: _Options,
+    seed: int | np.random.Generator | None,
+    start: float,
+) -> IKResult | None:
+    """The attempts in the kernel, one call each, the clock read between them; None when
+    the kernel refuses the target (not a finite homogeneous transform)."""
+    entry, arguments = compiled
+    n = q.shape[0]
+    io = np.empty(2 * n + 6)
+    io[:n] = q
+    io[2 * n : 2 * n + 3] = math.inf  # the best score and its errors, none yet
+    deadline = start + options.timeout_s
+    clock = time.perf_counter
+    key, attempt, iterations = 0, 0, 0
+    while True:
+        status, _, used = entry(*arguments, problem, io, rows, has_pref, key, attempt,
+                                attempt + 1)  # fmt: skip
+        iterations += used
+        if status == 0:  # _ik_kernels.CONVERGED
+            note = _UNSETTLED if io[2 * n + 5] else ""
+            return IKResult(io[:n].copy(), True, iterations, attempt, float(io[2 * n + 3]),
+                            float(io[2 * n + 4]), clock() - start, "converged" + note)  # fmt: skip
+        if status < 0:
+            return None
+        timeout = clock() > deadline
+        if timeout or attempt >= options.max_restarts:
+            break
+        if attempt == 0:
+            key = _restart_key(seed)
+        attempt += 1
+    why = "time budget" if timeout else "iteration and restart budget"
+    return IKResult(
+        io[n : 2 * n].copy(), False, iterations, attempt, float(io[2 * n + 1]),
+        float(io[2 * n + 2]), clock() - start,
+        f"not converged: {why} exhausted; returning the best configuration found",
+    )  # fmt: skip
+
+
+_UNSETTLED = " (the preference had not settled when the budget ran out)"

@@ -31,6 +31,10 @@ class IKResult:
             targets; ``inf`` for a non-finite target).
         time_s: wall-clock time of the solve, s.
         message: what happened, in words.
+        arm_angle: with an ``arm_angle`` preference, the arm angle reached, rad (else
+            None).
+        preference_met: with an ``arm_angle`` preference, whether it was reached within
+            :data:`ARM_ANGLE_TOL` (else None); when it was not, ``message`` says so.
     """
 
     q: FloatArray
@@ -41,6 +45,12 @@ class IKResult:
     orientation_error: float
     time_s: float
     message: str
+    arm_angle: float | None = None
+    preference_met: bool | None = None
+
+
+#: rad: an arm-angle preference counts as met within this distance (wrapped).
+ARM_ANGLE_TOL = 1e-4
 
 
 @dataclass(frozen=True)
