@@ -3,8 +3,12 @@
 Plots are PNG data URIs; plotly.js is inlined once; the 3D figures of every run are one
 JSON document in the page, and a small script draws the run picked in a drop-down into a
 single plotly graph (one WebGL context however many runs there are). The graph element
-gets ``data-status="rendered"`` once plotly has drawn it (``"error"`` if it failed), which
-automated checks can read.
+gets ``data-status="rendered"`` once plotly has drawn it (``"error"`` if it failed) and
+``data-scene``, a JSON summary of what plotly holds (for the obstacles and the robot's
+meshes: name, shape, vertex count and bounding box of the coordinates it draws; how many
+animation frames move the meshes), which automated checks can read. The robot's meshes
+are sent once, in their links' coordinates, with each frame's link poses (``rigid``): the
+script poses them for every frame before plotly draws.
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ table.summary tbody tr:hover { background: #f0f5ff; }
 .unit { font-weight: 400; color: var(--muted); font-size: 12px; }
 td.bad { color: #b3261e; font-weight: 600; }
 td.missing { color: var(--muted); }
+ul.warnings { margin: 10px 0 0; padding-left: 20px; color: #8a4b00; font-size: 13.5px; }
 .picker { display: flex; gap: 10px; align-items: center; margin: 6px 0 4px; }
 .picker select, .picker button { font: inherit; padding: 3px 8px; }
 .picker button { border: 1px solid #b9bec7; background: #f5f6f8; border-radius: 4px;
@@ -75,17 +80,56 @@ SCRIPT = """
                                 frame: {duration: runs[current].play.frame_ms, redraw: true}})
       .catch(quiet);
   }
+  function expand(fig) {  // move the robot's meshes: frame f's link poses on local vertices
+    var r = fig.rigid;
+    if (!r || fig.expanded) { return; }
+    var scale = Math.pow(10, r.decimals);
+    fig.frames.forEach(function (fr, f) {
+      var x = r.x.slice(), y = r.y.slice(), z = r.z.slice();
+      r.parts.forEach(function (p) {
+        if (p[2] < 0) { return; }
+        var T = r.poses[f][p[2]];  // rows of [R | t]
+        for (var v = p[0]; v < p[0] + p[1]; v++) {
+          var a = r.x[v], b = r.y[v], c = r.z[v];
+          x[v] = Math.round((T[0] * a + T[1] * b + T[2] * c + T[3]) * scale) / scale;
+          y[v] = Math.round((T[4] * a + T[5] * b + T[6] * c + T[7]) * scale) / scale;
+          z[v] = Math.round((T[8] * a + T[9] * b + T[10] * c + T[11]) * scale) / scale;
+        }
+      });
+      fr.data.push({type: "mesh3d", x: x, y: y, z: z});
+      fr.traces.push(r.trace);
+    });
+    fig.expanded = true;
+  }
+  function drawn() {  // what the scene holds, for automated checks (data-scene)
+    return view.data.filter(function (t) { return t.meta && t.meta.kind; })
+      .map(function (t) {
+        var box = ["x", "y", "z"].map(function (c) {
+          return [Math.min.apply(null, t[c]), Math.max.apply(null, t[c])];
+        });
+        return {name: t.name, kind: t.meta.kind, shape: t.meta.shape, type: t.type,
+                vertices: t.x.length,
+                min: box.map(function (b) { return b[0]; }),
+                max: box.map(function (b) { return b[1]; })};
+      });
+  }
   function show(i) {
     var fig = runs[i];
     current = i; frame = "0";
     view.dataset.status = "rendering";
     if (view.data) { pause(); }
+    expand(fig);
     Plotly.react(view, {data: fig.data, layout: fig.layout, frames: fig.frames, config: config})
       .then(function () {
         if (!bound) {
           view.on("plotly_animatingframe", function (e) { frame = e.name; });
           bound = true;
         }
+        var moving = fig.frames.filter(function (fr) {
+          return fig.rigid && fr.traces.indexOf(fig.rigid.trace) >= 0;
+        }).length;
+        view.dataset.scene = JSON.stringify({drawn: drawn(), traces: view.data.length,
+                                             frames: fig.frames.length, moving: moving});
         view.dataset.status = "rendered"; view.dataset.run = String(i);
       })
       .catch(function (err) { view.dataset.status = "error"; console.error(err); });
