@@ -80,7 +80,7 @@ def run_warnings(robot: Robot, log: RunLog) -> list[RunWarning]:
         name = robot.joint_names[j]
         out.append(RunWarning(
             "joint_limits",
-            f"joint {name!r} went {worst_per_joint[j]:.3g} past its {side} limit at "
+            f"joint {name!r} went {worst_per_joint[j]:.3g} rad past its {side} limit at "
             f"t = {log.t[k]:.3f} s ({steps} steps outside the limits{others})",
             float(worst_per_joint[j]), float(log.t[k]), name, steps,
         ))  # fmt: skip

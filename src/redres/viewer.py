@@ -211,6 +211,12 @@ class Viewer:
 
         scene = self.server.scene
         scene.set_up_direction("+z")
+        robot = self.robot
+        tip = robot.fk(robot.neutral())[:3, 3]
+        reach = max(0.5, float(np.linalg.norm(tip)))
+        camera = self.server.initial_camera
+        camera.look_at = tuple(float(x) for x in 0.5 * tip)
+        camera.position = tuple(float(x) for x in 0.5 * tip + reach * np.array([1.6, -1.6, 1.0]))
         scene.add_grid("/floor", width=2.0, height=2.0, cell_size=0.1)
         self._links: dict[str, Any] = {}
         for frame in self._frames():
@@ -262,7 +268,7 @@ class Viewer:
             if len(p) > 1 and np.any(p):
                 segments = np.stack([p[:-1], p[1:]], axis=1).astype(np.float32)
                 self._paths.append(self.server.scene.add_line_segments(
-                    f"/paths/{name}", points=segments, colors=colour, thickness=0.002))  # fmt: skip
+                    f"/paths/{name}", points=segments, colors=colour, thickness=0.004))  # fmt: skip
 
     def _send(self, q: FloatArray, target: FloatArray | None) -> None:
         import pinocchio as pin
