@@ -64,6 +64,7 @@ def shoot_live(url: str, out: Path, seconds: float = 12.0) -> None:
                     time.sleep(0.2)
             page = next(t for t in tabs if t["type"] == "page")["webSocketDebuggerUrl"]
             with connect(page, max_size=None) as ws:
+
                 def call(i: int, method: str, **params: Any) -> Any:
                     ws.send(json.dumps({"id": i, "method": method, "params": params}))
                     while True:
@@ -115,5 +116,7 @@ def report(spec: Any, logs: list[Any]) -> None:
                                                       for log in logs], title="Panda circle, a ball and a pole")  # fmt: skip
         shoot(f"{page.as_uri()}#run-3", HERE / "report-obstacles.png", "1400,1500",
               "--virtual-time-budget=10000")  # fmt: skip
+
+
 if __name__ == "__main__":
     main()
