@@ -112,8 +112,8 @@ def main() -> None:
 
 def report(spec: Any, logs: list[Any]) -> None:
     with tempfile.TemporaryDirectory() as folder:
-        page = write_report(Path(folder) / "report", [(spec.robot, log, spec.obstacles)
-                                                      for log in logs], title="Panda circle, a ball and a pole")  # fmt: skip
+        runs = [(spec.robot, log, spec.obstacles) for log in logs]
+        page = write_report(Path(folder) / "report", runs, title="Panda circle, a ball and a pole")
         shoot(f"{page.as_uri()}#run-3", HERE / "report-obstacles.png", "1400,1500",
               "--virtual-time-budget=10000")  # fmt: skip
 
