@@ -60,3 +60,76 @@ def dump_dom(
         timeout=180,
         check=False,
     )  # fmt: skip
+
+
+def live_page(
+    url: str, profile: Path, done_js: str, *, seconds: float = 60.0, size: str = "800,600"
+) -> tuple[str, list[tuple[str, str]]]:
+    """Open ``url`` in headless Chromium in real time, through the DevTools protocol (for a
+    page that holds a websocket open and so never settles, as virtual time needs), until
+    the JavaScript expression ``done_js`` is true or ``seconds`` pass.
+
+    Returns:
+        ``(text, console)``: the page's ``document.body.innerText`` and its console
+        messages and uncaught exceptions as ``(level, text)`` pairs (levels as the
+        protocol names them: ``log``, ``info``, ``warning``, ``error``, ``exception``).
+    """
+    import json
+    import socket
+    import time
+    import urllib.request
+
+    from websockets.sync.client import connect
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    flags = [f for f in FLAGS if not f.startswith(("--virtual-time", "--window-size"))]
+    chromium = subprocess.Popen(
+        [str(CHROMIUM), *flags, f"--window-size={size}", f"--remote-debugging-port={port}",
+         f"--user-data-dir={profile}", "about:blank"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    console: list[tuple[str, str]] = []
+    try:
+        deadline = time.monotonic() + seconds
+        tabs: list[dict[str, str]] = []
+        while not tabs and time.monotonic() < deadline:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/json") as answer:
+                    tabs = [t for t in json.load(answer) if t.get("type") == "page"]
+            except OSError:
+                time.sleep(0.2)
+        with connect(tabs[0]["webSocketDebuggerUrl"], max_size=None) as ws:
+            ids = iter(range(1, 1_000_000))
+
+            def call(method: str, **params: object) -> dict:  # type: ignore[type-arg]
+                i = next(ids)
+                ws.send(json.dumps({"id": i, "method": method, "params": params}))
+                while True:
+                    message = json.loads(ws.recv(timeout=max(1.0, deadline - time.monotonic())))
+                    if message.get("method") == "Runtime.consoleAPICalled":
+                        p = message["params"]
+                        text = " ".join(str(a.get("value", a.get("description", "")))
+                                        for a in p.get("args", []))  # fmt: skip
+                        console.append((p.get("type", "log"), text))
+                    elif message.get("method") == "Runtime.exceptionThrown":
+                        details = message["params"]["exceptionDetails"]
+                        console.append(("exception", str(details.get("exception", details))))
+                    if message.get("id") == i:
+                        return message  # type: ignore[no-any-return]
+
+            call("Runtime.enable")
+            call("Page.navigate", url=url)
+            text = ""
+            while time.monotonic() < deadline:
+                found = call("Runtime.evaluate", expression=f"Boolean({done_js})")
+                if found.get("result", {}).get("result", {}).get("value") is True:
+                    break
+                time.sleep(0.25)
+            body = call("Runtime.evaluate", expression="document.body.innerText")
+            text = str(body.get("result", {}).get("result", {}).get("value", ""))
+        return text, console
+    finally:
+        chromium.kill()
+        chromium.wait()

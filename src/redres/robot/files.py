@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -30,7 +31,9 @@ from ..errors import InvalidParameterError, ShapeError
 if TYPE_CHECKING:
     from .meshes import LinkMesh
     from .robot import Robot
-    from .urdf import LoadedModel, ModelSource
+    from .urdf import LoadedModel
+
+from .urdf import ModelSource
 
 _PI = float(np.pi)
 
@@ -63,23 +66,47 @@ def _positive_limits(value: Any, n: int, name: str, current: FloatArray) -> Floa
     return arr
 
 
+@dataclass(frozen=True)
+class _VisualSource:
+    """Where a file robot's visual meshes are read from when first asked for."""
+
+    source: ModelSource
+    tip: str
+    locked: Mapping[str, float] | None
+    continuous_limits: tuple[float, float]
+
+
 class RobotFiles:
     """Loaders and derived robots for :class:`~redres.robot.Robot` (module docstring)."""
 
-    #: Visual meshes of a file robot, in its links' frames (empty for the built-ins).
-    visuals: tuple[LinkMesh, ...] = ()
+    @property
+    def visuals(self) -> tuple[LinkMesh, ...]:
+        """Visual meshes of a file robot, in its links' frames (empty for the built-ins):
+        read from the file on first use (the report and the viewer ask), then kept."""
+        state = self.__dict__
+        found = state.get("_visuals")
+        if found is None:
+            where: _VisualSource | None = state.get("_visual_source")
+            found = () if where is None else _read_visuals(where)
+            state["_visuals"] = found
+        return found  # type: ignore[no-any-return]
+
+    @visuals.setter
+    def visuals(self, value: Sequence[LinkMesh]) -> None:
+        self.__dict__["_visuals"] = tuple(value)
 
     @classmethod
-    def _from_loaded(cls, loaded: LoadedModel, name: str | None, capsules: bool) -> Robot:
-        from . import fitting, meshes
+    def _from_loaded(
+        cls, loaded: LoadedModel, name: str | None, capsules: bool, where: _VisualSource
+    ) -> Robot:
+        from . import fitting
 
         model = loaded.model
         home = file_neutral(model, loaded.reference)
         robot: Robot = cls(model, tip=loaded.tip, name=name or str(model.name), home=home)  # type: ignore[call-arg, assignment]
         if capsules and loaded.collision is not None:
             robot.capsules = fitting.link_capsules(model, loaded.collision)
-        if loaded.visual is not None:
-            robot.visuals = meshes.link_meshes(model, loaded.visual)
+        robot.__dict__["_visual_source"] = where
         return robot
 
     @classmethod
@@ -94,8 +121,10 @@ class RobotFiles:
     ) -> Robot:
         from .urdf import load_model
 
-        loaded = load_model(source, tip, locked, continuous_limits)
-        return cls._from_loaded(loaded, name, capsules)
+        geometry = ("collision",) if capsules else ()
+        loaded = load_model(source, tip, locked, continuous_limits, geometry=geometry)
+        where = _VisualSource(source, loaded.tip, locked, continuous_limits)
+        return cls._from_loaded(loaded, name, capsules, where)
 
     @classmethod
     def from_urdf(
@@ -154,8 +183,6 @@ class RobotFiles:
                 (default: the current folder).
             others: as :meth:`from_urdf`.
         """
-        from .urdf import ModelSource
-
         if not isinstance(xml, str):
             raise InvalidParameterError(f"xml must be a str; got {type(xml).__name__}")
         source = ModelSource("<URDF string>", "urdf", text=xml)
@@ -223,5 +250,16 @@ class RobotFiles:
         out: Robot = type(robot)(model, tip=robot.tip, name=name or robot.name,
                                  home=robot.neutral(), qdd_max=acc)  # fmt: skip
         out.capsules = list(robot.capsules)
-        out.visuals = robot.visuals
+        for key in ("_visual_source", "_visuals"):  # the same meshes, read once
+            if key in robot.__dict__:
+                out.__dict__[key] = robot.__dict__[key]
         return out
+
+
+def _read_visuals(where: _VisualSource) -> tuple[LinkMesh, ...]:
+    from .meshes import link_meshes
+    from .urdf import load_model
+
+    loaded = load_model(where.source, where.tip, where.locked, where.continuous_limits,
+                        geometry=("visual",))  # fmt: skip
+    return () if loaded.visual is None else link_meshes(loaded.model, loaded.visual)

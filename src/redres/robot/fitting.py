@@ -76,8 +76,22 @@ def shape_balls(geometry: Any) -> Balls | None:
     if callable(vertices):
         points = np.asarray(vertices(), dtype=float).reshape(-1, 3)
         if len(points):
+            points = _hull(points)
             return Balls(points, np.zeros(len(points)))
     return None
+
+
+def _hull(points: FloatArray) -> FloatArray:
+    """The vertices of the convex hull of ``points`` (a capsule holding them holds the
+    whole hull); ``points`` unchanged when they are few or flat."""
+    if len(points) <= 64:
+        return points
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        return points[ConvexHull(points).vertices]
+    except (QhullError, ValueError):  # flat or degenerate: keep them all
+        return points
 
 
 def _volume_for_axis(

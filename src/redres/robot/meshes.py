@@ -116,8 +116,9 @@ def decimate(
     best = None
     for cells in (4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128):
         h = size / cells
-        keys = np.floor((vertices - low) / h).astype(np.int64)
-        _, cluster, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+        ijk = np.floor((vertices - low) / h).astype(np.int64)  # 0 … cells, per axis
+        keys = (ijk[:, 0] * (cells + 1) + ijk[:, 1]) * (cells + 1) + ijk[:, 2]
+        _, cluster, counts = np.unique(keys, return_inverse=True, return_counts=True)
         cluster = cluster.reshape(-1)
         sums = np.zeros((len(counts), 3))
         np.add.at(sums, cluster, vertices)

@@ -116,9 +116,10 @@ def _root(source: ModelSource) -> ET.Element:
     return root
 
 
-def _full_model(source: ModelSource, geometry: bool) -> tuple[pin.Model, Any, Any]:
-    """Pinocchio's model of the whole file and, with ``geometry``, its collision and
-    visual geometry models (``None`` where they cannot be built, e.g. a missing mesh)."""
+def _full_model(source: ModelSource, geometry: tuple[str, ...]) -> tuple[pin.Model, Any, Any]:
+    """Pinocchio's model of the whole file and the geometry models named in ``geometry``
+    (``"collision"``, ``"visual"``; ``None`` where one cannot be built, e.g. a missing
+    mesh)."""
     label = source.label
     try:
         if source.kind == "mjcf":
@@ -129,13 +130,17 @@ def _full_model(source: ModelSource, geometry: bool) -> tuple[pin.Model, Any, An
             full = pin.buildModelFromXML(source.text)
     except (RuntimeError, ValueError) as exc:
         raise URDFError(f"{label}: Pinocchio cannot build a model: {exc}") from None
-    geoms = [_geometry(full, source, kind) if geometry else None
-             for kind in (pin.COLLISION, pin.VISUAL)]  # fmt: skip
+    kinds = {"collision": pin.COLLISION, "visual": pin.VISUAL}
+    geoms = [_geometry(full, source, kinds[k]) if k in geometry else None for k in kinds]
     return full, geoms[0], geoms[1]
 
 
 def _geometry(model: pin.Model, source: ModelSource, kind: Any) -> Any:
-    dirs = [str(source.folder)]
+    # package://NAME/... is looked up as NAME under each of these: the file's folder and
+    # its ancestors (a ROS-like layout: share/NAME/robots/x.urdf), besides ROS_PACKAGE_PATH
+    # that Pinocchio reads itself.
+    folder = source.folder.resolve()
+    dirs = [str(p) for p in (folder, *folder.parents)][:8]
     try:
         if source.kind == "mjcf":
             return pin.buildGeomFromMJCF(model, str(source.file), kind)
@@ -153,7 +158,7 @@ def build_urdf_model(
     continuous_limits: tuple[float, float],
 ) -> tuple[pin.Model, str]:
     """Parse ``path`` and reduce it to the chain ending at ``tip``; returns (model, tip)."""
-    loaded = load_model(urdf_source(path), tip, locked, continuous_limits, geometry=False)
+    loaded = load_model(urdf_source(path), tip, locked, continuous_limits, geometry=())
     return loaded.model, loaded.tip
 
 
@@ -163,9 +168,10 @@ def load_model(
     locked: Mapping[str, float] | None,
     continuous_limits: tuple[float, float],
     *,
-    geometry: bool = True,
+    geometry: tuple[str, ...] = ("collision", "visual"),
 ) -> LoadedModel:
-    """Parse ``source``, reduce it to the chain ending at ``tip``, with its geometry."""
+    """Parse ``source``, reduce it to the chain ending at ``tip``, with the geometry
+    models named in ``geometry``."""
     root = _root(source)
     label = source.label
     if source.kind == "urdf":
@@ -257,7 +263,10 @@ def _check_physical(root: ET.Element, file: str) -> None:
         )
     for owner in root:
         where = f"{file}: {owner.tag} {owner.get('name')!r}"
+        fixed = owner.tag == "joint" and owner.get("type", "fixed") == "fixed"
         for element in owner.iter():
+            if fixed and element.tag == "axis":
+                continue  # a fixed joint's axis is not used
             for key, count in _NUMERIC.get(element.tag, {}).items():
                 text = element.get(key)
                 if text is None:
