@@ -166,3 +166,23 @@ def test_rigid_spec_moves_the_capsules_with_their_links(obstacle_run: tuple) -> 
             a, b = F[:3, :3] @ cap.a + F[:3, 3], F[:3, :3] @ cap.b + F[:3, 3]
             d = [_segment_distance(p, a, b) for p in world]
             np.testing.assert_allclose(d, cap.radius, atol=2e-4)  # 0.1 mm rounding
+
+
+def test_runs_of_one_robot_share_its_mesh_in_the_page(obstacle_run: tuple) -> None:
+    from redres.report.html import share_meshes
+
+    robot, log, _ = obstacle_run
+    figures = [animation_figure(arm_animation(robot, log, frames=f)) for f in (4, 6)]
+    shared, slim = share_meshes(figures)
+    assert len(shared) == 1  # one robot, one mesh, written once
+    for fig, small in zip(figures, slim):
+        mesh = shared[small["rigid"]["mesh"]]
+        trace = small["data"][fig["rigid"]["trace"]]
+        assert "i" not in trace and "x" not in small["rigid"]
+        # what the page restores is what the figure held
+        for c in ("x", "y", "z"):
+            assert mesh[c] == fig["rigid"][c]
+        for c in ("i", "j", "k"):
+            assert mesh[c] == fig["data"][fig["rigid"]["trace"]][c]
+        assert trace["x"] == fig["data"][fig["rigid"]["trace"]]["x"]  # frame 0 stays
+        assert "i" in fig["data"][fig["rigid"]["trace"]]  # the input is unchanged

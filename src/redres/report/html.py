@@ -63,6 +63,7 @@ footer { margin-top: 40px; color: var(--muted); font-size: 12.5px; }
 SCRIPT = """
 (function () {
   var runs = JSON.parse(document.getElementById("redres-runs").textContent);
+  var shared = JSON.parse(document.getElementById("redres-meshes").textContent);
   var config = JSON.parse(document.getElementById("redres-plotly-config").textContent);
   var view = document.getElementById("arm-view");
   var select = document.getElementById("run-select");
@@ -83,6 +84,11 @@ SCRIPT = """
   function expand(fig) {  // move the robot's meshes: frame f's link poses on local vertices
     var r = fig.rigid;
     if (!r || fig.expanded) { return; }
+    if (r.mesh !== undefined) {  // a mesh several runs share: written once in the page
+      var m = shared[r.mesh], t = fig.data[r.trace];
+      ["x", "y", "z"].forEach(function (c) { r[c] = m[c]; });
+      ["i", "j", "k", "facecolor"].forEach(function (c) { if (m[c]) { t[c] = m[c]; } });
+    }
     var scale = Math.pow(10, r.decimals);
     fig.frames.forEach(function (fr, f) {
       var x = r.x.slice(), y = r.y.slice(), z = r.z.slice();
@@ -159,6 +165,37 @@ def _script_json(value: Any) -> str:
     return json.dumps(value, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
 
 
+_MESH_KEYS = ("i", "j", "k", "facecolor")
+
+
+def share_meshes(figures: Sequence[Mapping[str, Any]]) -> tuple[list[Any], list[Any]]:
+    """Write each robot mesh once: the triangles and local vertices that several runs'
+    figures repeat (``rigid``) move to a shared list, and each figure keeps an index to it
+    (``rigid.mesh``); the page puts them back before drawing (:data:`SCRIPT`). The figures
+    given are not changed."""
+    shared: list[Any] = []
+    index: dict[str, int] = {}
+    out = []
+    for fig in figures:
+        rigid = fig.get("rigid")
+        if not rigid:
+            out.append(fig)
+            continue
+        trace = fig["data"][rigid["trace"]]
+        mesh = {c: rigid[c] for c in ("x", "y", "z")}
+        mesh.update({c: trace[c] for c in _MESH_KEYS if c in trace})
+        key = json.dumps(mesh, separators=(",", ":"))
+        if key not in index:
+            index[key] = len(shared)
+            shared.append(mesh)
+        data = list(fig["data"])
+        # frame 0's world vertices stay with the run (they differ); the rest is shared
+        data[rigid["trace"]] = {k: v for k, v in trace.items() if k not in _MESH_KEYS}
+        slim = {k: v for k, v in rigid.items() if k not in ("x", "y", "z")}
+        out.append({**fig, "data": data, "rigid": {**slim, "mesh": index[key]}})
+    return shared, out
+
+
 def _arm_section(views: Sequence[tuple[str, str, Mapping[str, Any]]]) -> str:
     options: dict[str, list[str]] = {}
     for i, (robot, label, _) in enumerate(views):
@@ -224,7 +261,8 @@ def render_page(
         version: redres version, shown in the header.
     """
     sections = "".join(_plot_section(p) for p in plots)
-    figures = _script_json([fig for _, _, fig in views])
+    shared, figures_list = share_meshes([fig for _, _, fig in views])
+    figures = _script_json(figures_list)
     inline_js = plotly_js.replace("</script", "<\\/script")  # cannot close its element
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
@@ -243,6 +281,7 @@ one self-contained file, works offline</p>
 <footer>Made with redres {escape(version)}. Plots: matplotlib; 3D view: plotly.js (MIT).
 </footer></main>
 <script type="application/json" id="redres-runs">{figures}</script>
+<script type="application/json" id="redres-meshes">{_script_json(shared)}</script>
 <script type="application/json" id="redres-plotly-config">{_script_json(PLOTLY_CONFIG)}</script>
 <script>{SCRIPT}</script>
 </body></html>
