@@ -53,3 +53,22 @@ def test_view_serves_a_scenario_and_stops(
         port = s.getsockname()[1]
     assert main(["view", str(scenario), "--port", str(port), "--seconds", "0.5"]) == 0
     assert f"1 runs at http://127.0.0.1:{port}" in capsys.readouterr().out
+
+
+def test_run_view_serves_the_runs_it_made(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("viser")
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(
+        'name = "short"\n[robot]\nmodel = "planar3"\n[trajectory]\ntype = "hold"\n'
+        'duration = 0.05\n[[schemes]]\ntype = "dls"\n[[schemes]]\ntype = "pinv"\n'
+    )
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    args = ["run", str(scenario), "--quiet", "--out", str(tmp_path / "report"), "--view"]
+    assert main([*args, "--port", str(port), "--seconds", "0.3"]) == 0
+    out = capsys.readouterr().out
+    assert f"2 runs at http://127.0.0.1:{port}" in out
+    assert (tmp_path / "report" / "report.html").is_file()  # the report is written too

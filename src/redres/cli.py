@@ -113,7 +113,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
     target = args.scenario
     path = builtin[target] if target in builtin and not Path(target).exists() else Path(target)
     spec = load_scenario(path)
-    return run_scenarios([spec], _output(args), title=spec.name)
+    after = None
+    if args.view:
+        from .viewer import serve_runs
+
+        def after(runs: list) -> None:  # type: ignore[type-arg]
+            serve_runs(spec, [log for _, log in runs], port=args.port, seconds=args.seconds)
+
+    return run_scenarios([spec], _output(args), title=spec.name, after=after)
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
@@ -200,6 +207,9 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run a scenario file (TOML)")
     run.add_argument("scenario", nargs="?", help="scenario file or built-in scenario name")
     run.add_argument("--list", action="store_true", help="list the built-in scenarios")
+    run.add_argument("--view", action="store_true", help="then show the runs in the browser")
+    run.add_argument("--port", type=int, default=8080, help="port of the viewer (--view)")
+    run.add_argument("--seconds", type=float, default=None, help="stop the viewer after this")
     _output_options(run)
     run.set_defaults(func=_cmd_run)
     view = sub.add_parser("view", help="run a scenario and show its runs in the browser (viser)")

@@ -169,9 +169,15 @@ class Output:
 
 
 def run_scenarios(
-    specs: Sequence[ScenarioSpec], output: Output, *, title: str, examples: bool = False
+    specs: Sequence[ScenarioSpec],
+    output: Output,
+    *,
+    title: str,
+    examples: bool = False,
+    after: Callable[[list[tuple[ScenarioSpec, RunLog]]], None] | None = None,
 ) -> int:
-    """Run ``specs``, print the table (or JSON), write the report; returns the exit code."""
+    """Run ``specs``, print the table (or JSON), write the report, then hand the runs to
+    ``after`` (``redres run --view`` serves them); returns the exit code."""
     as_json, quiet, quick = output.as_json, output.quiet, output.quick
     check_out_dir(output.folder, force=output.force)  # before any run
     started = time.perf_counter()
@@ -193,12 +199,16 @@ def run_scenarios(
         if examples:
             payload.update(examples=worked_examples(), compiled_loop=compiled_loop(steps))
         print(json.dumps(payload))
+        if after is not None:
+            after(runs)
         return 0
     print(format_table(summaries))
     for line in warning_lines(summaries):
         print(line)
     if report is not None:
         print(f"\nreport: {report}")
+    if after is not None:
+        after(runs)
     if quiet:
         return 0
     print(f"({len(runs)} runs in {time.perf_counter() - started:.1f} s)")

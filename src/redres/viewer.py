@@ -314,6 +314,19 @@ def serve_scenario(
     logs = run_scenario(spec, progress=False)
     for line in warning_lines([summarise(spec.robot, log) for log in logs]):
         print(line)
+    return serve_runs(spec, logs, host=host, port=port, seconds=seconds)
+
+
+def serve_runs(
+    spec: Any,
+    logs: Sequence[RunLog],
+    *,
+    host: str = "127.0.0.1",
+    port: int = 8080,
+    seconds: float | None = None,
+) -> int:
+    """Serve finished runs of a scenario's robot (``redres run --view``, ``redres view``)
+    until interrupted or for ``seconds``; returns the exit code."""
     viewer = Viewer(spec.robot, obstacles=spec.obstacles, host=host, port=port)
     viewer.show_runs(logs)
     print(f"redres: {spec.name}: {len(logs)} runs at {viewer.url} (Ctrl-C to stop)", flush=True)
