@@ -1,4 +1,4 @@
-"""Manipulability as a cost (seed 001's secondary objective; Yoshikawa 1985).
+"""Manipulability as a cost (a classic secondary objective; Yoshikawa 1985).
 
 ``w(q) = √det(J Jᵀ)`` and ``D(q) = −w(q)``; the gradient is
 :func:`redres.linalg.manipulability_gradient` (finite at singular configurations) fed

@@ -164,7 +164,7 @@ class OrientationTask(FrameTask):
 
 
 class PlanarTask(FrameTask):
-    """Planar pose ``(x, y, φ)`` of a frame moving in the world x-y plane (seed 002).
+    """Planar pose ``(x, y, φ)`` of a frame moving in the world x-y plane (Siciliano et al. 2009).
 
     Set the target with :meth:`set_planar_target`; ``φ`` is the rotation about world z.
     """
