@@ -125,6 +125,7 @@ class AccelerationController(ServoLaw):
         rcond: float = RCOND,
         name: str | None = None,
     ) -> None:
+        """The arguments are described in ``help(AccelerationController)``."""
         self.inverse = check_choice(inverse, "inverse", _INVERSES)
         super().__init__(task, kp, kd, objectives, null_kp, null_kd, damping, rcond)
         self.name = name or f"acceleration_{inverse}"

@@ -241,6 +241,7 @@ class OperationalSpaceController(ServoLaw):
         rcond: float = RCOND,
         name: str | None = None,
     ) -> None:
+        """The arguments are described in ``help(OperationalSpaceController)``."""
         if null_torque is not None and not callable(null_torque):
             raise InvalidParameterError(f"null_torque must be callable; got {null_torque!r}")
         self.null_torque = null_torque

@@ -34,6 +34,7 @@ class JointLimitObjective(Objective):
     name = "joint_limits"
 
     def __init__(self) -> None:
+        """No parameters: the limits are the robot's ``q_min`` and ``q_max``."""
         self._cache: tuple[weakref.ref[Robot], FloatArray, FloatArray] | None = None
 
     def _mid_scale(self, robot: Robot) -> tuple[FloatArray, FloatArray]:

@@ -31,6 +31,7 @@ class ManipulabilityObjective(Objective):
     name = "manipulability"
 
     def __init__(self, frame: str | None = None, rows: Sequence[int] | None = None) -> None:
+        """The arguments are described in ``help(ManipulabilityObjective)``."""
         self.frame = frame
         self.rows = list(range(6)) if rows is None else [int(r) for r in rows]
 

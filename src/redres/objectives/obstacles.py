@@ -136,6 +136,7 @@ class ObstacleObjective(Objective):
         influence: float = 0.15,
         capsules: Sequence[Capsule] | None = None,
     ) -> None:
+        """The arguments are described in ``help(ObstacleObjective)``."""
         self.obstacles = list(obstacles)
         self.influence = as_scalar(influence, "influence", minimum=MIN_INFLUENCE)
         self.capsules = None if capsules is None else list(capsules)

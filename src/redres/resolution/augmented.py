@@ -77,6 +77,7 @@ class AugmentedJacobianScheme(Scheme):
         rcond: float | None = None,
         threshold: float = 0.02,
     ) -> None:
+        """The arguments are described in ``help(AugmentedJacobianScheme)``."""
         self.tasks = tuple(extra_tasks) if extra_tasks is not None else (ArmAngleTask(),)
         self.gain = as_scalar(gain, "gain", minimum=0.0)
         self.threshold = as_scalar(threshold, "threshold", minimum=0.0, strict=True)

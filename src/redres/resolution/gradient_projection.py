@@ -94,6 +94,7 @@ class GradientProjectionScheme(Scheme):
         damping: float | AdaptiveDamping | None = None,
         rcond: float | None = None,
     ) -> None:
+        """The arguments are described in ``help(GradientProjectionScheme)``."""
         self.objectives = tuple(weighted_objectives(objectives))
         if not self.objectives:
             raise InvalidParameterError("gradient projection needs at least one objective")

@@ -48,6 +48,7 @@ class PseudoInverseScheme(Scheme):
         damping: float | AdaptiveDamping | None = None,
         rcond: float | None = None,
     ) -> None:
+        """The arguments are described in ``help(PseudoInverseScheme)``."""
         self.inverse = make_inverse(inverse, damping, rcond)
         self.name = "pinv" if self.inverse.kind == "exact" else "dls"
         self._kwargs = self.inverse.rate_kwargs()

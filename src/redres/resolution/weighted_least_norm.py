@@ -91,6 +91,7 @@ class WeightedLeastNormScheme(Scheme):
         damping: float | AdaptiveDamping | None = None,
         rcond: float | None = None,
     ) -> None:
+        """The arguments are described in ``help(WeightedLeastNormScheme)``."""
         try:
             c_arr = np.asarray(c, dtype=float)
         except (TypeError, ValueError):

@@ -132,6 +132,7 @@ class ArmAngleTask(Task):
         target: float | None = None,
         name: str = "arm_angle",
     ) -> None:
+        """The arguments are described in ``help(ArmAngleTask)``."""
         self.shoulder, self.elbow, self.wrist = shoulder, elbow, wrist
         v = as_vector(reference, "reference", 3)
         if np.linalg.norm(v) < 1e-9:
