@@ -85,7 +85,7 @@ BENCHES = [
           "with redres forward kinematics, same time limit; solutions outside the joint "
           "limits are failures. Times per target, all attempts and failures included.",
           quick=["--targets", "20"], json=True),
-    Bench("quality", "quality.py", "Quality on the seeds' problem: the Panda joint-limit circle",
+    Bench("quality", "quality.py", "Quality on a joint-limit problem: the Panda joint-limit circle",
           "Each library's best equivalent configuration tracks the circle that drives plain "
           "pseudo-inverse control past joint 2's limit; errors and margins computed here "
           "from each run's configurations with redres forward kinematics.", json=True),

@@ -126,6 +126,7 @@ class Controller:
         dt: float = 1e-3,
         limit_velocity: bool = True,
     ) -> None:
+        """A CLIK step of ``task`` on ``robot`` resolved by ``scheme``, gain in 1/s, period in s."""
         if not isinstance(task, Task):
             raise InvalidParameterError(f"task must be a redres Task; got {task!r}")
         if not isinstance(scheme, Scheme):

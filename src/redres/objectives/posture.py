@@ -29,6 +29,7 @@ class PostureObjective(Objective):
     name = "posture"
 
     def __init__(self, q_ref: Any = None, weights: Any = 1.0) -> None:
+        """The arguments are described in ``help(PostureObjective)``."""
         self.q_ref = None if q_ref is None else as_vector(q_ref, "q_ref")
         self.weights: float | FloatArray
         if np.ndim(weights) == 0:

@@ -58,6 +58,7 @@ class StepResult:
         binding: Sequence[Any] = (),
         details: Any = None,
     ) -> None:
+        """Built by the schemes; the arguments are the attributes listed on the class."""
         # details may be a zero-argument callable (built on first read), like info.
         self.qd, self._info, self.null_term = qd, info, null_term
         self.feasible, self.algorithmic_singularity = feasible, algorithmic_singularity

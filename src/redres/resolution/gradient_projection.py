@@ -1,4 +1,4 @@
-"""Gradient projection: ``q̇ = J# ẋ − k (I − J# J) ∇D`` (seed 000 eq. 6, seed 001, seed 003).
+"""Gradient projection: ``q̇ = J# ẋ − k (I − J# J) ∇D`` (Liégeois 1977).
 
 ``D`` is a weighted sum of secondary costs; the projector is built from the same inverse
 as the task term (exact: ``J N = 0``, the task is untouched; damped: the secondary term
@@ -94,6 +94,7 @@ class GradientProjectionScheme(Scheme):
         damping: float | AdaptiveDamping | None = None,
         rcond: float | None = None,
     ) -> None:
+        """The arguments are described in ``help(GradientProjectionScheme)``."""
         self.objectives = tuple(weighted_objectives(objectives))
         if not self.objectives:
             raise InvalidParameterError("gradient projection needs at least one objective")

@@ -115,6 +115,7 @@ class SerialChain:
     """
 
     def __init__(self, model: pin.Model, frame: str | int) -> None:
+        """The arguments are described in ``help(SerialChain)``."""
         frame_id = _frame_index(model, frame)
         self.frame = str(model.frames[frame_id].name)
         self.n = int(model.nv)

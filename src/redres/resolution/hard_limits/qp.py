@@ -132,6 +132,7 @@ class QPScheme(BoxScheme):
         qd_max: ArrayLike | None = None,
         qdd_max: ArrayLike | None = None,
     ) -> None:
+        """The arguments are described in ``help(QPScheme)``."""
         self._init_box(dt, objectives, k_null, qd_max, qdd_max)
         self.levels = [[lv] if isinstance(lv, Task) else list(lv) for lv in levels]
         if any(not lv or not all(isinstance(t, Task) for t in lv) for lv in self.levels):
