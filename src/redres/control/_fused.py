@@ -143,7 +143,7 @@ def fused_config(
     config[codes.CFG_DAMPING] = lam
     config[codes.CFG_MAX_DAMPING] = lam_max
     config[codes.CFG_THRESHOLD] = eps
-    config[codes.CFG_MODE] = mode
+    config[codes.CFG_MODE] = codes.LAZY if mode == codes.FIXED else mode  # Controller.info
     config[codes.CFG_RCOND] = fused.inverse.rcond
     if fused.quadratic is not None:
         config[codes.CFG_HAS_GRAD] = 1.0

@@ -73,6 +73,7 @@ def run(
         SimulationError: a non-finite joint velocity (names the step).
     """
     controller = Controller(robot, task, scheme, gain=gain, dt=dt, limit_velocity=limit_velocity)
+    controller._eager_info()  # the log records the singular values of every step
     dt = controller.dt
     if trajectory is not None and not isinstance(trajectory, Trajectory):
         raise InvalidParameterError(
