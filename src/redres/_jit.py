@@ -370,12 +370,13 @@ def mark_cached(names: Iterable[str]) -> None:
                 pass
 
 
-def ready(name: str) -> bool:
+def ready(name: str, *, start: bool = True) -> bool:
     """Whether kernel module ``name`` can run compiled without compiling on the caller's
     path: it is loaded, or cached at this stamp, or compiling happens on first use anyway
     (``REDRES_COMPILE=foreground``, no writable cache, a failed background compile). Else
-    starts (once) the background compilation and returns False until it has cached the
-    module; callers keep asking on each call and switch when it says True."""
+    starts (once; not with ``start=False``, for a caller with a NumPy path as fast) the
+    background compilation and returns False until it has cached the module; callers
+    keep asking on each call and switch when it says True."""
     found: set[str] = _state.setdefault("ready", set())
     if not _ENABLED or name in found or _state.get("foreground") or cache_dir() is None:
         return True
@@ -386,6 +387,8 @@ def ready(name: str) -> bool:
     if (name, True) in _modules or _marker(name).exists():
         found.add(name)
         return True
+    if not start:
+        return False
     from . import _behind  # the background process and its lock (not needed before)
 
     _behind.compile_behind(name)

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from .. import _jit
 from .._validate import FloatArray, as_scalar
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import RCOND, AdaptiveDamping, InverseInfo
@@ -258,7 +259,8 @@ def step_arrays(q: Any, J: Any, xd: Any, n: int) -> tuple[FloatArray, FloatArray
             f"got {J.shape}"
         )
     lane = _finite_lane[0]
-    if lane is None:
+    # (not the one to start compiling linalg behind: a hard-limit loop wants its own first)
+    if lane is None and _jit.ready(be._LINALG, start=False):
         warm = (np.zeros(1), np.zeros((1, 1)), np.zeros(1))
         lane = _finite_lane[0] = (
             be.kernels() and be.entry(be._LINALG, "finite_inputs", warm)
