@@ -22,7 +22,7 @@ max_restarts = 1
 
 [capability]
 resolution = 0.1
-bounds = [[0.25, 0.55], [-0.15, 0.15], [0.25, 0.55]]
+bounds = [[0.2, 0.5], [-0.1, 0.2], [0.2, 0.5]]
 directions = 12
 fk_samples = 5000
 """

@@ -54,7 +54,7 @@ def test_statistics_match_the_runs(tmp_path: Path) -> None:
     report = sweeps.run(tmp_path / "stats.toml", tmp_path / "out", workers=1, progress=False)
     assert report.shards == 3 and report.queries == 5 * 2 * 100
     data = sweeps.load(tmp_path / "out")
-    assert list(data.tables["labels"]) == ["pinv", "joint limits"]
+    assert list(data.meta["labels"]) == ["pinv", "joint limits"]
     spec = sweeps.load_spec(tmp_path / "stats.toml")
     scenario = load_scenario(tmp_path / "two.toml")
     robot = scenario.robot

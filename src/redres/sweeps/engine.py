@@ -194,7 +194,7 @@ def _header(
         "shard_units": shard_units, "shards": count, "plan_sha256": checksum(arrays),
         "fields": {k: {"dtype": f.dtype, "shape": list(f.shape), "doc": f.doc}
                    for k, f in plan.fields.items()},
-        "tables": sorted(plan.tables),
+        "tables": sorted(plan.tables), "meta": plan.meta,
     }  # fmt: skip
 
 

@@ -121,7 +121,7 @@ def differences(old: Mapping[str, Any], new: Mapping[str, Any]) -> str:
         return f"its robot differs ({_first_difference(robot_old, robot_new, 'robot')})"
     if old["settings"] != new["settings"]:
         return f"its settings differ ({_first_difference(old['settings'], new['settings'])})"
-    for key in ("plan_sha256", "storage", "fields", "units", "shard_units"):
+    for key in ("plan_sha256", "storage", "fields", "units", "shard_units", "meta"):
         if old.get(key) != new.get(key):
             return f"its {key.replace('_', ' ')} differs ({old.get(key)} vs {new.get(key)})"
     return ""

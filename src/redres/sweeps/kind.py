@@ -49,6 +49,8 @@ class Plan:
         constants: arrays every shard receives whole (orientations, a map's tables).
         tables: arrays stored once with the results (voxel centres, directions), for
             :func:`redres.sweeps.load`.
+        meta: plain JSON values kept in the header (scheme labels), for people and
+            :func:`redres.sweeps.load`.
     """
 
     units: int
@@ -57,6 +59,7 @@ class Plan:
     inputs: dict[str, np.ndarray] = field(default_factory=dict)
     constants: dict[str, np.ndarray] = field(default_factory=dict)
     tables: dict[str, np.ndarray] = field(default_factory=dict)
+    meta: dict[str, Any] = field(default_factory=dict)
 
     def shard_units(self, shard_size: int) -> int:
         """Units per shard: whole units of at least ``shard_size`` queries."""

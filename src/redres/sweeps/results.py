@@ -46,6 +46,11 @@ class SweepData(Mapping[str, np.ndarray]):
     _cache: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
     @property
+    def meta(self) -> dict[str, Any]:
+        """The plan's plain values (scheme labels, ...)."""
+        return dict(self.header.get("meta", {}))
+
+    @property
     def done(self) -> bool:
         return len(self.finished) == int(self.header["shards"])
 

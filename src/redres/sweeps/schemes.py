@@ -132,8 +132,8 @@ def _plan(spec: SweepSpec, robot: Robot) -> Plan:
     fields["q0"] = Field("float64", (scenario.robot.n,), "start configuration, rad")
     fields["shape"] = Field("int64", (), "0: circle, 1: line")
     fields["size"] = Field("float64", (), "radius or length, m")
-    labels = np.array([s.label for s in scenario.schemes])
-    return Plan(p.paths, count * steps, fields, tables={"labels": labels})
+    labels = [s.label for s in scenario.schemes]
+    return Plan(p.paths, count * steps, fields, meta={"labels": labels})
 
 
 def _path(robot: Robot, p: SchemeStatsParams, rng: np.random.Generator) -> tuple[Any, ...]:
@@ -200,7 +200,7 @@ def table(out: str | Path) -> str:
 
     data = load(out)
     rows = []
-    for s, label in enumerate(data.tables["labels"]):
+    for s, label in enumerate(data.meta["labels"]):
         rms = data["rms_error"][:, s]
         rows.append([
             str(label), f"{100 * data['success'][:, s].mean():.1f}",

@@ -75,6 +75,11 @@ class Reader(_Reader):
     booleans); its errors are :class:`~redres.scenario.ScenarioError`, turned into
     :class:`SweepSpecError` by :func:`parse_spec`."""
 
+    def fail(self, key: str | None, message: str) -> ScenarioError:
+        if self.path or key is None:
+            return super().fail(key, message)
+        return ScenarioError(f"{self.file}: {key}: {message}")  # a top-level key
+
     def integer(self, key: str, default: Any = ..., minimum: int | None = None) -> int:
         value = self.number(key, default)
         if not float(value).is_integer():
