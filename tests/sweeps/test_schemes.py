@@ -37,7 +37,7 @@ k_null = 5.0
 SPEC = """
 kind = "scheme_statistics"
 seed = 3
-shard_size = 200
+shard_size = 400
 small_shards = true
 [robot]
 model = "panda"

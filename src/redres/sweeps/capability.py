@@ -13,7 +13,11 @@ and why the others are empty), its queries the ``directions × rolls`` orientati
 :func:`redres.batch.ik` under the ``[solver]`` budget: the first attempt starts at the
 forward-kinematics sample of that voxel whose orientation is nearest the query's (the
 robot's neutral configuration when no sample reached the voxel), then up to
-``max_restarts`` random restarts. For each (voxel, orientation) the map stores
+``max_restarts`` random restarts; then ``refine`` passes retry each unsolved query with
+one attempt from the solution of its voxel at the nearest solved orientation, then one
+from the solution at its orientation in each face-neighbour voxel of the shard
+(neighbouring poses have neighbouring solutions: this finds many that random restarts
+miss, at one attempt per unsolved query and neighbour). For each (voxel, orientation) the map stores
 ``reachable`` (a solution within the joint limits and the tolerances), the best
 ``manipulability`` ``√det(J Jᵀ)`` (Yoshikawa 1985) and the best joint-limit ``margin``
 (the smallest distance of a joint to its nearer limit, rad) over the ``solutions``
@@ -74,6 +78,9 @@ class CapabilityParams:
         seeds_per_voxel: samples kept per voxel to start its queries from.
         solutions: solutions sought per query (the best manipulability and margin of
             those found are kept).
+        refine: passes that retry the unsolved queries from the solutions of their
+            neighbours (nearest orientation in the voxel, same orientation in the
+            neighbour voxels).
         keep_configurations: also store the solution ``q`` of each query.
     """
 
@@ -85,6 +92,7 @@ class CapabilityParams:
     dilation: int = 1
     seeds_per_voxel: int = 4
     solutions: int = 1
+    refine: int = 2
     keep_configurations: bool = False
 
 
@@ -99,6 +107,7 @@ def _parse(r: Reader, base: Path) -> CapabilityParams:
         dilation=r.integer("dilation", 1, minimum=-1),
         seeds_per_voxel=r.integer("seeds_per_voxel", 4, minimum=0),
         solutions=r.integer("solutions", 1, minimum=1),
+        refine=r.integer("refine", 2, minimum=0),
         keep_configurations=r.boolean("keep_configurations", False),
     )
     r.done()
@@ -135,7 +144,7 @@ def _plan(spec: SweepSpec, robot: Robot) -> Plan:
         "resolution": np.array([p.resolution]), "grid_low": occ.low,
         "grid_shape": np.array(occ.shape), "in_reach": np.array([occ.in_reach]),
     }  # fmt: skip
-    inputs = {"centres": centres, "seeds": occ.seeds}
+    inputs = {"centres": centres, "seeds": occ.seeds, "index": occ.index}
     constants = {"rotations": rotations, "neutral": robot.neutral()}
     return Plan(len(centres), count, fields, inputs, constants, tables)
 
@@ -153,19 +162,73 @@ def _run(job: ShardJob, robot: Robot) -> dict[str, np.ndarray]:
     q0 = _starts(robot, frame, seeds, rotations, job.constants["neutral"], job.threads)
     queries = voxels * count
     keys = job.rng().integers(0, 2**62, queries)
-    result = batch.ik(robot, T.reshape(queries, 4, 4), frame, q0=q0.reshape(queries, -1),
-                      keys=keys, solutions=p.solutions, threads=job.threads,
-                      **job.solver)  # fmt: skip
-    manip, margin = manipulability_and_margin(robot, frame, result.solutions, result.found,
-                                              job.threads)  # fmt: skip
+    targets = T.reshape(queries, 4, 4)
+    result = batch.ik(robot, targets, frame, q0=q0.reshape(queries, -1), keys=keys,
+                      solutions=p.solutions, threads=job.threads, **job.solver)  # fmt: skip
+    solutions, found = result.solutions.copy(), result.found.copy()
+    _refine(robot, frame, targets, rotations, job.inputs["index"], solutions, found, p.refine,
+            job)  # fmt: skip
+    manip, margin = manipulability_and_margin(robot, frame, solutions, found, job.threads)
     out = {
-        "reachable": result.converged.reshape(voxels, count),
+        "reachable": (found > 0).reshape(voxels, count),
         "manipulability": manip.reshape(voxels, count),
         "margin": margin.reshape(voxels, count),
     }
     if p.keep_configurations:
-        out["q"] = result.q.reshape(voxels, count, robot.n)
+        out["q"] = np.where((found > 0)[:, None], solutions[:, 0], result.q).reshape(
+            voxels, count, robot.n
+        )
     return out
+
+
+def _refine(
+    robot: Robot,
+    frame: str | None,
+    targets: np.ndarray,
+    rotations: np.ndarray,
+    index: np.ndarray,
+    solutions: np.ndarray,
+    found: np.ndarray,
+    passes: int,
+    job: ShardJob,
+) -> None:
+    """Passes over the unsolved queries: one attempt each from the solution of the same
+    voxel at the nearest solved orientation (largest ``tr(R_oᵀ R_p)``), then one from the
+    solution at the same orientation in each of the six face-neighbour voxels of the
+    shard that has one (``index``: the shard's grid indices); ``solutions`` (slot 0) and
+    ``found`` are updated in place."""
+    count = len(rotations)
+    voxels = len(index)
+    similarity = np.einsum("oab,pab->op", rotations, rotations)
+    np.fill_diagonal(similarity, -np.inf)
+    solver = dict(job.solver, max_restarts=0)
+    steps = np.vstack((np.eye(3, dtype=np.int64), -np.eye(3, dtype=np.int64)))
+    neighbours = [_rows_of(index, index + step) for step in steps]
+
+    def attempt(rows: np.ndarray, seeds: np.ndarray) -> int:
+        if not len(rows):
+            return 0
+        again = batch.ik(robot, targets[rows], frame, q0=solutions[seeds, 0], solutions=1,
+                         threads=job.threads, **solver)  # fmt: skip
+        ok = again.converged
+        solutions[rows[ok], 0], found[rows[ok]] = again.q[ok], 1
+        return int(ok.sum())
+
+    for _ in range(passes):
+        solved = (found > 0).reshape(voxels, count)
+        v, o = np.nonzero(~solved & solved.any(axis=1, keepdims=True))
+        score = np.where(solved[v], similarity[o], -np.inf)
+        new = attempt(v * count + o, v * count + np.argmax(score, axis=1))
+        for near in neighbours:
+            solved = (found > 0).reshape(voxels, count)
+            v, o = np.nonzero(~solved)
+            n = near[v]
+            ok = n >= 0
+            v, o, n = v[ok], o[ok], n[ok]
+            ok = solved[n, o]
+            new += attempt(v[ok] * count + o[ok], n[ok] * count + o[ok])
+        if not new:
+            return
 
 
 def _starts(
