@@ -166,22 +166,25 @@ class SweepSpec:
 def load_spec(path: str | Path) -> SweepSpec:
     """Read and validate a sweep spec file; raises :class:`SweepSpecError`."""
     file = Path(path)
-    shown = shown_path(file)
     try:
-        text = file.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise SweepSpecError(f"{shown}: no such sweep spec file") from None
-    except OSError as exc:
-        raise SweepSpecError(f"cannot read the sweep spec: {describe_os_error(exc)}") from None
-    except UnicodeDecodeError as exc:
-        raise SweepSpecError(f"{shown}: not UTF-8 text ({exc.reason}); save it as UTF-8") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepSpecError(f"{shown}: not valid TOML ({exc})") from None
-    except RecursionError:
-        raise SweepSpecError(f"{shown}: tables are nested too deeply to read") from None
+        data = tomllib.loads(file.read_text(encoding="utf-8-sig"))  # a leading BOM is fine
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, RecursionError) as exc:
+        raise SweepSpecError(_unreadable(file, exc)) from None
     return parse_spec(data, file.name, file.parent)
+
+
+def _unreadable(file: Path, exc: Exception) -> str:
+    """The one line saying why ``file`` could not be read as TOML."""
+    shown = shown_path(file)
+    if isinstance(exc, FileNotFoundError):
+        return f"{shown}: no such sweep spec file"
+    if isinstance(exc, OSError):
+        return f"cannot read the sweep spec: {describe_os_error(exc)}"
+    if isinstance(exc, UnicodeDecodeError):
+        return f"{shown}: not UTF-8 text ({exc.reason}); save it as UTF-8"
+    if isinstance(exc, RecursionError):
+        return f"{shown}: tables are nested too deeply to read"
+    return f"{shown}: not valid TOML ({exc})"
 
 
 def parse_spec(data: dict[str, Any], file: str = "<spec>", base: Path = Path()) -> SweepSpec:
