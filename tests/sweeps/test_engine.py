@@ -190,3 +190,22 @@ def test_shards_draw_from_their_own_generator(reference: tuple[Path, dict[str, s
     job = engine._job(spec, plan, data.store, 3)
     assert job.rng().integers(0, 2**62) == np.random.default_rng([7, 3]).integers(0, 2**62)
     assert checksum(engine.execute(job)) == checksum(data.store.read(3))
+
+
+def test_npz_when_zarr_is_absent(
+    small_spec: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    reference: tuple[Path, dict[str, str]],
+) -> None:  # fmt: skip
+    from redres.errors import MissingDependencyError
+    from redres.sweeps import engine
+
+    monkeypatch.setattr(engine, "zarr_available", lambda: False)
+    with pytest.raises(MissingDependencyError, match=r"redres\[zarr\]"):
+        sweeps.run(small_spec, tmp_path / "z", workers=1, progress=False, storage="zarr")
+    report = sweeps.run(small_spec, tmp_path / "out", workers=1, progress=False)
+    assert json.loads((tmp_path / "out" / "sweep.json").read_text())["storage"] == "npz"
+    assert (tmp_path / "out" / "shards").is_dir() and not (tmp_path / "out" / "data.zarr").exists()
+    npz, zarr_data = sweeps.load(tmp_path / "out"), sweeps.load(reference[0])
+    assert report.computed == report.shards and set(npz) == set(zarr_data)
+    for name in npz:  # the same arrays in either store
+        assert np.array_equal(npz[name], zarr_data[name], equal_nan=True)
