@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/sweeps.py                # the small measurements (~2 min)
     .venv/bin/python benchmarks/sweeps.py --full         # also the full Panda map (minutes)
+    .venv/bin/python benchmarks/sweeps.py --full --no-small   # the full map alone
     .venv/bin/python benchmarks/sweeps.py --json PATH
 
 Measures, each in a fresh temporary folder, after a warm-up (compiled kernels cached):
@@ -202,12 +203,14 @@ def full_map(folder: Path) -> dict[str, object]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help="also the full Panda map")
+    parser.add_argument("--no-small", action="store_true", help="skip the small measurements")
     parser.add_argument("--json", help="write the figures to this file")
     args = parser.parse_args()
     rr.warmup(["linalg", "batch", "ik"], quiet=True)
     result: dict[str, object] = {"load_before": load()}
     with tempfile.TemporaryDirectory() as tmp:
-        result["small"] = small_measurements(Path(tmp))
+        if not args.no_small:
+            result["small"] = small_measurements(Path(tmp))
         if args.full:
             result["full"] = full_map(Path(tmp))
     result["load_after"] = load()
