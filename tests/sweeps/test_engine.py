@@ -209,3 +209,13 @@ def test_npz_when_zarr_is_absent(
     assert report.computed == report.shards and set(npz) == set(zarr_data)
     for name in npz:  # the same arrays in either store
         assert np.array_equal(npz[name], zarr_data[name], equal_nan=True)
+
+
+def test_bad_engine_arguments(small_spec: Path, tmp_path: Path) -> None:
+    from redres.errors import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match="workers must be >= 1"):
+        sweeps.run(small_spec, tmp_path / "a", workers=0, progress=False)
+    with ThreadPoolExecutor(1) as pool, pytest.raises(InvalidParameterError, match="not both"):
+        sweeps.run(small_spec, tmp_path / "b", executor=pool, scheduler="tcp://x:1")
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()  # nothing written

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import MissingDependencyError, RedresError
+from ..errors import InvalidParameterError, MissingDependencyError, RedresError
 from .folder import (
     FORMAT,
     FORMAT_VERSION,
@@ -128,9 +128,14 @@ def run(
         SweepFolderError: ``out`` holds other files, or a sweep that differs.
         MissingDependencyError: ``scheduler`` without Dask, or ``storage="zarr"``
             without Zarr.
+        InvalidParameterError: ``workers < 1``, or both ``executor`` and ``scheduler``.
     """
     from .kinds import KINDS
 
+    if executor is not None and scheduler is not None:
+        raise InvalidParameterError("give executor= or scheduler=, not both")
+    if workers is not None and (isinstance(workers, bool) or int(workers) < 1):
+        raise InvalidParameterError(f"workers must be >= 1 (or None: every core); got {workers}")
     start = time.perf_counter()
     if not isinstance(spec, SweepSpec):
         spec = load_spec(spec)
@@ -271,8 +276,6 @@ def _dispatch(
 ) -> None:
     if executor is None and scheduler is None:
         count = (os.cpu_count() or 1) if workers is None else int(workers)
-        if count < 1:
-            raise RedresError(f"workers must be >= 1; got {workers}")
         if count == 1 or len(jobs) == 1:
             report.engine, report.workers = "in-process", 1
             for job in jobs:
