@@ -112,6 +112,7 @@ def _batch() -> None:
         batch.rate_step(robot, q, np.ones((2, 6)), q, damping=damping)
     batch.rate_step(robot, q, np.ones(6), weights=np.ones(robot.n))
     batch.rate_step(robot, q, np.ones(6), weights=np.eye(robot.n))
+    batch.ik(robot, batch.fk(robot, q), max_restarts=1)
 
 
 #: Group name -> (kernel modules it caches, workload).
