@@ -1,4 +1,4 @@
-"""Quality on the seeds' problem: the Panda circle that drives plain pseudo-inverse control
+"""Quality on a joint-limit problem: the Panda circle that drives plain pseudo-inverse control
 into a joint limit, tracked by each library's best equivalent configuration.
 
 The scenario is ``redres.scenario.builtin("panda_joint_limit_circle")``: the TCP on a 10 cm
@@ -12,7 +12,7 @@ from rest on a circle that starts at full speed), and the smallest joint-limit m
 
 * redres through ``rr.run`` (CLIK, gain 50/s with the reference twist as feed-forward,
   joint velocities scaled down uniformly to their limits): ``pinv`` (the minimum-norm
-  solution of the seeds), gradient projection of the joint-limit cost (gain 5), weighted
+  solution, Whitney 1969), gradient projection of the joint-limit cost (gain 5), weighted
   least norm, and, when present, ``QPScheme`` and ``SNSScheme`` with the same cost (hard
   position, velocity and acceleration limits) — the scenario's settings; and gradient
   projection tuned as pink and mink are below: gain K = 1/dt (a dead-beat loop, as their
@@ -75,7 +75,7 @@ def redres_schemes() -> dict[str, tuple[Any, float]]:
     """label -> (scheme, CLIK gain K in 1/s)."""
     limits = JointLimitObjective
     found: dict[str, tuple[Any, float]] = {
-        "redres pinv (seeds' minimum norm)": (PseudoInverseScheme(), GAIN),
+        "redres pinv (minimum norm, Whitney 1969)": (PseudoInverseScheme(), GAIN),
         "redres gradient projection (joint limits)": (
             GradientProjectionScheme([limits()], k_null=K_NULL), GAIN),
         "redres weighted least norm": (WeightedLeastNormScheme(), GAIN),

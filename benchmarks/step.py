@@ -2,7 +2,7 @@
 
 The redres step is the full CLIK step of the redundancy-resolution issue, through the
 public API: forward kinematics and Jacobian of the TCP, the pose error (SO(3) log), the
-damped inverse with seed 003's joint-limit gradient projected into its null space,
+damped inverse with Liégeois' joint-limit gradient projected into its null space,
 velocity scaling and the integration ``q + q̇ dt`` — by ``Controller.step`` (its fused
 path: one compiled kernel, the TCP's kinematics from the Panda's serial chain inside it),
 and the same step composed from

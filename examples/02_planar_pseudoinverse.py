@@ -1,4 +1,4 @@
-"""Example 2: the seed 002 inverses on the planar RR and RRR arms with unit links.
+"""Example 2: the textbook inverses on the planar RR and RRR arms with unit links.
 
 Run: python examples/02_planar_pseudoinverse.py
 """

@@ -2,7 +2,7 @@
 
 The demo runs the built-in scenarios (``redres run --list``): the Panda circle that drives
 plain pseudo-inverse control into a joint limit, under every scheme, and the iiwa14 figure
-eight with its arm angle held by the augmented Jacobian. The seeds' worked examples follow,
+eight with its arm angle held by the augmented Jacobian. Textbook worked examples follow,
 then the same Panda circle in the compiled 1 kHz loop (:func:`compiled_loop`).
 """
 
@@ -32,17 +32,18 @@ DEMO_SCENARIOS = ("panda_joint_limit_circle", "iiwa_arm_angle_eight")
 
 
 def worked_examples() -> list[dict[str, object]]:
-    """Seed 002's numeric examples and one null-space step on the Panda, computed live."""
+    """Classic planar worked examples and one null-space step on the Panda, computed live."""
     out: list[dict[str, object]] = []
     rrr = models.planar([1.0, 1.0, 1.0])
     J = rrr.jacobian(np.array([60.0, -30.0, 15.0]) * DEG)[:2]
-    J_printed = np.round(J, 2)  # the seed computes with its Jacobian rounded to 2 decimals
+    J_printed = np.round(J, 2)  # the classic example uses its Jacobian rounded to 2 decimals
     for weights in ([1.0, 2.0, 3.0], [3.0, 2.0, 1.0]):
         W = np.diag(weights)
         v = np.array([1.0, 1.0])
         out.append(
             {
-                "example": "seed 002: RRR at (60, -30, 15) deg, v = (1, 1) m/s, "
+                "example": "weighted least norm (Whitney 1969): RRR at (60, -30, 15) deg, "
+                "v = (1, 1) m/s, "
                 f"W = diag{tuple(weights)}",
                 "qd_rad_s": np.round(linalg.weighted_pinv(J_printed, W) @ v, 2).tolist(),
                 "qd_exact_jacobian_rad_s": np.round(linalg.weighted_pinv(J, W) @ v, 4).tolist(),
@@ -54,7 +55,7 @@ def worked_examples() -> list[dict[str, object]]:
         qd = linalg.left_pinv(J) @ np.array(v_list)
         out.append(
             {
-                "example": f"seed 002: RR at (30, 30) deg, left pseudo-inverse, "
+                "example": f"left pseudo-inverse (Penrose 1955): RR at (30, 30) deg, "
                 f"v = {tuple(v_list)}",
                 "qd_rad_s": np.round(qd, 3).tolist(),
                 "achieved_x": np.round(J @ qd, 3).tolist(),
@@ -64,7 +65,8 @@ def worked_examples() -> list[dict[str, object]]:
     qd = linalg.pinv(J) @ np.array([-1.0, np.sqrt(3.0)])
     out.append(
         {
-            "example": "seed 002: singular RR at (30, 0) deg, SVD pseudo-inverse, v = (-1, sqrt 3)",
+            "example": "SVD pseudo-inverse (Golub & Kahan 1965): singular RR at (30, 0) deg, "
+            "v = (-1, sqrt 3)",
             "qd_rad_s": np.round(qd, 3).tolist(),
         }
     )
@@ -72,13 +74,14 @@ def worked_examples() -> list[dict[str, object]]:
     q = panda.neutral()
     J = panda.jacobian(q)
     v = np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
-    grad = JointLimitObjective().gradient(panda, q)  # seed 003's cost D(q)
+    grad = JointLimitObjective().gradient(panda, q)  # Liégeois' joint-limit cost D(q)
     J_pinv = linalg.right_pinv(J)
     N = linalg.nullspace_projector(J, J_pinv)
     qd = J_pinv @ v - 1.0 * N @ grad
     out.append(
         {
-            "example": "seed 000/003: Panda at its ready pose, v = 0.1 m/s along x, "
+            "example": "gradient projection (Liégeois 1977): Panda at its ready pose, "
+            "v = 0.1 m/s along x, "
             "joint-limit gradient projected into the null space (k = 1)",
             "qd_rad_s": np.round(qd, 4).tolist(),
             "task_residual": float(np.linalg.norm(J @ qd - v)),
@@ -141,7 +144,7 @@ def _write_report(
 def _warm_up(specs: Sequence[ScenarioSpec], loud: bool) -> None:
     """Compile what the runs need before they are timed (on a cold cache they would
     otherwise run, and be timed, on the reference path while it compiles behind)."""
-    groups = ["linalg", "controller"]
+    groups = ["linalg", "chain", "controller"]
     if any(s.kind in ("qp", "sns") for spec in specs for s in spec.schemes):
         groups.append("hard limits")
     warmup(groups, quiet=not loud)
@@ -213,7 +216,7 @@ def run_scenarios(
         return 0
     print(f"({len(runs)} runs in {time.perf_counter() - started:.1f} s)")
     if examples:
-        print("\nWorked examples of the seed documents, computed now:")
+        print("\nTextbook worked examples, computed now:")
         for ex in worked_examples():
             print(f"- {ex['example']}")
             for key, value in ex.items():

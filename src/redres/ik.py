@@ -13,7 +13,7 @@ Each iteration, from the error ``e = [p_d − p; log(R_d Rᵀ)]`` (docs/conventi
   ``min(1, ‖e‖ / 0.1)`` so that it vanishes as the error does: damped least squares with a
   fixed λ converges only linearly, and crawls where ``σ_min`` is small at the solution.
 * ``N ∇D`` is the null-space term of the same inverse, ``D`` the joint-limit cost of
-  seed 003, scaled by the same factor so that it fades out near the solution and cannot
+  Liégeois (1977), scaled by the same factor so that it fades out near the solution and cannot
   hold the error above the tolerance.
 * A preference (``q_preferred``: ``D = ½‖q − q_preferred‖²``; ``arm_angle``: a second
   priority level, :func:`redres.resolution.priority.prioritized_velocity`) starts only

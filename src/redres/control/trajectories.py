@@ -129,6 +129,7 @@ class Circle(Trajectory):
         turns: float = 1.0,
         ramp: float = 0.0,
     ) -> None:
+        """A circle of ``radius`` (m) through ``start_pose``, one turn per ``period`` (s)."""
         self.start_pose = as_transform(start_pose, "start_pose")
         self.radius = as_scalar(radius, "radius", minimum=0.0, strict=True)
         self.period = _seconds(period, "period")
@@ -182,6 +183,7 @@ class FigureEight(Trajectory):
         turns: float = 1.0,
         ramp: float = 0.0,
     ) -> None:
+        """The arguments are described in ``help(FigureEight)``."""
         self.start_pose = as_transform(start_pose, "start_pose")
         self.width = as_scalar(width, "width", minimum=0.0)
         self.height = as_scalar(height, "height", minimum=0.0)
@@ -214,6 +216,7 @@ class MinimumJerk(Trajectory):
     """
 
     def __init__(self, start_pose: Any, end_pose: Any, duration: float) -> None:
+        """Move from ``start_pose`` to ``end_pose`` (4x4 poses, m) in ``duration`` s."""
         self.start_pose = as_transform(start_pose, "start_pose")
         self.end_pose = as_transform(end_pose, "end_pose")
         self.duration = _seconds(duration, "duration")
@@ -238,6 +241,7 @@ class Line(MinimumJerk):
     with a minimum-jerk time law."""
 
     def __init__(self, start_pose: Any, end: Any, duration: float) -> None:
+        """Move from ``start_pose`` (4x4) to the position ``end`` (m) in ``duration`` s."""
         T0 = as_transform(start_pose, "start_pose")
         T1 = T0.copy()
         T1[:3, 3] = as_vector(end, "end", 3)
@@ -305,6 +309,7 @@ class Hold(Trajectory):
     """Stay at one pose for ``duration`` seconds."""
 
     def __init__(self, pose: Any, duration: float) -> None:
+        """Hold ``pose`` (4x4, m) for ``duration`` s."""
         self.start_pose = as_transform(pose, "pose")
         self.duration = _seconds(duration, "duration")
 

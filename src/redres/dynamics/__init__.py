@@ -1,4 +1,4 @@
-"""Dynamics: the dynamically consistent inverse at work (seed 004): operational-space and
+"""Dynamics: the dynamically consistent inverse at work (Khatib 1987): operational-space and
 acceleration-level torque laws and their forward-dynamics :func:`simulate`. See
 docs/dynamics.md."""
 

@@ -1,9 +1,9 @@
-"""Acceleration-level redundancy resolution and computed-torque control (seed 004).
+"""Acceleration-level redundancy resolution and computed-torque control (Khatib 1987).
 
-Differentiating ``ẋ = J q̇`` gives ``ẍ − J̇ q̇ = J q̈`` (seed 004, eq. 8); resolving it with
+Differentiating ``ẋ = J q̇`` gives ``ẍ − J̇ q̇ = J q̈`` (Khatib 1987); resolving it with
 a generalised inverse ``J#`` and adding a null-space acceleration::
 
-    q̈ = J# (ẍ − J̇ q̇) + (I − J# J) q̈₀           J# = J̄ = M⁻¹ Jᵀ Λ   ("dynamic", seed 004)
+    q̈ = J# (ẍ − J̇ q̇) + (I − J# J) q̈₀           J# = J̄ = M⁻¹ Jᵀ Λ   ("dynamic", Khatib 1987)
                                                 J# = J⁺              ("kinematic")
 
 and the torque follows from inverse dynamics, ``τ = M q̈ + C q̇ + g`` (RNEA).
@@ -64,7 +64,7 @@ def resolve_acceleration(
     damping: float | AdaptiveDamping = 0.0,
     rcond: float = RCOND,
 ) -> tuple[FloatArray, InverseInfo]:
-    """Joint accelerations ``q̈ = J# (ẍ − J̇ q̇) + (I − J# J) q̈₀`` (seed 004, eq. 9).
+    """Joint accelerations ``q̈ = J# (ẍ − J̇ q̇) + (I − J# J) q̈₀`` (Khatib 1987).
 
     Args:
         J: task Jacobian, ``(m, n)``.
@@ -72,7 +72,7 @@ def resolve_acceleration(
         xdd: desired task acceleration ``ẍ``, ``(m,)``, m/s² and rad/s².
         jdot_qd: ``J̇ q̇``, ``(m,)``, same units.
         qdd0: null-space acceleration before projection, ``(n,)``, rad/s².
-        inverse: ``"dynamic"`` (``J̄``, seed 004) or ``"kinematic"`` (``J⁺``).
+        inverse: ``"dynamic"`` (``J̄``, Khatib 1987) or ``"kinematic"`` (``J⁺``).
         damping: ``λ ≥ 0`` or :class:`~redres.linalg.AdaptiveDamping`.
         rcond: relative rank tolerance when undamped.
 
@@ -125,6 +125,7 @@ class AccelerationController(ServoLaw):
         rcond: float = RCOND,
         name: str | None = None,
     ) -> None:
+        """The arguments are described in ``help(AccelerationController)``."""
         self.inverse = check_choice(inverse, "inverse", _INVERSES)
         super().__init__(task, kp, kd, objectives, null_kp, null_kd, damping, rcond)
         self.name = name or f"acceleration_{inverse}"

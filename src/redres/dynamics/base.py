@@ -96,6 +96,7 @@ class GravityCompensation(TorqueLaw):
     name = "gravity_compensation"
 
     def __init__(self, kd: float = 0.0) -> None:
+        """The arguments are described in ``help(GravityCompensation)``."""
         self.kd = as_scalar(kd, "kd", minimum=0.0)
 
     def step(
@@ -115,6 +116,7 @@ class TorqueFunction(TorqueLaw):
     def __init__(
         self, fn: Callable[[Robot, FloatArray, FloatArray, Sample | None], Any], name: str
     ) -> None:
+        """The arguments are described in ``help(TorqueFunction)``."""
         if not callable(fn):
             raise InvalidParameterError(f"fn must be callable; got {fn!r}")
         self.fn = fn

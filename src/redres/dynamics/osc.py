@@ -1,4 +1,4 @@
-"""Operational-space torque control with a null-space torque (seed 004; Khatib 1987).
+"""Operational-space torque control with a null-space torque (Khatib 1987).
 
 The law, with ``M`` the joint-space inertia, ``b = C(q, q̇) q̇ + g(q)`` the bias torques,
 ``J`` the task Jacobian (world-aligned rows of the task frame), ``Λ = (J M⁻¹ Jᵀ)⁻¹`` and
@@ -24,8 +24,8 @@ Why this form:
   projector, the joint acceleration ``M⁻¹ (I − Jᵀ J̄ᵀ) M q̈₀ = (I − J̄ J) q̈₀``: the posture
   PD acts with gains in 1/s² and 1/s whatever the link inertias, and its motion is the
   projection of ``q̈₀`` onto the null space of ``J``.
-* **Dynamic consistency**: ``J M⁻¹ (I − Jᵀ J̄ᵀ) = J M⁻¹ − Λ⁻¹ Λ J M⁻¹ = 0`` (seed 004,
-  appendix B), so ``τ₀`` never accelerates the task. With the kinematic ``J⁺`` the same
+* **Dynamic consistency**: ``J M⁻¹ (I − Jᵀ J̄ᵀ) = J M⁻¹ − Λ⁻¹ Λ J M⁻¹ = 0`` (Khatib
+  1987), so ``τ₀`` never accelerates the task. With the kinematic ``J⁺`` the same
   product is ``J M⁻¹ − J M⁻¹ Jᵀ J⁺ᵀ ≠ 0`` in general: the null-space torque disturbs the
   task, and only the task's feedback rejects it. :func:`task_disturbance` measures it.
 * With ``damping = λ > 0`` the inverse is ``J̄_λ = M⁻¹ Jᵀ (J M⁻¹ Jᵀ + λ² I)⁻¹``: bounded
@@ -81,7 +81,7 @@ def dynamic_inverse(
 ) -> tuple[FloatArray, InverseInfo]:
     """``J̄ = M⁻¹ Jᵀ (J M⁻¹ Jᵀ + λ² I)⁻¹`` and its info, errors naming ``M``.
 
-    This is :func:`redres.linalg.weighted_pinv` with ``W = M`` (seed 004: the
+    This is :func:`redres.linalg.weighted_pinv` with ``W = M`` (Khatib 1987: the
     dynamically consistent inverse is the inertia-weighted one), the compiled path of
     :func:`redres.linalg.dynamically_consistent_pinv`; tests check the two agree.
     """
@@ -187,7 +187,7 @@ def _torque(
 def task_disturbance(J: ArrayLike, M: ArrayLike, tau: ArrayLike) -> FloatArray:
     """Task acceleration ``J M⁻¹ τ`` that a torque ``τ`` causes on its own, ``(m,)``.
 
-    Zero for ``τ = (I − Jᵀ J̄ᵀ) τ₀`` (dynamic consistency, seed 004 eq. 13).
+    Zero for ``τ = (I − Jᵀ J̄ᵀ) τ₀`` (dynamic consistency, Khatib 1987).
 
     Args:
         J: task Jacobian, ``(m, n)``.
@@ -241,6 +241,7 @@ class OperationalSpaceController(ServoLaw):
         rcond: float = RCOND,
         name: str | None = None,
     ) -> None:
+        """The arguments are described in ``help(OperationalSpaceController)``."""
         if null_torque is not None and not callable(null_torque):
             raise InvalidParameterError(f"null_torque must be callable; got {null_torque!r}")
         self.null_torque = null_torque

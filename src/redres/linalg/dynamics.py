@@ -1,13 +1,13 @@
-"""Task-space inertia and the dynamically consistent inverse (seed 004; Khatib 1987, 1995).
+"""Task-space inertia and the dynamically consistent inverse (Khatib 1987, 1995).
 
-With ``M`` the joint-space inertia (seed 004 calls it ``A``)::
+With ``M`` the joint-space inertia (Khatib writes ``A``)::
 
     Lambda = (J M^-1 J^T)^-1        task-space (operational-space) inertia
     J_bar  = M^-1 J^T Lambda        dynamically consistent inverse
     tau    = J^T f + (I - J^T J_bar^T) tau_0
 
 where the null-space torque ``(I - J^T J_bar^T) tau_0`` produces no task acceleration:
-``J M^-1 (I - J^T J_bar^T) = 0`` (seed 004, appendix B). ``J_bar`` is the weighted
+``J M^-1 (I - J^T J_bar^T) = 0`` (Khatib 1987). ``J_bar`` is the weighted
 pseudo-inverse with ``W = M`` (the inverse that minimises kinetic energy), computed as
 :func:`~redres.linalg.weighted_pinv` is (in the same kernel), with ``Lambda =
 (J L^-T (J L^-T)^T)^+`` from the same factorisation of ``J L^-T`` (``M = L L^T``).
@@ -137,7 +137,7 @@ def task_space_inertia(
     rcond: float = RCOND,
     return_info: bool = False,
 ) -> Result:
-    """Task-space inertia ``Lambda = (J M^-1 J^T)^-1`` (seed 004; Khatib 1987).
+    """Task-space inertia ``Lambda = (J M^-1 J^T)^-1`` (Khatib 1987).
 
     Args:
         J: Task Jacobian, shape ``(m, n)``.
@@ -170,7 +170,7 @@ def dynamically_consistent_pinv(
     rcond: float = RCOND,
     return_info: bool = False,
 ) -> Result:
-    """Dynamically consistent inverse ``J_bar = M^-1 J^T Lambda`` (seed 004; Khatib 1987).
+    """Dynamically consistent inverse ``J_bar = M^-1 J^T Lambda`` (Khatib 1987).
 
     The unique generalised inverse for which null-space torques produce no task
     acceleration; ``J J_bar = I`` when ``J`` has full row rank. Used in
@@ -197,7 +197,7 @@ def dynamically_consistent_projector(
     damping: float | AdaptiveDamping = 0.0,
     rcond: float = RCOND,
 ) -> FloatArray:
-    """Torque null-space projector ``I - J^T J_bar^T`` (seed 004, section 4).
+    """Torque null-space projector ``I - J^T J_bar^T`` (Khatib 1987).
 
     ``tau = J^T f + (I - J^T J_bar^T) tau_0``: the second term produces no task
     acceleration, ``J M^-1 (I - J^T J_bar^T) = 0``. Its transpose ``I - J_bar J`` is the

@@ -6,7 +6,7 @@ return the ``(n, m)`` inverse as an ndarray. With ``return_info=True`` they retu
 ``(matrix, InverseInfo)``, the diagnostics computed with the matrix.
 
 Rank deficiency is never an error and never produces NaN: an exact inverse of a
-rank-deficient ``J`` is the truncated SVD pseudo-inverse (seed 002: singular values at or
+rank-deficient ``J`` is the truncated SVD pseudo-inverse (Golub & Kahan 1965: singular values at or
 below ``rcond * sigma_max`` are skipped), reported as ``info.full_rank == False`` and
 ``info.method == "pinv"``. For the damped inverses see :mod:`redres.linalg.damping`.
 """
@@ -51,9 +51,9 @@ def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Re
     """Moore–Penrose pseudo-inverse from the SVD, skipping small singular values.
 
     ``J = U diag(sigma) V^T``, ``J^+ = V diag(sigma^+) U^T`` with ``sigma_i^+ = 1/sigma_i``
-    if ``sigma_i > rcond * sigma_max`` and 0 otherwise (seed 002, "Singular
-    Pseudo-inverse"). Defined for every shape and rank; it is the minimum-norm least-squares
-    inverse.
+    if ``sigma_i > rcond * sigma_max`` and 0 otherwise (Golub & Kahan 1965;
+    Siciliano et al. 2009, §3.5). Defined for every shape and rank; it is the minimum-norm
+    least-squares inverse.
 
     Args:
         J: Jacobian, shape ``(m, n)``.
@@ -77,7 +77,7 @@ def right_pinv(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) 
 def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
     """Right pseudo-inverse ``J^T (J J^T)^-1`` of a wide Jacobian (``m <= n``).
 
-    The minimum-norm solution of ``J qd = xd`` (seeds 000, 001, 002), with ``J J_r^+ = I``.
+    The minimum-norm solution of ``J qd = xd`` (Whitney 1969), with ``J J_r^+ = I``.
     Computed by a Cholesky solve when ``J`` is well conditioned and from the SVD otherwise
     (the same matrix, without squaring the condition number); a rank-deficient ``J``
     gives the truncated SVD pseudo-inverse (module docstring).
@@ -113,7 +113,7 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
     """Left pseudo-inverse ``(J^T J)^-1 J^T`` of a tall Jacobian (``m >= n``).
 
     The least-squares solution of an over-constrained ``J qd = xd``: it minimises
-    ``||xd - J qd||^2`` and ``J_l^+ J = I`` (seed 002, "Left Pseudo-inverse"). Computed as
+    ``||xd - J qd||^2`` and ``J_l^+ J = I`` (Penrose 1955, least squares). Computed as
     the transpose of the right pseudo-inverse of ``J^T`` (so rank-deficient alike).
 
     Args:
@@ -143,7 +143,7 @@ def square_inverse(
 @overload
 def square_inverse(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
 def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
-    """Inverse ``J^-1`` of a square Jacobian (seed 002, "Square Jacobians"); a singular
+    """Inverse ``J^-1`` of a square Jacobian (Siciliano et al. 2009, §3.5); a singular
     ``J`` gives the truncated SVD pseudo-inverse (module docstring).
 
     Args:
@@ -180,11 +180,11 @@ def weighted_pinv(
     rcond: float = RCOND,
     return_info: bool = False,
 ) -> Result:
-    """Weighted least-norm inverse ``J_W^+ = W^-1 J^T (J W^-1 J^T)^-1`` (seeds 001, 002).
+    """Weighted least-norm inverse ``J_W^+ = W^-1 J^T (J W^-1 J^T)^-1`` (Whitney 1969).
 
-    ``qd = J_W^+ xd`` minimises ``qd^T W qd / 2`` subject to ``J qd = xd`` (seed 001,
+    ``qd = J_W^+ xd`` minimises ``qd^T W qd / 2`` subject to ``J qd = xd`` (Whitney 1969,
     Lagrange multipliers); a larger weight slows that joint down. When ``J`` is square and
-    invertible ``J_W^+ = J^-1`` whatever ``W`` (seed 001). With ``damping`` it is the
+    invertible ``J_W^+ = J^-1`` whatever ``W`` (Whitney 1969). With ``damping`` it is the
     weighted damped least-squares inverse ``W^-1 J^T (J W^-1 J^T + lambda^2 I)^-1``.
 
     Computed as ``L^-T (J L^-T)^+`` with ``W = L L^T`` (``L = diag(sqrt(w))`` for

@@ -1,7 +1,7 @@
 """Null-space projectors, null-space bases and the Moore–Penrose conditions.
 
 A joint velocity ``N z`` with ``N = I - J# J`` does not move the task when ``J N = 0``
-(seeds 000, 001, 002: the homogeneous solution / self-motion). The projector must come
+(Liégeois 1977: the homogeneous solution / self-motion). The projector must come
 from the same inverse as the task solution ``J# xd`` (DESIGN.md, section 2):
 
 * exact pseudo-inverse: ``N = I - J^+ J``, symmetric, idempotent, ``J N = 0``;
@@ -67,7 +67,7 @@ def nullspace_projector(
     Either pass the inverse you use (``J_pinv``), or let the function build it from the
     same options as :func:`redres.linalg.generalized_inverse` (``weights``, ``damping``,
     ``rcond``) in one pass; by default ``J#`` is the SVD pseudo-inverse and ``N`` the
-    orthogonal projector onto the null space of ``J`` (seed 001: ``J N = 0``).
+    orthogonal projector onto the null space of ``J`` (Liégeois 1977: ``J N = 0``).
 
     Args:
         J: Jacobian, shape ``(m, n)``.
@@ -114,7 +114,7 @@ def nullspace_basis(J: ArrayLike, rcond: float = RCOND) -> FloatArray:
 
     ``J Z = 0``, ``Z^T Z = I`` and ``Z Z^T = I - J^+ J``. Its ``n - rank`` columns are the
     right singular vectors whose singular values are at or below ``rcond * sigma_max`` (or
-    beyond ``m``); every self-motion is ``qd = Z a`` (seed 002, "Jacobian Null Space").
+    beyond ``m``); every self-motion is ``qd = Z a`` (Siciliano et al. 2009, §3.5).
 
     Args:
         J: Jacobian, shape ``(m, n)``.
@@ -131,7 +131,7 @@ def nullspace_basis(J: ArrayLike, rcond: float = RCOND) -> FloatArray:
 
 
 class MoorePenroseResiduals(NamedTuple):
-    """Relative Frobenius residuals of the four Moore–Penrose conditions (seed 002).
+    """Relative Frobenius residuals of the four Moore–Penrose conditions (Penrose 1955).
 
     Each is ``||lhs - rhs||_F / max(||rhs||_F, tiny)``; all four are ~1e-15 for the
     pseudo-inverse, and only the first (``J X J = J``) is small for a general inverse.

@@ -1,7 +1,7 @@
 """One resolved-rate step in one call: the hot path of every rate-control loop.
 
 :func:`rate_step` computes the joint velocity of gradient-projection redundancy resolution
-(seed 000 eq. 6, seed 001, seed 003)::
+(Liégeois 1977; Chan & Dubey 1995)::
 
     qd = J# xd - k_null N grad D,     N = I - J# J
 
@@ -82,14 +82,14 @@ def rate_step(
     ``N = I - J# J`` is built from the same inverse ``J#`` as the task term, so that:
 
     * exact inverse (default): ``N`` is the orthogonal null-space projector, ``J N = 0``,
-      and the secondary term leaves the task untouched (seed 000 eq. 6);
+      and the secondary term leaves the task untouched (Liégeois 1977);
     * damped (``damping = lambda``): ``qd`` is the exact minimiser of
       ``||J qd - xd||^2 + lambda^2 ||qd + k_null grad||^2``; the secondary term may
       disturb the task by ``||J N|| <= lambda/2`` (see :mod:`redres.linalg.projectors`);
     * adaptive (``damping = AdaptiveDamping(...)``): exact away from singularities,
       damped near them;
     * weighted (``weights = W``): ``J# = J_W^+`` and ``N = I - J_W^+ J``; ``qd`` minimises
-      ``(qd + k_null grad)^T W (qd + k_null grad)`` subject to ``J qd = xd`` (seed 001).
+      ``(qd + k_null grad)^T W (qd + k_null grad)`` subject to ``J qd = xd`` (Whitney 1969).
 
     To project an arbitrary joint velocity ``z`` instead of a gradient, pass
     ``grad=z, k_null=-1``.

@@ -1,4 +1,4 @@
-"""Planar serial arms with revolute joints about the world z axis (seed 002's RR, RRR)."""
+"""Planar serial arms with revolute joints about the world z axis (the textbook RR, RRR)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from ..robot import DHLink, Robot
 def planar(lengths: Sequence[float] = (1.0, 1.0, 1.0), *, link_mass: float = 1.0) -> Robot:
     """A planar arm in the world x-y plane, standard DH with ``a_i = lengths[i]``.
 
-    The Jacobian rows ``[0, 1, 5]`` are seed 002's ``(ẋ, ẏ, ω_z)``. Each link is a thin
+    The Jacobian rows ``[0, 1, 5]`` are the textbook ``(ẋ, ẏ, ω_z)``. Each link is a thin
     uniform rod of mass ``link_mass`` (kg) so that the dynamics are defined; joint
     limits are ±π. Frames: ``base``, ``link1`` … ``link<n>`` and ``tool`` (the tip).
     """

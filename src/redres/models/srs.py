@@ -1,4 +1,4 @@
-"""A generic 7-DOF S-R-S anthropomorphic arm (seed 000, section 2.1).
+"""A generic 7-DOF S-R-S anthropomorphic arm (Kreutz-Delgado, Long & Seraji 1992).
 
 Three intersecting shoulder axes, a pitch elbow, three intersecting wrist axes, in
 standard DH with ``a = 0``: base-to-shoulder 0.34 m, upper arm 0.40 m, forearm 0.40 m,

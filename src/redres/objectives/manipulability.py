@@ -1,4 +1,4 @@
-"""Manipulability as a cost (seed 001's secondary objective; Yoshikawa 1985).
+"""Manipulability as a cost (a classic secondary objective; Yoshikawa 1985).
 
 ``w(q) = √det(J Jᵀ)`` and ``D(q) = −w(q)``; the gradient is
 :func:`redres.linalg.manipulability_gradient` (finite at singular configurations) fed
@@ -31,6 +31,7 @@ class ManipulabilityObjective(Objective):
     name = "manipulability"
 
     def __init__(self, frame: str | None = None, rows: Sequence[int] | None = None) -> None:
+        """The arguments are described in ``help(ManipulabilityObjective)``."""
         self.frame = frame
         self.rows = list(range(6)) if rows is None else [int(r) for r in rows]
 

@@ -1,9 +1,10 @@
-"""Obstacle avoidance by self-motion with seed 000's hat-shaped distance penalty.
+"""Obstacle avoidance by self-motion with a hat-shaped distance penalty.
 
-Seed 000 asks for a penalty ``D`` of the distance ``d`` between the arm and an object that
-is largest at ``d = 0`` and reaches zero as ``d`` grows. redres uses, per (link capsule,
-obstacle) pair, ``D(d) = (1 − d/d₀)²`` for ``d < d₀`` (the influence distance) and 0
-beyond: C¹ at ``d₀``, maximal (1) at contact, growing further if the arm penetrates.
+Gradient projection (Liégeois 1977; for obstacles Maciejewski & Klein 1985) asks for a
+penalty ``D`` of the distance ``d`` between the arm and an object that is largest at
+``d = 0`` and reaches zero as ``d`` grows. redres uses, per (link capsule, obstacle) pair,
+``D(d) = (1 − d/d₀)²`` for ``d < d₀`` (the influence distance) and 0 beyond: C¹ at
+``d₀``, maximal (1) at contact, growing further if the arm penetrates.
 
 ``∂d/∂q = n̂ᵀ J_p``: ``p`` is the arm's witness point (the closest point on the link's
 segment, held fixed to the link), ``J_p = J_v − [p − p_f]× J_ω`` its position Jacobian
@@ -135,6 +136,7 @@ class ObstacleObjective(Objective):
         influence: float = 0.15,
         capsules: Sequence[Capsule] | None = None,
     ) -> None:
+        """The arguments are described in ``help(ObstacleObjective)``."""
         self.obstacles = list(obstacles)
         self.influence = as_scalar(influence, "influence", minimum=MIN_INFLUENCE)
         self.capsules = None if capsules is None else list(capsules)

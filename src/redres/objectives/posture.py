@@ -29,6 +29,7 @@ class PostureObjective(Objective):
     name = "posture"
 
     def __init__(self, q_ref: Any = None, weights: Any = 1.0) -> None:
+        """The arguments are described in ``help(PostureObjective)``."""
         self.q_ref = None if q_ref is None else as_vector(q_ref, "q_ref")
         self.weights: float | FloatArray
         if np.ndim(weights) == 0:
@@ -53,7 +54,10 @@ class PostureObjective(Objective):
         return float(0.5 * np.sum(self.weights * dq * dq))
 
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
-        return self.weights * (as_vector(q, "q", robot.n) - self._q_ref(robot))
+        return self._gradient(robot, as_vector(q, "q", robot.n))
+
+    def _gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
+        return self.weights * (q - self._q_ref(robot))
 
     def quadratic_form(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
         """``(weights, q_ref)`` broadcast to ``(n,)``: the gradient is ``w ∘ (q − q_ref)``."""

@@ -1,10 +1,10 @@
-"""Augmented (extended) Jacobian: extra task rows until the Jacobian is square (seed 000 §2).
+"""Augmented (extended) Jacobian: extra task rows until the Jacobian is square (Egeland 1987).
 
 ``[ẋ; ẋ_A] = [J; J_A] q̇`` and ``q̇ = J_ext⁻¹ [ẋ; ẋ_A]``, here with ``J_A`` the arm-angle row
-of a 7-DOF arm (seed 000 §2.1, eq. 7). ``J_ext`` can be singular where ``J`` is not (an
-*algorithmic* singularity: the extra row becomes dependent on the task rows, e.g. the arm
-stretched, where the arm angle is undefined). The step detects it from the smallest
-singular values; the default inverse is adaptively damped, exact away from
+of a 7-DOF arm (Kreutz-Delgado et al. 1992; Seraji 1989). ``J_ext`` can be singular where
+``J`` is not (an *algorithmic* singularity: the extra row becomes dependent on the task
+rows, e.g. the arm stretched, where the arm angle is undefined). The step detects it
+from the smallest singular values; the default inverse is adaptively damped, exact away from
 singularities and bounded at them.
 """
 
@@ -77,6 +77,7 @@ class AugmentedJacobianScheme(Scheme):
         rcond: float | None = None,
         threshold: float = 0.02,
     ) -> None:
+        """The arguments are described in ``help(AugmentedJacobianScheme)``."""
         self.tasks = tuple(extra_tasks) if extra_tasks is not None else (ArmAngleTask(),)
         self.gain = as_scalar(gain, "gain", minimum=0.0)
         self.threshold = as_scalar(threshold, "threshold", minimum=0.0, strict=True)

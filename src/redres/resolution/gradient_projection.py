@@ -1,4 +1,4 @@
-"""Gradient projection: ``q̇ = J# ẋ − k (I − J# J) ∇D`` (seed 000 eq. 6, seed 001, seed 003).
+"""Gradient projection: ``q̇ = J# ẋ − k (I − J# J) ∇D`` (Liégeois 1977).
 
 ``D`` is a weighted sum of secondary costs; the projector is built from the same inverse
 as the task term (exact: ``J N = 0``, the task is untouched; damped: the secondary term
@@ -42,11 +42,12 @@ def weighted_objectives(objectives: Sequence[WeightedObjective]) -> list[tuple[O
 def total_gradient(
     robot: Robot, q: FloatArray, objectives: Sequence[tuple[Objective, float]]
 ) -> FloatArray:
-    """``Σ wᵢ ∇Dᵢ(q)``, checked to have shape ``(n,)`` (a new array)."""
+    """``Σ wᵢ ∇Dᵢ(q)`` at a checked ``q`` (:meth:`Scheme.step` checked it), checked to have
+    shape ``(n,)`` (a new array)."""
     n = robot.n
     grad: FloatArray | None = None
     for obj, weight in objectives:
-        g = np.asarray(obj.gradient(robot, q), dtype=np.float64)
+        g = np.asarray(obj._gradient(robot, q), dtype=np.float64)
         if g.shape != (n,):
             raise ShapeError(f"gradient of {obj.name} has shape {g.shape}; expected ({n},)")
         grad = weight * g if grad is None else grad + weight * g
@@ -94,6 +95,7 @@ class GradientProjectionScheme(Scheme):
         damping: float | AdaptiveDamping | None = None,
         rcond: float | None = None,
     ) -> None:
+        """The arguments are described in ``help(GradientProjectionScheme)``."""
         self.objectives = tuple(weighted_objectives(objectives))
         if not self.objectives:
             raise InvalidParameterError("gradient projection needs at least one objective")

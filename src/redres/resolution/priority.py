@@ -345,6 +345,7 @@ class PriorityScheme(Scheme):
         rcond: float | None = None,
         threshold: float = 1e-2,
     ) -> None:
+        """The arguments are described in ``help(PriorityScheme)``."""
         _check_method(method)
         self.levels = [[lv] if isinstance(lv, Task) else list(lv) for lv in levels]
         if any(not level or not all(isinstance(t, Task) for t in level) for level in self.levels):

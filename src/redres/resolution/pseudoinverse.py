@@ -1,4 +1,4 @@
-"""Minimum-norm resolved motion rate control: ``q̇ = J# ẋ`` (seed 000 eq. 3, seed 002).
+"""Minimum-norm resolved motion rate control: ``q̇ = J# ẋ`` (Whitney 1969).
 
 With the exact inverse this is ``Jᵀ(JJᵀ)⁻¹ẋ``, the joint velocity of least norm that
 achieves ``ẋ``; near singularities give a ``damping`` (Nakamura–Hanafusa, Wampler) or an
@@ -48,6 +48,7 @@ class PseudoInverseScheme(Scheme):
         damping: float | AdaptiveDamping | None = None,
         rcond: float | None = None,
     ) -> None:
+        """The arguments are described in ``help(PseudoInverseScheme)``."""
         self.inverse = make_inverse(inverse, damping, rcond)
         self.name = "pinv" if self.inverse.kind == "exact" else "dls"
         self._kwargs = self.inverse.rate_kwargs()

@@ -1,4 +1,4 @@
-"""Weighted least-norm resolution with joint-limit weights (seed 001; Chan & Dubey 1995).
+"""Weighted least-norm resolution with joint-limit weights (Chan & Dubey 1995).
 
 ``q̇ = W⁻¹Jᵀ(JW⁻¹Jᵀ)⁻¹ ẋ`` minimises ``q̇ᵀWq̇`` subject to ``Jq̇ = ẋ``. The diagonal weights
 grow as a joint moves toward a limit and relax when it moves away:
@@ -37,7 +37,7 @@ _MAX_WEIGHT = 1e12
 
 
 def joint_limit_gradient(q: FloatArray, q_min: FloatArray, q_max: FloatArray, c: Any) -> FloatArray:
-    """Seed 001's ``h(q)`` per joint (finite: distances to the limits floored at 1e-12).
+    """Chan & Dubey's ``h(q)`` per joint (finite: distances to the limits floored at 1e-12).
 
     With ``a = q_max − q`` and ``b = q − q_min`` (so ``q_max − q_min = a + b`` and
     ``2q − q_max − q_min = b − a``), ``h = (a + b)(b − a)/(c a² b²) = (1/a² − 1/b²)/c``:
@@ -60,7 +60,7 @@ class WeightDetails:
 
 
 class WeightedLeastNormScheme(Scheme):
-    """Weighted least-norm rate control with seed 001's joint-limit weights.
+    """Weighted least-norm rate control with Chan & Dubey's joint-limit weights.
 
     Args:
         c: tuning constant ``cᵢ`` (scalar or shape ``(n,)``, > 0); larger is gentler.
@@ -91,6 +91,7 @@ class WeightedLeastNormScheme(Scheme):
         damping: float | AdaptiveDamping | None = None,
         rcond: float | None = None,
     ) -> None:
+        """The arguments are described in ``help(WeightedLeastNormScheme)``."""
         try:
             c_arr = np.asarray(c, dtype=float)
         except (TypeError, ValueError):

@@ -43,8 +43,7 @@ class Robot(RobotFiles):
             position, velocity and effort limits filled in.
         tip: name of the default frame of :meth:`fk` and :meth:`jacobian`.
         name: a short name for tables and reports.
-        home: a comfortable configuration returned by :meth:`neutral`, shape ``(n,)``.
-            Defaults to zero clipped into the limits.
+        home: what :meth:`neutral` returns, shape ``(n,)``; default: zero clipped to the limits.
         qdd_max: joint acceleration limits, shape ``(n,)``, rad/s² or m/s²; ``inf`` where
             unknown.
 
@@ -64,6 +63,7 @@ class Robot(RobotFiles):
         home: Sequence[float] | FloatArray | None = None,
         qdd_max: Sequence[float] | FloatArray | None = None,
     ) -> None:
+        """Wrap a Pinocchio ``model`` of one-DOF joints; ``help(Robot)`` lists the arguments."""
         if model.nq != model.nv:
             raise InvalidParameterError(
                 f"Robot needs one-DOF joints (nq == nv); model {model.name!r} has "

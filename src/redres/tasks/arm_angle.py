@@ -1,4 +1,4 @@
-"""The arm (elbow) angle of a 7-DOF arm and its analytic Jacobian (seed 000, section 2.1).
+"""The arm (elbow) angle of a 7-DOF arm and its analytic Jacobian (Kreutz-Delgado et al. 1992).
 
 With shoulder, elbow and wrist points ``s``, ``e_pt``, ``w_pt``, a reference vector ``v``
 and ``w = w_pt − s``, ``e = e_pt − s``:
@@ -132,6 +132,7 @@ class ArmAngleTask(Task):
         target: float | None = None,
         name: str = "arm_angle",
     ) -> None:
+        """The arguments are described in ``help(ArmAngleTask)``."""
         self.shoulder, self.elbow, self.wrist = shoulder, elbow, wrist
         v = as_vector(reference, "reference", 3)
         if np.linalg.norm(v) < 1e-9:

@@ -60,6 +60,7 @@ class FrameTask(Task):
         *,
         name: str | None = None,
     ) -> None:
+        """The arguments are described in ``help(FrameTask)``."""
         self.frame = frame
         self.rows = _parse_rows(rows)
         self.dim = len(self.rows)
@@ -153,6 +154,7 @@ class PositionTask(FrameTask):
     """Position of a frame's origin (3 rows); orientation free."""
 
     def __init__(self, frame: str | None = None, *, name: str | None = None) -> None:
+        """Track ``frame`` (``None``: the robot's tip); ``name`` labels it in logs."""
         super().__init__(frame, (0, 1, 2), name=name or f"position:{frame or 'tip'}")
 
 
@@ -160,16 +162,18 @@ class OrientationTask(FrameTask):
     """Orientation of a frame (3 rows, SO(3) logarithm); position free."""
 
     def __init__(self, frame: str | None = None, *, name: str | None = None) -> None:
+        """Track ``frame`` (``None``: the robot's tip); ``name`` labels it in logs."""
         super().__init__(frame, (3, 4, 5), name=name or f"orientation:{frame or 'tip'}")
 
 
 class PlanarTask(FrameTask):
-    """Planar pose ``(x, y, φ)`` of a frame moving in the world x-y plane (seed 002).
+    """Planar pose ``(x, y, φ)`` of a frame moving in the world x-y plane (Siciliano et al. 2009).
 
     Set the target with :meth:`set_planar_target`; ``φ`` is the rotation about world z.
     """
 
     def __init__(self, frame: str | None = None, *, name: str | None = None) -> None:
+        """Track ``frame`` (``None``: the robot's tip); ``name`` labels it in logs."""
         super().__init__(frame, (0, 1, 5), name=name or f"planar:{frame or 'tip'}")
 
     def set_planar_target(self, x: float, y: float, phi: float, velocity: Any = None) -> None:

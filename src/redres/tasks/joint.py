@@ -27,6 +27,7 @@ class PostureTask(Task):
     def __init__(
         self, q_ref: Any = None, joints: Sequence[int] | None = None, *, name: str = "posture"
     ) -> None:
+        """The arguments are described in ``help(PostureTask)``."""
         self.q_ref = None if q_ref is None else as_vector(q_ref, "q_ref").copy()
         self.joints = None if joints is None else [int(j) for j in joints]
         if self.joints is not None and (

@@ -41,6 +41,7 @@ class LookAtTask(Task):
     dim = 2
 
     def __init__(self, frame: str | None = None, target: Any = None, *, name: str | None = None):
+        """The arguments are described in ``help(LookAtTask)``."""
         self.frame = frame
         self.name = name or f"look_at:{frame or 'tip'}"
         self.point = np.zeros(3)

@@ -132,6 +132,7 @@ class QPScheme(BoxScheme):
         qd_max: ArrayLike | None = None,
         qdd_max: ArrayLike | None = None,
     ) -> None:
+        """The arguments are described in ``help(QPScheme)``."""
         self._init_box(dt, objectives, k_null, qd_max, qdd_max)
         self.levels = [[lv] if isinstance(lv, Task) else list(lv) for lv in levels]
         if any(not lv or not all(isinstance(t, Task) for t in lv) for lv in self.levels):
@@ -160,7 +161,8 @@ class QPScheme(BoxScheme):
         ws = Workspace(self.limits(robot), m)
         self._bu, self._bl, self._f = np.empty(n + m), np.empty(n + m), np.empty(n)
         self._P, self._c, self._w = np.empty((n, n)), np.empty(n), w
-        k, kq, out = kernels(), kernels("_qp_kernels"), ws.outputs()
+        kq, out = kernels("_qp_kernels"), ws.outputs()
+        k = kernels(plain=not _jit.is_compiled(kq))  # both compiled or both plain (no stall)
         self._begin = _jit.entry_point(kq.qp_begin, (q, ws.zero, self.dt, ws.lim, J, xd,
                                                      ws.zero, *out, ws.M, ws.wm, self._bu,
                                                      self._bl, self._f, w, 1e-6, self._P,

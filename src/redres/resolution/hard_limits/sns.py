@@ -115,6 +115,7 @@ class SNSScheme(BoxScheme):
         qdd_max: ArrayLike | None = None,
         tolerance: float = 1e-12,
     ) -> None:
+        """The arguments are described in ``help(SNSScheme)``."""
         self._init_box(dt, objectives, k_null, qd_max, qdd_max)
         self.tolerance = as_scalar(tolerance, "tolerance", minimum=0.0)
 
