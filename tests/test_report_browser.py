@@ -1,21 +1,17 @@
 """Open a generated report in headless Chromium: no console errors, and the 3D view is
-drawn with WebGL. Skipped where Debian's chromium is not installed (CI installs it).
-
-Chromium runs with the page's virtual time (``--virtual-time-budget``) so the scripts
-finish before the DOM is dumped. WebGL needs a GPU or SwiftShader: with ``--disable-gpu``
-recent Chromium only falls back to SwiftShader given ``--enable-unsafe-swiftshader``
-(trusted local content). Every console message counts as a failure, except Chromium's
-own performance advice listed in ``BENIGN``.
+drawn with WebGL, obstacles at their place and size. Skipped where Debian's chromium is
+not installed (CI installs it); how Chromium is run is in ``tests/_chromium.py``.
 """
 
 from __future__ import annotations
 
-import re
 import subprocess
 from html.parser import HTMLParser
 from pathlib import Path
 
+import numpy as np
 import pytest
+from _chromium import CHROMIUM, FLAGS, console_problems, dump_dom
 
 import redres as rr
 from redres.control import Circle, Hold, RunLog
@@ -24,33 +20,8 @@ from redres.report import write_report
 from redres.resolution import GradientProjectionScheme, PseudoInverseScheme
 from redres.tasks import FrameTask
 
-CHROMIUM = Path("/usr/bin/chromium")
-
 pytestmark = pytest.mark.skipif(
     not CHROMIUM.exists(), reason="needs Debian's chromium at /usr/bin/chromium"
-)
-
-FLAGS = (
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--enable-unsafe-swiftshader",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-    "--enable-logging=stderr",
-    "--v=0",
-    "--virtual-time-budget=10000",
-    "--window-size=1400,1800",
-)
-
-# Chromium's console line: [pid:tid:time:INFO:CONSOLE:line] "message", source: url (line)
-# (older builds: ...:INFO:CONSOLE(line)] "message", source: ...).
-CONSOLE = re.compile(r':CONSOLE(?::\d+|\(\d+\))\] "(?P<message>.*)", source: (?P<source>\S*)')
-BENIGN = (
-    "GPU stall due to ReadPixels",  # SwiftShader performance note when plotly reads pixels
-    "willReadFrequently",  # Canvas2D advice on getImageData, from plotly's text sizing
 )
 
 
@@ -81,13 +52,6 @@ class _Subtree(HTMLParser):
     def handle_data(self, data: str) -> None:
         if self.depth:
             self.text.append(data)
-
-
-def _console_problems(stderr: str) -> list[str]:
-    messages = [m.group("message") for m in CONSOLE.finditer(stderr)]
-    problems = [m for m in messages if not any(b in m for b in BENIGN)]
-    problems += [line for line in stderr.splitlines() if "Uncaught" in line]
-    return problems
 
 
 def _runs() -> list[tuple[rr.Robot, RunLog]]:
@@ -121,7 +85,7 @@ def test_report_renders_in_chromium(tmp_path: Path) -> None:
         check=False,
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
-    assert _console_problems(proc.stderr) == []
+    assert console_problems(proc.stderr) == []
     view = _Subtree("arm-view")
     view.feed(proc.stdout)
     assert view.attrs.get("data-status") == "rendered"  # Plotly.react resolved
@@ -131,3 +95,67 @@ def test_report_renders_in_chromium(tmp_path: Path) -> None:
     assert "WebGL is not supported" not in text  # ... and plotly did not give up on it
     assert "t = " in text  # the time slider is drawn
     assert proc.stdout.count('<img alt="') == 7  # every plot is in the page
+
+
+def test_report_draws_the_obstacles_at_their_place_and_size(tmp_path: Path) -> None:
+    import json
+
+    from redres.objectives import CapsuleObstacle, ObstacleObjective, SphereObstacle
+
+    panda = rr.models.panda()
+    ball = SphereObstacle([0.35, 0.25, 0.45], 0.07, "ball")
+    pole = CapsuleObstacle([0.45, -0.3, 0.1], [0.45, -0.3, 0.7], 0.04, "pole")
+    circle = Circle(panda.fk(panda.neutral()), 0.02, 0.1)
+    log = rr.run(panda, FrameTask(), circle, PseudoInverseScheme(),
+                 log_objectives=[ObstacleObjective([ball, pole])])  # fmt: skip
+    page = write_report(tmp_path / "report", [(panda, log, [ball, pole])], title="Obstacles")
+    proc = dump_dom(page.as_uri(), tmp_path / "profile")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert console_problems(proc.stderr) == []
+    view = _Subtree("arm-view")
+    view.feed(proc.stdout)
+    assert view.attrs.get("data-status") == "rendered"
+    scene = json.loads(view.attrs["data-scene"])
+    drawn = {o["name"]: o for o in scene["drawn"] if o["kind"] == "obstacle"}
+    assert set(drawn) == {"ball", "pole"}
+    # What plotly holds for each mesh spans exactly the true body (oracle: the inputs).
+    low, high = np.array(drawn["ball"]["min"]), np.array(drawn["ball"]["max"])
+    np.testing.assert_allclose((low + high) / 2, ball.center, atol=2e-5)
+    np.testing.assert_allclose((high - low) / 2, ball.radius, atol=2e-5)
+    low, high = np.array(drawn["pole"]["min"]), np.array(drawn["pole"]["max"])
+    np.testing.assert_allclose(low, np.minimum(pole.a, pole.b) - pole.radius, atol=2e-5)
+    np.testing.assert_allclose(high, np.maximum(pole.a, pole.b) + pole.radius, atol=2e-5)
+    assert drawn["ball"]["type"] == drawn["pole"]["type"] == "mesh3d"
+    assert "min obstacle clearance" in proc.stdout  # the table's column
+
+
+def test_report_of_a_urdf_robot_draws_its_meshes(tmp_path: Path, fixtures_dir: Path) -> None:
+    import json
+
+    robot = rr.Robot.from_urdf(fixtures_dir / "arm3.urdf")
+    assert len(robot.visuals) == 4  # base plate, cylinder, box and the STL mesh
+    q0 = np.array([0.4, 0.5, -0.7])
+    target = robot.fk(q0)
+    target[:3, 3] += [0.0, 0.01, 0.01]
+    log = rr.run(robot, FrameTask(rows=[0, 1, 2]), Hold(target, 0.05), PseudoInverseScheme(),
+                 q0=q0)  # fmt: skip
+    page = write_report(tmp_path / "report", [(robot, log)], title="Meshes", frames=10)
+    proc = dump_dom(page.as_uri(), tmp_path / "profile")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert console_problems(proc.stderr) == []
+    view = _Subtree("arm-view")
+    view.feed(proc.stdout)
+    assert view.attrs.get("data-status") == "rendered"
+    scene = json.loads(view.attrs["data-scene"])
+    (meshes,) = [d for d in scene["drawn"] if d["kind"] == "robot"]
+    assert meshes["name"] == "robot meshes" and meshes["type"] == "mesh3d"
+    # oracle: the visual meshes placed by forward kinematics at the run's first step
+    world = []
+    for mesh in robot.visuals:
+        T = np.eye(4) if mesh.frame is None else robot.fk(log.q[0], mesh.frame)
+        world.append(mesh.vertices @ T[:3, :3].T + T[:3, 3])
+    every = np.concatenate(world)
+    assert meshes["vertices"] == len(every)
+    np.testing.assert_allclose(meshes["min"], every.min(axis=0), atol=2e-4)
+    np.testing.assert_allclose(meshes["max"], every.max(axis=0), atol=2e-4)
+    assert scene["moving"] == scene["frames"] == 10  # every frame poses them

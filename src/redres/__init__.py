@@ -19,6 +19,7 @@ from .control import Controller, run
 from .errors import RedresError
 from .ik import IKResult, ik
 from .robot import DHLink, Robot
+from .viewer import Viewer, view
 
 __version__ = "0.1.0.dev0"
 
@@ -28,6 +29,7 @@ __all__ = [
     "IKResult",
     "RedresError",
     "Robot",
+    "Viewer",
     "__version__",
     "batch",
     "control",
@@ -40,5 +42,6 @@ __all__ = [
     "resolution",
     "run",
     "tasks",
+    "view",
     "warmup",
 ]

@@ -61,9 +61,30 @@ def robots_table() -> tuple[str, list[dict[str, object]]]:
     return aligned_table(headers, rows), records
 
 
+def example_robots() -> list[str]:
+    """Names of the example-robot-data URDFs (``[]`` without the ``robots`` extra)."""
+    from .errors import MissingDependencyError
+    from .models import example_robot_names
+
+    try:
+        return example_robot_names()
+    except MissingDependencyError:
+        return []
+
+
 def _cmd_robots(args: argparse.Namespace) -> int:
     text, records = robots_table()
-    print(json.dumps(records) if args.json else text)
+    examples = example_robots()
+    if args.json:
+        print(json.dumps({"builtin": records, "example_robots": examples} if args.all
+                         else records))  # fmt: skip
+        return 0
+    print(text)
+    if examples:
+        print(f"\nexample-robot-data ({len(examples)}; rr.models.example_robot(name, tip=...)):")
+        print("  " + ", ".join(examples))
+    else:
+        print("\nexample-robot-data URDFs: install the extra: pip install 'redres[robots]'")
     return 0
 
 
@@ -79,9 +100,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     builtin = builtin_scenarios()
     if args.list:
-        for name, path in sorted(builtin.items()):
-            spec = load_scenario(path)
-            print(f"{name:28s} {spec.description}")
+        listing = {name: load_scenario(path).description for name, path in sorted(builtin.items())}
+        if args.json:
+            print(json.dumps([{"name": k, "description": v} for k, v in listing.items()]))
+            return 0
+        for name, description in listing.items():
+            print(f"{name:28s} {description}")
         return 0
     if not args.scenario:
         print("redres run: error: give a scenario file (or --list)", file=sys.stderr)
@@ -89,7 +113,23 @@ def _cmd_run(args: argparse.Namespace) -> int:
     target = args.scenario
     path = builtin[target] if target in builtin and not Path(target).exists() else Path(target)
     spec = load_scenario(path)
-    return run_scenarios([spec], _output(args), title=spec.name)
+    after = None
+    if args.view:
+        from .viewer import serve_runs
+
+        def after(runs: list) -> None:  # type: ignore[type-arg]
+            serve_runs(spec, [log for _, log in runs], port=args.port, seconds=args.seconds)
+
+    return run_scenarios([spec], _output(args), title=spec.name, after=after)
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+    from .scenario import builtin_scenarios, load_scenario
+    from .viewer import serve_scenario
+
+    builtin, target = builtin_scenarios(), args.scenario
+    path = builtin[target] if target in builtin and not Path(target).exists() else Path(target)
+    return serve_scenario(load_scenario(path), port=args.port, seconds=args.seconds)
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:
@@ -156,6 +196,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     robots = sub.add_parser("robots", help="list the built-in robot models")
     robots.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    robots.add_argument(
+        "--all", action="store_true",
+        help="with --json: an object with the built-in and the example-robot-data robots",
+    )  # fmt: skip
     robots.set_defaults(func=_cmd_robots)
     demo = sub.add_parser("demo", help="compare every scheme on the built-in scenarios")
     _output_options(demo)
@@ -163,8 +207,16 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run a scenario file (TOML)")
     run.add_argument("scenario", nargs="?", help="scenario file or built-in scenario name")
     run.add_argument("--list", action="store_true", help="list the built-in scenarios")
+    run.add_argument("--view", action="store_true", help="then show the runs in the browser")
+    run.add_argument("--port", type=int, default=8080, help="port of the viewer (--view)")
+    run.add_argument("--seconds", type=float, default=None, help="stop the viewer after this")
     _output_options(run)
     run.set_defaults(func=_cmd_run)
+    view = sub.add_parser("view", help="run a scenario and show its runs in the browser (viser)")
+    view.add_argument("scenario", help="scenario file or built-in scenario name")
+    view.add_argument("--port", type=int, default=8080, help="port of the page (default 8080)")
+    view.add_argument("--seconds", type=float, default=None, help="stop after this long")
+    view.set_defaults(func=_cmd_view)
     warm = sub.add_parser("warmup", help="compile the kernels now (a first call is then fast)")
     warm.add_argument("groups", nargs="*", help="what to compile (default all; see --list)")
     warm.add_argument("--list", action="store_true", help="list the groups and what is cached")

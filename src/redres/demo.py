@@ -24,7 +24,7 @@ from .control import RunLog
 from .errors import MissingDependencyError
 from .objectives import JointLimitObjective
 from .report.writer import check_out_dir, write_report
-from .runner import format_table, run_scenario
+from .runner import format_table, run_scenario, summarise, warning_lines
 from .scenario import ScenarioSpec, builtin
 
 DEG = np.pi / 180
@@ -133,7 +133,7 @@ def compiled_loop(steps: int = 1500) -> list[dict[str, object]]:
 def _write_report(
     out: Path, runs: list[tuple[ScenarioSpec, RunLog]], title: str, description: str, force: bool
 ) -> Path | None:
-    pairs = [(spec.robot, log) for spec, log in runs]
+    pairs = [(spec.robot, log, spec.obstacles) for spec, log in runs]
     try:
         return Path(write_report(out, pairs, title=title, description=description, force=force))
     except MissingDependencyError as exc:
@@ -172,9 +172,15 @@ class Output:
 
 
 def run_scenarios(
-    specs: Sequence[ScenarioSpec], output: Output, *, title: str, examples: bool = False
+    specs: Sequence[ScenarioSpec],
+    output: Output,
+    *,
+    title: str,
+    examples: bool = False,
+    after: Callable[[list[tuple[ScenarioSpec, RunLog]]], None] | None = None,
 ) -> int:
-    """Run ``specs``, print the table (or JSON), write the report; returns the exit code."""
+    """Run ``specs``, print the table (or JSON), write the report, then hand the runs to
+    ``after`` (``redres run --view`` serves them); returns the exit code."""
     as_json, quiet, quick = output.as_json, output.quiet, output.quick
     check_out_dir(output.folder, force=output.force)  # before any run
     started = time.perf_counter()
@@ -189,17 +195,23 @@ def run_scenarios(
         runs += [(spec, log) for log in run_scenario(spec, progress=None if loud else False)]
     description = " ".join(f"{s.description}." for s in specs)
     report = _write_report(output.folder, runs, title, description, output.force)
-    summaries = [log.summary() for _, log in runs]
+    summaries = [summarise(spec.robot, log) for spec, log in runs]
     steps = 100 if quick else 1500
     if as_json:
         payload: dict[str, Any] = {"report": str(report) if report else None, "runs": summaries}
         if examples:
             payload.update(examples=worked_examples(), compiled_loop=compiled_loop(steps))
         print(json.dumps(payload))
+        if after is not None:
+            after(runs)
         return 0
     print(format_table(summaries))
+    for line in warning_lines(summaries):
+        print(line)
     if report is not None:
         print(f"\nreport: {report}")
+    if after is not None:
+        after(runs)
     if quiet:
         return 0
     print(f"({len(runs)} runs in {time.perf_counter() - started:.1f} s)")

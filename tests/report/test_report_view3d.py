@@ -102,7 +102,8 @@ def test_frameless_runs_show_the_tip_path(runs: Runs, frameless_log: RunLog) -> 
     np.testing.assert_array_equal(anim.now, anim.arm[:, -1])  # the tip
     np.testing.assert_allclose(anim.position[-1], robot.fk(frameless_log.q[-1])[:3, 3], atol=1e-12)
     figure = animation_figure(anim)
-    assert [t["name"] for t in figure["data"]] == ["arm", "tip now", "arm at t = 0", "actual path"]
+    names = [t["name"] for t in figure["data"]]
+    assert names == ["arm", "tip now", "arm at t = 0", "actual path", "link capsules"]
 
 
 def test_figure_is_plain_json_with_one_frame_per_sample(runs: Runs) -> None:
@@ -120,7 +121,8 @@ def test_figure_is_plain_json_with_one_frame_per_sample(runs: Runs) -> None:
         np.testing.assert_allclose([now["x"][0], now["y"][0], now["z"][0]], anim.now[f], atol=1e-5)
         assert frames[f]["traces"] == [0, 1]
     names = [t["name"] for t in figure["data"]]
-    assert names == ["arm", "target now", "arm at t = 0", "actual path", "target path"]
+    assert names == ["arm", "target now", "arm at t = 0", "actual path", "target path",
+                     "link capsules"]  # fmt: skip
     assert figure["data"][0]["line"]["color"] == "#123456"
 
 

@@ -5,6 +5,7 @@ from .clik import final_configuration, run
 from .controller import Controller
 from .runlog import RunLog
 from .trajectories import (
+    Chain,
     Circle,
     FigureEight,
     Hold,
@@ -16,6 +17,7 @@ from .trajectories import (
 )
 
 __all__ = [
+    "Chain",
     "Circle",
     "Controller",
     "FigureEight",

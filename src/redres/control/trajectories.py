@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -48,6 +49,17 @@ def minimum_jerk(tau: float) -> tuple[float, float, float]:
     return s, ds, dds
 
 
+def ramped_angle(t: float, w: float, r: float) -> tuple[float, float, float]:
+    """Angle, rate and acceleration at ``t`` of a rate that rises from 0 to ``w`` (rad/s)
+    over ``r`` seconds as ``w·s(t/r)`` (minimum-jerk ``s``), then stays: the angle is its
+    integral, ``w·r·(2.5τ⁴ − 3τ⁵ + τ⁶)`` during the ramp, ``w·(t − r/2)`` after."""
+    if r > 0.0 and t < r:
+        tau = t / r
+        s, ds, _ = minimum_jerk(tau)
+        return w * r * (2.5 * tau**4 - 3.0 * tau**5 + tau**6), w * s, w * ds / r
+    return w * (t - r / 2.0) if r > 0.0 else w * t, w, 0.0
+
+
 class Trajectory(ABC):
     """A reference for a frame: :meth:`sample` at time ``t`` (s) from 0 to ``duration``."""
 
@@ -56,6 +68,12 @@ class Trajectory(ABC):
     @abstractmethod
     def sample(self, t: float) -> Sample:
         """Pose, twist and acceleration at time ``t``."""
+
+    def then(self, following: Trajectory | Callable[[FloatArray], Trajectory]) -> Chain:
+        """This trajectory, then ``following`` (a trajectory that starts where this one
+        ends, or a function of this one's end pose that makes it):
+        ``Line(T0, p1, 1.0).then(lambda T: Circle(T, 0.05, 2.0))``."""
+        return Chain([self]).then(following)
 
     def _planar(self, origin: FloatArray, coefficients: Any, basis: FloatArray) -> Sample:
         """A sample of a path in a plane with orientation held: ``coefficients`` (3 x 2)
@@ -126,19 +144,8 @@ class Circle(Trajectory):
         self.omega = 2.0 * np.pi / self.period
         self.duration = float(turns) * self.period + self.ramp / 2.0
 
-    def _angle(self, t: float) -> tuple[float, float, float]:
-        """Angle, angular rate and acceleration along the circle at ``t``."""
-        w, r = self.omega, self.ramp
-        if r > 0.0 and t < r:
-            # Angular rate w·s(t/r): smooth start; the angle is its integral.
-            tau = t / r
-            s, ds, _ = minimum_jerk(tau)
-            angle = w * r * (2.5 * tau**4 - 3.0 * tau**5 + tau**6)
-            return angle, w * s, w * ds / r
-        return w * (t - r / 2.0) if r > 0.0 else w * t, w, 0.0
-
     def sample(self, t: float) -> Sample:
-        a, da, dda = self._angle(t)
+        a, da, dda = ramped_angle(t, self.omega, self.ramp)
         c, s = math.cos(a), math.sin(a)
         r = self.radius
         # radial = c e1 + s e2, tangent = -s e1 + c e2: position r·radial, velocity
@@ -161,6 +168,8 @@ class FigureEight(Trajectory):
         width, height: ``a`` and ``b``, m.
         period: s per eight; ``turns`` sets the duration.
         normal: normal of the plane (world).
+        ramp: seconds over which the speed rises smoothly from zero (as for
+            :class:`Circle`), so the path starts without a velocity jump.
     """
 
     def __init__(
@@ -172,6 +181,7 @@ class FigureEight(Trajectory):
         *,
         normal: Any = (0.0, 0.0, 1.0),
         turns: float = 1.0,
+        ramp: float = 0.0,
     ) -> None:
         """The arguments are described in ``help(FigureEight)``."""
         self.start_pose = as_transform(start_pose, "start_pose")
@@ -179,19 +189,21 @@ class FigureEight(Trajectory):
         self.height = as_scalar(height, "height", minimum=0.0)
         self.period = _seconds(period, "period")
         turns = as_scalar(turns, "turns", minimum=0.0, strict=True)
+        self.ramp = as_scalar(ramp, "ramp", minimum=0.0)
         self._basis = np.vstack(_plane_axes(normal))
         self._origin = self.start_pose[:3, 3].copy()
-        self.duration = float(turns) * self.period
+        self.duration = float(turns) * self.period + self.ramp / 2.0
 
     def sample(self, t: float) -> Sample:
-        w = 2.0 * math.pi / self.period
-        th = w * t
+        # θ(t), θ' and θ'' (a ramped rate as for Circle); p = (a sin θ, b sin 2θ), so
+        # v = p_θ θ' and acc = p_θθ θ'² + p_θ θ''.
+        th, dth, ddth = ramped_angle(t, 2.0 * math.pi / self.period, self.ramp)
         a, b = self.width, self.height / 2.0
         s1, c1, s2, c2 = math.sin(th), math.cos(th), math.sin(2.0 * th), math.cos(2.0 * th)
         return self._planar(
             self._origin,
-            ((a * s1, b * s2), (a * w * c1, 2.0 * b * w * c2),
-             (-a * w * w * s1, -4.0 * b * w * w * s2)),
+            ((a * s1, b * s2), (a * c1 * dth, 2.0 * b * c2 * dth),
+             (-a * s1 * dth**2 + a * c1 * ddth, -4.0 * b * s2 * dth**2 + 2.0 * b * c2 * ddth)),
             self._basis,
         )  # fmt: skip
 
@@ -234,6 +246,63 @@ class Line(MinimumJerk):
         T1 = T0.copy()
         T1[:3, 3] = as_vector(end, "end", 3)
         super().__init__(T0, T1, duration)
+
+
+#: Largest jump, m, between a trajectory's end and the next one's start in a :class:`Chain`.
+CHAIN_GAP = 1e-6
+
+
+class Chain(Trajectory):
+    """Trajectories one after the other: the first for its duration, then the next one
+    from its own ``t = 0``, and so on. Each must start at the position where the one before
+    ends (within :data:`CHAIN_GAP`): a jump would be a step of the reference.
+
+    Args:
+        parts: the trajectories, in order (at least one).
+
+    Raises:
+        InvalidParameterError: no parts, a part that is not a trajectory, or a jump.
+    """
+
+    def __init__(self, parts: Sequence[Trajectory]) -> None:
+        self.parts: list[Trajectory] = []
+        if not parts:
+            raise InvalidParameterError("a Chain needs at least one trajectory")
+        for part in parts:
+            self._append(part)
+
+    def _append(self, part: Any) -> None:
+        if not isinstance(part, Trajectory):
+            raise InvalidParameterError(f"a Chain holds trajectories; got {part!r}")
+        if self.parts:
+            gap = float(np.linalg.norm(part.sample(0.0).pose[:3, 3] - self.end_pose[:3, 3]))
+            if gap > CHAIN_GAP:
+                raise InvalidParameterError(
+                    f"{type(part).__name__} starts {gap:.3g} m from where the chain ends; start "
+                    "it at chain.end_pose (or pass a function of the end pose to then())"
+                )
+        parts = part.parts if isinstance(part, Chain) else [part]
+        self.parts.extend(parts)
+        self._starts = np.cumsum([0.0] + [p.duration for p in self.parts])
+        self.duration = float(self._starts[-1])
+        self.start_pose = self.parts[0].sample(0.0).pose
+
+    @property
+    def end_pose(self) -> FloatArray:
+        """The pose at the chain's end, 4x4."""
+        return self.sample(self.duration).pose
+
+    def then(self, following: Trajectory | Callable[[FloatArray], Trajectory]) -> Chain:
+        """A new chain: these parts, then ``following`` (see :meth:`Trajectory.then`)."""
+        out = Chain(self.parts)
+        out._append(following(self.end_pose) if callable(following) and not isinstance(
+            following, Trajectory) else following)  # fmt: skip
+        return out
+
+    def sample(self, t: float) -> Sample:
+        i = int(np.searchsorted(self._starts, t, side="right")) - 1
+        i = min(max(i, 0), len(self.parts) - 1)
+        return self.parts[i].sample(t - float(self._starts[i]))
 
 
 class Hold(Trajectory):

@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Callable
 
 from ..errors import RobotNotFoundError
@@ -38,8 +39,10 @@ def load(name: str) -> Robot:
     try:
         factory = _BUILTIN[name]
     except (KeyError, TypeError):
+        close = difflib.get_close_matches(str(name), names(), n=2, cutoff=0.5)
+        hint = f"did you mean {' or '.join(map(repr, close))}? " if close else ""
         raise RobotNotFoundError(
-            f"unknown robot {name!r}; built-in robots: {', '.join(names())}"
+            f"unknown robot {name!r}; {hint}built-in robots: {', '.join(names())}"
         ) from None
     return factory()
 

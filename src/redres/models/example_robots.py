@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 from importlib import metadata
 from pathlib import Path
 
@@ -38,8 +39,11 @@ def example_robot(name: str, tip: str | None = None, **kwargs: object) -> Robot:
     """
     paths = sorted(_robots_dir().rglob(f"{name}.urdf"))
     if not paths:
+        names = example_robot_names()
+        close = difflib.get_close_matches(name, names, n=3, cutoff=0.5)
+        close += [n for n in names if n.startswith(name) and n not in close][:3]
+        hint = f"did you mean {' or '.join(map(repr, close[:3]))}? " if close else ""
         raise RobotNotFoundError(
-            f"example-robot-data has no URDF named {name!r}; names: "
-            f"{', '.join(example_robot_names())}"
+            f"example-robot-data has no URDF named {name!r}; {hint}names: {', '.join(names)}"
         )
     return Robot.from_urdf(paths[0], tip=tip, name=name, **kwargs)  # type: ignore[arg-type]

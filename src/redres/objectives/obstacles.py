@@ -145,8 +145,9 @@ class ObstacleObjective(Objective):
         caps = robot.capsules if self.capsules is None else self.capsules
         if not caps:
             raise InvalidParameterError(
-                f"robot {robot.name!r} has no link capsules; pass capsules= "
-                "(see redres.robot.capsule_between)"
+                f"robot {robot.name!r} has no link capsules: its file has no collision "
+                "geometry (add <collision> shapes to its links and they are fitted), or pass "
+                "capsules=[Capsule(...)] (redres.robot.capsule_between)"
             )
         return list(caps)
 

@@ -3,8 +3,12 @@
 Plots are PNG data URIs; plotly.js is inlined once; the 3D figures of every run are one
 JSON document in the page, and a small script draws the run picked in a drop-down into a
 single plotly graph (one WebGL context however many runs there are). The graph element
-gets ``data-status="rendered"`` once plotly has drawn it (``"error"`` if it failed), which
-automated checks can read.
+gets ``data-status="rendered"`` once plotly has drawn it (``"error"`` if it failed) and
+``data-scene``, a JSON summary of what plotly holds (for the obstacles and the robot's
+meshes: name, shape, vertex count and bounding box of the coordinates it draws; how many
+animation frames move the meshes), which automated checks can read. The robot's meshes
+are sent once, in their links' coordinates, with each frame's link poses (``rigid``): the
+script poses them for every frame before plotly draws.
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ table.summary tbody tr:hover { background: #f0f5ff; }
 .unit { font-weight: 400; color: var(--muted); font-size: 12px; }
 td.bad { color: #b3261e; font-weight: 600; }
 td.missing { color: var(--muted); }
+ul.warnings { margin: 10px 0 0; padding-left: 20px; color: #8a4b00; font-size: 13.5px; }
 .picker { display: flex; gap: 10px; align-items: center; margin: 6px 0 4px; }
 .picker select, .picker button { font: inherit; padding: 3px 8px; }
 .picker button { border: 1px solid #b9bec7; background: #f5f6f8; border-radius: 4px;
@@ -58,6 +63,7 @@ footer { margin-top: 40px; color: var(--muted); font-size: 12.5px; }
 SCRIPT = """
 (function () {
   var runs = JSON.parse(document.getElementById("redres-runs").textContent);
+  var shared = JSON.parse(document.getElementById("redres-meshes").textContent);
   var config = JSON.parse(document.getElementById("redres-plotly-config").textContent);
   var view = document.getElementById("arm-view");
   var select = document.getElementById("run-select");
@@ -75,17 +81,61 @@ SCRIPT = """
                                 frame: {duration: runs[current].play.frame_ms, redraw: true}})
       .catch(quiet);
   }
+  function expand(fig) {  // move the robot's meshes: frame f's link poses on local vertices
+    var r = fig.rigid;
+    if (!r || fig.expanded) { return; }
+    if (r.mesh !== undefined) {  // a mesh several runs share: written once in the page
+      var m = shared[r.mesh], t = fig.data[r.trace];
+      ["x", "y", "z"].forEach(function (c) { r[c] = m[c]; });
+      ["i", "j", "k", "facecolor"].forEach(function (c) { if (m[c]) { t[c] = m[c]; } });
+    }
+    var scale = Math.pow(10, r.decimals);
+    fig.frames.forEach(function (fr, f) {
+      var x = r.x.slice(), y = r.y.slice(), z = r.z.slice();
+      r.parts.forEach(function (p) {
+        if (p[2] < 0) { return; }
+        var T = r.poses[f][p[2]];  // rows of [R | t]
+        for (var v = p[0]; v < p[0] + p[1]; v++) {
+          var a = r.x[v], b = r.y[v], c = r.z[v];
+          x[v] = Math.round((T[0] * a + T[1] * b + T[2] * c + T[3]) * scale) / scale;
+          y[v] = Math.round((T[4] * a + T[5] * b + T[6] * c + T[7]) * scale) / scale;
+          z[v] = Math.round((T[8] * a + T[9] * b + T[10] * c + T[11]) * scale) / scale;
+        }
+      });
+      fr.data.push({type: "mesh3d", x: x, y: y, z: z});
+      fr.traces.push(r.trace);
+    });
+    fig.expanded = true;
+  }
+  function drawn() {  // what the scene holds, for automated checks (data-scene)
+    return view.data.filter(function (t) { return t.meta && t.meta.kind; })
+      .map(function (t) {
+        var box = ["x", "y", "z"].map(function (c) {
+          return [Math.min.apply(null, t[c]), Math.max.apply(null, t[c])];
+        });
+        return {name: t.name, kind: t.meta.kind, shape: t.meta.shape, type: t.type,
+                vertices: t.x.length,
+                min: box.map(function (b) { return b[0]; }),
+                max: box.map(function (b) { return b[1]; })};
+      });
+  }
   function show(i) {
     var fig = runs[i];
     current = i; frame = "0";
     view.dataset.status = "rendering";
     if (view.data) { pause(); }
+    expand(fig);
     Plotly.react(view, {data: fig.data, layout: fig.layout, frames: fig.frames, config: config})
       .then(function () {
         if (!bound) {
           view.on("plotly_animatingframe", function (e) { frame = e.name; });
           bound = true;
         }
+        var moving = fig.frames.filter(function (fr) {
+          return fig.rigid && fr.traces.indexOf(fig.rigid.trace) >= 0;
+        }).length;
+        view.dataset.scene = JSON.stringify({drawn: drawn(), traces: view.data.length,
+                                             frames: fig.frames.length, moving: moving});
         view.dataset.status = "rendered"; view.dataset.run = String(i);
       })
       .catch(function (err) { view.dataset.status = "error"; console.error(err); });
@@ -113,6 +163,37 @@ class RobotPlots:
 def _script_json(value: Any) -> str:
     """JSON safe inside a ``<script>`` element (no ``</`` sequence can close it)."""
     return json.dumps(value, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+
+
+_MESH_KEYS = ("i", "j", "k", "facecolor")
+
+
+def share_meshes(figures: Sequence[Mapping[str, Any]]) -> tuple[list[Any], list[Any]]:
+    """Write each robot mesh once: the triangles and local vertices that several runs'
+    figures repeat (``rigid``) move to a shared list, and each figure keeps an index to it
+    (``rigid.mesh``); the page puts them back before drawing (:data:`SCRIPT`). The figures
+    given are not changed."""
+    shared: list[Any] = []
+    index: dict[str, int] = {}
+    out = []
+    for fig in figures:
+        rigid = fig.get("rigid")
+        if not rigid:
+            out.append(fig)
+            continue
+        trace = fig["data"][rigid["trace"]]
+        mesh = {c: rigid[c] for c in ("x", "y", "z")}
+        mesh.update({c: trace[c] for c in _MESH_KEYS if c in trace})
+        key = json.dumps(mesh, separators=(",", ":"))
+        if key not in index:
+            index[key] = len(shared)
+            shared.append(mesh)
+        data = list(fig["data"])
+        # frame 0's world vertices stay with the run (they differ); the rest is shared
+        data[rigid["trace"]] = {k: v for k, v in trace.items() if k not in _MESH_KEYS}
+        slim = {k: v for k, v in rigid.items() if k not in ("x", "y", "z")}
+        out.append({**fig, "data": data, "rigid": {**slim, "mesh": index[key]}})
+    return shared, out
 
 
 def _arm_section(views: Sequence[tuple[str, str, Mapping[str, Any]]]) -> str:
@@ -180,7 +261,8 @@ def render_page(
         version: redres version, shown in the header.
     """
     sections = "".join(_plot_section(p) for p in plots)
-    figures = _script_json([fig for _, _, fig in views])
+    shared, figures_list = share_meshes([fig for _, _, fig in views])
+    figures = _script_json(figures_list)
     inline_js = plotly_js.replace("</script", "<\\/script")  # cannot close its element
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
@@ -199,6 +281,7 @@ one self-contained file, works offline</p>
 <footer>Made with redres {escape(version)}. Plots: matplotlib; 3D view: plotly.js (MIT).
 </footer></main>
 <script type="application/json" id="redres-runs">{figures}</script>
+<script type="application/json" id="redres-meshes">{_script_json(shared)}</script>
 <script type="application/json" id="redres-plotly-config">{_script_json(PLOTLY_CONFIG)}</script>
 <script>{SCRIPT}</script>
 </body></html>

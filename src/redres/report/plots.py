@@ -48,17 +48,37 @@ def palette(names: Sequence[str]) -> dict[str, str]:
     return {name: colors.to_hex(cmap(i % 10)) for i, name in enumerate(dict.fromkeys(names))}
 
 
+#: Legend text: inches per character at 9 pt (a generous mean), and per entry's handle.
+_CHAR_IN, _ENTRY_IN = 0.068, 0.55
+
+
+def legend_grid(labels: Sequence[str], width: float) -> tuple[int, int]:
+    """Columns and rows of a legend of ``labels`` that fits ``width`` inches."""
+    if not labels:
+        return 1, 0
+    column = _ENTRY_IN + _CHAR_IN * max(len(label) for label in labels)
+    ncols = int(max(1, min(len(labels), (width - 0.4) // column)))
+    return ncols, -(-len(labels) // ncols)
+
+
 def _figure(
-    width: float, panels: int, max_cols: int, *, row_height: float, left: float
+    width: float,
+    panels: int,
+    max_cols: int,
+    *,
+    row_height: float,
+    left: float,
+    legend: Sequence[str] = (),
 ) -> tuple[Figure, Any]:
     """A figure of ``panels`` axes in rows of at most ``max_cols`` (the unused ones of the
-    last row hidden), with a fixed layout, margins in inches: room for the title and legend
-    on top, tick labels left and below. (A fixed layout draws ~2.5x faster than the
-    constrained one, which dominates the report's run time.)"""
+    last row hidden), with a fixed layout, margins in inches: room for the title and the
+    legend of ``legend`` (as many rows as it needs) on top, tick labels left and below. (A
+    fixed layout draws ~2.5x faster than the constrained one, which dominates the report's
+    run time.)"""
     figure_module = require("matplotlib.figure")
     ncols = min(max_cols, panels)
     nrows = -(-panels // ncols)
-    top, bottom = 0.85, 0.5
+    top, bottom = 0.65 + 0.2 * max(legend_grid(legend, width)[1], 1), 0.5
     height = top + bottom + row_height * nrows
     fig: Figure = figure_module.Figure(figsize=(width, height), dpi=DPI)
     axes = fig.subplots(nrows, ncols, sharex=True, squeeze=False)
@@ -91,7 +111,11 @@ def _curve(
         values = np.where(values > 0, values, np.nan)
     marker = "o" if idx.size < 3 else None  # a one-step run is a point, not a line
     name = run_name(log)
-    ax.plot(log.t[idx], values, color=colours[name], lw=1.3, label=name, marker=marker, ms=3)
+    # Earlier runs wider, so that a later run drawn over an identical one leaves it visible.
+    order = list(colours)
+    rank, count = order.index(name), len(order)
+    width = 1.2 + 2.0 * (count - 1 - rank) / max(count - 1, 1)
+    ax.plot(log.t[idx], values, color=colours[name], lw=width, label=name, marker=marker, ms=3)
 
 
 def _title(fig: Figure, text: str, handles: Sequence[Any], labels: Sequence[str]) -> None:
@@ -102,7 +126,7 @@ def _title(fig: Figure, text: str, handles: Sequence[Any], labels: Sequence[str]
         labels,
         loc="upper center",
         bbox_to_anchor=(0.5, 1 - 0.34 / height),
-        ncols=max(1, min(len(labels), 6)),
+        ncols=legend_grid(labels, fig.get_figwidth())[0],
         frameon=False,
         fontsize=9,
         handlelength=1.6,
@@ -123,7 +147,8 @@ def joints_figure(
         max_points: at most this many samples per curve.
     """
     n = robot.n
-    fig, axes = _figure(12.0, n, 4, row_height=1.9, left=0.55)
+    legend = list(dict.fromkeys(run_name(log) for log in logs))
+    fig, axes = _figure(12.0, n, 4, row_height=1.9, left=0.55, legend=legend)
     for j, ax in enumerate(axes[:n]):
         for log in logs:
             _curve(ax, log, log.q[:, j], colours, max_points)
@@ -169,7 +194,8 @@ def _time_series_figure(
     kind: str, robot_name: str, logs: Sequence[RunLog], colours: Mapping[str, str], max_points: int
 ) -> Figure:
     series, title, ylabel = _SERIES[kind]
-    fig, (ax,) = _figure(6.0, 1, 1, row_height=2.45, left=0.75)
+    legend = list(dict.fromkeys(run_name(log) for log in logs))
+    fig, (ax,) = _figure(6.0, 1, 1, row_height=2.45, left=0.75, legend=legend)
     for log in logs:
         _curve(ax, log, series(log), colours, max_points, positive=True)
     _log_axis(ax)
@@ -215,7 +241,8 @@ def objectives_figure(
     names = list(dict.fromkeys(name for log in logs for name in log.objectives))
     if not names:
         return None
-    fig, axes = _figure(12.0, len(names), 3, row_height=2.3, left=0.6)
+    legend = list(dict.fromkeys(run_name(log) for log in logs if log.objectives))
+    fig, axes = _figure(12.0, len(names), 3, row_height=2.3, left=0.6, legend=legend)
     for ax, name in zip(axes, names):
         for log in logs:
             if name in log.objectives:

@@ -2,8 +2,10 @@
 
 :func:`arm_animation` samples a run (about 80 configurations, forward kinematics on each)
 and :func:`animation_figure` turns it into a plotly figure (plain JSON-ready dicts, so
-plotly.js draws it without the Python plotly objects): the arm, the target and actual
-paths of the task frame and a time slider (play/pause are the page's), equal scale.
+plotly.js draws it without the Python plotly objects): the arm, its link capsules when it
+has them, the obstacles at their place and size, the closest arm–obstacle pair at each
+instant, the target and actual paths of the task frame and a time slider (play/pause are
+the page's), equal scale. The meshes are built in :mod:`.scene3d`.
 """
 
 from __future__ import annotations
@@ -15,11 +17,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._validate import FloatArray, as_vector
+from . import scene3d
 from .plots import run_name
 from .series import IntArray, even_indices
 
 if TYPE_CHECKING:
     from ..control import RunLog
+    from ..objectives import Obstacle
     from ..robot import Robot
 
 DECIMALS = 5  # 10 µm: finer than the screen, and keeps the page small
@@ -71,6 +75,12 @@ class ArmAnimation:
         target, position: the task frame's target and actual paths, ``(P, 3)``, m;
             ``target`` is ``None`` when the run did not log a frame target.
         now: the target at each frame (the tip when there is no target), ``(F, 3)``, m.
+        obstacles: the obstacles of the run (drawn at their place and size).
+        closest: the closest (arm, obstacle) witness points at each frame, ``(F, 2, 3)``,
+            m, and ``clearance`` their distance ``(F,)``, m; ``None`` without obstacles or
+            link capsules.
+        bodies: the robot's visual meshes, else its link capsules, posed at each frame
+            (:class:`~.scene3d.RigidBodies`); ``None`` when it has neither.
     """
 
     robot: str
@@ -81,10 +91,19 @@ class ArmAnimation:
     target: FloatArray | None
     position: FloatArray
     now: FloatArray
+    obstacles: tuple[Obstacle, ...] = ()
+    closest: FloatArray | None = None
+    clearance: FloatArray | None = None
+    bodies: scene3d.RigidBodies | None = None
 
 
 def arm_animation(
-    robot: Robot, log: RunLog, *, frames: int = 80, path_points: int = 1000
+    robot: Robot,
+    log: RunLog,
+    *,
+    frames: int = 80,
+    path_points: int = 1000,
+    obstacles: Sequence[Obstacle] = (),
 ) -> ArmAnimation:
     """Sample a run for the 3D view.
 
@@ -93,6 +112,8 @@ def arm_animation(
         log: the run.
         frames: number of animation frames (≥ 2; fewer for shorter runs).
         path_points: at most this many points per path.
+        obstacles: spheres, points and capsules to draw; with link capsules on the robot
+            the closest pair between arm and obstacles is found at every frame.
     """
     names = arm_frames(robot)
     idx = even_indices(log.steps, frames)
@@ -106,16 +127,30 @@ def arm_animation(
         target = None
         position = np.array([robot.fk(log.q[k])[:3, 3] for k in path])
         now = arm[:, -1]
-    return ArmAnimation(robot.name, run_name(log), log.t[idx], idx, arm, target, position, now)
+    caps, closest, clearance = list(robot.capsules), None, None
+    if obstacles and caps:
+        from ..objectives import proximities
+
+        pairs = [scene3d.closest_pair(proximities(robot, log.q[k], obstacles, caps)) for k in idx]
+        clearance = np.array([d for d, _ in pairs])
+        closest = np.stack([p for _, p in pairs])
+    bodies = scene3d.rigid_bodies(robot, log.q[idx])
+    return ArmAnimation(
+        robot.name, run_name(log), log.t[idx], idx, arm, target, position, now,
+        tuple(obstacles), closest, clearance, bodies,
+    )  # fmt: skip
 
 
-def _xyz(points: FloatArray) -> dict[str, list[float]]:
-    p = np.round(np.asarray(points, dtype=float), DECIMALS)
+def _xyz(points: FloatArray, decimals: int = DECIMALS) -> dict[str, list[float]]:
+    p = np.round(np.asarray(points, dtype=float), decimals)
     return {"x": p[:, 0].tolist(), "y": p[:, 1].tolist(), "z": p[:, 2].tolist()}
 
 
 def _scene(anim: ArmAnimation) -> dict[str, Any]:
     clouds = [anim.arm.reshape(-1, 3), anim.position, np.zeros((1, 3))]
+    clouds.append(scene3d.obstacle_points(anim.obstacles))
+    if anim.bodies is not None:
+        clouds += [anim.bodies.world(0), anim.bodies.world(len(anim.arm) - 1)]
     if anim.target is not None:
         clouds.append(anim.target)
     every = np.concatenate(clouds)
@@ -145,34 +180,63 @@ def _path(name: str, points: FloatArray, mode: str = "lines", **style: Any) -> d
     return {"type": "scatter3d", "mode": mode, "name": name, **_xyz(points), **style}
 
 
-def _traces(anim: ArmAnimation, colour: str) -> list[dict[str, Any]]:
-    first, now = anim.arm[0], "target now" if anim.target is not None else "tip now"
-    markers, grey = {"size": 4, "color": "#333"}, {"color": "#b0b0b0", "width": 4}
+#: Decimals of the robot meshes' vertices (0.1 mm; they are many).
+MESH_DECIMALS = 4
+
+
+def _animated(anim: ArmAnimation, f: int, colour: str) -> list[dict[str, Any]]:
+    """The traces that move, at frame ``f``: arm, target now, then the closest pair when
+    there is one (:func:`_traces` puts them first, in this order)."""
+    markers = {"size": 4, "color": "#333"}
     diamond = {"size": 5, "color": "#d62728", "symbol": "diamond"}
+    now = "target now" if anim.target is not None else "tip now"
+    arm = {"line": {"color": colour, "width": 8}, "marker": markers}
+    out = [
+        _path("arm", anim.arm[f], "lines+markers", **arm),
+        _path(now, anim.now[f : f + 1], "markers", marker=diamond),
+    ]
+    if anim.closest is not None and anim.clearance is not None:
+        gap = f"closest pair: {1e3 * anim.clearance[f]:.1f} mm"
+        style = {"line": {"color": "#c0392b", "width": 3, "dash": "dot"}, "marker": {"size": 3}}
+        out.append({**_path("closest pair", anim.closest[f], "lines+markers", **style),
+                    "hovertext": gap, "hoverinfo": "text"})  # fmt: skip
+    return out
+
+
+def _traces(anim: ArmAnimation, colour: str) -> list[dict[str, Any]]:
+    first = anim.arm[0]
+    grey = {"color": "#b0b0b0", "width": 4}
     traces = [
-        _path("arm", first, "lines+markers", line={"color": colour, "width": 8}, marker=markers),
-        _path(now, anim.now[:1], "markers", marker=diamond),
+        *_animated(anim, 0, colour),
         _path("arm at t = 0", first, line=grey, opacity=0.6, visible="legendonly"),
         _path("actual path", anim.position, line={"color": colour, "width": 3}),
     ]
     if anim.target is not None:
         dashed = {"color": "#555", "width": 2, "dash": "dash"}
         traces.append(_path("target path", anim.target, line=dashed))
-    return traces
+    if anim.bodies is not None:  # posed at frame 0; the page moves it (``rigid``)
+        b = anim.bodies
+        opacity = 1.0 if b.name == "robot meshes" else 0.35
+        style = {"facecolor": b.face_colours} if len(set(b.face_colours)) > 1 else {}
+        body_colour = b.face_colours[0] if b.face_colours else scene3d.CAPSULE_COLOUR
+        traces.append(scene3d.mesh_trace(b.world(0), b.triangles, name=b.name, colour=body_colour,
+                                         opacity=opacity, decimals=MESH_DECIMALS,
+                                         meta={"kind": "robot"}, **style))  # fmt: skip
+    return traces + scene3d.obstacle_traces(anim.obstacles)
 
 
 def _frames(anim: ArmAnimation) -> list[dict[str, Any]]:
-    return [
-        {
-            "name": str(f),
-            "traces": [0, 1],
-            "data": [
-                {"type": "scatter3d", **_xyz(arm)},
-                {"type": "scatter3d", **_xyz(anim.now[f : f + 1])},
-            ],
-        }
-        for f, arm in enumerate(anim.arm)
-    ]
+    """Per frame, only the coordinates of the moving traces (their styles stay)."""
+    out = []
+    for f in range(len(anim.arm)):
+        data = [
+            {"type": "scatter3d", **_xyz(anim.arm[f])},
+            {"type": "scatter3d", **_xyz(anim.now[f : f + 1])},
+        ]
+        if anim.closest is not None:
+            data.append({"type": "scatter3d", **_xyz(anim.closest[f])})
+        out.append({"name": str(f), "traces": list(range(len(data))), "data": data})
+    return out
 
 
 def frame_delay_ms(anim: ArmAnimation) -> int:
@@ -226,9 +290,14 @@ def animation_figure(anim: ArmAnimation, colour: str = "#1f77b4") -> dict[str, A
         "uirevision": "arm-view",
         "sliders": [_slider(anim)],
     }
-    return {
-        "data": _traces(anim, colour),
+    data = _traces(anim, colour)
+    figure = {
+        "data": data,
         "layout": layout,
         "frames": _frames(anim),
         "play": {"frame_ms": frame_delay_ms(anim)},
     }
+    if anim.bodies is not None:
+        trace = next(i for i, t in enumerate(data) if t.get("meta", {}).get("kind") == "robot")
+        figure["rigid"] = scene3d.rigid_spec(anim.bodies, trace, MESH_DECIMALS)
+    return figure

@@ -18,7 +18,11 @@ from .table import table_html
 
 if TYPE_CHECKING:
     from ..control import RunLog
+    from ..objectives import Obstacle
     from ..robot import Robot
+
+#: A run of the report: ``(robot, log)``, or ``(robot, log, obstacles)`` to draw them.
+Run = tuple["Robot", "RunLog"] | tuple["Robot", "RunLog", Sequence["Obstacle"]]
 
 PAGE = "report.html"
 #: The file that marks a folder as a redres report (a later report may replace its files).
@@ -46,14 +50,27 @@ def _check_options(
     return rows
 
 
-def _check_runs(runs: Sequence[tuple[Robot, RunLog]]) -> list[tuple[Robot, RunLog]]:
-    pairs = list(runs)
+def _check_runs(runs: Sequence[Run]) -> list[tuple[Robot, RunLog, tuple[Obstacle, ...]]]:
+    from ..objectives import CapsuleObstacle, SphereObstacle
+
+    pairs = []
+    for i, pair in enumerate(runs):
+        if not isinstance(pair, tuple) or len(pair) not in (2, 3):
+            raise InvalidParameterError(
+                f"runs[{i}] must be a (robot, log) pair or a (robot, log, obstacles) triple; "
+                f"got {pair!r}"
+            )
+        robot, log = pair[0], pair[1]
+        obstacles = tuple(pair[2]) if len(pair) == 3 else ()  # type: ignore[misc]
+        for obs in obstacles:
+            if not isinstance(obs, (SphereObstacle, CapsuleObstacle)):
+                raise InvalidParameterError(
+                    f"runs[{i}]: obstacles must be SphereObstacle or CapsuleObstacle; got {obs!r}"
+                )
+        pairs.append((robot, log, obstacles))
     if not pairs:
         raise InvalidParameterError("runs is empty: give at least one (robot, log) pair")
-    for i, pair in enumerate(pairs):
-        if not isinstance(pair, tuple) or len(pair) != 2:
-            raise InvalidParameterError(f"runs[{i}] must be a (robot, log) pair; got {pair!r}")
-        robot, log = pair
+    for i, (robot, log, _) in enumerate(pairs):
         if log.steps < 1:
             raise InvalidParameterError(f"runs[{i}] ({log.robot} {log.scheme}) has no steps")
         if log.robot != robot.name:
@@ -75,12 +92,12 @@ def _slug(name: str) -> str:
 
 def _write_plots(
     staging: Path,
-    pairs: Sequence[tuple[Robot, RunLog]],
+    pairs: Sequence[tuple[Robot, RunLog, Any]],
     colours: Mapping[str, str],
     max_points: int,
 ) -> list[html.RobotPlots]:
     by_robot: dict[str, tuple[Robot, list[RunLog]]] = {}
-    for robot, log in pairs:
+    for robot, log, _ in pairs:
         by_robot.setdefault(robot.name, (robot, []))[1].append(log)
     out = []
     for name, (robot, logs) in by_robot.items():
@@ -94,7 +111,7 @@ def _write_plots(
 
 def _build(
     staging: Path,
-    pairs: Sequence[tuple[Robot, RunLog]],
+    pairs: Sequence[tuple[Robot, RunLog, tuple[Obstacle, ...]]],
     rows: list[Mapping[str, Any]] | None,
     title: str,
     description: str,
@@ -103,18 +120,19 @@ def _build(
 ) -> None:
     """Write every file of the report into ``staging``."""
     from .. import __version__
+    from ..runner import summarise
 
-    colours = plots.palette([plots.run_name(log) for _, log in pairs])
+    colours = plots.palette([plots.run_name(log) for _, log, _ in pairs])
     robot_plots = _write_plots(staging, pairs, colours, max_points)
     views = []
-    for robot, log in pairs:
-        anim = view3d.arm_animation(robot, log, frames=frames)
+    for robot, log, obstacles in pairs:
+        anim = view3d.arm_animation(robot, log, frames=frames, obstacles=obstacles)
         figure = view3d.animation_figure(anim, colours[plots.run_name(log)])
         views.append((robot.name, anim.label, figure))
     page = html.render_page(
         title=title,
         description=description,
-        table=table_html(rows if rows is not None else [log.summary() for _, log in pairs]),
+        table=table_html(rows if rows is not None else [summarise(r, log) for r, log, _ in pairs]),
         views=views,
         plots=robot_plots,
         plotly_js=require("plotly.offline").get_plotlyjs(),
@@ -214,7 +232,7 @@ def _clean_stale_staging(target: Path) -> None:
 
 def write_report(
     out_dir: str | os.PathLike[str],
-    runs: Sequence[tuple[Robot, RunLog]],
+    runs: Sequence[Run],
     *,
     title: str,
     description: str = "",
@@ -233,12 +251,14 @@ def write_report(
     Args:
         out_dir: directory to write (created if needed; other files in it are kept).
         force: write into a folder that holds other files too.
-        runs: ``(robot, log)`` pairs, any mix of robots and schemes; a run is named by
-            ``log.label`` (else ``log.scheme``).
+        runs: ``(robot, log)`` pairs, any mix of robots and schemes, or ``(robot, log,
+            obstacles)`` triples whose 3D view also draws the obstacles (spheres, points,
+            capsules) and the closest arm–obstacle pair; a run is named by ``log.label``
+            (else ``log.scheme``).
         title: page title.
         description: plain-text introduction (blank lines separate paragraphs).
         table: summary rows for the comparison table (``RunLog.summary()`` dicts; default:
-            the summaries of ``runs``).
+            :func:`redres.runner.summarise` of each run).
         frames: animation frames per run in the 3D view (≥ 2).
         max_points: at most this many samples per plotted curve (≥ 4).
 

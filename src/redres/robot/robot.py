@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
@@ -20,6 +19,7 @@ from .._validate import FloatArray, as_rng, as_scalar, as_vector
 from ..errors import FrameNotFoundError, InvalidParameterError, JointLimitError, ShapeError
 from ._frames import add_frame
 from .derivatives import revolute_jacobian_derivatives
+from .files import RobotFiles
 
 if TYPE_CHECKING:
     from .capsules import Capsule
@@ -31,11 +31,12 @@ Reference = Literal["world", "local"]
 _REFERENCE = {"world": pin.LOCAL_WORLD_ALIGNED, "local": pin.LOCAL}
 
 
-class Robot:
+class Robot(RobotFiles):
     """A serial manipulator with ``n`` one-degree-of-freedom joints.
 
-    Build one with :meth:`from_dh`, :meth:`from_urdf` or a function of
-    :mod:`redres.models`; the constructor takes a ready Pinocchio model.
+    Build one with :meth:`from_dh`, :meth:`from_urdf`, :meth:`from_urdf_string`,
+    :meth:`from_mjcf` or a function of :mod:`redres.models`; the constructor takes a ready
+    Pinocchio model. :meth:`with_limits` derives one with tighter limits.
 
     Args:
         model: Pinocchio model whose joints are all one-DOF (revolute or prismatic), with
@@ -169,39 +170,6 @@ class Robot:
         for frame_name, (parent, T) in (frames or {}).items():
             add_frame(model, frame_name, parent, T)
         return cls(model, tip=tip, name=name, home=home, qdd_max=qdd_max)
-
-    @classmethod
-    def from_urdf(
-        cls,
-        path: str | Path,
-        tip: str | None = None,
-        *,
-        locked: Mapping[str, float] | None = None,
-        name: str | None = None,
-        continuous_limits: tuple[float, float] = (-np.pi, np.pi),
-    ) -> Robot:
-        """Load a robot from a URDF file, keeping only the base-to-``tip`` chain.
-
-        Joints off that chain (gripper fingers, a second arm) are locked at the value given
-        in ``locked`` (joint name -> position), else at zero clipped into their limits.
-        Continuous joints become revolute joints limited to ``continuous_limits``.
-
-        Args:
-            path: URDF file.
-            tip: frame (link) name at the end of the chain; may be omitted when the URDF
-                is an unbranched chain.
-            locked: positions of the joints that are locked.
-            name: robot name (default: the URDF's robot name).
-            continuous_limits: position limits given to continuous joints, rad.
-
-        Raises:
-            ModelFileNotFoundError: the file does not exist.
-            URDFError: the file cannot be parsed, or ``tip`` is missing or ambiguous.
-        """
-        from .urdf import build_urdf_model
-
-        model, tip_name = build_urdf_model(path, tip, locked, continuous_limits)
-        return cls(model, tip=tip_name, name=name or str(model.name))
 
     # ------------------------------------------------------------------ description
     @property

@@ -1,7 +1,10 @@
-"""Loading a URDF into a Pinocchio model of one base-to-tip chain.
+"""Loading a URDF (file or XML text) or an MJCF file into a Pinocchio model of one
+base-to-tip chain.
 
 Nothing in the file is executed: the XML is checked with the standard library parser
-first (for a message with a line number), then handed to Pinocchio's URDF parser.
+first (for a message with a line number), then handed to Pinocchio's URDF or MJCF parser
+(Pinocchio 3+ reads MJCF: ``pin.buildModelFromMJCF``). Both go through the same reduction
+to the chain ending at the tip (:func:`reduce_to_chain`), whose geometry models follow.
 """
 
 from __future__ import annotations
@@ -9,12 +12,14 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Literal
 
 import numpy as np
 import pinocchio as pin
 
-from .._validate import MAX_LENGTH, MAX_MASS
+from .._validate import MAX_LENGTH, MAX_MASS, short_repr
 from ..errors import ModelFileNotFoundError, URDFError, describe_os_error, shown_path
 from .dh import MAX_JOINTS
 
@@ -25,6 +30,126 @@ _BOUNDED = {
     "JointModelRUBZ": pin.JointModelRZ,
 }
 
+Format = Literal["urdf", "mjcf"]
+
+
+@dataclass
+class ModelSource:
+    """A robot description: its label in messages, its format, and the file or the text.
+
+    Attributes:
+        label: what messages call it (the file, or ``<URDF string>``).
+        kind: ``"urdf"`` or ``"mjcf"``.
+        file: the file (``None`` for text); ``text`` the XML when given as a string.
+    """
+
+    label: str
+    kind: Format
+    file: Path | None = None
+    text: str | None = None
+    mesh_dir: Path | None = None
+
+    @property
+    def folder(self) -> Path:
+        """Where relative mesh paths (and ``package://`` roots) are looked up."""
+        if self.mesh_dir is not None:
+            return self.mesh_dir
+        return self.file.parent if self.file is not None else Path()
+
+
+@dataclass
+class LoadedModel:
+    """The reduced model, its tip, and the geometry models that came with it."""
+
+    model: pin.Model
+    tip: str
+    collision: Any = None  # pin.GeometryModel, or None when the file has none
+    visual: Any = None
+    reference: np.ndarray | None = None  # a configuration the file names (MJCF keyframe)
+
+
+def short_text(text: str) -> str:
+    """The start of ``text``, quoted, for messages."""
+    return short_repr(text, 60)
+
+
+def urdf_source(path: str | Path) -> ModelSource:
+    """A URDF file, checked to exist."""
+    return _file_source(path, "urdf")
+
+
+def mjcf_source(path: str | Path) -> ModelSource:
+    """An MJCF file, checked to exist."""
+    return _file_source(path, "mjcf")
+
+
+def _file_source(path: str | Path, kind: Format) -> ModelSource:
+    name = kind.upper()
+    if isinstance(path, str) and path.lstrip().startswith("<"):
+        hint = "Robot.from_urdf_string(xml)" if kind == "urdf" else "a file name"
+        raise URDFError(f"{short_text(path)} is {name} text, not a file name; use {hint}")
+    file = Path(path)
+    try:
+        found = file.is_file()
+    except OSError as exc:  # a name too long, a loop of links
+        hint = " (pass XML text to Robot.from_urdf_string)" if kind == "urdf" else ""
+        raise URDFError(f"cannot read the {name} file: {describe_os_error(exc)}{hint}") from None
+    if not found:
+        raise ModelFileNotFoundError(f"{name} file not found: {shown_path(file)}")
+    return ModelSource(str(file), kind, file=file)
+
+
+def _root(source: ModelSource) -> ET.Element:
+    label, name = source.label, source.kind.upper()
+    try:
+        if source.file is not None:
+            root = ET.parse(source.file).getroot()
+        else:
+            root = ET.fromstring(source.text or "")
+    except ET.ParseError as exc:
+        raise URDFError(f"{label}: not well-formed XML ({exc})") from None
+    except OSError as exc:
+        raise URDFError(f"cannot read the {name} file: {describe_os_error(exc)}") from None
+    expected = "robot" if source.kind == "urdf" else "mujoco"
+    if root.tag != expected:
+        raise URDFError(f"{label}: the root element is <{root.tag}>, expected <{expected}>")
+    return root
+
+
+def _full_model(source: ModelSource, geometry: tuple[str, ...]) -> tuple[pin.Model, Any, Any]:
+    """Pinocchio's model of the whole file and the geometry models named in ``geometry``
+    (``"collision"``, ``"visual"``; ``None`` where one cannot be built, e.g. a missing
+    mesh)."""
+    label = source.label
+    try:
+        if source.kind == "mjcf":
+            full = pin.buildModelFromMJCF(str(source.file))
+        elif source.file is not None:
+            full = pin.buildModelFromUrdf(str(source.file))
+        else:
+            full = pin.buildModelFromXML(source.text)
+    except (RuntimeError, ValueError) as exc:
+        raise URDFError(f"{label}: Pinocchio cannot build a model: {exc}") from None
+    kinds = {"collision": pin.COLLISION, "visual": pin.VISUAL}
+    geoms = [_geometry(full, source, kinds[k]) if k in geometry else None for k in kinds]
+    return full, geoms[0], geoms[1]
+
+
+def _geometry(model: pin.Model, source: ModelSource, kind: Any) -> Any:
+    # package://NAME/... is looked up as NAME under each of these: the file's folder and
+    # its ancestors (a ROS-like layout: share/NAME/robots/x.urdf), besides ROS_PACKAGE_PATH
+    # that Pinocchio reads itself.
+    folder = source.folder.resolve()
+    dirs = [str(p) for p in (folder, *folder.parents)][:8]
+    try:
+        if source.kind == "mjcf":
+            return pin.buildGeomFromMJCF(model, str(source.file), kind)
+        if source.file is not None:
+            return pin.buildGeomFromUrdf(model, str(source.file), kind, package_dirs=dirs)
+        return pin.buildGeomFromUrdfString(model, source.text, kind, package_dirs=dirs)
+    except (RuntimeError, ValueError, OSError):  # a mesh that cannot be found or read
+        return None
+
 
 def build_urdf_model(
     path: str | Path,
@@ -33,31 +158,46 @@ def build_urdf_model(
     continuous_limits: tuple[float, float],
 ) -> tuple[pin.Model, str]:
     """Parse ``path`` and reduce it to the chain ending at ``tip``; returns (model, tip)."""
-    file = Path(path)
-    try:
-        found = file.is_file()
-    except OSError as exc:  # a name too long, a loop of links
-        raise URDFError(f"cannot read the URDF file: {describe_os_error(exc)}") from None
-    if not found:
-        raise ModelFileNotFoundError(f"URDF file not found: {shown_path(file)}")
-    try:
-        root = ET.parse(file).getroot()
-    except ET.ParseError as exc:
-        raise URDFError(f"{file}: not well-formed XML ({exc})") from None
-    except OSError as exc:
-        raise URDFError(f"cannot read the URDF file: {describe_os_error(exc)}") from None
-    if root.tag != "robot":
-        raise URDFError(f"{file}: the root element is <{root.tag}>, expected <robot>")
-    if root.find("link") is None:
-        raise URDFError(f"{file}: the URDF has no <link> element")
-    _check_physical(root, file)
-    try:
-        full = pin.buildModelFromUrdf(str(file))
-    except (RuntimeError, ValueError) as exc:
-        raise URDFError(f"{file}: Pinocchio cannot build a model: {exc}") from None
-    if full.nv == 0:
-        raise URDFError(f"{file}: the URDF has no movable joint")
+    loaded = load_model(urdf_source(path), tip, locked, continuous_limits, geometry=())
+    return loaded.model, loaded.tip
 
+
+def load_model(
+    source: ModelSource,
+    tip: str | None,
+    locked: Mapping[str, float] | None,
+    continuous_limits: tuple[float, float],
+    *,
+    geometry: tuple[str, ...] = ("collision", "visual"),
+) -> LoadedModel:
+    """Parse ``source``, reduce it to the chain ending at ``tip``, with the geometry
+    models named in ``geometry``."""
+    root = _root(source)
+    label = source.label
+    if source.kind == "urdf":
+        if root.find("link") is None:
+            raise URDFError(f"{label}: the URDF has no <link> element")
+        _check_physical(root, label)
+    elif root.find("worldbody") is None:
+        raise URDFError(f"{label}: the MJCF has no <worldbody> element")
+    full, collision, visual = _full_model(source, geometry)
+    if full.nv == 0:
+        raise URDFError(f"{label}: the {source.kind.upper()} has no movable joint")
+    return reduce_to_chain(full, tip, locked, continuous_limits, label, collision, visual)
+
+
+def reduce_to_chain(
+    full: pin.Model,
+    tip: str | None,
+    locked: Mapping[str, float] | None,
+    continuous_limits: tuple[float, float],
+    file: str,
+    collision: Any = None,
+    visual: Any = None,
+) -> LoadedModel:
+    """The base-to-``tip`` chain of ``full``: every other joint locked (at ``locked``,
+    else zero clipped into its limits), continuous joints bounded to
+    ``continuous_limits``; the geometry models reduced with it."""
     tip_name = tip if tip is not None else _default_tip(full, file)
     if not full.existFrame(tip_name):
         names = [str(f.name) for f in full.frames][1:]
@@ -65,9 +205,20 @@ def build_urdf_model(
     chain = set(full.supports[full.frames[full.getFrameId(tip_name)].parentJoint])
     to_lock = [j for j in range(1, full.njoints) if j not in chain]
     model = full
+    reference = _reference(full)
     if to_lock:
         q_ref = _locked_configuration(full, locked or {}, file)
-        model = pin.buildReducedModel(full, to_lock, q_ref)
+        geoms = [g for g in (collision, visual) if g is not None]
+        if geoms:
+            model, reduced = pin.buildReducedModel(full, geoms, to_lock, q_ref)
+            it = iter(reduced)
+            collision = next(it) if collision is not None else None
+            visual = next(it) if visual is not None else None
+        else:
+            model = pin.buildReducedModel(full, to_lock, q_ref)
+        if reference is not None:
+            keep = [full.joints[j].idx_q for j in range(1, full.njoints) if j in chain]
+            reference = reference[keep]
     elif locked:
         raise URDFError(f"{file}: cannot lock {sorted(locked)}: every joint is on the chain")
     if model.nv == 0:
@@ -78,7 +229,17 @@ def build_urdf_model(
         )
     if model.nq != model.nv:
         model = _bound_continuous_joints(model, continuous_limits, file)
-    return model, tip_name
+        reference = None  # cos/sin coordinates: not a configuration of the bounded model
+    return LoadedModel(model, tip_name, collision, visual, reference)
+
+
+def _reference(model: pin.Model) -> np.ndarray | None:
+    """The configuration an MJCF keyframe named ``home`` gives, if any."""
+    refs = model.referenceConfigurations
+    for key in ("home",):
+        if key in refs:
+            return np.array(refs[key], dtype=float)
+    return None
 
 
 #: The numeric attributes of a URDF's elements, and how many numbers each holds.
@@ -91,7 +252,7 @@ _NUMERIC = {
 }
 
 
-def _check_physical(root: ET.Element, file: Path) -> None:
+def _check_physical(root: ET.Element, file: str) -> None:
     """Refuse, by name, what Pinocchio would build into a wrong model (a negative or NaN
     mass, a zero joint axis, NaN placements or limits) and chains too long to build."""
     movable = [j for j in root.iter("joint") if j.get("type", "fixed") != "fixed"]
@@ -102,7 +263,10 @@ def _check_physical(root: ET.Element, file: Path) -> None:
         )
     for owner in root:
         where = f"{file}: {owner.tag} {owner.get('name')!r}"
+        fixed = owner.tag == "joint" and owner.get("type", "fixed") == "fixed"
         for element in owner.iter():
+            if fixed and element.tag == "axis":
+                continue  # a fixed joint's axis is not used
             for key, count in _NUMERIC.get(element.tag, {}).items():
                 text = element.get(key)
                 if text is None:
@@ -122,24 +286,39 @@ def _check_physical(root: ET.Element, file: Path) -> None:
                     raise URDFError(f'{where}: {tag} is no direction; give one, e.g. "0 0 1"')
 
 
-def _default_tip(model: pin.Model, file: Path) -> str:
+def _default_tip(model: pin.Model, file: str) -> str:
+    """The last link of an unbranched tree: of the joint tree *and* of the links fixed
+    after its last joint (fixed fingers make the link tree branch while the joint tree
+    does not; then, as for any branch, the caller must choose)."""
+    bodies = [str(f.name) for f in model.frames if f.type == pin.FrameType.BODY]
     leaves = [j for j in range(1, model.njoints) if len(model.children[j]) == 0]
     if len(leaves) != 1:
-        bodies = [str(f.name) for f in model.frames if f.type == pin.FrameType.BODY]
         raise URDFError(
             f"{file}: the kinematic tree branches; pass tip= one of its links: {', '.join(bodies)}"
         )
     leaf = leaves[0]
-    # The deepest body attached to that joint (fixed links after it included).
-    candidates = [
-        i
-        for i, f in enumerate(model.frames)
-        if f.parentJoint == leaf and f.type == pin.FrameType.BODY
-    ]
-    return str(model.frames[candidates[-1]].name)
+    on_leaf = [i for i, f in enumerate(model.frames)
+               if f.parentJoint == leaf and f.type == pin.FrameType.BODY]  # fmt: skip
+    # A body on the leaf joint is an end of the link tree when no other body of that joint
+    # hangs from it (through the fixed joints' frames).
+    hangs = set()
+    for i in on_leaf:
+        parent = model.frames[i].parentFrame
+        while parent > 0 and model.frames[parent].parentJoint == leaf:
+            if model.frames[parent].type == pin.FrameType.BODY:
+                hangs.add(parent)
+            parent = model.frames[parent].parentFrame
+    ends = [i for i in on_leaf if i not in hangs]
+    if len(ends) > 1:
+        names = ", ".join(str(model.frames[i].name) for i in ends)
+        raise URDFError(
+            f"{file}: the links fixed after joint {model.names[leaf]!r} branch ({names}); "
+            f"pass tip= one of its links: {', '.join(bodies)}"
+        )
+    return str(model.frames[ends[-1]].name)
 
 
-def _locked_configuration(model: pin.Model, locked: Mapping[str, float], file: Path) -> np.ndarray:
+def _locked_configuration(model: pin.Model, locked: Mapping[str, float], file: str) -> np.ndarray:
     q = pin.neutral(model)
     for name, value in locked.items():
         if not model.existJointName(name):
@@ -157,9 +336,7 @@ def _locked_configuration(model: pin.Model, locked: Mapping[str, float], file: P
     return q
 
 
-def _bound_continuous_joints(
-    model: pin.Model, limits: tuple[float, float], file: Path
-) -> pin.Model:
+def _bound_continuous_joints(model: pin.Model, limits: tuple[float, float], file: str) -> pin.Model:
     """Copy ``model`` with each continuous joint replaced by a revolute joint in ``limits``."""
     lo, hi = float(limits[0]), float(limits[1])
     if not (lo < hi):

@@ -1,0 +1,265 @@
+"""Robots from the files users bring, and robots derived from others (a mixin of
+:class:`~redres.robot.Robot`, kept here so that ``robot.py`` stays the kinematics).
+
+- :meth:`RobotFiles.from_urdf`, :meth:`~RobotFiles.from_urdf_string` and
+  :meth:`~RobotFiles.from_mjcf` load a description through Pinocchio's parsers, keep the
+  base-to-tip chain (:mod:`redres.robot.urdf`), fit link capsules to the collision
+  geometry (:mod:`redres.robot.fitting`) so that obstacle objectives work on the robot,
+  and keep its visual meshes for the report and the viewer (:mod:`redres.robot.meshes`).
+- The neutral pose of a file robot is the file's reference configuration when it names
+  one (an MJCF keyframe ``home``), else the middle of each joint's range (zero for a joint
+  without finite limits): zero clipped into the limits is, for many arms, a stretched
+  singular pose on a limit.
+- :meth:`~RobotFiles.with_limits` gives the same robot under tighter velocity,
+  acceleration or torque limits than its file says; every scheme and controller reads
+  the limits from the robot, so they all honour them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from .._validate import FloatArray
+from ..errors import InvalidParameterError, ShapeError
+
+if TYPE_CHECKING:
+    from .meshes import LinkMesh
+    from .robot import Robot
+    from .urdf import LoadedModel
+
+from .urdf import ModelSource
+
+_PI = float(np.pi)
+
+
+def file_neutral(model: pin.Model, reference: np.ndarray | None) -> FloatArray:
+    """The neutral pose of a file robot (module docstring)."""
+    lo = np.array(model.lowerPositionLimit, dtype=float)
+    hi = np.array(model.upperPositionLimit, dtype=float)
+    if reference is not None and reference.shape == lo.shape:
+        if np.all((reference >= lo) & (reference <= hi)):
+            return reference.copy()
+    finite = np.isfinite(lo) & np.isfinite(hi)
+    return np.where(finite, 0.5 * (lo + hi), np.clip(0.0, lo, hi))
+
+
+def _positive_limits(value: Any, n: int, name: str, current: FloatArray) -> FloatArray:
+    arr = np.array(value, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise ShapeError(f"{name} must be a number or have shape ({n},); got shape {arr.shape}")
+    if np.isnan(arr).any() or np.any(arr <= 0):
+        raise InvalidParameterError(f"{name} must be positive (inf: unknown); got {arr}")
+    if np.any(arr > current):
+        j = int(np.argmax(arr - current))
+        raise InvalidParameterError(
+            f"{name}[{j}] = {arr[j]:g} exceeds the robot's own limit {current[j]:g}; "
+            "with_limits tightens limits, it cannot raise them"
+        )
+    return arr
+
+
+@dataclass(frozen=True)
+class _VisualSource:
+    """Where a file robot's visual meshes are read from when first asked for."""
+
+    source: ModelSource
+    tip: str
+    locked: Mapping[str, float] | None
+    continuous_limits: tuple[float, float]
+
+
+class RobotFiles:
+    """Loaders and derived robots for :class:`~redres.robot.Robot` (module docstring)."""
+
+    @property
+    def visuals(self) -> tuple[LinkMesh, ...]:
+        """Visual meshes of a file robot, in its links' frames (empty for the built-ins):
+        read from the file on first use (the report and the viewer ask), then kept."""
+        state = self.__dict__
+        found = state.get("_visuals")
+        if found is None:
+            where: _VisualSource | None = state.get("_visual_source")
+            found = () if where is None else _read_visuals(where)
+            state["_visuals"] = found
+        return found  # type: ignore[no-any-return]
+
+    @visuals.setter
+    def visuals(self, value: Sequence[LinkMesh]) -> None:
+        self.__dict__["_visuals"] = tuple(value)
+
+    @classmethod
+    def _from_loaded(
+        cls, loaded: LoadedModel, name: str | None, capsules: bool, where: _VisualSource
+    ) -> Robot:
+        from . import fitting
+
+        model = loaded.model
+        home = file_neutral(model, loaded.reference)
+        robot: Robot = cls(model, tip=loaded.tip, name=name or str(model.name), home=home)  # type: ignore[call-arg, assignment]
+        if capsules and loaded.collision is not None:
+            robot.capsules = fitting.link_capsules(model, loaded.collision)
+        robot.__dict__["_visual_source"] = where
+        return robot
+
+    @classmethod
+    def _load(
+        cls,
+        source: ModelSource,
+        tip: str | None,
+        locked: Mapping[str, float] | None,
+        name: str | None,
+        continuous_limits: tuple[float, float],
+        capsules: bool,
+    ) -> Robot:
+        from .urdf import load_model
+
+        geometry = ("collision",) if capsules else ()
+        loaded = load_model(source, tip, locked, continuous_limits, geometry=geometry)
+        where = _VisualSource(source, loaded.tip, locked, continuous_limits)
+        return cls._from_loaded(loaded, name, capsules, where)
+
+    @classmethod
+    def from_urdf(
+        cls,
+        path: str | Path,
+        tip: str | None = None,
+        *,
+        locked: Mapping[str, float] | None = None,
+        name: str | None = None,
+        continuous_limits: tuple[float, float] = (-_PI, _PI),
+        capsules: bool = True,
+    ) -> Robot:
+        """Load a robot from a URDF file, keeping only the base-to-``tip`` chain.
+
+        Joints off that chain (gripper fingers, a second arm) are locked at the value given
+        in ``locked`` (joint name -> position), else at zero clipped into their limits.
+        Continuous joints become revolute joints limited to ``continuous_limits``.
+        Link capsules are fitted to the collision geometry (``robot.capsules``), visual
+        meshes kept (``robot.visuals``); a mesh that cannot be read leaves them out.
+
+        Args:
+            path: URDF file (XML text: :meth:`from_urdf_string`).
+            tip: frame (link) name at the end of the chain; may be omitted when the URDF
+                is an unbranched chain, links fixed after the last joint included (a hand
+                with fixed fingers branches: give the tip).
+            locked: positions of the joints that are locked.
+            name: robot name (default: the URDF's robot name).
+            continuous_limits: position limits given to continuous joints, rad.
+            capsules: fit link capsules to the collision geometry.
+
+        Raises:
+            ModelFileNotFoundError: the file does not exist.
+            URDFError: the file cannot be parsed, or ``tip`` is missing or ambiguous.
+        """
+        from .urdf import urdf_source
+
+        return cls._load(urdf_source(path), tip, locked, name, continuous_limits, capsules)
+
+    @classmethod
+    def from_urdf_string(
+        cls,
+        xml: str,
+        tip: str | None = None,
+        *,
+        locked: Mapping[str, float] | None = None,
+        name: str | None = None,
+        continuous_limits: tuple[float, float] = (-_PI, _PI),
+        capsules: bool = True,
+        mesh_dir: str | Path | None = None,
+    ) -> Robot:
+        """:meth:`from_urdf` on URDF text (e.g. the output of xacro or a ROS parameter).
+
+        Args:
+            xml: the URDF document.
+            mesh_dir: where relative mesh paths (and ``package://`` roots) are found
+                (default: the current folder).
+            others: as :meth:`from_urdf`.
+        """
+        if not isinstance(xml, str):
+            raise InvalidParameterError(f"xml must be a str; got {type(xml).__name__}")
+        source = ModelSource("<URDF string>", "urdf", text=xml)
+        if mesh_dir is not None:
+            source.mesh_dir = Path(mesh_dir)
+        return cls._load(source, tip, locked, name, continuous_limits, capsules)
+
+    @classmethod
+    def from_mjcf(
+        cls,
+        path: str | Path,
+        tip: str | None = None,
+        *,
+        locked: Mapping[str, float] | None = None,
+        name: str | None = None,
+        continuous_limits: tuple[float, float] = (-_PI, _PI),
+        capsules: bool = True,
+    ) -> Robot:
+        """Load a robot from an MJCF file (MuJoCo's format; the MuJoCo Menagerie's models)
+        through Pinocchio's MJCF parser, with the tip and locking rules of
+        :meth:`from_urdf`. A keyframe named ``home`` becomes :meth:`neutral`.
+
+        MJCF has no joint velocity limits: ``qd_max`` is ``inf`` until set with
+        :meth:`with_limits`.
+
+        Raises:
+            ModelFileNotFoundError: the file does not exist.
+            URDFError: the file cannot be parsed, or ``tip`` is missing or ambiguous.
+        """
+        from .urdf import mjcf_source
+
+        return cls._load(mjcf_source(path), tip, locked, name, continuous_limits, capsules)
+
+    def with_limits(
+        self,
+        *,
+        qd_max: float | Sequence[float] | FloatArray | None = None,
+        qdd_max: float | Sequence[float] | FloatArray | None = None,
+        tau_max: float | Sequence[float] | FloatArray | None = None,
+        name: str | None = None,
+    ) -> Robot:
+        """The same robot under tighter limits: a new :class:`Robot` (this one is
+        unchanged) whose ``qd_max``, ``qdd_max`` or ``tau_max`` are the given values
+        (a number for every joint, or shape ``(n,)``; rad/s, rad/s², N·m). Every scheme,
+        :class:`~redres.control.Controller` path and :func:`~redres.run` reads them.
+
+        Raises:
+            InvalidParameterError: a value that is not positive, or above the robot's own
+                limit (this tightens limits; a model with a wrong limit is fixed in its
+                file).
+            ShapeError: a vector of the wrong length.
+        """
+        robot: Robot = self  # type: ignore[assignment]
+        n = robot.n
+        model = pin.Model(robot.model)
+        if qd_max is not None:
+            vel = _positive_limits(qd_max, n, "qd_max", robot.qd_max)
+            model.upperVelocityLimit, model.lowerVelocityLimit = vel, -vel
+        if tau_max is not None:
+            tau = _positive_limits(tau_max, n, "tau_max", robot.tau_max)
+            model.upperEffortLimit, model.lowerEffortLimit = tau, -tau
+        acc = robot.qdd_max
+        if qdd_max is not None:
+            acc = _positive_limits(qdd_max, n, "qdd_max", acc)
+        out: Robot = type(robot)(model, tip=robot.tip, name=name or robot.name,
+                                 home=robot.neutral(), qdd_max=acc)  # fmt: skip
+        out.capsules = list(robot.capsules)
+        for key in ("_visual_source", "_visuals"):  # the same meshes, read once
+            if key in robot.__dict__:
+                out.__dict__[key] = robot.__dict__[key]
+        return out
+
+
+def _read_visuals(where: _VisualSource) -> tuple[LinkMesh, ...]:
+    from .meshes import link_meshes
+    from .urdf import load_model
+
+    loaded = load_model(where.source, where.tip, where.locked, where.continuous_limits,
+                        geometry=("visual",))  # fmt: skip
+    return () if loaded.visual is None else link_meshes(loaded.model, loaded.visual)

@@ -1,0 +1,341 @@
+"""A live 3D viewer in the browser, on viser (the ``viewer`` extra: ``pip install
+'redres[viewer]'``).
+
+>>> viewer = rr.view(robot, obstacles=[ball])          # doctest: +SKIP
+>>> for k in range(steps):                             # doctest: +SKIP
+...     q = controller.step(q)
+...     viewer.push(q)                                 # never waits for the browser
+
+:class:`Viewer` draws the robot — its visual meshes when its file has them
+(``robot.visuals``), else its link capsules, else the polyline through its frame origins —
+the obstacles, a floor grid, the tool frame and the target. :meth:`Viewer.push` only
+stores the configuration (a copy, under a lock) and returns; a sender thread sends the
+latest one at most ``rate`` times a second, so a loop is never slowed by the viewer and,
+when the browser lags, intermediate configurations are dropped, never queued.
+:meth:`Viewer.show_runs` adds finished runs with a drop-down, a time slider to scrub them
+and a play button. Each link is one scene node whose pose is updated: its meshes are sent
+once. The configuration shown is also written in the side panel (``q = [...]``), which
+automated checks read.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ._validate import FloatArray, as_scalar, as_vector
+from .errors import InvalidParameterError, MissingDependencyError
+
+if TYPE_CHECKING:
+    from .control import RunLog
+    from .objectives import Obstacle
+    from .robot import Robot
+
+_HINT = "install the extra: pip install 'redres[viewer]'"
+
+
+def _viser() -> Any:
+    try:
+        import viser
+    except ImportError:
+        raise MissingDependencyError(f"the live viewer needs viser; {_HINT}") from None
+    return viser
+
+
+def _wxyz(R: FloatArray) -> tuple[float, float, float, float]:
+    """Unit quaternion (w, x, y, z) of a rotation matrix."""
+    import pinocchio as pin
+
+    quat = pin.Quaternion(np.asarray(R, dtype=float)).coeffs()  # x, y, z, w
+    return float(quat[3]), float(quat[0]), float(quat[1]), float(quat[2])
+
+
+def _rgb(colour: str) -> tuple[int, int, int]:
+    c = colour.lstrip("#")
+    return int(c[0:2], 16), int(c[2:4], 16), int(c[4:6], 16)
+
+
+class Viewer:
+    """A robot in a browser tab, updated from a loop (module docstring).
+
+    Args:
+        robot: the robot to show.
+        obstacles: spheres, points and capsules to draw (world coordinates).
+        host, port: where viser serves the page (``port=0``: a free port).
+        rate: at most this many scene updates per second, Hz.
+        geometry: ``"auto"`` (meshes, else capsules, else lines), ``"meshes"``,
+            ``"capsules"`` or ``"lines"``.
+
+    Raises:
+        MissingDependencyError: viser is not installed.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        *,
+        obstacles: Sequence[Obstacle] = (),
+        host: str = "127.0.0.1",
+        port: int = 8080,
+        rate: float = 30.0,
+        geometry: str = "auto",
+    ) -> None:
+        viser = _viser()
+        self.robot = robot
+        self.rate = as_scalar(rate, "rate", minimum=0.0, strict=True)
+        if geometry not in ("auto", "meshes", "capsules", "lines"):
+            raise InvalidParameterError(
+                f"geometry must be 'auto', 'meshes', 'capsules' or 'lines'; got {geometry!r}"
+            )
+        if geometry == "auto":
+            geometry = "meshes" if robot.visuals else "capsules" if robot.capsules else "lines"
+        self.geometry = geometry
+        self.server = viser.ViserServer(host=host, port=port, label=f"redres · {robot.name}",
+                                         verbose=False)  # fmt: skip
+        self._lock = threading.Lock()
+        self._pending: FloatArray | None = None
+        self._target: FloatArray | None = None
+        self._shown: FloatArray | None = None
+        self._stop = threading.Event()
+        self._runs: list[RunLog] = []
+        self._build_scene(list(obstacles))
+        self.push(robot.neutral())
+        self._send(robot.neutral(), None)
+        self._thread = threading.Thread(target=self._sender, name="redres-viewer", daemon=True)
+        self._thread.start()
+
+    # ------------------------------------------------------------------ public
+    @property
+    def url(self) -> str:
+        """Address of the page."""
+        host = self.server.get_host()
+        return f"http://{'127.0.0.1' if host in ('0.0.0.0', '::') else host}:{self.port}"
+
+    @property
+    def port(self) -> int:
+        """The port the page is served on."""
+        return int(self.server.get_port())
+
+    @property
+    def shown(self) -> FloatArray | None:
+        """The configuration last sent to the browser."""
+        return None if self._shown is None else self._shown.copy()
+
+    def push(self, q: Any, target: Any = None) -> None:
+        """Show configuration ``q`` (shape ``(n,)``) and, optionally, a target pose (4x4) or
+        position (3,), soon: returns at once; only the latest push is sent."""
+        qv = np.array(as_vector(q, "q", self.robot.n), dtype=float)
+        tv = None if target is None else np.array(target, dtype=float)
+        with self._lock:
+            self._pending, self._target = qv, tv if tv is not None else self._target
+
+    def show_runs(self, runs: Sequence[RunLog]) -> None:
+        """Add finished runs of this robot: a drop-down to pick one, a time slider to
+        scrub it, a play button, and its target (dashed) and actual paths."""
+        self._runs = [log for log in runs if log.steps]
+        if not self._runs:
+            raise InvalidParameterError("show_runs needs at least one run with steps")
+        gui = self.server.gui
+        labels = [f"{i}: {log.label or log.scheme}" for i, log in enumerate(self._runs)]
+        pick = gui.add_dropdown("run", options=labels, initial_value=labels[0])
+        slider = gui.add_slider("t (s)", min=0.0, max=1.0, step=1e-3, initial_value=0.0)
+        play = gui.add_button("play")
+
+        def current() -> RunLog:
+            return self._runs[labels.index(pick.value)]
+
+        def scrub(_: Any = None) -> None:
+            log = current()
+            k = int(np.clip(round(slider.value / log.dt), 0, log.steps - 1))
+            self.push(log.q[k], log.target[k] if np.any(log.target) else None)
+
+        def repick(_: Any = None) -> None:
+            log = current()
+            slider.max = float(log.t[-1]) if log.steps > 1 else 1.0
+            slider.value = 0.0
+            self._draw_paths(log)
+            scrub()
+
+        def run_once(_: Any = None) -> None:
+            threading.Thread(target=self._play, args=(current(), slider), daemon=True).start()
+
+        slider.on_update(scrub)
+        pick.on_update(repick)
+        play.on_click(run_once)
+        repick()
+
+    def close(self) -> None:
+        """Stop the sender and the server."""
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        self.server.stop()
+
+    def __enter__(self) -> Viewer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ internals
+    def _play(self, log: RunLog, slider: Any) -> None:
+        start = time.perf_counter()
+        while not self._stop.is_set():
+            t = time.perf_counter() - start
+            if t > log.t[-1]:
+                break
+            slider.value = float(t)
+            time.sleep(1.0 / self.rate)
+
+    def _sender(self) -> None:
+        period = 1.0 / self.rate
+        while not self._stop.wait(period):
+            with self._lock:
+                q, target, self._pending = self._pending, self._target, None
+            if q is not None:
+                self._send(q, target)
+
+    def _frames(self) -> list[str]:
+        if self.geometry == "meshes":
+            return sorted({m.frame for m in self.robot.visuals if m.frame is not None})
+        if self.geometry == "capsules":
+            return sorted({c.frame for c in self.robot.capsules})
+        return []
+
+    def _build_scene(self, obstacles: list[Obstacle]) -> None:
+        from .objectives import SphereObstacle
+        from .report.scene3d import CAPSULE_COLOUR, OBSTACLE_COLOUR, capsule_mesh
+
+        scene = self.server.scene
+        scene.set_up_direction("+z")
+        robot = self.robot
+        tip = robot.fk(robot.neutral())[:3, 3]
+        reach = max(0.5, float(np.linalg.norm(tip)))
+        camera = self.server.initial_camera
+        camera.look_at = tuple(float(x) for x in 0.5 * tip)
+        camera.position = tuple(float(x) for x in 0.5 * tip + reach * np.array([1.6, -1.6, 1.0]))
+        scene.add_grid("/floor", width=2.0, height=2.0, cell_size=0.1)
+        self._links: dict[str, Any] = {}
+        for frame in self._frames():
+            self._links[frame] = scene.add_frame(f"/robot/{frame}", show_axes=False)
+        if self.geometry == "meshes":
+            for i, mesh in enumerate(self.robot.visuals):
+                parent = f"/robot/{mesh.frame}" if mesh.frame is not None else "/base"
+                scene.add_mesh_simple(
+                    f"{parent}/mesh{i}",
+                    vertices=mesh.vertices.astype(np.float32),
+                    faces=mesh.triangles.astype(np.uint32),
+                    color=_rgb(mesh.colour),
+                )
+        elif self.geometry == "capsules":
+            for i, cap in enumerate(self.robot.capsules):
+                vertices, faces = capsule_mesh(cap.a, cap.b, cap.radius)
+                scene.add_mesh_simple(f"/robot/{cap.frame}/capsule{i}",
+                                      vertices=vertices.astype(np.float32),
+                                      faces=faces.astype(np.uint32), color=_rgb(CAPSULE_COLOUR),
+                                      opacity=0.8)  # fmt: skip
+        self._arm = None
+        if self.geometry == "lines":
+            self._arm = scene.add_line_segments("/robot/arm", points=np.zeros((1, 2, 3)),
+                                                colors=(31, 119, 180), thickness=0.008)  # fmt: skip
+        for i, obs in enumerate(obstacles):
+            a, b = (obs.center, obs.center) if isinstance(obs, SphereObstacle) else (obs.a, obs.b)
+            vertices, faces = capsule_mesh(a, b, max(obs.radius, 0.005))
+            scene.add_mesh_simple(
+                f"/obstacles/{i}_{obs.name}",
+                vertices=vertices.astype(np.float32),
+                faces=faces.astype(np.uint32),
+                color=_rgb(OBSTACLE_COLOUR),
+                opacity=0.6,
+            )
+        self._tool = scene.add_frame("/tool", axes_length=0.08, axes_radius=0.004)
+        self._goal = scene.add_icosphere("/target", radius=0.012, color=(214, 39, 40),
+                                         visible=False)  # fmt: skip
+        self._paths: list[Any] = []
+        self._status = self.server.gui.add_markdown("q = ")
+
+    def _draw_paths(self, log: RunLog) -> None:
+        for handle in self._paths:
+            handle.remove()
+        self._paths = []
+        stride = max(1, log.steps // 500)
+        for name, points, colour in (("actual", log.position, (31, 119, 180)),
+                                     ("target", log.target, (85, 85, 85))):  # fmt: skip
+            p = points[::stride]
+            if len(p) > 1 and np.any(p):
+                segments = np.stack([p[:-1], p[1:]], axis=1).astype(np.float32)
+                self._paths.append(self.server.scene.add_line_segments(
+                    f"/paths/{name}", points=segments, colors=colour, thickness=0.004))  # fmt: skip
+
+    def _send(self, q: FloatArray, target: FloatArray | None) -> None:
+        import pinocchio as pin
+
+        robot = self.robot
+        model, data = robot.model, robot.data
+        pin.framesForwardKinematics(model, data, q)
+        with self.server.atomic():
+            for frame, handle in self._links.items():
+                T = data.oMf[robot.frame_id(frame)]
+                handle.position = tuple(float(x) for x in T.translation)
+                handle.wxyz = _wxyz(T.rotation)
+            tip = data.oMf[robot.frame_id(None)]
+            self._tool.position = tuple(float(x) for x in tip.translation)
+            self._tool.wxyz = _wxyz(tip.rotation)
+            if self._arm is not None:
+                from .report.view3d import arm_points
+
+                p = arm_points(robot, q)
+                self._arm.points = np.stack([p[:-1], p[1:]], axis=1).astype(np.float32)
+            if target is not None:
+                position = target[:3, 3] if target.shape == (4, 4) else target[:3]
+                self._goal.position = tuple(float(x) for x in position)
+                self._goal.visible = True
+            self._status.content = "q = [" + ", ".join(f"{x:.4f}" for x in q) + "]"
+        self._shown = q
+
+
+def view(robot: Robot, **kwargs: Any) -> Viewer:
+    """Show ``robot`` in the browser (a :class:`Viewer`; its ``url`` is printed)."""
+    viewer = Viewer(robot, **kwargs)
+    print(f"redres: viewer at {viewer.url}")
+    return viewer
+
+
+def serve_scenario(
+    spec: Any, *, host: str = "127.0.0.1", port: int = 8080, seconds: float | None = None
+) -> int:
+    """``redres view``: run every scheme of a scenario, then serve the runs (drop-down,
+    time slider, play) until interrupted or for ``seconds``; returns the exit code."""
+    from .runner import run_scenario, summarise, warning_lines
+
+    logs = run_scenario(spec, progress=False)
+    for line in warning_lines([summarise(spec.robot, log) for log in logs]):
+        print(line)
+    return serve_runs(spec, logs, host=host, port=port, seconds=seconds)
+
+
+def serve_runs(
+    spec: Any,
+    logs: Sequence[RunLog],
+    *,
+    host: str = "127.0.0.1",
+    port: int = 8080,
+    seconds: float | None = None,
+) -> int:
+    """Serve finished runs of a scenario's robot (``redres run --view``, ``redres view``)
+    until interrupted or for ``seconds``; returns the exit code."""
+    viewer = Viewer(spec.robot, obstacles=spec.obstacles, host=host, port=port)
+    viewer.show_runs(logs)
+    print(f"redres: {spec.name}: {len(logs)} runs at {viewer.url} (Ctrl-C to stop)", flush=True)
+    try:
+        deadline = None if seconds is None else time.monotonic() + seconds
+        while deadline is None or time.monotonic() < deadline:
+            time.sleep(0.2)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        viewer.close()
+    return 0

@@ -1,0 +1,128 @@
+"""Robots from the files users bring: MJCF, URDF text, tips that follow the link tree,
+a neutral pose that is not a limit, and robots under tighter limits."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import redres as rr
+from redres.errors import InvalidParameterError, ModelFileNotFoundError, ShapeError, URDFError
+from redres.testing import assert_jacobian_close, frame_jacobian_fd
+
+
+@pytest.fixture(scope="module")
+def arms(fixtures_dir: Path) -> tuple[rr.Robot, rr.Robot]:
+    return (rr.Robot.from_urdf(fixtures_dir / "arm3.urdf"),
+            rr.Robot.from_mjcf(fixtures_dir / "arm3.xml"))  # fmt: skip
+
+
+def test_mjcf_gives_the_urdf_arm(arms: tuple[rr.Robot, rr.Robot], rng: np.random.Generator) -> None:
+    urdf, mjcf = arms
+    assert urdf.n == mjcf.n == 3 and urdf.tip == mjcf.tip == "tool"
+    assert mjcf.joint_names == ["j1", "j2", "j3"]
+    np.testing.assert_allclose(mjcf.q_min, urdf.q_min)
+    np.testing.assert_allclose(mjcf.q_max, urdf.q_max)
+    for _ in range(10):
+        q = urdf.random_configuration(rng)
+        np.testing.assert_allclose(mjcf.fk(q), urdf.fk(q), atol=1e-12)
+        for frame in ("l2", "l3", "tool"):
+            np.testing.assert_allclose(mjcf.fk(q, frame), urdf.fk(q, frame), atol=1e-12)
+        np.testing.assert_allclose(mjcf.jacobian(q), urdf.jacobian(q), atol=1e-12)
+        np.testing.assert_allclose(mjcf.jacobian(q, reference="local"),
+                                   urdf.jacobian(q, reference="local"), atol=1e-12)  # fmt: skip
+        assert_jacobian_close(mjcf.jacobian(q), frame_jacobian_fd(mjcf, q), atol=1e-7)
+        np.testing.assert_allclose(mjcf.mass_matrix(q), urdf.mass_matrix(q), atol=1e-10)
+
+
+def test_mjcf_keyframe_home_is_the_neutral_pose(arms: tuple[rr.Robot, rr.Robot]) -> None:
+    np.testing.assert_allclose(arms[1].neutral(), [0.3, 0.4, -0.8])
+    assert np.all(np.isinf(arms[1].qd_max))  # MJCF has no velocity limits
+
+
+def test_missing_and_malformed_mjcf(tmp_path: Path) -> None:
+    with pytest.raises(ModelFileNotFoundError, match="MJCF file not found"):
+        rr.Robot.from_mjcf(tmp_path / "nope.xml")
+    bad = tmp_path / "bad.xml"
+    bad.write_text("<robot/>")
+    with pytest.raises(URDFError, match="expected <mujoco>"):
+        rr.Robot.from_mjcf(bad)
+
+
+def test_urdf_string_gives_the_file_robot(fixtures_dir: Path, rng: np.random.Generator) -> None:
+    path = fixtures_dir / "arm3.urdf"
+    text = path.read_text()
+    robot = rr.Robot.from_urdf_string(text, mesh_dir=fixtures_dir)
+    reference = rr.Robot.from_urdf(path)
+    q = reference.random_configuration(rng)
+    np.testing.assert_allclose(robot.fk(q), reference.fk(q), atol=1e-14)
+    assert len(robot.capsules) == len(reference.capsules) == 3
+    assert len(robot.visuals) == len(reference.visuals)
+
+
+def test_urdf_text_given_as_a_path_says_what_to_do() -> None:
+    text = "<robot name='x'>" + "<link name='a'/>" * 400 + "</robot>"
+    with pytest.raises(URDFError, match="from_urdf_string"):
+        rr.Robot.from_urdf(text)
+
+
+KINOVA_LIKE = """<?xml version="1.0"?>
+<robot name="kinova_like">
+  <link name="base"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.2"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1" effort="1"/>
+  </joint>
+  <link name="l1"/>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="hand"/>
+    <origin xyz="0 0 0.3"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" velocity="1" effort="1"/>
+  </joint>
+  <link name="hand"/>
+  <joint name="finger_left_joint" type="fixed"><parent link="hand"/><child link="finger_left"/>
+    <origin xyz="0.02 0 0.1"/></joint>
+  <link name="finger_left"/>
+  <joint name="finger_right_joint" type="fixed"><parent link="hand"/><child link="finger_right"/>
+    <origin xyz="-0.02 0 0.1"/></joint>
+  <link name="finger_right"/>
+</robot>
+"""
+
+
+def test_fixed_fingers_make_the_link_tree_branch_so_the_tip_is_asked_for() -> None:
+    with pytest.raises(URDFError, match=r"links fixed after joint 'j2' branch .*pass tip="):
+        rr.Robot.from_urdf_string(KINOVA_LIKE)
+    robot = rr.Robot.from_urdf_string(KINOVA_LIKE, tip="hand")
+    assert robot.tip == "hand" and robot.n == 2
+    one_finger = KINOVA_LIKE.replace(
+        KINOVA_LIKE[KINOVA_LIKE.index('  <joint name="finger_right_joint"'):
+                    KINOVA_LIKE.index("</robot>")], "")  # fmt: skip
+    assert rr.Robot.from_urdf_string(one_finger).tip == "finger_left"  # unbranched: the end
+
+
+def test_file_robots_start_mid_range_not_on_a_limit(fixtures_dir: Path) -> None:
+    robot = rr.Robot.from_urdf(fixtures_dir / "panda_description.urdf", tip="panda_hand")
+    np.testing.assert_allclose(robot.neutral(), 0.5 * (robot.q_min + robot.q_max))
+    assert np.all(robot.joint_limit_margin(robot.neutral()) > 0.3)
+    zero = np.clip(np.zeros(robot.n), robot.q_min, robot.q_max)  # the old default
+    assert robot.joint_limit_margin(zero).min() == pytest.approx(0.0, abs=1e-12)
+    sigma = np.linalg.svd(robot.jacobian(robot.neutral()), compute_uv=False)[-1]
+    sigma_zero = np.linalg.svd(robot.jacobian(zero), compute_uv=False)[-1]
+    assert sigma > 3 * sigma_zero  # σ_min 0.149 against 0.041 at the stretched pose
+
+
+def test_with_limits_returns_a_tighter_robot() -> None:
+    panda = rr.models.panda()
+    slow = panda.with_limits(qd_max=0.5 * panda.qd_max, qdd_max=3.0)
+    np.testing.assert_allclose(slow.qd_max, 0.5 * panda.qd_max)
+    np.testing.assert_allclose(slow.qdd_max, 3.0)
+    np.testing.assert_allclose(panda.qd_max, rr.models.panda().qd_max)  # unchanged
+    assert slow.capsules == panda.capsules and slow.tip == panda.tip
+    q = panda.random_configuration(1)
+    np.testing.assert_allclose(slow.fk(q), panda.fk(q), atol=0)
+    with pytest.raises(InvalidParameterError, match="cannot raise"):
+        panda.with_limits(qd_max=2 * panda.qd_max)
+    with pytest.raises(InvalidParameterError, match="positive"):
+        panda.with_limits(tau_max=0.0)
+    with pytest.raises(ShapeError):
+        panda.with_limits(qd_max=[1.0, 2.0])

@@ -1,0 +1,104 @@
+"""Runs that tell: a joint past its limit, singular configurations and an unreachable
+target each give a warning, in the summary, on ``redres run``'s output and in --json."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import redres as rr
+from redres.cli import main
+from redres.control import Circle, Line
+from redres.objectives import JointLimitObjective
+from redres.resolution import GradientProjectionScheme, PseudoInverseScheme
+from redres.runner import NOT_REACHED_M, SINGULAR_SIGMA, run_warnings, summarise
+from redres.tasks import FrameTask
+
+
+def _kinds(robot: rr.Robot, log: rr.control.RunLog) -> dict[str, dict]:
+    return {w["kind"]: w for w in summarise(robot, log)["warnings"]}
+
+
+def test_a_joint_that_leaves_its_limits_is_named_with_the_amount() -> None:
+    # Baxter-like: gradient projection on the joint-limit cost, too weak to hold joint 4
+    # (range [-3.07, -0.07]) of a Panda that starts 0.02 rad inside its upper limit while
+    # the tool is pushed along the direction that closes that joint.
+    robot = rr.models.panda()
+    q0 = robot.neutral()
+    q0[3] = robot.q_max[3] - 0.02
+    start = robot.fk(q0)
+    end = start[:3, 3] + np.array([0.25, 0.0, -0.05])
+    scheme = GradientProjectionScheme([JointLimitObjective()], k_null=0.05)
+    log = rr.run(robot, FrameTask(), Line(start, end, 0.6), scheme, q0=q0)
+    excess = np.maximum(robot.q_min - log.q, log.q - robot.q_max)  # oracle
+    assert excess.max() > 0.01, "the fixture must leave the limits"
+    j = int(np.unravel_index(np.argmax(excess), excess.shape)[1])
+    warning = _kinds(robot, log)["joint_limits"]
+    assert warning["joint"] == robot.joint_names[j]
+    assert warning["value"] == pytest.approx(excess.max(), rel=1e-12)
+    assert warning["steps"] == int((excess > 1e-9).any(axis=1).sum())
+    assert robot.joint_names[j] in warning["message"] and "past its" in warning["message"]
+    assert -log.summary()["min_joint_limit_margin_rad"] == pytest.approx(excess.max())
+
+
+def test_an_unreachable_circle_warns_of_the_error_and_the_singularity() -> None:
+    # A vertical circle of 0.3 m radius whose centre is 0.3 m in front of the Panda's
+    # ready pose: it runs out to x = 0.91 m at the TCP's height, past the arm's reach,
+    # so the tool stops short and the arm stretches out (σ_min → 0).
+    robot = rr.models.panda()
+    start = robot.fk(robot.neutral())
+    circle = Circle(start, 0.3, 4.0, normal=(0.0, 1.0, 0.0), phase=-np.pi / 2)
+    log = rr.run(robot, FrameTask(), circle, PseudoInverseScheme(damping=0.05), duration=1.2)
+    found = _kinds(robot, log)
+    assert set(found) >= {"not_reached", "singular"}
+    error = log.position_error  # oracle: the log itself
+    assert found["not_reached"]["value"] == pytest.approx(error.max())
+    assert error.max() > NOT_REACHED_M
+    assert f"{1e3 * error.max():.1f} mm" in found["not_reached"]["message"]
+    assert found["singular"]["value"] == pytest.approx(log.sigma_min.min())
+    assert log.sigma_min.min() < SINGULAR_SIGMA
+    assert found["singular"]["steps"] == int((log.sigma_min < SINGULAR_SIGMA).sum())
+
+
+def test_a_clean_run_has_no_warning() -> None:
+    robot = rr.models.panda()
+    circle = Circle(robot.fk(robot.neutral()), 0.02, 0.2)
+    log = rr.run(robot, FrameTask(), circle, PseudoInverseScheme())
+    assert run_warnings(robot, log) == []
+
+
+SCENARIO = """
+name = "far"
+[robot]
+model = "panda"
+[trajectory]
+type = "circle"
+radius = 0.3
+period = 4.0
+normal = [0.0, 1.0, 0.0]
+phase = -1.5707963
+[run]
+duration = 1.2
+[[schemes]]
+type = "dls"
+damping = 0.05
+"""
+
+
+def test_redres_run_prints_one_line_per_warning_and_puts_them_in_json(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scenario = tmp_path / "far.toml"
+    scenario.write_text(SCENARIO)
+    assert main(["run", str(scenario), "--quiet", "--out", str(tmp_path / "a")]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("warning:")]
+    assert any("target not reached" in ln for ln in lines)
+    assert any("singular" in ln for ln in lines)
+    assert main(["run", str(scenario), "--json", "--out", str(tmp_path / "b")]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    kinds = {w["kind"] for w in payload["runs"][0]["warnings"]}
+    assert kinds == {"not_reached", "singular"}
+    assert len(lines) == len(payload["runs"][0]["warnings"])
