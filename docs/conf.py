@@ -39,6 +39,7 @@ if os.environ.get("REDRES_DOCS_STEPS"):
     os.environ["REDRES_EXAMPLE_STEPS"] = os.environ["REDRES_DOCS_STEPS"]
 
 from sphinx.ext.napoleon.docstring import GoogleDocstring  # noqa: E402
+from sphinx.util.inspect import TypeAliasForwardRef  # noqa: E402
 
 import redres  # noqa: E402
 
@@ -72,7 +73,7 @@ html_title = f"redres {release}"
 html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,
-    "header_links_before_dropdown": 6,
+    "header_links_before_dropdown": 4,
     "secondary_sidebar_items": ["page-toc"],
     "footer_start": ["copyright"],
     "footer_end": ["sphinx-version"],
@@ -87,6 +88,11 @@ autodoc_default_options = {"member-order": "bysource"}
 autodoc_typehints = "description"
 autodoc_typehints_description_target = "documented_params"
 autodoc_preserve_defaults = True
+# Keep NumPy's ArrayLike by name in signatures (expanded, it is a ten-line union).
+autodoc_type_aliases = {"ArrayLike": "ArrayLike"}
+# Sphinx 9.0 prints such an alias inside a union as "TypeAliasForwardRef('ArrayLike')":
+# make its repr the alias name.
+TypeAliasForwardRef.__repr__ = lambda self: str(self.name)  # type: ignore[method-assign]
 # The class docstring says what the constructor takes (Google style "Args:"); __init__
 # docstrings only point back to it, so they are not appended.
 autoclass_content = "class"
