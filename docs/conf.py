@@ -29,9 +29,11 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE / "_ext"))
 
 # Examples and notebooks run in this process and in Jupyter kernels: compile numba kernels
-# in the foreground (the cache of `make test` is then warm), and draw off-screen.
+# in the foreground (the cache of `make test` is then warm). sphinx-gallery draws with
+# Agg by itself; the notebooks need the kernel's inline backend, which MPLBACKEND would
+# override (their figures would silently vanish).
 os.environ.setdefault("REDRES_COMPILE", "foreground")
-os.environ.setdefault("MPLBACKEND", "Agg")
+os.environ.pop("MPLBACKEND", None)
 # The gallery runs each example at its own length (the closed-loop ones: the whole
 # scenario, 10 s at 1 kHz, a few seconds of build time each); REDRES_DOCS_STEPS=N
 # shortens them all to N control steps.
