@@ -11,7 +11,9 @@ asks each inventory with a short timeout and uses those that answer. References 
 external types (NumPy, SciPy, Pinocchio, Matplotlib, the standard library) are then
 links where an inventory was reached and plain text otherwise; ``nitpick_ignore_regex``
 below lists exactly those external namespaces so that their absence is never a warning.
-Everything of redres itself must resolve.
+Everything of redres itself must resolve: a public name to its page (``_ext/redres_api.py``
+redirects every other path of it there), an existing internal name (a private helper, a
+module constant, a type alias) to plain code text; a name that exists nowhere is an error.
 """
 
 from __future__ import annotations
