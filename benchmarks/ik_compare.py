@@ -314,7 +314,7 @@ def main() -> int:
     parser.add_argument("--json", type=Path, help="also write the figures to this file")
     args = parser.parse_args()
     warnings.simplefilter("ignore")  # rtb's and ikpy's deprecation notices
-    rr.warmup(["linalg", "ik"], quiet=True)  # compiled before timing, not behind
+    rr.warmup(["linalg", "chain", "ik"], quiet=True)  # compiled before timing, not behind
     rows: list[dict[str, Any]] = []
     with TemporaryDirectory() as tmp:
         for name in args.arms:

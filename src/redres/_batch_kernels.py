@@ -10,6 +10,10 @@ for bit. The loop runs over chunks of :data:`CHUNK` items, each with its own scr
 (the frame pose, the Jacobian), so that nothing is allocated per item but what
 ``_step`` allocates itself.
 
+:func:`ik_solves` runs the compiled position IK of :mod:`redres._ik_kernels`
+(``solve_packed``, the kernel behind :func:`redres.ik.ik`) on each item, with a fixed
+budget of attempts instead of a clock, so that its results are deterministic.
+
 Every kernel writes a per-item status (a status code of :mod:`redres.linalg._codes`;
 ``Q_NONFINITE`` for a configuration with NaN or ±inf) and never raises; :mod:`redres.batch`
 turns the first nonzero one into an error naming the item.
@@ -17,8 +21,20 @@ turns the first nonzero one into an error naming the item.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from ._ik_kernels import (
+    BEST_ORIENTATION,
+    BEST_POSITION,
+    CONVERGED,
+    ERR_ORIENTATION,
+    ERR_POSITION,
+    N_OPTIONS,
+    N_STATE,
+    solve_packed,
+)
 from ._jit import kernel, parallel_range
 from .linalg._codes import OK, Q_NONFINITE
 from .linalg._kernels import _step
@@ -82,3 +98,77 @@ def rate_steps(links, axes, kinds, q, xd, grad, k_null, weights, spec, qd, rank,
             stats[i, 0] = smin
             stats[i, 1] = smax
             stats[i, 2] = used
+
+
+@kernel(parallel=True)
+def ik_solves(  # type: ignore[no-untyped-def]
+    links,
+    axes,
+    kinds,
+    limits,
+    targets,
+    q0,
+    options,
+    rows,
+    keys,
+    attempts,
+    q,
+    errors,
+    counts,
+    status,
+):
+    """Position IK of every target: item ``i`` runs the attempts ``0 … attempts − 1`` of
+    ``_ik_kernels.solve_packed`` on ``targets[i]`` (N x 4 x 4) from ``q0[i]`` (``q0``
+    N x n, or 1 x n for all) with the restart key ``keys[i]`` (int64), ``options`` and
+    ``rows`` as ``solve_packed``'s (no preference). Every attempt that converges fills
+    the next of the ``S = q.shape[1]`` slots: ``q[i, s]`` (N x S x n) and
+    ``errors[i, s]`` (N x S x 2, position and orientation error); the search stops when
+    the slots are full or the attempts spent. When none converged, slot 0 holds the best
+    configuration found and its errors. ``counts[i]`` <- (solutions, attempts made,
+    iterations); ``status[i]`` <- 0, or -1 when the target is not a homogeneous
+    transform (nothing done). With ``S = 1`` this is :func:`redres.ik.ik`'s sequence of
+    calls (attempt 0 draws nothing, so one key serves every attempt)."""
+    count = targets.shape[0]
+    n = limits.shape[1]
+    slots = q.shape[1]
+    chunks = (count + CHUNK - 1) // CHUNK
+    for c in prange(chunks):
+        problem = np.empty(16 + N_OPTIONS)
+        io = np.empty(2 * n + N_STATE)
+        for k in range(N_OPTIONS):
+            problem[16 + k] = options[k]
+        for i in range(c * CHUNK, min(count, (c + 1) * CHUNK)):
+            for a in range(4):
+                for b in range(4):
+                    problem[4 * a + b] = targets[i, a, b]
+            start = q0[i] if q0.shape[0] > 1 else q0[0]
+            for j in range(n):
+                io[j] = start[j]
+            for k in range(N_STATE):
+                io[2 * n + k] = math.inf
+            found, attempt, iterations, code = 0, 0, 0, 0
+            while attempt < attempts and found < slots:
+                result, made, used = solve_packed(
+                    links, axes, kinds, limits, problem, io, rows, False, keys[i], attempt,
+                    attempts,
+                )  # fmt: skip
+                if result < 0:
+                    code = -1
+                    break
+                attempt += made
+                iterations += used
+                if result == CONVERGED:
+                    for j in range(n):
+                        q[i, found, j] = io[j]
+                    errors[i, found, 0] = io[2 * n + ERR_POSITION]
+                    errors[i, found, 1] = io[2 * n + ERR_ORIENTATION]
+                    found += 1
+            if found == 0:
+                for j in range(n):
+                    q[i, 0, j] = io[n + j]
+                errors[i, 0, 0] = io[2 * n + BEST_POSITION]
+                errors[i, 0, 1] = io[2 * n + BEST_ORIENTATION]
+            counts[i, 0] = found
+            counts[i, 1] = attempt
+            counts[i, 2] = iterations
+            status[i] = code

@@ -29,7 +29,13 @@ import math
 import numpy as np
 
 from ._jit import kernel
-from .linalg._dense_kernels import _cholesky, _cholesky_solve
+from .linalg._dense_kernels import (
+    _back_project,
+    _cholesky,
+    _cholesky_solve,
+    _finite_2d,
+    _gram,
+)
 from .linalg._kernels import step as _rate_step
 from .robot._chain_kernels import pose_error
 
@@ -149,12 +155,7 @@ def _primal_step(J, e, rows, grad, k, lam, threshold, out, null):  # type: ignor
     L = np.empty((rows, rows))
     r = np.empty(rows)
     rt = np.empty(rows)
-    for a in range(rows):
-        for b in range(a + 1):
-            acc = 0.0
-            for j in range(n):
-                acc += J[a, j] * J[b, j]
-            A[a, b] = acc
+    _gram(J, rows, A)
     if not _cholesky(A, L, rows, -threshold * threshold):
         return False
     if not _cholesky(A, L, rows, lam * lam):  # pragma: no cover - A ≻ threshold² I
@@ -166,18 +167,9 @@ def _primal_step(J, e, rows, grad, k, lam, threshold, out, null):  # type: ignor
         r[a] = e[a] + k * acc
         rt[a] = e[a]
     _cholesky_solve(L, r, rows)
-    want_null = null.shape[0] == n
-    if want_null:
+    if null.shape[0] == n:
         _cholesky_solve(L, rt, rows)
-    for j in range(n):
-        acc = -k * grad[j]
-        task = 0.0
-        for a in range(rows):
-            acc += J[a, j] * r[a]
-            task += J[a, j] * rt[a]
-        out[j] = acc
-        if want_null:
-            null[j] = acc - task
+    _back_project(J, rows, r, rt, grad, k, out, null)
     return True
 
 
@@ -285,11 +277,7 @@ def solve_packed(links, axes, kinds, limits, problem, io, rows, has_pref, key, f
 @kernel
 def _is_pose(T):  # type: ignore[no-untyped-def]
     """Finite, last row ``[0, 0, 0, 1]`` to 1e-9, ``R Rᵀ = I`` to 1e-6 and ``det R >= 0``."""
-    bad = 0.0
-    for i in range(4):
-        for j in range(4):
-            bad += T[i, j] * 0.0
-    if bad != 0.0:
+    if not _finite_2d(T):
         return False
     if abs(T[3, 0]) + abs(T[3, 1]) + abs(T[3, 2]) + abs(T[3, 3] - 1.0) > 1e-9:
         return False

@@ -81,6 +81,7 @@ KERNEL_MODULES: tuple[str, ...] = (
 CONSTANT_MODULES: tuple[str, ...] = (
     "redres.linalg._codes",
     "redres.resolution.hard_limits._codes",
+    "redres.robot._chain_codes",
 )
 
 #: Rough cold compile time of each module on a 2-core machine, s (for the message).
@@ -199,19 +200,23 @@ def _cache_root() -> Path:
 # --------------------------------------------------------------------------- kernels
 
 
-def kernel(func: Callable[..., Any] | None = None, *, parallel: bool = False) -> Any:
+def kernel(
+    func: Callable[..., Any] | None = None, *, parallel: bool = False, inline: bool = False
+) -> Any:
     """Mark ``func`` as a kernel: compiled by numba (``nogil``, NumPy error model, cached
     as the module docstring says) on its first call, or left as plain Python when the
     switch is off or its module is imported as the reference path. Typed ``Any`` so that
     kernels calling kernels type-check. ``@kernel(parallel=True)``: numba's
-    ``parallel=True``, loops over :func:`parallel_range` on its threads (:func:`threads`)."""
+    ``parallel=True``, loops over :func:`parallel_range` on its threads (:func:`threads`).
+    ``@kernel(inline=True)``: numba's ``inline="always"``, a helper compiled into each
+    kernel that calls it (no call, as if written there; callable from Python as well)."""
     if func is None:
-        return lambda f: kernel(f, parallel=parallel)
+        return lambda f: kernel(f, parallel=parallel, inline=inline)
     if not _ENABLED or _state.get("plain_import"):
         return func
     import numba
 
-    options = dict(_OPTIONS, parallel=True) if parallel else _OPTIONS
+    options = dict(_OPTIONS, parallel=parallel, inline="always" if inline else "never")
     dispatcher = numba.njit(**options)(func)
     if cache_dir() is not None:
         try:
@@ -365,12 +370,13 @@ def mark_cached(names: Iterable[str]) -> None:
                 pass
 
 
-def ready(name: str) -> bool:
+def ready(name: str, *, start: bool = True) -> bool:
     """Whether kernel module ``name`` can run compiled without compiling on the caller's
     path: it is loaded, or cached at this stamp, or compiling happens on first use anyway
     (``REDRES_COMPILE=foreground``, no writable cache, a failed background compile). Else
-    starts (once) the background compilation and returns False until it has cached the
-    module; callers keep asking on each call and switch when it says True."""
+    starts (once; not with ``start=False``, for a caller with a NumPy path as fast) the
+    background compilation and returns False until it has cached the module; callers
+    keep asking on each call and switch when it says True."""
     found: set[str] = _state.setdefault("ready", set())
     if not _ENABLED or name in found or _state.get("foreground") or cache_dir() is None:
         return True
@@ -381,6 +387,8 @@ def ready(name: str) -> bool:
     if (name, True) in _modules or _marker(name).exists():
         found.add(name)
         return True
+    if not start:
+        return False
     from . import _behind  # the background process and its lock (not needed before)
 
     _behind.compile_behind(name)

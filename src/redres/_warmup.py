@@ -27,6 +27,7 @@ __all__ = ["GROUPS", "warmup"]
 def _linalg() -> None:
     from . import linalg
     from .models import panda
+    from .resolution import PseudoInverseScheme
 
     robot = panda()
     q = robot.neutral()
@@ -44,10 +45,20 @@ def _linalg() -> None:
         linalg.rate_step(J, xd, g, damping=damping, return_null=True)
         linalg.rate_step(J, xd, damping=damping)
     robot.jacobian_derivatives(q)
+    PseudoInverseScheme().step(robot, q, J, xd)  # Scheme.step's input check
+
+
+def _chain() -> None:
+    from .models import panda
+    from .robot.chain import log3
+
+    robot = panda()
+    q = robot.neutral()
     chain = robot.chain()
     chain.kinematics(q)
     chain.kinematics(q, "local")
     chain.pose_error(q, robot.fk(q))
+    log3(np.eye(3))
 
 
 def _controller() -> None:
@@ -72,8 +83,11 @@ def _hard_limits() -> None:
     robot = panda()
     q = robot.neutral()
     J = robot.jacobian(q)
-    for scheme in (SNSScheme(dt=1e-3), QPScheme(dt=1e-3)):
-        scheme.step(robot, q, J, np.zeros(6))
+    SNSScheme(dt=1e-3).step(robot, q, J, np.zeros(6))
+    # An SNS loop needs no more: it switches now. QPScheme's epilogue (in the same module)
+    # compiles next; a QP loop waits for its own module, marked after it (QPScheme._prepare).
+    _jit.mark_cached(["redres.resolution.hard_limits._kernels"])
+    QPScheme(dt=1e-3).step(robot, q, J, np.zeros(6))
 
 
 def _ik() -> None:
@@ -98,16 +112,17 @@ def _batch() -> None:
         batch.rate_step(robot, q, np.ones((2, 6)), q, damping=damping)
     batch.rate_step(robot, q, np.ones(6), weights=np.ones(robot.n))
     batch.rate_step(robot, q, np.ones(6), weights=np.eye(robot.n))
+    batch.ik(robot, batch.fk(robot, q), max_restarts=1)
 
 
 #: Group name -> (kernel modules it caches, workload).
 GROUPS: dict[str, tuple[tuple[str, ...], Callable[[], None]]] = {
     "linalg": (
         ("redres.linalg._kernels", "redres.linalg._dense_kernels",
-         "redres.linalg._eigen_kernels", "redres.robot._kernels",
-         "redres.robot._chain_kernels"),
+         "redres.linalg._eigen_kernels", "redres.robot._kernels"),
         _linalg,
     ),
+    "chain": (("redres.robot._chain_kernels",), _chain),
     "controller": (("redres.control._kernels",), _controller),
     "hard limits": (
         ("redres.resolution.hard_limits._kernels", "redres.resolution.hard_limits._lp_kernels",
@@ -124,7 +139,7 @@ def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: in
     processes; afterwards this process never answers through the reference path.
 
     Args:
-        groups: names of :data:`GROUPS` (``"linalg"``, ``"controller"``,
+        groups: names of :data:`GROUPS` (``"linalg"``, ``"chain"``, ``"controller"``,
             ``"hard limits"``, ``"ik"``, ``"batch"``); default all.
         quiet: print nothing (else one line per group on standard error: what it
             compiled and how long it took).
@@ -182,7 +197,9 @@ def behind(first: str) -> None:
     """The background process: the group caching module ``first``, then the rest."""
     if hasattr(os, "nice"):
         os.nice(10)  # the user's process comes first
-    order = sorted(GROUPS, key=lambda g: first not in GROUPS[g][0])
+    # The group of `first`, then the serial-chain kernels (the controller's and IK's
+    # readiness needs them; a short group), then the others.
+    order = sorted(GROUPS, key=lambda g: (first not in GROUPS[g][0], g != "chain"))
     try:
         warmup(order, quiet=True, jobs=1)
     finally:

@@ -10,7 +10,11 @@ and gives for every row what the single call gives for that row:
   which use Pinocchio);
 * :func:`rate_step`: the joint velocities ``qd = J# xd − k_null N ∇D`` of
   :func:`redres.linalg.rate_step` with each row's world-aligned Jacobian, and the
-  diagnostics of each inverse (:class:`BatchRateStep`).
+  diagnostics of each inverse (:class:`BatchRateStep`);
+* :func:`ik`: position IK of many targets (:class:`BatchIK`), each item what
+  :func:`redres.ik.ik` finds with the same settings and restart key, under a budget of
+  attempts and iterations instead of a clock (so the answers do not depend on load),
+  optionally collecting several solutions per target.
 
 They run one compiled kernel per call (:mod:`redres._batch_kernels`), a parallel loop
 over the items that calls the same per-item kernels as the single calls, so the results
@@ -42,7 +46,7 @@ import numpy as np
 
 from . import _jit
 from ._validate import FloatArray, as_scalar
-from .errors import InvalidParameterError, ShapeError
+from .errors import InvalidParameterError, NonFiniteError, ShapeError
 from .linalg import _backend as be
 from .linalg import _codes as codes
 from .linalg import rate_step as _single_rate_step
@@ -51,7 +55,7 @@ from .robot import Robot, SerialChain
 from .robot.chain import _output  # the check of SerialChain's output arrays
 from .robot.robot import Reference
 
-__all__ = ["BatchRateStep", "fk", "jacobian", "rate_step"]
+__all__ = ["BatchIK", "BatchRateStep", "fk", "ik", "jacobian", "rate_step"]
 
 _MODULE = "redres._batch_kernels"
 _LOCK = threading.Lock()
@@ -218,7 +222,157 @@ def rate_step(
     return BatchRateStep(qd, rank, full, stats[:, 0], stats[:, 1], stats[:, 2], method)
 
 
+class BatchIK(NamedTuple):
+    """The result of :func:`ik`: item ``i`` answers target ``i``.
+
+    Attributes:
+        q: the first solution of each target, or the best configuration found when none
+            converged, ``(N, n)``, rad (always within the limits).
+        converged: whether a solution was found, ``(N,)``.
+        restarts: random restarts used (attempts made − 1), ``(N,)``.
+        iterations: CLIK iterations over all attempts, ``(N,)``.
+        position_error: ``‖p_d − p(q)‖`` of ``q``, m, ``(N,)``.
+        orientation_error: rotation angle of ``R_d R(q)ᵀ``, rad, ``(N,)`` (0 for
+            position targets).
+        solutions: the solutions in the order found, ``(N, S, n)``; slots past
+            ``found[i]`` are NaN (slot 0 holds ``q`` when none converged).
+        found: solutions found per target, ``(N,)``, at most ``S``.
+    """
+
+    q: FloatArray
+    converged: Any
+    restarts: Any
+    iterations: Any
+    position_error: FloatArray
+    orientation_error: FloatArray
+    solutions: FloatArray
+    found: Any
+
+
+def ik(
+    robot: Robot,
+    targets: Any,
+    frame: str | None = None,
+    *,
+    q0: Any = None,
+    seed: int = 0,
+    keys: Any = None,
+    solutions: int = 1,
+    tol_position: float = 1e-6,
+    tol_orientation: float = 1e-5,
+    max_iterations: int = 100,
+    max_restarts: int = 50,
+    max_step: float = 0.5,
+    k_limits: float = 0.1,
+    damping: AdaptiveDamping | None = None,
+    patience: int = 10,
+    threads: int | None = None,
+) -> BatchIK:
+    """Position IK of every target, in one parallel compiled kernel.
+
+    Item ``i`` is the iteration of :func:`redres.ik.ik` (same options, same kernel:
+    attempt 0 from ``q0[i]``, then random restarts drawn by the counter-based generator
+    under ``keys[i]``), with the budget ``max_restarts`` restarts of at most
+    ``max_iterations`` iterations each and no clock: with ``solutions=1`` it equals
+    ``rr.ik(robot, targets[i], q0=q0[i], seed=g, timeout_s=inf, ...)`` for a generator
+    ``g`` whose first ``integers(0, 2**62)`` draw is ``keys[i]`` (that draw is how
+    :func:`~redres.ik.ik` keys its restarts). With ``solutions=S > 1`` the attempts go on
+    after a success until ``S`` solutions are found or the budget is spent (restarts
+    from random configurations may find the same solution again; see ``found``).
+
+    Args:
+        robot: the robot (a serial chain up to ``frame``).
+        targets: poses ``(N, 4, 4)`` (``T_world_frame``), or positions ``(N, 3)``, m, for
+            position-only targets.
+        frame: the frame to place (default: tip).
+        q0: first guesses, ``(N, n)`` or ``(n,)`` for all, rad (clipped into the limits);
+            default ``robot.neutral()``.
+        seed: when ``keys`` is None, the keys are ``default_rng(seed).integers(0, 2**62,
+            N)``.
+        keys: restart keys, ``(N,)`` integers in ``[0, 2**62)``.
+        solutions: solutions sought per target (>= 1).
+        tol_position, tol_orientation, max_iterations, max_restarts, max_step, k_limits,
+            damping, patience: as :func:`redres.ik.ik`.
+        threads: threads for this call (``None``: all).
+
+    Returns:
+        A :class:`BatchIK`.
+
+    Raises:
+        ShapeError: ``targets`` is not ``(N, 4, 4)`` or ``(N, 3)``, an item is not a
+            homogeneous transform (named), or ``q0``/``keys`` has the wrong shape.
+        NonFiniteError: a target or ``q0`` holds NaN or infinity (named).
+        InvalidParameterError: a tolerance, budget or gain out of range.
+        NotSerialChainError: the model is not a serial chain up to ``frame``.
+    """
+    from .ik import _limits, _options_of
+
+    chain = robot.chain(frame)
+    n = chain.n
+    T, rows = _targets(targets)
+    count = len(T)
+    starts = _rows(robot.neutral() if q0 is None else q0, "q0", n, count)
+    for name, array in (("targets", T.reshape(count, 16)), ("q0", starts)):
+        bad = np.flatnonzero(~np.isfinite(array).all(axis=1))
+        if bad.size:
+            item = f"{name}[{bad[0]}]" if len(array) > 1 or name == "targets" else name
+            raise NonFiniteError(f"{item} contains NaN or infinity")
+    starts = _typed(np.clip(starts, robot.q_min, robot.q_max))
+    if isinstance(solutions, bool) or not isinstance(solutions, (int, np.integer)) or solutions < 1:
+        raise InvalidParameterError(f"solutions must be an integer >= 1; got {solutions!r}")
+    o, packed = _options_of(
+        tol_position, tol_orientation, max_iterations, max_restarts, 1.0, max_step,
+        k_limits, damping, patience, 1e-5,
+    )  # fmt: skip
+    key = _keys(keys, seed, count)
+    q = np.full((count, int(solutions), n), np.nan)
+    errors = np.full((count, int(solutions), 2), np.nan)
+    counts = np.zeros((count, 3), dtype=np.int64)
+    status = np.zeros(count, dtype=np.int64)
+    kernels = _compiled(threads)
+    if kernels is None:
+        kernels = _jit.load(_MODULE)  # the plain-Python twin: the same code, slowly
+    args = (*chain.arrays, _limits(robot.q_min, robot.q_max), T, starts, packed, rows, key,
+            o.max_restarts + 1, q, errors, counts, status)  # fmt: skip
+    _launch(kernels.ik_solves, args, threads)
+    if status.any():
+        i = int(np.flatnonzero(status)[0])
+        raise ShapeError(f"targets[{i}] is not a homogeneous transform (orthonormal rotation "
+                         "block with det +1, last row [0, 0, 0, 1])")  # fmt: skip
+    found = counts[:, 0]
+    return BatchIK(q[:, 0].copy(), found > 0, counts[:, 1] - 1, counts[:, 2],
+                   errors[:, 0, 0].copy(), errors[:, 0, 1].copy(), q, found)  # fmt: skip
+
+
 # ---------------------------------------------------------------------- helpers
+
+
+def _targets(value: Any) -> tuple[FloatArray, int]:
+    """Targets as ``(N, 4, 4)`` C-contiguous float64 and the task rows (6, or 3 for
+    positions)."""
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ShapeError(f"targets must be poses (N, 4, 4) or positions (N, 3): {exc}") from exc
+    if array.ndim == 2 and array.shape[1] == 3:
+        T = np.tile(np.eye(4), (len(array), 1, 1))
+        T[:, :3, 3] = array
+        return T, 3
+    if array.ndim != 3 or array.shape[1:] != (4, 4):
+        raise ShapeError(f"targets must have shape (N, 4, 4) or (N, 3); got {array.shape}")
+    return _typed(array), 6
+
+
+def _keys(keys: Any, seed: int, count: int) -> Any:
+    """The restart keys: ``keys`` checked, or drawn from ``default_rng(seed)``."""
+    if keys is None:
+        return np.random.default_rng(seed).integers(0, 2**62, count)
+    array = np.asarray(keys)
+    if array.shape != (count,) or array.dtype.kind not in "iu":
+        raise ShapeError(f"keys must be {count} integers, shape ({count},); got {array.shape}")
+    if count and (array.min() < 0 or array.max() >= 2**62):
+        raise InvalidParameterError("keys must lie in [0, 2**62)")
+    return np.array(array, dtype=np.int64)  # a writeable copy: the compiled type
 
 
 def _rows(value: Any, name: str, width: int, count: int | None = None) -> FloatArray:

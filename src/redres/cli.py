@@ -1,4 +1,4 @@
-"""The ``redres`` command: ``redres robots``, ``demo``, ``run``, ``warmup``, ``bench``.
+"""The ``redres`` command: ``redres robots``, ``demo``, ``run``, ``warmup``, ``bench``, ``sweep``.
 
 Exit codes: 0 success, 2 bad usage, bad input or a file that cannot be read or written
 (one line on stderr: ``redres: error: ...`` naming the value or path and the fix).
@@ -174,6 +174,9 @@ def build_parser() -> argparse.ArgumentParser:
     warm.set_defaults(func=_cmd_warmup)
     bench = sub.add_parser("bench", help="run the control-step benchmark against peers")
     bench.set_defaults(func=_cmd_bench)
+    from .sweeps.cli import register as register_sweep
+
+    register_sweep(sub)
     return parser
 
 

@@ -192,3 +192,51 @@ def test_stacked_sizes_in_the_kernels_match_lapack(
         tol = 1e-3 if kind == "near" and undamped else 1e-9
         np.testing.assert_allclose(value, ref, rtol=0, atol=tol * max(1.0, np.abs(ref).max()),
                                    err_msg=name)  # fmt: skip
+
+
+def _damped_oracle(J: np.ndarray, lam: float) -> np.ndarray:
+    """``J^T (J J^T + lam^2 I)^-1 = V diag(sigma / (sigma^2 + lam^2)) U^T`` from NumPy's
+    SVD (LAPACK), accurate even where ``J J^T + lam^2 I`` is ill-conditioned."""
+    U, sigma, Vt = np.linalg.svd(J, full_matrices=False)
+    return (Vt.T * (sigma / (sigma**2 + lam * lam))) @ U.T
+
+
+@pytest.mark.parametrize("lam", [1e-3, 0.05, 1.0])
+@pytest.mark.parametrize("shape", [(6, 7), (3, 7), (6, 6), (2, 5), (8, 5)])
+def test_the_lazy_lane_gives_the_damped_inverse(shape, lam, rng: np.random.Generator) -> None:
+    """Fixed damping without statistics (``damped_pinv`` without ``return_info``) goes
+    straight to a Cholesky solve; it equals the defining formula and the eager kernel,
+    at a generic, a near-singular and an exactly singular Jacobian."""
+    m, n = shape
+    U, _ = np.linalg.qr(rng.normal(size=(m, m)))
+    V, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    k = min(m, n)
+    for tail in (0.3, 1e-7, 0.0):
+        sigma = np.linspace(2.0, tail, k)
+        J = U[:, :k] @ np.diag(sigma) @ V[:, :k].T
+        lazy = rl.damped_pinv(J, lam)
+        eager, info = rl.damped_pinv(J, lam, return_info=True)
+        oracle = _damped_oracle(J, lam)
+        # the damped inverse's own conditioning: d/dsigma [sigma / (sigma^2 + lam^2)] is
+        # up to 1/lam^2, so rounding J by eps ||J|| moves J# by up to eps ||J|| / lam^2
+        tol = 1e-10 * np.abs(oracle).max() + 50 * np.finfo(float).eps * 2.0 / lam**2
+        assert np.abs(lazy - oracle).max() <= tol
+        assert np.abs(lazy - eager).max() <= tol
+        assert info.rank >= 0 and np.isfinite(info.sigma_min)  # the eager lane still tells
+
+
+def test_the_lazy_lane_skips_the_singular_values_only_when_it_may() -> None:
+    """The kernel reports rank -1 (not computed) when ``lam^2 >= 1e-6 trace(J J^T)``, and
+    computes them as FIXED does below that (the Cholesky bound would not hold)."""
+    rng = np.random.default_rng(3)
+    J = rng.normal(size=(6, 7))
+    trace = float(np.trace(J @ J.T))
+    empty = np.zeros((0, 0))
+    for lam, skipped in ((1.01e-3 * np.sqrt(trace), True), (0.99e-3 * np.sqrt(trace), False)):
+        Jp = np.empty((7, 6))
+        status, rank, smin, _, used = kernels.inverse(
+            J, np.zeros(0), empty, Jp, empty, empty, 0, _backend.codes.LAZY, lam, 0.0, 1.0, 1e-10
+        )
+        assert status == 0 and used == lam
+        assert (rank == -1 and np.isnan(smin)) if skipped else (rank == 6 and smin > 0)
+        assert np.allclose(Jp, _damped_oracle(J, lam), rtol=0, atol=1e-10)

@@ -34,7 +34,6 @@ Path = Literal["fused", "frame", "composed"]
 
 _F64 = np.float64
 _KERNELS = "redres.control._kernels"
-_CHAIN = "redres.robot._chain_kernels"
 #: The slots of the kernels' config vector holding the target: the rotation row-major,
 #: the position, the twist (CFG_ROTATION, CFG_POSITION, CFG_TWIST = 0, 9, 12), the layout in
 #: which a FrameTask keeps its target (FrameTask._share_target).
@@ -103,9 +102,11 @@ def block_size(n: int) -> int:
 
 
 def ready() -> bool:
-    """Whether the fused kernels (and the chain kernels they call) run compiled
-    (:func:`redres._jit.ready`; False while they compile behind)."""
-    return _jit.ready(_KERNELS) and _jit.ready(_CHAIN)
+    """Whether the fused kernels run compiled (:func:`redres._jit.ready`; False while they
+    compile behind). The chain kernels they call are compiled into them (numba links a
+    callee's code into its caller's, cached with it); the controller's own calls of a
+    :class:`~redres.robot.SerialChain` switch when the chain's module is ready."""
+    return _jit.ready(_KERNELS)
 
 
 def fused_config(
@@ -143,7 +144,7 @@ def fused_config(
     config[codes.CFG_DAMPING] = lam
     config[codes.CFG_MAX_DAMPING] = lam_max
     config[codes.CFG_THRESHOLD] = eps
-    config[codes.CFG_MODE] = mode
+    config[codes.CFG_MODE] = codes.LAZY if mode == codes.FIXED else mode  # Controller.info
     config[codes.CFG_RCOND] = fused.inverse.rcond
     if fused.quadratic is not None:
         config[codes.CFG_HAS_GRAD] = 1.0

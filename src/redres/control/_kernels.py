@@ -40,7 +40,7 @@ from ..linalg._codes import (
     Q_NONFINITE,
     Q_SHAPE,
 )
-from ..linalg._dense_kernels import _finite_1d
+from ..linalg._dense_kernels import _finite_1d, _finite_2d
 from ..linalg._kernels import _step
 from ..robot._chain_kernels import jacobian
 
@@ -111,11 +111,7 @@ def frame_command(J, H, q, config, Jm, xd, e):  # type: ignore[no-untyped-def]
         return Q_SHAPE
     if not _finite_1d(q):
         return Q_NONFINITE
-    bad = 0.0
-    for i in range(3):
-        for j in range(4):
-            bad += H[i, j] * 0.0
-    if bad != 0.0:
+    if not _finite_2d(H):
         return POSE_NONFINITE
     M = np.empty((3, 3))
     for i in range(3):

@@ -73,6 +73,7 @@ def run(
         SimulationError: a non-finite joint velocity (names the step).
     """
     controller = Controller(robot, task, scheme, gain=gain, dt=dt, limit_velocity=limit_velocity)
+    controller._eager_info()  # the log records the singular values of every step
     dt = controller.dt
     if trajectory is not None and not isinstance(trajectory, Trajectory):
         raise InvalidParameterError(
@@ -85,19 +86,11 @@ def run(
     n = robot.n
     scheme.reset()
 
-    t_log = np.arange(steps, dtype=np.float64) * dt
-    q_log = np.empty((steps, n))
-    qd_log = np.empty((steps, n))
-    pos_log = np.zeros((steps, 3))
-    target_log = np.zeros((steps, 3))
-    pos_err = np.zeros(steps)
-    rot_err = np.zeros(steps)
-    inv_sigma = np.empty(steps)
-    damping = np.empty(steps)
-    rank = np.empty(steps)
-    ratio = np.empty(steps)
-    scaled = np.zeros(steps, dtype=bool)
-    step_ns = np.empty(steps)
+    log = RunLog.empty(robot.name, scheme.name, dt, steps, n, label)
+    q_log, qd_log, pos_log, target_log = log.q, log.qd, log.position, log.target
+    pos_err, rot_err, inv_sigma = log.position_error, log.orientation_error, log.sigma_min
+    damping, rank, ratio, scaled = log.damping, log.rank, log.speed_ratio, log.scaled
+    step_ns = log.step_time_ns
     algorithmic = np.zeros(steps, dtype=bool)
 
     frame_task = task if isinstance(task, FrameTask) else None
@@ -141,27 +134,6 @@ def run(
         if frame_task is not None and controller.path != "composed" and steps:
             frame_task.compute(robot, q_log[k])  # as if it had computed the last step
 
-    log = RunLog(
-        robot=robot.name,
-        scheme=scheme.name,
-        dt=dt,
-        t=t_log,
-        q=q_log,
-        qd=qd_log,
-        position=pos_log,
-        target=target_log,
-        position_error=pos_err,
-        orientation_error=rot_err,
-        sigma_min=inv_sigma,
-        damping=damping,
-        rank=rank,
-        speed_ratio=ratio,
-        scaled=scaled,
-        joint_limit_margin=np.zeros(steps),
-        manipulability=np.zeros(steps),
-        step_time_ns=step_ns,
-        label=label,
-    )
     log.extra.update(
         inverse_sigma_min=inv_sigma.copy(), algorithmic_singularity=algorithmic, final_q=q
     )

@@ -52,7 +52,7 @@ from .._validate import FloatArray, as_scalar, checked_keywords
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError, SimulationError
 from ..linalg import InverseInfo
 from ..linalg import _backend as be
-from ..linalg._codes import CFG_MODE
+from ..linalg._codes import CFG_MODE, CFG_RCOND, FIXED, LAZY
 from ..resolution import Scheme, StepResult
 from ..tasks import FrameTask, Task
 from ._fused import (
@@ -79,7 +79,7 @@ _ndarray = np.ndarray
 _empty = np.empty
 _contiguous = np.ascontiguousarray
 _abs, _max = np.abs, np.max
-_LABELS = ("pinv", "damped", "adaptive", "selective")  # by damping mode, as rate_step
+_LABELS = ("pinv", "damped", "adaptive", "selective", "damped")  # by mode (LAZY last)
 _new_info = tuple.__new__
 
 
@@ -346,6 +346,13 @@ class Controller:
             self._non_finite(qd)
         return q_next
 
+    def _eager_info(self) -> None:
+        """Have the kernel report the singular values at every step, as :attr:`info` is
+        then read every step (``rr.run`` logs them); by default a fixed-damping fused
+        step skips them and :attr:`info` computes them when asked."""
+        if self._config.shape[0] and self._config[CFG_MODE] == LAZY:
+            self._config[CFG_MODE] = FIXED
+
     def _non_finite(self, qd: FloatArray) -> NoReturn:
         raise SimulationError(
             f"the {self._scheme.name} scheme returned a non-finite joint velocity {qd}"
@@ -426,9 +433,16 @@ class Controller:
             return self._result.info
         if not self._out.shape[0]:
             raise InvalidParameterError("the controller has not made a step yet")
-        rank, smin, smax, used = self._out[2 * self._n : 2 * self._n + 4].tolist()
+        n, m = self._n, self._rows.shape[0]
+        rank, smin, smax, used = self._out[2 * n : 2 * n + 4].tolist()
         rank = int(rank)
-        full = rank == min(self._rows.shape[0], self._n)
+        if rank < 0:  # fixed damping skipped them: the singular values of the task rows
+            J = self._out[2 * n + 27 :].reshape(6, n)[self._rows]
+            sigma = np.linalg.svd(J, compute_uv=False)
+            smax = float(sigma[0])
+            smin = float(sigma[-1]) if m <= n else 0.0
+            rank = int(np.count_nonzero(sigma > self._config[CFG_RCOND] * smax))
+        full = rank == min(m, n)
         label = _LABELS[int(self._config[CFG_MODE])]
         return _new_info(InverseInfo, (rank, full, smin, smax, used, label))  # type: ignore[no-any-return]
 

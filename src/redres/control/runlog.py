@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -53,6 +53,22 @@ class RunLog:
     objectives: dict[str, FloatArray] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
     label: str = ""
+
+    @classmethod
+    def empty(
+        cls, robot: str, scheme: str, dt: float, steps: int, n: int, label: str = ""
+    ) -> RunLog:
+        """A log of ``steps`` rows for an ``n``-joint robot, to be filled in place:
+        ``t = k dt``, every other array zero (``scaled`` False)."""
+        widths = {"q": n, "qd": n, "position": 3, "target": 3}
+        arrays: dict[str, Any] = {
+            f.name: np.zeros((steps, widths[f.name]) if f.name in widths else steps)
+            for f in fields(cls)
+            if f.type == "FloatArray"
+        }
+        arrays["t"] = np.arange(steps, dtype=np.float64) * dt
+        arrays["scaled"] = np.zeros(steps, dtype=bool)
+        return cls(robot=robot, scheme=scheme, dt=dt, label=label, **arrays)
 
     @property
     def steps(self) -> int:

@@ -11,7 +11,8 @@ import numpy as np
 
 from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError
-from ..linalg import AdaptiveDamping, generalized_inverse
+from ..linalg import AdaptiveDamping
+from ..linalg._backend import parse_damping
 from ..resolution.gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 from ..tasks import FrameTask
 from .base import ControlStep, TaskGains, TorqueLaw
@@ -136,7 +137,7 @@ class ServoLaw(TorqueLaw):
     ) -> None:
         self.servo = TaskServo(FrameTask() if task is None else task, kp, kd)
         self.null_law = NullSpaceLaw(objectives, null_kp, null_kd)
-        generalized_inverse(np.eye(1), damping=damping)  # validates damping early
+        parse_damping(damping)  # validates it early (without loading the kernels)
         self.damping = damping
         self.rcond = rcond
 

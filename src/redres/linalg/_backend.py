@@ -411,20 +411,23 @@ def invert(
     rcond: float,
     want_pinv: bool,
     want_projector: bool,
+    lazy: bool = False,
 ) -> Factored:
     """Shared engine of the matrix functions: ``Factored(J#, N, stats, mode)``.
 
     ``J`` must be a float64 matrix from :func:`as_jacobian`. Outputs not wanted are 0 x 0.
+    ``lazy``: the statistics are not read (fixed damping may skip them: rank -1, NaN).
     """
     m, n = J.shape
     mode, lam, lam_max, eps = parse_damping(damping)
+    kmode = codes.LAZY if lazy and mode == codes.FIXED else mode
     wmode, wdiag, wfull = parse_weights(weights, n, weights_name)
     kern = use_fast_path(m, n)
     if kern is not None:
         Jp = np.empty((n, m)) if want_pinv else EMPTY_2D
         N = np.empty((n, n)) if want_projector else EMPTY_2D
         status, rank, smin, smax, used = kern.inverse(
-            np.ascontiguousarray(J), wdiag, wfull, Jp, N, EMPTY_2D, wmode, mode, lam, lam_max,
+            np.ascontiguousarray(J), wdiag, wfull, Jp, N, EMPTY_2D, wmode, kmode, lam, lam_max,
             eps, rcond,
         )  # fmt: skip
         if status:
@@ -479,21 +482,16 @@ def matrix_inverse(
     damping: float | AdaptiveDamping = 0.0,
     rcond: float,
     exact_label: str = "",
+    lazy: bool = False,
 ) -> Parts:
-    """``(J#, stats, method)`` for the matrix functions (``rcond`` already validated).
-
-    An exact unweighted inverse of a rank-deficient ``J`` is labelled ``"pinv"`` (the
-    truncated SVD pseudo-inverse it falls back to) instead of ``exact_label``.
-    """
+    """``(J#, stats, method)`` for the matrix functions (``rcond`` already validated;
+    ``lazy`` as for :func:`invert`). An exact unweighted inverse of a rank-deficient ``J``
+    is labelled ``"pinv"`` (the truncated SVD pseudo-inverse it falls back to) instead of
+    ``exact_label``."""
     Jp, _, stats, mode = invert(
-        J,
-        weights=weights,
-        weights_name=weights_name,
-        damping=damping,
-        rcond=rcond,
-        want_pinv=True,
-        want_projector=False,
-    )
+        J, weights=weights, weights_name=weights_name, damping=damping, rcond=rcond,
+        want_pinv=True, want_projector=False, lazy=lazy,
+    )  # fmt: skip
     method = method_label(mode, weights is not None, exact_label)
     if weights is None and mode == codes.EXACT and stats.rank < min(J.shape):
         method = "pinv"

@@ -26,6 +26,9 @@ EXACT = 0
 FIXED = 1
 ADAPTIVE = 2
 SELECTIVE = 3
+# FIXED when nobody reads the singular values (a controller's own loop, ``damped_pinv``
+# without ``return_info``): the kernels may then skip them (rank -1, sigma NaN).
+LAZY = 4
 
 # Weight modes.
 NO_WEIGHTS = 0

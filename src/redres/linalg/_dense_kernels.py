@@ -39,6 +39,35 @@ def _finite_2d(a):  # type: ignore[no-untyped-def]
     return True
 
 
+@kernel(inline=True)
+def _gram(J, rows, A):  # type: ignore[no-untyped-def]
+    """Lower triangle of ``A <- J Jᵀ`` over the first ``rows`` rows of J."""
+    n = J.shape[1]
+    for a in range(rows):
+        for b in range(a + 1):
+            acc = 0.0
+            for j in range(n):
+                acc += J[a, j] * J[b, j]
+            A[a, b] = acc
+
+
+@kernel(inline=True)
+def _back_project(J, rows, r, rt, g, k, out, null):  # type: ignore[no-untyped-def]
+    """``out <- Jᵀ r − k g`` over the first ``rows`` rows of J, and, when ``null`` has
+    length n, ``null <- out − Jᵀ rt`` (the two halves of a rate step after its solve)."""
+    n = J.shape[1]
+    want_null = null.shape[0] == n
+    for j in range(n):
+        acc = -k * g[j]
+        task = 0.0
+        for a in range(rows):
+            acc += J[a, j] * r[a]
+            task += J[a, j] * rt[a]
+        out[j] = acc
+        if want_null:
+            null[j] = acc - task
+
+
 @kernel
 def _cholesky(A, L, size, shift):  # type: ignore[no-untyped-def]
     """Lower Cholesky factor of ``A + shift I`` (lower triangle of A read) into L.

@@ -40,6 +40,7 @@ from ._codes import (
     GRAD_SHAPE,
     J_EMPTY,
     J_NONFINITE,
+    LAZY,
     NO_WEIGHTS,
     OK,
     SCALAR_INVALID,
@@ -48,12 +49,15 @@ from ._codes import (
     XD_SHAPE,
 )
 from ._dense_kernels import (
+    _back_project,
     _cholesky,
     _cholesky_solve,
     _copy_finite_2d,
     _factor_size,
     _factor_view,
     _finite_1d,
+    _finite_2d,
+    _gram,
     _scale,
     _weigh,
     _weight_down,
@@ -66,6 +70,9 @@ from ._eigen_kernels import _EPS, _count_below, _extreme_eigenvalues, _jacobi_ro
 # Cholesky solve accurate to 2e-10 and its eigenvalues give sigma_min to less than that:
 # switch to the Jacobi SVD of J itself.
 _CHOLESKY_MIN_RATIO = 1e-3
+# With a damping lambda^2 >= this times trace(J J^T) >= sigma_max^2, kappa(J J^T + lambda^2
+# I) <= 1 + 1e6 without any eigenvalue: the same accuracy bound, straight to Cholesky.
+_LAZY_MIN_SHIFT = 1e-6
 
 
 @kernel
@@ -97,7 +104,9 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, work):  # type: i
       keeps the tiny rows of the near-singular directions accurate to their own size.
 
     Singular values and damping are in the units of the unscaled matrix. ``work`` is
-    scratch space of at least ``2 m^2 + 4 m`` floats; ``dvec`` has length m.
+    scratch space of at least ``2 m^2 + 4 m`` floats; ``dvec`` has length m. ``LAZY``
+    damping is ``FIXED`` that may skip the eigenvalues: rank -1 and NaN singular values
+    when it does (:data:`_LAZY_MIN_SHIFT`).
     """
     m, n = Js.shape
     kmin = min(m, n)
@@ -108,13 +117,17 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, work):  # type: i
     off = work[base + m : base + 2 * m]
     v = work[base + 2 * m : base + 3 * m]
     p = work[base + 3 * m : base + 4 * m]
+    _gram(Js, m, A)
+    trace = 0.0
     for i in range(m):
+        trace += A[i, i]
         for j in range(i + 1):
-            acc = 0.0
-            for k in range(n):
-                acc += Js[i, k] * Js[j, k]
-            A[i, j] = acc
-            T[i, j] = acc
+            T[i, j] = A[i, j]
+    if dmode == LAZY:  # fixed damping, no singular values wanted
+        shift = lam * lam / (scale * scale)
+        if shift >= _LAZY_MIN_SHIFT * trace and _cholesky(A, C, m, shift):
+            return True, -1, math.nan, math.nan, lam
+        dmode = FIXED
     _tridiagonalize(T, m, mu, off, v, p)
     lowest, highest = _extreme_eigenvalues(mu, off, m, True)
     smax_s = math.sqrt(max(highest, 0.0))
@@ -236,7 +249,7 @@ def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, 
         _weight_up(g, wmode, Lw)
     scale = _scale(Js)
     if scale == 0.0:  # J = 0: J# = 0, N = I
-        lam_used = lam if dmode == FIXED else (lam_max if dmode != EXACT else 0.0)
+        lam_used = lam if dmode == FIXED or dmode == LAZY else (lam_max if dmode != EXACT else 0.0)
         for j in range(n):
             out[j] = -k_null * g[j]
         _weight_down(out, wmode, Lw)
@@ -271,19 +284,24 @@ def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, 
         for i in range(m):
             r[i] *= dvec[i]
             rt[i] *= dvec[i]
-    for j in range(n):
-        acc = -k_null * g[j]
-        task = 0.0
-        for i in range(m):
-            acc += Js[i, j] * r[i]
-            task += Js[i, j] * rt[i]
-        out[j] = acc
-        if want_null:
-            null[j] = acc - task
+    _back_project(Js, m, r, rt, g, k_null, out, null)
     _weight_down(out, wmode, Lw)
     if want_null:
         _weight_down(null, wmode, Lw)
     return OK, rank, smin, smax, lam_used
+
+
+@kernel
+def finite_inputs(q, J, xd):  # type: ignore[no-untyped-def]
+    """Which of ``q``, ``J``, ``xd`` is the first to hold a NaN or an infinity (1, 2, 3),
+    else 0: :meth:`redres.resolution.Scheme.step`'s check in one call."""
+    if not _finite_1d(q):
+        return 1
+    if not _finite_2d(J):
+        return 2
+    if not _finite_1d(xd):
+        return 3
+    return 0
 
 
 @kernel
@@ -344,7 +362,7 @@ def inverse(J, wdiag, W, Jp, N, Lam, wmode, dmode, lam, lam_max, eps, rcond):  #
         for a in range(N.shape[0]):
             for b in range(n):
                 N[a, b] = 1.0 if a == b else 0.0
-        lam_used = lam if dmode == FIXED else (lam_max if dmode != EXACT else 0.0)
+        lam_used = lam if dmode == FIXED or dmode == LAZY else (lam_max if dmode != EXACT else 0.0)
         for a in range(Lam.shape[0]):  # (0 + lam^2 I)^-1, or the pseudo-inverse 0
             for b in range(m):
                 Lam[a, b] = 1.0 / (lam_used * lam_used) if a == b and lam_used > 0.0 else 0.0

@@ -72,7 +72,10 @@ def damped_pinv(
         InvalidParameterError: ``damping`` is negative.
     """
     A = be.as_jacobian(J, check_finite=False)
-    parts = be.matrix_inverse(A, damping=damping, rcond=be.as_rcond(rcond), exact_label="pinv")
+    rc = be.as_rcond(rcond)
+    parts = be.matrix_inverse(
+        A, damping=damping, rcond=rc, exact_label="pinv", lazy=not return_info
+    )
     return be.finish(parts, A.shape, return_info)
 
 

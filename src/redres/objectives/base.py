@@ -28,6 +28,12 @@ class Objective(ABC):
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
         """``∂D/∂q``, shape ``(n,)``."""
 
+    def _gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
+        """:meth:`gradient` of a ``q`` the caller has checked (a scheme's step checked it
+        once for all its objectives); an objective whose check costs more than its
+        formula computes it here without one."""
+        return self.gradient(robot, q)
+
     def quadratic_form(self, robot: Robot) -> tuple[FloatArray, FloatArray] | None:
         """``(a, r)``, each shape ``(n,)``, when ``∇D(q) = a ∘ (q − r)`` for every ``q``.
 

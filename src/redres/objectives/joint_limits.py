@@ -52,8 +52,11 @@ class JointLimitObjective(Objective):
         return float(np.sum(0.5 * scale * (as_vector(q, "q", robot.n) - mid) ** 2))
 
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
+        return self._gradient(robot, as_vector(q, "q", robot.n))
+
+    def _gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
         mid, scale = self._mid_scale(robot)
-        return scale * (as_vector(q, "q", robot.n) - mid)
+        return scale * (q - mid)
 
     def quadratic_form(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
         """``(2/(q_max − q_min)², q̄)``: the gradient is ``a ∘ (q − q̄)``."""

@@ -54,7 +54,10 @@ class PostureObjective(Objective):
         return float(0.5 * np.sum(self.weights * dq * dq))
 
     def gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
-        return self.weights * (as_vector(q, "q", robot.n) - self._q_ref(robot))
+        return self._gradient(robot, as_vector(q, "q", robot.n))
+
+    def _gradient(self, robot: Robot, q: FloatArray) -> FloatArray:
+        return self.weights * (q - self._q_ref(robot))
 
     def quadratic_form(self, robot: Robot) -> tuple[FloatArray, FloatArray]:
         """``(weights, q_ref)`` broadcast to ``(n,)``: the gradient is ``w ∘ (q − q_ref)``."""

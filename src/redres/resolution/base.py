@@ -10,9 +10,11 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from .. import _jit
 from .._validate import FloatArray, as_scalar
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import RCOND, AdaptiveDamping, InverseInfo
+from ..linalg import _backend as be
 
 if TYPE_CHECKING:
     from ..objectives import Objective
@@ -256,7 +258,25 @@ def step_arrays(q: Any, J: Any, xd: Any, n: int) -> tuple[FloatArray, FloatArray
             f"J must have shape ({xd.shape[0]}, {n}) to match xd and the robot's {n} joints; "
             f"got {J.shape}"
         )
+    lane = _finite_lane[0]
+    # (not the one to start compiling linalg behind: a hard-limit loop wants its own first)
+    if lane is None and _jit.ready(be._LINALG, start=False):
+        warm = (np.zeros(1), np.zeros((1, 1)), np.zeros(1))
+        lane = _finite_lane[0] = (
+            be.kernels() and be.entry(be._LINALG, "finite_inputs", warm)
+        ) or False
+    if lane:  # one compiled pass over the three
+        bad = lane(q, J, xd)  # type: ignore[operator]
+        if bad:
+            raise NonFiniteError(f"{('q', 'J', 'xd')[bad - 1]} contains NaN or infinity")
+        return q, J, xd
     for arr, name in ((q, "q"), (J, "J"), (xd, "xd")):
         if not _isfinite(arr).all():
             raise NonFiniteError(f"{name} contains NaN or infinity")
     return q, J, xd
+
+
+# Native entry point of linalg's finite_inputs kernel (None: not looked up yet; False:
+# NumPy checks while the kernels are off or compiling behind; reset when that changes).
+_finite_lane: list[Callable[..., Any] | bool | None] = [None]
+be._on_switch.append(lambda: _finite_lane.__setitem__(0, None))

@@ -42,11 +42,12 @@ def weighted_objectives(objectives: Sequence[WeightedObjective]) -> list[tuple[O
 def total_gradient(
     robot: Robot, q: FloatArray, objectives: Sequence[tuple[Objective, float]]
 ) -> FloatArray:
-    """``Σ wᵢ ∇Dᵢ(q)``, checked to have shape ``(n,)`` (a new array)."""
+    """``Σ wᵢ ∇Dᵢ(q)`` at a checked ``q`` (:meth:`Scheme.step` checked it), checked to have
+    shape ``(n,)`` (a new array)."""
     n = robot.n
     grad: FloatArray | None = None
     for obj, weight in objectives:
-        g = np.asarray(obj.gradient(robot, q), dtype=np.float64)
+        g = np.asarray(obj._gradient(robot, q), dtype=np.float64)
         if g.shape != (n,):
             raise ShapeError(f"gradient of {obj.name} has shape {g.shape}; expected ({n},)")
         grad = weight * g if grad is None else grad + weight * g

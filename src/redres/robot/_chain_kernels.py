@@ -39,14 +39,9 @@ from __future__ import annotations
 import math
 
 from .._jit import kernel
+from ._chain_codes import PRISMATIC, REVOLUTE, REVOLUTE_X, REVOLUTE_Y, REVOLUTE_Z
 
-#: Joint kinds (values of ``kinds``): revolute about the joint frame's x, y, z axis or
-#: any unit axis, and prismatic along any unit axis.
-REVOLUTE_X = 0
-REVOLUTE_Y = 1
-REVOLUTE_Z = 2
-REVOLUTE = 3
-PRISMATIC = 4
+__all__ = ["PRISMATIC", "REVOLUTE", "REVOLUTE_X", "REVOLUTE_Y", "REVOLUTE_Z"]
 
 
 @kernel

@@ -39,6 +39,7 @@ from ..errors import (
     RedresError,
     ShapeError,
 )
+from . import _chain_codes
 from .robot import Reference
 
 __all__ = ["ChainPoseError", "NotSerialChainError", "SerialChain"]
@@ -72,7 +73,7 @@ _WHY: dict[str, str] = {
     **{f"JointModel{axis}": "a helical joint (a screw)" for axis in ("HX", "HY", "HZ")},
     "JointModelHelicalUnaligned": "a helical joint (a screw)",
 }
-_KIND_CODES: dict[str, int] = {}  # filled from the kernel module's constants on first use
+_KIND_CODES: dict[str, int] = {}  # from redres.robot._chain_codes on first use
 
 
 class NotSerialChainError(RedresError, ValueError):
@@ -316,9 +317,8 @@ def _axis(joint: Any, kind: str) -> FloatArray:
 
 def _kind_codes() -> dict[str, int]:
     if not _KIND_CODES:
-        module = _module()
         for name in set(_JOINT_KINDS.values()):
-            _KIND_CODES[name] = int(getattr(module, name))
+            _KIND_CODES[name] = int(getattr(_chain_codes, name))
     return _KIND_CODES
 
 
@@ -341,6 +341,8 @@ def _entry(name: str) -> Any:
     entry = _ENTRIES.get(name)
     if entry is None:
         module = _module()
+        if not _jit.is_compiled(module):  # its plain twin while it compiles behind: not
+            return getattr(module, name)  # kept, so the compiled kernel takes over when ready
         chain = (np.zeros((2, 3, 4)), np.eye(3)[2:], np.array([2], dtype=np.int64))
         for array in chain:  # the types of SerialChain.arrays, read-only
             array.flags.writeable = False

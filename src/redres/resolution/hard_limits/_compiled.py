@@ -10,15 +10,16 @@ from ...errors import MissingDependencyError
 _PACKAGE = "redres.resolution.hard_limits."
 
 
-def kernels(name: str = "_kernels") -> ModuleType:
+def kernels(name: str = "_kernels", *, plain: bool = False) -> ModuleType:
     """Kernel module ``name`` of this package (``_kernels``, ``_lp_kernels``, ``_qp_kernels``):
-    compiled, or its plain-Python twin while it compiles behind (:func:`redres._jit.load`).
+    compiled, or its plain-Python twin while it compiles behind (:func:`redres._jit.load`);
+    ``plain``: the twin in any case (a scheme whose other module is still compiling).
 
     Raises:
         MissingDependencyError: numba cannot be imported (the hard-limit schemes have no
             NumPy path; ``REDRES_DISABLE_JIT=1`` runs their kernels as plain Python).
     """
-    module = _jit.load(_PACKAGE + name)
+    module = _jit._get(_PACKAGE + name, compiled=False) if plain else _jit.load(_PACKAGE + name)
     if module is None:
         raise MissingDependencyError(
             "the hard-limit schemes need numba (a dependency of redres), which cannot be "

@@ -161,7 +161,8 @@ class QPScheme(BoxScheme):
         ws = Workspace(self.limits(robot), m)
         self._bu, self._bl, self._f = np.empty(n + m), np.empty(n + m), np.empty(n)
         self._P, self._c, self._w = np.empty((n, n)), np.empty(n), w
-        k, kq, out = kernels(), kernels("_qp_kernels"), ws.outputs()
+        kq, out = kernels("_qp_kernels"), ws.outputs()
+        k = kernels(plain=not _jit.is_compiled(kq))  # both compiled or both plain (no stall)
         self._begin = _jit.entry_point(kq.qp_begin, (q, ws.zero, self.dt, ws.lim, J, xd,
                                                      ws.zero, *out, ws.M, ws.wm, self._bu,
                                                      self._bl, self._f, w, 1e-6, self._P,

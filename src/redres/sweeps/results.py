@@ -1,0 +1,94 @@
+"""Reading a sweep folder back: :func:`load` gives its arrays by name.
+
+Works on a finished sweep and on one still running or interrupted (``done`` says which;
+the units of unfinished shards read as zeros), in either store. The kinds add typed
+views on top (:func:`redres.sweeps.capability.load_map`, ...).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import shown_path
+from .folder import FORMAT, HEADER, MANIFEST, SweepFolderError, read_json
+from .kind import Field
+from .store import Store, open_store
+
+__all__ = ["SweepData", "load"]
+
+
+@dataclass
+class SweepData(Mapping[str, np.ndarray]):
+    """The arrays of a sweep folder: ``data["reachable"]`` etc. (every output field,
+    ``(units, *shape)``), read on first access.
+
+    Attributes:
+        folder: the sweep folder.
+        kind: the sweep kind; ``name`` its spec's name.
+        header: the folder's ``sweep.json``.
+        tables: the plan's tables (voxel centres, orientations, ...).
+        finished: the shards finished (with a manifest entry).
+        done: whether every shard is finished.
+    """
+
+    folder: Path
+    kind: str
+    name: str
+    header: dict[str, Any]
+    tables: dict[str, np.ndarray]
+    finished: list[int]
+    store: Store = field(repr=False)
+    _cache: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+
+    @property
+    def meta(self) -> dict[str, Any]:
+        """The plan's plain values (scheme labels, ...)."""
+        return dict(self.header.get("meta", {}))
+
+    @property
+    def done(self) -> bool:
+        return len(self.finished) == int(self.header["shards"])
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name not in self.store.fields:
+            raise KeyError(f"no field {name!r} in this {self.kind} sweep; fields: "
+                           f"{', '.join(self.store.fields)}")  # fmt: skip
+        if name not in self._cache:
+            self._cache[name] = self.store.load(name)
+        return self._cache[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.store.fields)
+
+    def __len__(self) -> int:
+        return len(self.store.fields)
+
+
+def load(out: str | Path) -> SweepData:
+    """The sweep in folder ``out`` (:class:`SweepData`).
+
+    Raises:
+        SweepFolderError: ``out`` is not a sweep folder (or its store needs Zarr, absent).
+    """
+    folder = Path(out)
+    header = read_json(folder / HEADER)
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        raise SweepFolderError(f"{shown_path(folder)} is not a sweep folder (no {HEADER})")
+    fields = {k: Field(v["dtype"], tuple(v["shape"]), v.get("doc", ""))
+              for k, v in header["fields"].items()}  # fmt: skip
+    if header["storage"] == "zarr":
+        from .store import zarr_available
+
+        if not zarr_available():
+            raise SweepFolderError(
+                f"{shown_path(folder)} is stored in Zarr; install it: pip install 'redres[zarr]'"
+            )
+    store = open_store(header["storage"], folder, fields, header["units"], header["shard_units"])
+    finished = sorted(int(p.stem) for p in (folder / MANIFEST).glob("*.json") if p.stem.isdigit())
+    return SweepData(folder, header["kind"], header.get("name", ""), header, store.tables(),
+                     finished, store)  # fmt: skip

@@ -1,0 +1,104 @@
+"""redres.batch.ik: item by item what rr.ik's compiled path finds, and what FK confirms.
+
+Oracles: :func:`redres.ik.ik` (the same kernel called once per attempt, restarts keyed
+by the first draw of the generator it is given) with the same settings and no clock;
+forward kinematics through Pinocchio (:meth:`Robot.fk`) for every solution.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import redres as rr
+from redres import batch
+from redres.errors import InvalidParameterError, NonFiniteError, ShapeError
+
+SETTINGS = {"max_iterations": 40, "max_restarts": 3, "patience": 8, "tol_position": 1e-6}
+
+
+class FirstDraw(np.random.Generator):
+    """A generator whose first ``integers`` draw is ``key`` (how rr.ik keys restarts)."""
+
+    def __init__(self, key: int) -> None:
+        super().__init__(np.random.PCG64(0))
+        self.key = key
+
+    def integers(self, *args: object, **kwargs: object) -> int:  # type: ignore[override]
+        return self.key
+
+
+def targets(robot: rr.Robot, rng: np.random.Generator, count: int) -> np.ndarray:
+    """FK poses of random configurations, a third moved out of reach (budget spent)."""
+    T = batch.fk(robot, np.array([robot.random_configuration(rng) for _ in range(count)]))
+    T[::3, 0, 3] += 3.0  # 3 m away: beyond the reach of either arm
+    return T
+
+
+@pytest.mark.parametrize("name", ["panda", "iiwa14"])
+def test_items_equal_rr_ik(name: str, builtin_robots: dict, rng: np.random.Generator) -> None:
+    robot = builtin_robots[name]
+    T = targets(robot, rng, 60)
+    q0 = np.array([robot.random_configuration(rng) for _ in range(len(T))])
+    keys = rng.integers(0, 2**62, len(T))
+    result = batch.ik(robot, T, q0=q0, keys=keys, **SETTINGS)
+    assert result.converged[1::3].mean() > 0.7 and not result.converged[::3].any()
+    for i in range(len(T)):
+        single = rr.ik(robot, T[i], q0=q0[i], seed=FirstDraw(int(keys[i])), timeout_s=1e9,
+                       **SETTINGS)  # fmt: skip
+        assert single.converged == result.converged[i], i
+        assert single.restarts == result.restarts[i] and single.iterations == result.iterations[i]
+        assert np.array_equal(single.q, result.q[i]), (i, single.q - result.q[i])
+        assert single.position_error == result.position_error[i]
+        assert single.orientation_error == result.orientation_error[i]
+
+
+def test_solutions_put_the_frame_on_target(builtin_robots: dict, rng: np.random.Generator) -> None:
+    robot = builtin_robots["panda"]
+    T = targets(robot, rng, 30)[1::3]  # reachable ones
+    result = batch.ik(robot, T, seed=3, solutions=4, max_restarts=12)
+    assert (result.found >= 2).all()
+    for i in range(len(T)):
+        for s in range(result.found[i]):
+            q = result.solutions[i, s]
+            assert robot.within_limits(q)
+            reached = robot.fk(q)  # Pinocchio, not the chain kernels
+            assert np.linalg.norm(reached[:3, 3] - T[i, :3, 3]) <= 1e-6
+            angle = np.arccos(np.clip((np.trace(reached[:3, :3].T @ T[i, :3, :3]) - 1) / 2, -1, 1))
+            assert angle <= 1e-5 + 1e-7
+        assert np.isnan(result.solutions[i, result.found[i] :]).all()
+    assert np.array_equal(result.q, result.solutions[:, 0])
+
+
+def test_threads_and_positions(builtin_robots: dict, rng: np.random.Generator) -> None:
+    robot = builtin_robots["iiwa14"]
+    T = targets(robot, rng, 90)
+    one, two = (batch.ik(robot, T, seed=5, threads=t, **SETTINGS) for t in (1, 2))
+    for a, b in zip(one, two):
+        assert np.array_equal(a, b, equal_nan=True)
+    points = batch.ik(robot, T[:, :3, 3], seed=5, **SETTINGS)  # position-only targets
+    ok = points.converged
+    reached = batch.fk(robot, points.q[ok])[:, :3, 3]
+    assert np.abs(reached - T[ok, :3, 3]).max() <= 1e-6
+    assert (points.orientation_error[ok] == 0.0).all()
+
+
+def test_bad_input_names_the_item(builtin_robots: dict) -> None:
+    robot = builtin_robots["panda"]
+    T = np.tile(robot.fk(robot.neutral()), (4, 1, 1))
+    bad = T.copy()
+    bad[2, 0, 0] = np.nan
+    with pytest.raises(NonFiniteError, match=r"targets\[2\]"):
+        batch.ik(robot, bad)
+    bad = T.copy()
+    bad[1, :3, :3] *= 2.0
+    with pytest.raises(ShapeError, match=r"targets\[1\] is not a homogeneous transform"):
+        batch.ik(robot, bad)
+    with pytest.raises(ShapeError, match=r"\(N, 4, 4\) or \(N, 3\)"):
+        batch.ik(robot, T[0])
+    with pytest.raises(ShapeError, match="keys"):
+        batch.ik(robot, T, keys=[1, 2])
+    with pytest.raises(InvalidParameterError, match="solutions"):
+        batch.ik(robot, T, solutions=0)
+    with pytest.raises(InvalidParameterError, match="max_iterations"):
+        batch.ik(robot, T, max_iterations=0)

@@ -1,0 +1,42 @@
+"""``redres sweep``: the built-in list, a run with --json, one-line errors, exit codes."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from redres.cli import main
+
+from .helpers import write_spec
+
+
+def test_list(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sweep", "--list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert any(line.startswith("panda_capability") and "capability" in line for line in lines)
+    assert main(["sweep", "--list", "--json"]) == 0
+    names = {row["name"] for row in json.loads(capsys.readouterr().out)}
+    assert {"panda_capability", "panda_ik_dataset", "iiwa14_capability"} <= names
+
+
+def test_run_resume_and_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    spec = write_spec(tmp_path)
+    out = tmp_path / "out"
+    assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--json"]) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert first["computed"] == first["shards"] == 6 and first["queries"] > 0
+    assert main(["sweep", str(spec), "--out", str(out), "--workers", "1"]) == 0
+    assert "0 shards computed, 6 already done" in capsys.readouterr().out
+    bad = write_spec(tmp_path, name="bad.toml", resolution="0")
+    assert main(["sweep", str(bad), "--out", str(tmp_path / "b")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("redres: error: bad.toml: [capability].resolution: must be > 0")
+    assert err.count("\n") == 1
+    other = write_spec(tmp_path, name="other.toml", seed="8")
+    assert main(["sweep", str(other), "--out", str(out), "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "seed was 7, the spec gives 8" in err and err.count("\n") == 1
+    assert main(["sweep", str(spec)]) == 2
+    assert "give a spec and --out" in capsys.readouterr().err

@@ -1,0 +1,83 @@
+"""Sweep specs: one-line errors naming the file and the key; nothing in a spec executed."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from redres import sweeps
+from redres.sweeps import SweepSpecError
+
+from .helpers import SMALL_MAP, write_spec
+
+BAD = {
+    "resolution": ({"resolution": "-0.1"}, "spec.toml: [capability].resolution: must be > 0"),
+    "directions": ({"directions": "2.5"}, "[capability].directions: expected an integer"),
+    "kind": ({"kind": '"maps"'}, "spec.toml: kind: unknown sweep kind 'maps'; kinds: capability"),
+    "model": ({"model": '"robby"'}, "spec.toml: [robot].model: unknown robot 'robby'"),
+    "shard": ({"small_shards": "false"}, "spec.toml: shard_size: must be >= 10000; got 60"),
+    "solver": ({"max_restarts": "-1"}, "spec.toml: [solver].max_restarts: must be >= 0"),
+    "bounds": ({"bounds": "[[1, 0], [0, 1], [0, 1]]"}, "[capability].bounds: each range must"),
+    "seed": ({"seed": '"abc"'}, 'spec.toml: seed: expected a number, got \'abc\''),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_malformed_specs_give_one_line(case: str, tmp_path: Path) -> None:
+    changes, message = BAD[case]
+    path = write_spec(tmp_path, **changes)
+    with pytest.raises(SweepSpecError) as error:
+        sweeps.load_spec(path)
+    text = str(error.value)
+    assert message in text and "\n" not in text, text
+
+
+def test_unknown_keys_and_files(tmp_path: Path) -> None:
+    path = tmp_path / "typo.toml"
+    path.write_text(SMALL_MAP.replace("fk_samples", "fk_sample"))
+    with pytest.raises(SweepSpecError, match=r"typo.toml: \[capability\].fk_sample: unknown key"):
+        sweeps.load_spec(path)
+    path.write_text("kind = [")
+    with pytest.raises(SweepSpecError, match="typo.toml': not valid TOML"):
+        sweeps.load_spec(path)
+    with pytest.raises(SweepSpecError, match="no such sweep spec file"):
+        sweeps.load_spec(tmp_path / "absent.toml")
+    path.write_text(SMALL_MAP.replace('model = "panda"', 'urdf = "missing.urdf"'))
+    with pytest.raises(SweepSpecError, match=r"\[robot\].urdf: cannot read"):
+        sweeps.load_spec(path)
+
+
+def test_nothing_in_a_spec_is_executed(tmp_path: Path) -> None:
+    """Strings that would run code if evaluated stay strings, and are refused as names."""
+    marker = tmp_path / "ran"
+    payload = f"__import__('pathlib').Path({str(marker)!r}).touch()"
+    for key in ("model", "kind"):
+        path = write_spec(tmp_path, **{key: repr(payload).replace("'", '"')})
+        with pytest.raises(SweepSpecError):
+            sweeps.load_spec(path)
+    assert not marker.exists()
+
+
+def test_builtin_specs_load() -> None:
+    specs = sweeps.builtin_specs()
+    assert {"panda_capability", "panda_ik_dataset", "iiwa14_capability"} <= set(specs)
+    for path in specs.values():
+        spec = sweeps.load_spec(path)
+        assert spec.shard_size >= 10_000 and spec.description
+    panda = sweeps.load_spec(specs["panda_capability"])
+    assert panda.params.resolution == 0.05 and panda.params.directions == 50
+
+
+def test_urdf_robot(tmp_path: Path, fixtures_dir: Path) -> None:
+    urdf = (fixtures_dir / "panda_description.urdf").read_text()
+    (tmp_path / "arm.urdf").write_text(urdf)
+    text = SMALL_MAP.replace('model = "panda"', 'urdf = "arm.urdf"\ntip = "panda_hand"')
+    path = tmp_path / "urdf.toml"
+    path.write_text(text)
+    spec = sweeps.load_spec(path)
+    identity = spec.settings()["robot"]
+    assert spec.robot.urdf == urdf and identity["label"] == "arm.urdf"
+    assert len(identity["urdf_sha256"]) == 64 and identity["tip"] == "panda_hand"
+    (tmp_path / "arm.urdf").write_text(urdf + "<!-- edited -->\n")
+    assert sweeps.load_spec(path).settings()["robot"]["urdf_sha256"] != identity["urdf_sha256"]
