@@ -6,7 +6,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 EXTRAS ?= test,dev,qp,report
 
-.PHONY: demo test lint format bench clean
+.PHONY: demo test lint format bench docs clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -39,5 +39,18 @@ $(BENCH_STAMP): $(STAMP)
 bench: $(BENCH_STAMP)
 	$(BIN)/python benchmarks/run_all.py
 
+DOCS_STAMP := $(VENV)/.docs-stamp
+
+$(DOCS_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[docs]"
+	touch $(DOCS_STAMP)
+
+# The site, into docs/_build/html: warnings are errors, every reference must resolve, every
+# example and theory page runs; then every public name must have its API page.
+docs: $(DOCS_STAMP)
+	REDRES_COMPILE=foreground $(BIN)/sphinx-build -W --keep-going -n -q -b html docs docs/_build/html
+	REDRES_DOCS_REQUIRED=1 $(BIN)/python -m pytest -q -p no:cacheprovider tests/test_docs_site.py
+
 clean:
-	rm -rf $(VENV) build src/*.egg-info .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) build src/*.egg-info .pytest_cache .mypy_cache .ruff_cache \
+	  docs/_build docs/api docs/auto_examples

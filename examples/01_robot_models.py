@@ -1,4 +1,8 @@
-"""Example 1: load a robot, ask it for poses, Jacobians and dynamics.
+"""
+Robot models: poses, Jacobians and dynamics
+===========================================
+
+Load a robot, ask it for poses, Jacobians and dynamics.
 
 Run: python examples/01_robot_models.py
 """

@@ -1,4 +1,8 @@
-"""Example 2: the textbook inverses on the planar RR and RRR arms with unit links.
+"""
+Textbook inverses on planar arms
+================================
+
+The textbook inverses on the planar RR and RRR arms with unit links.
 
 Run: python examples/02_planar_pseudoinverse.py
 """

@@ -1,5 +1,9 @@
-"""Example 3: the Panda circle that drives minimum-norm control into a joint limit, with
-and without the joint-limit cost projected into the null space (Liégeois 1977).
+"""
+Gradient projection keeps the joints inside their limits
+========================================================
+
+The Panda circle that drives minimum-norm control into a joint limit, with and without
+the joint-limit cost projected into the null space (Liégeois 1977).
 
 Run: python examples/03_gradient_projection.py   (REDRES_EXAMPLE_STEPS shortens it)
 """

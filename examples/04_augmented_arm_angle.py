@@ -1,4 +1,8 @@
-"""Example 4: the augmented Jacobian holds the arm angle of the iiwa14 (Kreutz-Delgado et al. 1992).
+"""
+The augmented Jacobian holds the arm angle
+==========================================
+
+The augmented Jacobian holds the arm angle of the iiwa14 (Kreutz-Delgado et al. 1992).
 
 Run: python examples/04_augmented_arm_angle.py   (REDRES_EXAMPLE_STEPS shortens it)
 """

@@ -1,4 +1,8 @@
-"""Example 5: operational-space torque control, and why the projector must be J̄ (Khatib 1987).
+"""
+Operational-space torque control
+================================
+
+Operational-space torque control, and why the projector must be J̄ (Khatib 1987).
 
 The Panda's TCP follows a 10 cm circle under Khatib's operational-space controller while a
 posture task acts in the null space, simulated with forward dynamics at 1 kHz. With the

@@ -1,5 +1,9 @@
-"""Example 6: strict task priorities — pose first, elbow second, posture third; a camera
-kept on a target while the hand moves; an algorithmic singularity, exact vs robust.
+"""
+Strict task priorities
+======================
+
+Pose first, elbow second, posture third; a camera kept on a target while the hand moves;
+an algorithmic singularity, exact vs robust.
 
 Run: python examples/06_task_priority.py
 """

@@ -1,4 +1,8 @@
-"""Example 7: position inverse kinematics — put the tool at a pose.
+"""
+Position inverse kinematics
+===========================
+
+Put the tool at a pose.
 
 Run: python examples/07_position_ik.py
 """

@@ -1,4 +1,8 @@
-"""Example 8: hard joint limits — soft avoidance against QP and SNS guarantees.
+"""
+Hard joint limits: QP and SNS
+=============================
+
+Hard joint limits — soft avoidance against QP and SNS guarantees.
 
 The Panda's TCP follows a 10 cm circle placed so that the minimum-norm pseudo-inverse
 drives joint 2 past its limit. Gradient projection avoids the limits softly (a cost); the

@@ -1,4 +1,8 @@
-"""Example 9: a 1 kHz control loop with the Controller — the whole step in a few µs.
+"""
+A 1 kHz control loop with the Controller
+========================================
+
+A 1 kHz control loop with the Controller — the whole step in a few µs.
 
 ``rr.run`` records everything about a run; a real controller only needs the next joint
 command, every millisecond. ``rr.Controller(robot, task, scheme)`` computes it: for a

@@ -107,7 +107,7 @@ class QPScheme(BoxScheme):
         MissingDependencyError: qpsolvers or the backend is not installed (names the
             ``qp`` extra).
 
-    Identifier ``qp``. State: the previous joint velocity :attr:`qd_prev` (:meth:`reset`
+    Identifier ``qp``. State: the previous joint velocity ``qd_prev`` (:meth:`reset`
     clears it). ``StepResult.feasible``: every level met exactly; ``binding``: the bounds
     ``q̇`` sits on; ``details``: a :class:`QPDetails` (residuals, box, relaxed joints,
     solver). ``info`` gives the singular values and rank of ``J`` (:mod:`redres.linalg`'s

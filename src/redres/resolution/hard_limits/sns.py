@@ -93,7 +93,7 @@ class SNSScheme(BoxScheme):
         tolerance: slack of the box tests inside the algorithm, rad/s (the output is
             clipped into the exact box).
 
-    Identifier ``sns``. State: the previous joint velocity :attr:`qd_prev` (``None`` = at
+    Identifier ``sns``. State: the previous joint velocity ``qd_prev`` (``None`` = at
     rest; :meth:`reset` clears it, so a run starts at rest). ``StepResult.feasible``:
     ``s = 1``, the task is met exactly; ``binding``: the
     :class:`~redres.resolution.hard_limits.Binding` bounds ``q̇`` sits on; ``details``: an
