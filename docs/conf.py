@@ -138,6 +138,14 @@ _EXTERNAL = (
 )
 # Genuinely external names: links when an intersphinx inventory answered, text otherwise.
 nitpick_ignore_regex = [(r"py:.*", pattern) for pattern in _EXTERNAL]
+# redres.robot.meshes.LinkMesh is internal (Robot.visuals' element type, no page of its own)
+nitpick_ignore = [("py:class", "LinkMesh")]
+# the inherited collections.abc.Mapping methods of SweepData: their docstrings' return text
+nitpick_ignore_regex += [
+    ("py:class", r"D\[k\] if k in D.*"),
+    ("py:class", r"a set-like object providing a view on D's (items|keys)"),
+    ("py:class", r"an object providing a view on D's values"),
+]
 
 _INVENTORIES = {
     "python": "https://docs.python.org/3",

@@ -291,8 +291,8 @@ def ik(
             N)``.
         keys: restart keys, ``(N,)`` integers in ``[0, 2**62)``.
         solutions: solutions sought per target (>= 1).
-        tol_position, tol_orientation, max_iterations, max_restarts, max_step, k_limits,
-            damping, patience: as :func:`redres.ik.ik`.
+        tol_position, tol_orientation: as :func:`redres.ik.ik`.
+        max_iterations, max_restarts, max_step, k_limits, damping, patience: as there.
         threads: threads for this call (``None``: all).
 
     Returns:

@@ -18,12 +18,11 @@ from __future__ import annotations
 from .capability import CapabilityMap, load_map
 from .engine import SweepReport, run
 from .folder import SweepFolderError
-from .kinds import KINDS
+from .kinds import KINDS  # noqa: F401 - importable, documented in redres.sweeps.kinds
 from .results import SweepData, load
 from .spec import SweepSpec, SweepSpecError, builtin_specs, load_spec, parse_spec
 
 __all__ = [
-    "KINDS",
     "CapabilityMap",
     "SweepData",
     "SweepFolderError",
