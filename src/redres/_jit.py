@@ -255,11 +255,12 @@ _LOCK = threading.RLock()
 _modules: dict[tuple[str, bool], ModuleType] = {}
 
 
-def load(name: str) -> ModuleType | None:
+def load(name: str, *, plain: bool = False) -> ModuleType | None:
     """Kernel module ``name`` (of :data:`KERNEL_MODULES`): compiled when it is ready
-    (:func:`ready`), else its plain-Python twin while it compiles behind; None when numba
-    cannot be imported (the caller says what it falls back to)."""
-    return _get(name, compiled=ready(name))
+    (:func:`ready`), else its plain-Python twin while it compiles behind (``plain``: the
+    twin in any case); None when numba cannot be imported (the caller says what it falls
+    back to)."""
+    return _get(name, compiled=not plain and ready(name))
 
 
 def compiled(name: str) -> ModuleType | None:

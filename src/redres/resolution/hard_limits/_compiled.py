@@ -19,7 +19,7 @@ def kernels(name: str = "_kernels", *, plain: bool = False) -> ModuleType:
         MissingDependencyError: numba cannot be imported (the hard-limit schemes have no
             NumPy path; ``REDRES_DISABLE_JIT=1`` runs their kernels as plain Python).
     """
-    module = _jit._get(_PACKAGE + name, compiled=False) if plain else _jit.load(_PACKAGE + name)
+    module = _jit.load(_PACKAGE + name, plain=plain)
     if module is None:
         raise MissingDependencyError(
             "the hard-limit schemes need numba (a dependency of redres), which cannot be "
