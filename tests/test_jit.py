@@ -10,6 +10,7 @@ the caller is recompiled.
 from __future__ import annotations
 
 import ast
+import json
 import os
 import shutil
 import subprocess
@@ -228,3 +229,30 @@ def test_warmup_runs_each_call_and_says_how_long_it_took(
     assert [line.split(":")[:2] for line in err] == [["redres", " first"], ["redres", " second"]]
     assert _jit.warmup([("quiet", lambda: None)], quiet=True) >= 0.0
     assert capsys.readouterr().err == ""
+
+
+def test_import_redres_loads_only_what_a_program_touches() -> None:
+    """``import redres`` imports neither numba nor SciPy's linear algebra (0.2 s each; the
+    compiled paths load them on first use) nor the controller, torque laws or viewer; each
+    public name then loads its module on first access."""
+    code = """
+import json, sys
+import redres
+before = sorted(m for m in ("numba", "scipy.linalg", "redres.control", "redres.dynamics",
+                            "redres.viewer", "redres._warmup") if m in sys.modules)
+objects = {name: type(getattr(redres, name)).__name__ for name in redres.__all__}
+after = [m for m in ("redres.control", "redres.dynamics", "redres.viewer") if m in sys.modules]
+print(json.dumps([before, objects, after, sorted(set(redres.__all__) - set(dir(redres)))]))
+"""
+    env = {k: v for k, v in os.environ.items() if k != "REDRES_DISABLE_JIT"}
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=120)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    before, objects, after, missing = json.loads(proc.stdout)
+    assert before == []
+    assert objects["Controller"] == "type" and objects["control"] == "module"
+    assert objects["ik"] == "function" and objects["run"] == "function"
+    assert after == ["redres.control", "redres.dynamics", "redres.viewer"]
+    assert missing == []
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        redres.nonexistent  # noqa: B018

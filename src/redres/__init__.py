@@ -13,15 +13,51 @@ Quick start::
 
 from __future__ import annotations
 
-from . import batch, control, dynamics, errors, linalg, models, objectives, resolution, tasks
-from ._warmup import warmup
-from .control import Controller, run
-from .errors import RedresError
-from .ik import IKResult, ik
+import importlib
+from typing import TYPE_CHECKING, Any
+
+from .ik import IKResult, ik  # eager: the function `ik` must shadow the module `redres.ik`
 from .robot import DHLink, Robot
-from .viewer import Viewer, view
+
+if TYPE_CHECKING:
+    from . import batch, control, dynamics, errors, linalg, models, objectives, resolution, tasks
+    from ._warmup import warmup
+    from .control import Controller, run
+    from .errors import RedresError
+    from .viewer import Viewer, view
 
 __version__ = "0.1.0.dev0"
+
+#: Public names loaded on first use, name -> defining module: ``import redres`` pays only
+#: for what a program touches (the README example never loads the controller, the
+#: torque laws or the viewer). Submodules of ``__all__`` load the same way.
+_LAZY: dict[str, str] = {
+    "Controller": ".control",
+    "run": ".control",
+    "RedresError": ".errors",
+    "Viewer": ".viewer",
+    "view": ".viewer",
+    "warmup": "._warmup",
+}
+_SUBMODULES = frozenset(
+    {"batch", "control", "dynamics", "errors", "linalg", "models", "objectives", "resolution",
+     "tasks"}
+)  # fmt: skip
+
+
+def __getattr__(name: str) -> Any:
+    if name in _SUBMODULES:
+        return importlib.import_module(f".{name}", __name__)
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'redres' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
 
 __all__ = [
     "Controller",

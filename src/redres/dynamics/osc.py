@@ -46,7 +46,6 @@ from typing import TYPE_CHECKING, Any, Literal, NamedTuple, TypeVar, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.linalg import cho_solve
 
 from .._validate import FloatArray, as_matrix, as_vector
 from ..errors import InvalidParameterError, NotPositiveDefiniteError
@@ -198,6 +197,8 @@ def task_disturbance(J: ArrayLike, M: ArrayLike, tau: ArrayLike) -> FloatArray:
     n = Jm.shape[1]
     L = mass_matrix_factor(M, n)
     t = as_vector(tau, "tau", n)
+    from scipy.linalg import cho_solve  # on first use: 0.2 s of import
+
     return Jm @ cho_solve((L, True), t)
 
 

@@ -29,7 +29,6 @@ from typing import Any, NamedTuple, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg import solve_triangular
 
 from .. import _jit
 from .._validate import as_matrix, as_scalar
@@ -218,13 +217,22 @@ def weight_factor(mode: int, diag: FloatArray, full: FloatArray, name: str) -> F
     return np.asarray(L, dtype=np.float64)
 
 
+def solve_lower(L: FloatArray, B: FloatArray, *, trans: str = "N") -> FloatArray:
+    """``L⁻¹ B`` (``trans="T"``: ``L⁻ᵀ B``) for a lower-triangular ``L``: SciPy's
+    triangular solve, imported on first use (``scipy.linalg`` costs 0.2 s of
+    ``import redres``; the compiled paths never need it)."""
+    from scipy.linalg import solve_triangular
+
+    return np.asarray(solve_triangular(L, B, lower=True, trans=trans))
+
+
 def weigh(J: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
     """``J W^{-1/2}``: ``J / sqrt(w)`` or ``J L^-T``."""
     if mode == codes.NO_WEIGHTS:
         return J
     if mode == codes.DIAGONAL:
         return J / factor
-    return np.asarray(solve_triangular(factor, J.T, lower=True).T)
+    return solve_lower(factor, J.T).T
 
 
 def unweigh_rows(X: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
@@ -233,7 +241,7 @@ def unweigh_rows(X: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
         return X
     if mode == codes.DIAGONAL:
         return X / (factor if X.ndim == 1 else factor[:, None])
-    return np.asarray(solve_triangular(factor, X, lower=True, trans="T"))
+    return solve_lower(factor, X, trans="T")
 
 
 def weigh_up(v: FloatArray, mode: int, factor: FloatArray) -> FloatArray:

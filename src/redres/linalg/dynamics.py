@@ -24,7 +24,6 @@ from typing import TYPE_CHECKING, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.linalg import solve_triangular
 
 from .._validate import as_matrix
 from ..errors import NotPositiveDefiniteError
@@ -100,7 +99,7 @@ def _decompose_svd(
     m, n = A.shape
     L = mass_matrix_factor(M, n)
     mode, lam, lam_max, eps = be.parse_damping(damping)
-    Jw = solve_triangular(L, A.T, lower=True).T  # J L^-T
+    Jw = be.solve_lower(L, A.T).T  # J L^-T
     U, sigma, Vt = np.linalg.svd(Jw, full_matrices=True)
     k = min(m, n)
     f, lam2, rank, used = be.filter_factors(sigma, mode, lam, lam_max, eps, rcond)
@@ -116,7 +115,7 @@ def _decompose_svd(
         g[k:] = 1.0 / (tail * tail) if tail > 0.0 else 0.0
     Lam = (U * g) @ U.T
     Lam = 0.5 * (Lam + Lam.T)
-    J_bar = solve_triangular(L, (Vt[:k].T * f) @ U[:, :k].T, lower=True, trans="T")
+    J_bar = be.solve_lower(L, (Vt[:k].T * f) @ U[:, :k].T, trans="T")
     stats = be.Stats(rank, float(sigma[-1]), float(sigma[0]), used)
     return Lam, np.asarray(J_bar), A, stats, _method(mode)
 
