@@ -2,8 +2,9 @@
 
 :func:`redres._jit.ready` calls :func:`compile_behind` for a kernel module whose cache
 is cold: it starts, once for every process that shares the cache (a lock file holding
-the compiler's process id), ``redres warmup --behind MODULE`` (:mod:`redres._warmup`),
-and notices when it has ended or failed. docs/architecture.md, "First use".
+the compiler's process id), :func:`redres._warmup.behind` in a new interpreter (not
+through the ``redres`` command, whose parser imports the sweeps: 0.15 s more before the
+compilation starts), and notices when it has ended or failed. docs/architecture.md, "First use".
 """
 
 from __future__ import annotations
@@ -11,9 +12,13 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 from . import _jit
+
+#: The background compiler's program (argument: the kernel module to compile first).
+_CHILD = "import sys; from redres._warmup import behind; behind(sys.argv[1])"
 
 
 def _lock_file() -> Path:
@@ -35,7 +40,7 @@ def compile_behind(name: str) -> None:
     try:
         with open(_log_file(), "wb") as sink:
             proc = subprocess.Popen(
-                [sys.executable, "-m", "redres", "warmup", "--behind", name],
+                [sys.executable, "-c", _CHILD, name],
                 stdin=subprocess.DEVNULL, stdout=sink, stderr=sink, env=child_env(),
                 start_new_session=True,
             )  # fmt: skip
@@ -45,6 +50,8 @@ def compile_behind(name: str) -> None:
         _behind_failed(f"it could not start ({exc})")
         return
     _jit._state["behind"] = proc
+    # numba's import and CPU target (0.5 s) are needed at the switch: prepare them now.
+    threading.Thread(target=_jit.prepare, name="redres-prepare-numba", daemon=True).start()
     seconds = sum(_jit._COLD_SECONDS.values())
     print(
         f"redres: compiling kernels in a background process (about {seconds:.0f} s on one "

@@ -353,6 +353,21 @@ if _POLICY == "foreground":
     _state["foreground"] = True
 
 
+def prepare() -> None:
+    """Import numba and build its CPU target (their type and lowering registries, SciPy's
+    LAPACK among them: 0.5 s, paid once per process before a first kernel loads), under
+    numba's compiler lock. :mod:`redres._behind` runs it in a thread while the kernels
+    compile behind, so that the switch to the compiled path only loads them."""
+    try:
+        from numba.core.compiler_lock import global_compiler_lock
+        from numba.core.registry import cpu_target
+
+        with global_compiler_lock:
+            cpu_target.target_context.refresh()
+    except Exception:  # pragma: no cover - only a head start: the first load does it anyway
+        pass
+
+
 def compile_on_first_use() -> None:
     """From now on compile cold kernel modules on this process's path, on first use (as
     ``REDRES_COMPILE=foreground``): :func:`redres.warmup` and the background process."""

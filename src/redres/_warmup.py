@@ -3,10 +3,10 @@ background compilation of :mod:`redres._jit`.
 
 Each *group* is a short workload through the public API (so that it compiles exactly the
 argument types the library's own calls use) and the kernel modules it fills the cache of.
-``redres warmup --behind MODULE`` is the background process :mod:`redres._jit`
-starts on a cold cache: it compiles the group of ``MODULE`` first, then the others, and
-marks each module as cached as soon as its group is done, so that the process that
-started it switches to the compiled path group by group.
+:func:`behind` is the background process :mod:`redres._jit` starts on a cold cache: it
+compiles the group of the module asked for first, then the others, and marks each module
+as cached as soon as its group is done, so that the process that started it switches to
+the compiled path group by group.
 """
 
 from __future__ import annotations

@@ -134,11 +134,8 @@ def _cmd_view(args: argparse.Namespace) -> int:
 
 def _cmd_warmup(args: argparse.Namespace) -> int:
     from . import _jit
-    from ._warmup import GROUPS, behind, warmup
+    from ._warmup import GROUPS, warmup
 
-    if args.behind:  # the background compiler of redres._jit
-        behind(args.behind)
-        return 0
     if args.list:
         for name, (modules, _) in GROUPS.items():
             state = (
@@ -222,7 +219,6 @@ def build_parser() -> argparse.ArgumentParser:
     warm.add_argument("--list", action="store_true", help="list the groups and what is cached")
     warm.add_argument("--quiet", action="store_true", help="print nothing")
     warm.add_argument("--jobs", type=int, default=2, help="processes to compile in (default 2)")
-    warm.add_argument("--behind", metavar="MODULE", help=argparse.SUPPRESS)
     warm.set_defaults(func=_cmd_warmup)
     bench = sub.add_parser("bench", help="run the control-step benchmark against peers")
     bench.set_defaults(func=_cmd_bench)
