@@ -31,14 +31,9 @@ __version__ = "0.1.0.dev0"
 #: Public names loaded on first use, name -> defining module: ``import redres`` pays only
 #: for what a program touches (the README example never loads the controller, the
 #: torque laws or the viewer). Submodules of ``__all__`` load the same way.
-_LAZY: dict[str, str] = {
-    "Controller": ".control",
-    "run": ".control",
-    "RedresError": ".errors",
-    "Viewer": ".viewer",
-    "view": ".viewer",
-    "warmup": "._warmup",
-}
+_LAZY: dict[str, str] = dict.fromkeys(("Controller", "run"), ".control") | {
+    "RedresError": ".errors", "warmup": "._warmup", "Viewer": ".viewer", "view": ".viewer"
+}  # fmt: skip
 _SUBMODULES = frozenset(
     {"batch", "control", "dynamics", "errors", "linalg", "models", "objectives", "resolution",
      "tasks"}

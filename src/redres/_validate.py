@@ -160,15 +160,17 @@ def checked_keywords(func: _F) -> _F:
             try:
                 signature.bind(*args, **kwargs)
             except TypeError:
-                raise _unknown(func.__qualname__, names, kwargs, exc) from None
+                raise unknown_keyword(func.__qualname__, names, kwargs, exc) from None
             raise
 
     return wrapper  # type: ignore[return-value]
 
 
-def _unknown(
-    qualname: str, names: list[str], kwargs: dict[str, Any], exc: TypeError
+def unknown_keyword(
+    qualname: str, names: list[str], kwargs: dict[str, Any], exc: TypeError | None = None
 ) -> UnknownParameterError:
+    """The error for the first of ``kwargs`` that is not in ``names`` (the nearest name
+    suggested); ``exc`` (Python's own error) when every key is known."""
     owner = qualname.removesuffix(".__init__")
     for key in kwargs:
         if key not in names:

@@ -110,9 +110,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if not args.scenario:
         print("redres run: error: give a scenario file (or --list)", file=sys.stderr)
         return 2
-    target = args.scenario
-    path = builtin[target] if target in builtin and not Path(target).exists() else Path(target)
-    spec = load_scenario(path)
+    spec = load_scenario(_scenario_path(args.scenario, builtin))
     after = None
     if args.view:
         from .viewer import serve_runs
@@ -123,13 +121,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return run_scenarios([spec], _output(args), title=spec.name, after=after)
 
 
+def _scenario_path(target: str, builtin: dict[str, Path]) -> Path:
+    """A scenario file, or the built-in scenario of that name when no such file exists."""
+    return builtin[target] if target in builtin and not Path(target).exists() else Path(target)
+
+
 def _cmd_view(args: argparse.Namespace) -> int:
     from .scenario import builtin_scenarios, load_scenario
     from .viewer import serve_scenario
 
-    builtin, target = builtin_scenarios(), args.scenario
-    path = builtin[target] if target in builtin and not Path(target).exists() else Path(target)
-    return serve_scenario(load_scenario(path), port=args.port, seconds=args.seconds)
+    spec = load_scenario(_scenario_path(args.scenario, builtin_scenarios()))
+    return serve_scenario(spec, port=args.port, seconds=args.seconds)
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:
@@ -185,6 +187,11 @@ def _output_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _viewer_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--port", type=int, default=8080, help="port of the viewer's page")
+    parser.add_argument("--seconds", type=float, default=None, help="stop the viewer after this")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="redres", description="Redundancy resolution for robot manipulators."
@@ -205,14 +212,12 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("scenario", nargs="?", help="scenario file or built-in scenario name")
     run.add_argument("--list", action="store_true", help="list the built-in scenarios")
     run.add_argument("--view", action="store_true", help="then show the runs in the browser")
-    run.add_argument("--port", type=int, default=8080, help="port of the viewer (--view)")
-    run.add_argument("--seconds", type=float, default=None, help="stop the viewer after this")
+    _viewer_options(run)
     _output_options(run)
     run.set_defaults(func=_cmd_run)
     view = sub.add_parser("view", help="run a scenario and show its runs in the browser (viser)")
     view.add_argument("scenario", help="scenario file or built-in scenario name")
-    view.add_argument("--port", type=int, default=8080, help="port of the page (default 8080)")
-    view.add_argument("--seconds", type=float, default=None, help="stop after this long")
+    _viewer_options(view)
     view.set_defaults(func=_cmd_view)
     warm = sub.add_parser("warmup", help="compile the kernels now (a first call is then fast)")
     warm.add_argument("groups", nargs="*", help="what to compile (default all; see --list)")

@@ -126,3 +126,22 @@ def test_with_limits_returns_a_tighter_robot() -> None:
         panda.with_limits(tau_max=0.0)
     with pytest.raises(ShapeError):
         panda.with_limits(qd_max=[1.0, 2.0])
+
+
+@pytest.mark.parametrize(
+    ("loader", "fixture", "keyword", "suggested"),
+    [
+        ("from_urdf", "arm3.urdf", "capsuls", "capsules"),
+        ("from_mjcf", "arm3.xml", "lockd", "locked"),
+        ("from_urdf_string", "arm3.urdf", "mesh_dri", "mesh_dir"),
+    ],
+)
+def test_a_misspelt_loader_option_names_the_nearest_one(
+    fixtures_dir: Path, loader: str, fixture: str, keyword: str, suggested: str
+) -> None:
+    path = fixtures_dir / fixture
+    source = path.read_text() if loader == "from_urdf_string" else path
+    with pytest.raises(rr.errors.UnknownParameterError, match=f"did you mean '{suggested}'"):
+        getattr(rr.Robot, loader)(source, **{keyword: 1})
+    robot = getattr(rr.Robot, loader)(source, name="renamed", capsules=False)
+    assert robot.name == "renamed" and not robot.capsules

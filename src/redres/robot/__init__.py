@@ -3,12 +3,14 @@
 from .capsules import Capsule, capsule_between
 from .chain import ChainPoseError, NotSerialChainError, SerialChain
 from .dh import DHLink
+from .files import LoadOptions
 from .robot import Reference, Robot
 
 __all__ = [
     "Capsule",
     "ChainPoseError",
     "DHLink",
+    "LoadOptions",
     "NotSerialChainError",
     "Reference",
     "Robot",

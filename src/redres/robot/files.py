@@ -20,15 +20,17 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 import pinocchio as pin
 
-from .._validate import FloatArray
+from .._validate import FloatArray, unknown_keyword
 from ..errors import InvalidParameterError, ShapeError
 
 if TYPE_CHECKING:
+    from typing import Unpack  # Python 3.11; only read by type checkers
+
     from .meshes import LinkMesh
     from .robot import Robot
     from .urdf import LoadedModel
@@ -36,6 +38,26 @@ if TYPE_CHECKING:
 from .urdf import ModelSource
 
 _PI = float(np.pi)
+
+
+class LoadOptions(TypedDict, total=False):
+    """Keyword options of the file loaders :meth:`Robot.from_urdf`,
+    :meth:`Robot.from_urdf_string` and :meth:`Robot.from_mjcf`.
+
+    Attributes:
+        locked: positions of the joints off the base-to-tip chain, joint name -> rad or m
+            (default: zero clipped into their limits).
+        name: robot name (default: the file's robot name).
+        continuous_limits: position limits given to continuous joints, rad (default
+            ``(-π, π)``).
+        capsules: fit link capsules to the collision geometry (default True; False skips
+            reading the collision meshes, 0.5–1 s for a real URDF).
+    """
+
+    locked: Mapping[str, float] | None
+    name: str | None
+    continuous_limits: tuple[float, float]
+    capsules: bool
 
 
 def file_neutral(model: pin.Model, reference: np.ndarray | None) -> FloatArray:
@@ -111,16 +133,20 @@ class RobotFiles:
 
     @classmethod
     def _load(
-        cls,
-        source: ModelSource,
-        tip: str | None,
-        locked: Mapping[str, float] | None,
-        name: str | None,
-        continuous_limits: tuple[float, float],
-        capsules: bool,
+        cls, source: ModelSource, tip: str | None, options: LoadOptions, loader: str
     ) -> Robot:
         from .urdf import load_model
 
+        unknown = set(options) - set(LoadOptions.__annotations__)
+        if unknown:
+            names = ["tip", *LoadOptions.__annotations__]
+            if loader == "from_urdf_string":
+                names.insert(1, "mesh_dir")
+            raise unknown_keyword(f"Robot.{loader}", names, dict(options))
+        locked = options.get("locked")
+        name = options.get("name")
+        continuous_limits = options.get("continuous_limits", (-_PI, _PI))
+        capsules = options.get("capsules", True)
         geometry = ("collision",) if capsules else ()
         loaded = load_model(source, tip, locked, continuous_limits, geometry=geometry)
         where = _VisualSource(source, loaded.tip, locked, continuous_limits)
@@ -131,11 +157,7 @@ class RobotFiles:
         cls,
         path: str | Path,
         tip: str | None = None,
-        *,
-        locked: Mapping[str, float] | None = None,
-        name: str | None = None,
-        continuous_limits: tuple[float, float] = (-_PI, _PI),
-        capsules: bool = True,
+        **options: Unpack[LoadOptions],
     ) -> Robot:
         """Load a robot from a URDF file, keeping only the base-to-``tip`` chain.
 
@@ -150,10 +172,8 @@ class RobotFiles:
             tip: frame (link) name at the end of the chain; may be omitted when the URDF
                 is an unbranched chain, links fixed after the last joint included (a hand
                 with fixed fingers branches: give the tip).
-            locked: positions of the joints that are locked.
-            name: robot name (default: the URDF's robot name).
-            continuous_limits: position limits given to continuous joints, rad.
-            capsules: fit link capsules to the collision geometry.
+            options: ``locked``, ``name``, ``continuous_limits``, ``capsules``
+                (:class:`LoadOptions`).
 
         Raises:
             ModelFileNotFoundError: the file does not exist.
@@ -161,7 +181,7 @@ class RobotFiles:
         """
         from .urdf import urdf_source
 
-        return cls._load(urdf_source(path), tip, locked, name, continuous_limits, capsules)
+        return cls._load(urdf_source(path), tip, options, "from_urdf")
 
     @classmethod
     def from_urdf_string(
@@ -169,11 +189,8 @@ class RobotFiles:
         xml: str,
         tip: str | None = None,
         *,
-        locked: Mapping[str, float] | None = None,
-        name: str | None = None,
-        continuous_limits: tuple[float, float] = (-_PI, _PI),
-        capsules: bool = True,
         mesh_dir: str | Path | None = None,
+        **options: Unpack[LoadOptions],
     ) -> Robot:
         """:meth:`from_urdf` on URDF text (e.g. the output of xacro or a ROS parameter).
 
@@ -181,25 +198,21 @@ class RobotFiles:
             xml: the URDF document.
             mesh_dir: where relative mesh paths (and ``package://`` roots) are found
                 (default: the current folder).
-            others: as :meth:`from_urdf`.
+            tip, options: as for :meth:`from_urdf`.
         """
         if not isinstance(xml, str):
             raise InvalidParameterError(f"xml must be a str; got {type(xml).__name__}")
         source = ModelSource("<URDF string>", "urdf", text=xml)
         if mesh_dir is not None:
             source.mesh_dir = Path(mesh_dir)
-        return cls._load(source, tip, locked, name, continuous_limits, capsules)
+        return cls._load(source, tip, options, "from_urdf_string")
 
     @classmethod
     def from_mjcf(
         cls,
         path: str | Path,
         tip: str | None = None,
-        *,
-        locked: Mapping[str, float] | None = None,
-        name: str | None = None,
-        continuous_limits: tuple[float, float] = (-_PI, _PI),
-        capsules: bool = True,
+        **options: Unpack[LoadOptions],
     ) -> Robot:
         """Load a robot from an MJCF file (MuJoCo's format; the MuJoCo Menagerie's models)
         through Pinocchio's MJCF parser, with the tip and locking rules of
@@ -214,7 +227,7 @@ class RobotFiles:
         """
         from .urdf import mjcf_source
 
-        return cls._load(mjcf_source(path), tip, locked, name, continuous_limits, capsules)
+        return cls._load(mjcf_source(path), tip, options, "from_mjcf")
 
     def with_limits(
         self,
