@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 import subprocess
 from pathlib import Path
+from typing import ClassVar
 
 CHROMIUM = Path("/usr/bin/chromium")
 
@@ -62,74 +63,129 @@ def dump_dom(
     )  # fmt: skip
 
 
+class LivePage:
+    """Headless Chromium on one page in real time, driven through the DevTools protocol
+    (for a page that holds a websocket open and so never settles, as virtual time needs):
+    evaluate JavaScript, wait for a condition, press keys. A context manager; ``console``
+    collects the page's console messages and uncaught exceptions as ``(level, text)``
+    pairs (levels as the protocol names them: ``log``, ``info``, ``warning``, ``error``,
+    ``exception``)."""
+
+    #: The keys :meth:`press` knows, with their virtual key codes.
+    KEYS: ClassVar[dict[str, int]] = {
+        "End": 35, "Home": 36, "ArrowLeft": 37, "ArrowUp": 38, "ArrowRight": 39, "ArrowDown": 40
+    }  # fmt: skip
+
+    def __init__(
+        self, url: str, profile: Path, *, seconds: float = 60.0, size: str = "800,600"
+    ) -> None:
+        self.url, self.profile, self.seconds, self.size = url, profile, seconds, size
+        self.console: list[tuple[str, str]] = []
+
+    def __enter__(self) -> LivePage:
+        import json
+        import socket
+        import time
+        import urllib.request
+
+        from websockets.sync.client import connect
+
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            port = s.getsockname()[1]
+        flags = [f for f in FLAGS if not f.startswith(("--virtual-time", "--window-size"))]
+        self._chromium = subprocess.Popen(
+            [str(CHROMIUM), *flags, f"--window-size={self.size}",
+             f"--remote-debugging-port={port}", f"--user-data-dir={self.profile}",
+             "about:blank"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )  # fmt: skip
+        try:
+            self.deadline = time.monotonic() + self.seconds
+            tabs: list[dict[str, str]] = []
+            while not tabs and time.monotonic() < self.deadline:
+                try:
+                    with urllib.request.urlopen(f"http://127.0.0.1:{port}/json") as answer:
+                        tabs = [t for t in json.load(answer) if t.get("type") == "page"]
+                except OSError:
+                    time.sleep(0.2)
+            self._ws = connect(tabs[0]["webSocketDebuggerUrl"], max_size=None)
+            self._ids = iter(range(1, 1_000_000))
+            self.call("Runtime.enable")
+            self.call("Page.navigate", url=self.url)
+        except BaseException:
+            self._kill()
+            raise
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._ws.close()
+        self._kill()
+
+    def _kill(self) -> None:
+        self._chromium.kill()
+        self._chromium.wait()
+
+    def call(self, method: str, **params: object) -> dict:  # type: ignore[type-arg]
+        """One DevTools command; its answer (console messages on the way are kept)."""
+        import json
+        import time
+
+        i = next(self._ids)
+        self._ws.send(json.dumps({"id": i, "method": method, "params": params}))
+        while True:
+            message = json.loads(self._ws.recv(timeout=max(1.0, self.deadline - time.monotonic())))
+            if message.get("method") == "Runtime.consoleAPICalled":
+                p = message["params"]
+                text = " ".join(str(a.get("value", a.get("description", "")))
+                                for a in p.get("args", []))  # fmt: skip
+                self.console.append((p.get("type", "log"), text))
+            elif message.get("method") == "Runtime.exceptionThrown":
+                details = message["params"]["exceptionDetails"]
+                self.console.append(("exception", str(details.get("exception", details))))
+            if message.get("id") == i:
+                return message  # type: ignore[no-any-return]
+
+    def evaluate(self, expression: str) -> object:
+        """The value of a JavaScript expression in the page (``None`` if not JSON-able)."""
+        answer = self.call("Runtime.evaluate", expression=expression, returnByValue=True)
+        return answer.get("result", {}).get("result", {}).get("value")
+
+    def wait(self, expression: str, seconds: float | None = None) -> bool:
+        """Whether ``expression`` became true within ``seconds`` (default: until the
+        page's deadline)."""
+        import time
+
+        end = self.deadline if seconds is None else min(self.deadline, time.monotonic() + seconds)
+        while time.monotonic() < end:
+            if self.evaluate(f"Boolean({expression})") is True:
+                return True
+            time.sleep(0.1)
+        return False
+
+    def press(self, key: str) -> None:
+        """Press and release ``key`` (one of :attr:`KEYS`) in the focused element."""
+        code = self.KEYS[key]
+        for kind in ("keyDown", "keyUp"):
+            self.call("Input.dispatchKeyEvent", type=kind, key=key, code=key,
+                      windowsVirtualKeyCode=code, nativeVirtualKeyCode=code)  # fmt: skip
+
+    @property
+    def text(self) -> str:
+        """The page's ``document.body.innerText``."""
+        return str(self.evaluate("document.body.innerText") or "")
+
+
 def live_page(
     url: str, profile: Path, done_js: str, *, seconds: float = 60.0, size: str = "800,600"
 ) -> tuple[str, list[tuple[str, str]]]:
-    """Open ``url`` in headless Chromium in real time, through the DevTools protocol (for a
-    page that holds a websocket open and so never settles, as virtual time needs), until
-    the JavaScript expression ``done_js`` is true or ``seconds`` pass.
+    """Open ``url`` in a :class:`LivePage` until the JavaScript expression ``done_js`` is
+    true or ``seconds`` pass.
 
     Returns:
         ``(text, console)``: the page's ``document.body.innerText`` and its console
-        messages and uncaught exceptions as ``(level, text)`` pairs (levels as the
-        protocol names them: ``log``, ``info``, ``warning``, ``error``, ``exception``).
+        messages (:class:`LivePage`).
     """
-    import json
-    import socket
-    import time
-    import urllib.request
-
-    from websockets.sync.client import connect
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    flags = [f for f in FLAGS if not f.startswith(("--virtual-time", "--window-size"))]
-    chromium = subprocess.Popen(
-        [str(CHROMIUM), *flags, f"--window-size={size}", f"--remote-debugging-port={port}",
-         f"--user-data-dir={profile}", "about:blank"],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    console: list[tuple[str, str]] = []
-    try:
-        deadline = time.monotonic() + seconds
-        tabs: list[dict[str, str]] = []
-        while not tabs and time.monotonic() < deadline:
-            try:
-                with urllib.request.urlopen(f"http://127.0.0.1:{port}/json") as answer:
-                    tabs = [t for t in json.load(answer) if t.get("type") == "page"]
-            except OSError:
-                time.sleep(0.2)
-        with connect(tabs[0]["webSocketDebuggerUrl"], max_size=None) as ws:
-            ids = iter(range(1, 1_000_000))
-
-            def call(method: str, **params: object) -> dict:  # type: ignore[type-arg]
-                i = next(ids)
-                ws.send(json.dumps({"id": i, "method": method, "params": params}))
-                while True:
-                    message = json.loads(ws.recv(timeout=max(1.0, deadline - time.monotonic())))
-                    if message.get("method") == "Runtime.consoleAPICalled":
-                        p = message["params"]
-                        text = " ".join(str(a.get("value", a.get("description", "")))
-                                        for a in p.get("args", []))  # fmt: skip
-                        console.append((p.get("type", "log"), text))
-                    elif message.get("method") == "Runtime.exceptionThrown":
-                        details = message["params"]["exceptionDetails"]
-                        console.append(("exception", str(details.get("exception", details))))
-                    if message.get("id") == i:
-                        return message  # type: ignore[no-any-return]
-
-            call("Runtime.enable")
-            call("Page.navigate", url=url)
-            text = ""
-            while time.monotonic() < deadline:
-                found = call("Runtime.evaluate", expression=f"Boolean({done_js})")
-                if found.get("result", {}).get("result", {}).get("value") is True:
-                    break
-                time.sleep(0.25)
-            body = call("Runtime.evaluate", expression="document.body.innerText")
-            text = str(body.get("result", {}).get("result", {}).get("value", ""))
-        return text, console
-    finally:
-        chromium.kill()
-        chromium.wait()
+    with LivePage(url, profile, seconds=seconds, size=size) as page:
+        page.wait(done_js)
+        return page.text, page.console

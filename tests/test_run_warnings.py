@@ -1,5 +1,6 @@
 """Runs that tell: a joint past its limit, singular configurations and an unreachable
-target each give a warning, in the summary, on ``redres run``'s output and in --json."""
+target each give a warning, in ``rr.run(...).summary()`` and ``log.warnings``, on
+``redres run``'s output and in --json."""
 
 from __future__ import annotations
 
@@ -12,14 +13,19 @@ import pytest
 import redres as rr
 from redres.cli import main
 from redres.control import Circle, Line
+from redres.control.runwarnings import NOT_REACHED_M, SINGULAR_SIGMA
 from redres.objectives import JointLimitObjective
 from redres.resolution import GradientProjectionScheme, PseudoInverseScheme
-from redres.runner import NOT_REACHED_M, SINGULAR_SIGMA, run_warnings, summarise
+from redres.runner import summarise
 from redres.tasks import FrameTask
 
 
-def _kinds(robot: rr.Robot, log: rr.control.RunLog) -> dict[str, dict]:
-    return {w["kind"]: w for w in summarise(robot, log)["warnings"]}
+def _kinds(log: rr.control.RunLog) -> dict[str, dict]:
+    """The warnings a Python user of ``rr.run`` sees, by kind, checked to be one list."""
+    found = log.summary()["warnings"]
+    assert found == [w.as_dict() for w in log.warnings]
+    assert [str(w) for w in log.warnings] == [w["message"] for w in found]
+    return {w["kind"]: w for w in found}
 
 
 def test_a_joint_that_leaves_its_limits_is_named_with_the_amount() -> None:
@@ -36,7 +42,8 @@ def test_a_joint_that_leaves_its_limits_is_named_with_the_amount() -> None:
     excess = np.maximum(robot.q_min - log.q, log.q - robot.q_max)  # oracle
     assert excess.max() > 0.01, "the fixture must leave the limits"
     j = int(np.unravel_index(np.argmax(excess), excess.shape)[1])
-    warning = _kinds(robot, log)["joint_limits"]
+    assert log.q_min is not None and np.array_equal(log.q_min, robot.q_min)
+    warning = _kinds(log)["joint_limits"]
     assert warning["joint"] == robot.joint_names[j]
     assert warning["value"] == pytest.approx(excess.max(), rel=1e-12)
     assert warning["steps"] == int((excess > 1e-9).any(axis=1).sum())
@@ -52,7 +59,7 @@ def test_an_unreachable_circle_warns_of_the_error_and_the_singularity() -> None:
     start = robot.fk(robot.neutral())
     circle = Circle(start, 0.3, 4.0, normal=(0.0, 1.0, 0.0), phase=-np.pi / 2)
     log = rr.run(robot, FrameTask(), circle, PseudoInverseScheme(damping=0.05), duration=1.2)
-    found = _kinds(robot, log)
+    found = _kinds(log)
     assert set(found) >= {"not_reached", "singular"}
     error = log.position_error  # oracle: the log itself
     assert found["not_reached"]["value"] == pytest.approx(error.max())
@@ -67,7 +74,24 @@ def test_a_clean_run_has_no_warning() -> None:
     robot = rr.models.panda()
     circle = Circle(robot.fk(robot.neutral()), 0.02, 0.2)
     log = rr.run(robot, FrameTask(), circle, PseudoInverseScheme())
-    assert run_warnings(robot, log) == []
+    assert log.warnings == [] and log.summary()["warnings"] == []
+
+
+def test_a_log_without_recorded_limits_warns_only_through_a_robot() -> None:
+    # A log built by hand (here: a run's log with its limits dropped) cannot know the
+    # limits; summarise(robot, log) measures it against the robot's.
+    from dataclasses import replace
+
+    robot = rr.models.panda()
+    circle = Circle(robot.fk(robot.neutral()), 0.02, 0.2)
+    log = rr.run(robot, FrameTask(), circle, PseudoInverseScheme(), duration=0.01)
+    log.q[3, 1] = robot.q_max[1] + 0.25  # oracle: this one excursion
+    bare = replace(log, q_min=None, q_max=None, joint_names=())
+    assert "joint_limits" not in {w.kind for w in bare.warnings}
+    warning = {w["kind"]: w for w in summarise(robot, bare)["warnings"]}["joint_limits"]
+    assert warning["joint"] == robot.joint_names[1] and warning["steps"] == 1
+    assert warning["value"] == pytest.approx(0.25) and warning["t"] == pytest.approx(log.t[3])
+    assert summarise(robot, log) == log.summary()  # a recorded log: the same summary
 
 
 SCENARIO = """
@@ -102,3 +126,20 @@ def test_redres_run_prints_one_line_per_warning_and_puts_them_in_json(
     kinds = {w["kind"] for w in payload["runs"][0]["warnings"]}
     assert kinds == {"not_reached", "singular"}
     assert len(lines) == len(payload["runs"][0]["warnings"])
+
+
+def test_a_simulated_run_records_its_limits_and_warns_too() -> None:
+    # An unpowered Panda falls under gravity from near an upper limit of joint 2; the
+    # simulator clips nothing, so the fall leaves the limits and the log says so.
+    from redres.dynamics import ZeroTorque, simulate
+
+    robot = rr.models.panda()
+    q0 = robot.neutral()
+    q0[1] = robot.q_max[1] - 0.05
+    log = simulate(robot, ZeroTorque(), dt=1e-3, duration=0.6, q0=q0)
+    assert log.q_min is not None and np.array_equal(log.q_max, robot.q_max)
+    excess = np.maximum(robot.q_min - log.q, log.q - robot.q_max)  # oracle
+    assert excess.max() > 0.01, "the fixture must leave the limits"
+    warning = _kinds(log)["joint_limits"]
+    assert warning["value"] == pytest.approx(excess.max(), rel=1e-12)
+    assert warning["joint"] == robot.joint_names[int(np.argmax(excess.max(axis=0)))]

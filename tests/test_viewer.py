@@ -95,3 +95,123 @@ def test_chromium_renders_the_viewer_with_the_pushed_configuration(
     assert [m for m in console if m[0] in ("error", "exception", "assert")] == []
     assert [m for m in console if not m[1].startswith(VISER_INFO)] == []  # nothing else
     assert any("contextCreationFailed: false" in m[1] for m in console)  # WebGL is up
+
+
+def _shown_q(text: str) -> np.ndarray | None:
+    """The configuration the page's side panel shows (``q = [...]``)."""
+    found = re.search(r"q = \[([^\]]*)\]", text)
+    return None if found is None else np.array([float(x) for x in found.group(1).split(",")])
+
+
+def _circle_run(robot: rr.Robot, **kwargs):  # type: ignore[no-untyped-def]
+    from redres.control import Circle
+    from redres.resolution import PseudoInverseScheme
+    from redres.tasks import FrameTask
+
+    circle = Circle(robot.fk(robot.neutral()), 0.05, 1.0, ramp=0.2)
+    return rr.run(robot, FrameTask(), circle, PseudoInverseScheme(damping=0.01), **kwargs)
+
+
+def test_rr_run_pushes_its_configurations_to_a_viewer_at_its_rate(viewer) -> None:  # type: ignore[no-untyped-def]
+    from redres.control import final_configuration
+
+    pushed: list[tuple[float, np.ndarray]] = []
+    original = viewer.push
+
+    def recording(q, target=None):  # type: ignore[no-untyped-def]
+        pushed.append((time.perf_counter(), np.array(q)))
+        original(q, target)
+
+    viewer.push = recording
+    started = time.perf_counter()
+    log = _circle_run(viewer.robot, viewer=viewer)
+    wall = time.perf_counter() - started
+    final = final_configuration(log)
+    assert len(pushed) >= 2 and np.array_equal(pushed[-1][1], final)  # the last one, always
+    after_steps = np.vstack([log.q[1:], final])  # the configuration after each step
+    for _, q in pushed:  # each push is one of the run's configurations, as it computed
+        assert (after_steps == q).all(axis=1).any()
+    # at most `rate` a second while it computes (plus the last one), never one per step
+    assert len(pushed) <= wall * viewer.rate + 2 < log.steps
+    gaps = np.diff([t for t, _ in pushed[:-1]])  # a period, less one step's own time
+    assert gaps.size == 0 or gaps.min() >= 0.5 / viewer.rate
+    assert _wait(lambda: viewer.shown is not None and np.array_equal(viewer.shown, final))
+
+
+def test_rr_run_refuses_what_is_not_a_viewer_of_its_robot(viewer) -> None:  # type: ignore[no-untyped-def]
+    from redres.errors import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match="must be a redres.viewer.Viewer"):
+        _circle_run(viewer.robot, viewer="yes")
+    with pytest.raises(InvalidParameterError, match="7 joints.*has 3"):
+        from redres.resolution import PseudoInverseScheme
+        from redres.tasks import FrameTask
+
+        rr.run(rr.models.planar([1.0, 1.0, 1.0]), FrameTask(rows=[0, 1]), None,
+               PseudoInverseScheme(), duration=0.01, viewer=viewer)  # fmt: skip
+
+
+def test_rr_run_viewer_true_opens_one_with_the_finished_run() -> None:
+    from redres.control import final_configuration
+    from redres.viewer import Viewer
+
+    log = _circle_run(rr.models.panda(), viewer=True, duration=0.2)
+    opened = log.extra["viewer"]
+    try:
+        assert isinstance(opened, Viewer) and len(opened._runs) == 1 and opened._runs[0] is log
+        # the run pushed its last configuration, then show_runs put the slider at t = 0
+        assert _wait(lambda: opened.shown is not None and np.array_equal(opened.shown, log.q[0]))
+        assert not np.array_equal(log.q[0], final_configuration(log))
+    finally:
+        opened.close()
+
+
+def _link_positions(viewer) -> dict[str, np.ndarray]:  # type: ignore[no-untyped-def]
+    return {frame: np.array(h.position) for frame, h in viewer._links.items()}
+
+
+def _fk_positions(viewer, q: np.ndarray) -> dict[str, np.ndarray]:  # type: ignore[no-untyped-def]
+    return {frame: viewer.robot.fk(q, frame)[:3, 3] for frame in viewer._links}
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="needs Debian's chromium")
+def test_chromium_scrubs_a_finished_run_with_the_slider(viewer, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    from _chromium import LivePage
+
+    log = _circle_run(viewer.robot, dt=0.01)  # 0.01 s steps: the slider's 1 ms is finer
+    viewer.show_runs([log])
+    slider = viewer._slider
+    assert slider.max == pytest.approx(log.t[-1])
+
+    def shows(page: LivePage, k: int) -> bool:
+        """The page shows step k's configuration and the scene's links are at its pose."""
+        q = _shown_q(page.text)
+        if q is None or not np.allclose(q, log.q[k], atol=1e-4):
+            return False
+        links, expected = _link_positions(viewer), _fk_positions(viewer, log.q[k])
+        return all(np.allclose(links[f], expected[f], atol=1e-6) for f in links)
+
+    def settle(page: LivePage, k: int) -> bool:
+        return _wait(lambda: shows(page, k), seconds=20.0)
+
+    with LivePage(viewer.url, tmp_path / "profile", seconds=120.0) as page:
+        ready = (
+            'document.querySelector("[role=slider]") && document.body.innerText.includes("q = [")'
+        )
+        assert page.wait(ready), page.text[-2000:]
+        assert settle(page, 0)  # show_runs starts at t = 0
+        page.evaluate('document.querySelector("[role=slider]").focus()')
+        page.press("End")  # the browser moves the slider; viser tells Python
+        assert _wait(lambda: slider.value == pytest.approx(log.t[-1]), seconds=20.0)
+        assert settle(page, log.steps - 1)
+        for _ in range(30):  # 30 slider steps of 1 ms back: three steps of the run
+            page.press("ArrowLeft")
+        assert _wait(lambda: slider.value == pytest.approx(log.t[-1] - 0.030), seconds=20.0)
+        k = round(slider.value / log.dt)
+        assert k not in (0, log.steps - 1) and not np.allclose(log.q[k], log.q[-1], atol=1e-3)
+        assert settle(page, k)
+        page.press("Home")
+        assert _wait(lambda: slider.value == 0.0, seconds=20.0)
+        assert settle(page, 0)
+        problems = [m for m in page.console if m[0] in ("error", "exception", "assert")]
+    assert problems == []

@@ -1,19 +1,16 @@
 """Run every scheme of a scenario, tell what went wrong, and tabulate the results.
 
-:func:`summarise` is a run's summary for tables and ``--json``: :meth:`RunLog.summary`
-plus the smallest arm–obstacle clearance over the whole run and the run's warnings
-(:func:`run_warnings`): a joint that left its limits (which, by how much, when), singular
-configurations (σ_min of the task Jacobian under :data:`SINGULAR_SIGMA`), and a target
-not reached (position error over :data:`NOT_REACHED_M`, with the largest error).
+A run's summary, with its warnings, is :meth:`RunLog.summary` (the warnings themselves are
+:attr:`RunLog.warnings`, :class:`~redres.control.RunWarning`); :func:`summarise` is that
+summary for a run of a given robot, and :func:`warning_lines` prints the warnings one
+line each.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
-from typing import TYPE_CHECKING, Any, Literal
-
-import numpy as np
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
 
 from .control import RunLog, run
 from .dynamics.simulate import simulate
@@ -23,102 +20,14 @@ from .scenario import ScenarioSpec
 if TYPE_CHECKING:
     from .robot import Robot
 
-#: σ_min of the task Jacobian under this is a singular configuration (a warning).
-SINGULAR_SIGMA = 1e-3
-#: A position error over this, m, means the run did not reach its target (a warning).
-NOT_REACHED_M = 5e-3
-#: A joint this far past a limit, rad or m, has left its limits (rounding is not).
-LIMIT_TOL = 1e-9
-
-WarningKind = Literal["joint_limits", "singular", "not_reached"]
-
-
-@dataclass(frozen=True)
-class RunWarning:
-    """Something a run did that its user should know, in one line.
-
-    Attributes:
-        kind: ``"joint_limits"``, ``"singular"`` or ``"not_reached"``.
-        message: the line printed by ``redres run`` and ``redres demo``.
-        value: the worst figure: how far past the limit (rad or m), the smallest σ_min, or
-            the largest position error (m).
-        t: the time of that figure, s.
-        joint: the joint concerned (``joint_limits`` only).
-        steps: how many steps it lasted.
-    """
-
-    kind: WarningKind
-    message: str
-    value: float
-    t: float
-    joint: str | None = None
-    steps: int = 0
-
-    def as_dict(self) -> dict[str, Any]:
-        """Plain JSON types."""
-        return asdict(self)
-
-
-def _intervals(mask: np.ndarray) -> int:
-    """Number of runs of consecutive ``True`` in ``mask``."""
-    m = np.asarray(mask, dtype=bool)
-    return int(np.count_nonzero(m[1:] & ~m[:-1]) + (1 if m.size and m[0] else 0))
-
-
-def run_warnings(robot: Robot, log: RunLog) -> list[RunWarning]:
-    """The warnings of a run of ``robot`` (module docstring), in a fixed order."""
-    out: list[RunWarning] = []
-    excess = np.maximum(robot.q_min - log.q, log.q - robot.q_max)  # > 0 outside, (K, n)
-    worst_per_joint = excess.max(axis=0)
-    left = np.flatnonzero(worst_per_joint > LIMIT_TOL)
-    if left.size:
-        j = int(left[np.argmax(worst_per_joint[left])])
-        k = int(np.argmax(excess[:, j]))
-        side = "lower" if log.q[k, j] < robot.q_min[j] else "upper"
-        others = f"; {left.size} joints left their limits" if left.size > 1 else ""
-        steps = int(np.count_nonzero((excess > LIMIT_TOL).any(axis=1)))
-        name = robot.joint_names[j]
-        out.append(RunWarning(
-            "joint_limits",
-            f"joint {name!r} went {worst_per_joint[j]:.3g} rad past its {side} limit at "
-            f"t = {log.t[k]:.3f} s ({steps} steps outside the limits{others})",
-            float(worst_per_joint[j]), float(log.t[k]), name, steps,
-        ))  # fmt: skip
-    singular = log.sigma_min < SINGULAR_SIGMA
-    if singular.any():
-        k = int(np.argmin(log.sigma_min))
-        count = int(singular.sum())
-        events = _intervals(singular)
-        out.append(RunWarning(
-            "singular",
-            f"singular: σ_min of the task Jacobian fell to {log.sigma_min[k]:.2g} at "
-            f"t = {log.t[k]:.3f} s (under {SINGULAR_SIGMA:g} for {count} steps, "
-            f"{events} event{'s' if events > 1 else ''})",
-            float(log.sigma_min[k]), float(log.t[k]), steps=count,
-        ))  # fmt: skip
-    far = log.position_error > NOT_REACHED_M
-    if far.any():
-        k = int(np.argmax(log.position_error))
-        out.append(RunWarning(
-            "not_reached",
-            f"target not reached: position error up to {1e3 * log.position_error[k]:.1f} mm "
-            f"at t = {log.t[k]:.3f} s (over {1e3 * NOT_REACHED_M:g} mm for "
-            f"{int(far.sum())} steps; final {1e3 * log.position_error[-1]:.1f} mm)",
-            float(log.position_error[k]), float(log.t[k]), steps=int(far.sum()),
-        ))  # fmt: skip
-    return out
-
 
 def summarise(robot: Robot, log: RunLog) -> dict[str, Any]:
-    """:meth:`RunLog.summary` plus ``min_obstacle_clearance_m`` (the smallest arm–obstacle
-    distance over the whole run, when obstacles were logged) and ``warnings`` (a list of
-    :meth:`RunWarning.as_dict`)."""
-    out = log.summary()
-    distance = log.objectives.get("obstacle_distance_m")
-    if distance is not None and len(distance):
-        out["min_obstacle_clearance_m"] = float(np.min(distance))
-    out["warnings"] = [w.as_dict() for w in run_warnings(robot, log)]
-    return out
+    """:meth:`RunLog.summary` of a run of ``robot`` (tables, ``--json``); a log that did not
+    record its joint limits (one built by hand) is measured against ``robot``'s."""
+    if log.q_min is None or log.q_max is None:
+        log = replace(log, joint_names=tuple(robot.joint_names), q_min=robot.q_min.copy(),
+                      q_max=robot.q_max.copy())  # fmt: skip
+    return log.summary()
 
 
 def warning_lines(summaries: Sequence[dict[str, Any]]) -> list[str]:

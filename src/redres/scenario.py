@@ -198,13 +198,23 @@ class _Reader:
 
 def _robot(r: _Reader, base: Path) -> tuple[Robot, np.ndarray]:
     """The robot and its start configuration ``q0``."""
-    model = r.get("model", "string", None)
-    urdf = r.get("urdf", "string", None)
+    sources = {key: r.get(key, "string", None) for key in ("model", "urdf", "mjcf")}
+    given = [key for key, value in sources.items() if value is not None]
     tip = r.get("tip", "string", None)
-    if (model is None) == (urdf is None):
-        raise r.fail("model", 'give exactly one of model = "<built-in name>" or urdf = "<path>"')
-    with r.blame("model" if model else "urdf"):
-        robot = models.load(model) if model is not None else Robot.from_urdf(base / urdf, tip=tip)
+    if len(given) != 1:
+        raise r.fail(
+            given[1] if len(given) > 1 else "model",
+            'give exactly one of model = "<built-in name>", urdf = "<path>" or '
+            'mjcf = "<path>"' + (f"; got {' and '.join(given)}" if given else ""),
+        )
+    key = given[0]
+    model, file = sources["model"], sources[key]
+    with r.blame(key):
+        if key == "model":
+            robot = models.load(file)
+        else:  # a path relative to the scenario file
+            load = Robot.from_urdf if key == "urdf" else Robot.from_mjcf
+            robot = load(base / file, tip=tip)
     if tip is not None and model is not None:
         if tip not in robot.frames():
             raise r.fail("tip", f"unknown frame {tip!r}; frames: {', '.join(robot.frames())}")
@@ -241,6 +251,7 @@ def _trajectory(r: _Reader, start: np.ndarray) -> Trajectory:
                 r.positive("period"),
                 normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
                 turns=r.positive("turns", 1.0),
+                ramp=r.number("ramp", 0.0),
             )
         if kind == "line":
             return Line(start, r.get("end", "vector", size=3), r.positive("duration"))

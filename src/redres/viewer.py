@@ -102,6 +102,7 @@ class Viewer:
         self._shown: FloatArray | None = None
         self._stop = threading.Event()
         self._runs: list[RunLog] = []
+        self._slider: Any = None
         self._build_scene(list(obstacles))
         self.push(robot.neutral())
         self._send(robot.neutral(), None)
@@ -144,6 +145,7 @@ class Viewer:
         pick = gui.add_dropdown("run", options=labels, initial_value=labels[0])
         slider = gui.add_slider("t (s)", min=0.0, max=1.0, step=1e-3, initial_value=0.0)
         play = gui.add_button("play")
+        self._slider = slider  # (the tests move it from the page and read it here)
 
         def current() -> RunLog:
             return self._runs[labels.index(pick.value)]

@@ -1,9 +1,10 @@
 """The controller, rate-control runs, trajectories and run logs."""
 
 from .analysis import analyse_run, progress_bar
-from .clik import final_configuration, run
+from .clik import LiveView, final_configuration, run
 from .controller import Controller
 from .runlog import RunLog
+from .runwarnings import RunWarning
 from .trajectories import (
     Chain,
     Circle,
@@ -23,8 +24,10 @@ __all__ = [
     "FigureEight",
     "Hold",
     "Line",
+    "LiveView",
     "MinimumJerk",
     "RunLog",
+    "RunWarning",
     "Sample",
     "Trajectory",
     "analyse_run",

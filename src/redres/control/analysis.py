@@ -96,8 +96,10 @@ def analyse_run(
 ) -> np.ndarray:
     """Fill the post-run measures of ``log`` from its configurations ``log.q``.
 
-    Joint-limit margins; smallest singular value and manipulability of the task
-    Jacobian (``rows`` of ``frame``'s world-aligned Jacobian); the value of each objective
+    The robot's joint names and position limits (recorded in the log, for its
+    :attr:`~redres.control.RunLog.warnings`); joint-limit margins; smallest singular value
+    and manipulability of the task Jacobian (``rows`` of ``frame``'s world-aligned
+    Jacobian); the value of each objective
     at every step; and the smallest arm–obstacle distance when an
     :class:`~redres.objectives.ObstacleObjective` is among them.
 
@@ -105,6 +107,8 @@ def analyse_run(
         The singular values of the task Jacobian at every step, shape ``(K, min(m, n))``.
     """
     rows = list(rows)
+    log.joint_names = tuple(robot.joint_names)
+    log.q_min, log.q_max = robot.q_min.copy(), robot.q_max.copy()  # what the warnings use
     log.joint_limit_margin[:] = np.minimum(log.q - robot.q_min, robot.q_max - log.q).min(axis=1)
     fid = robot.frame_id(frame)
     s: np.ndarray = np.zeros((0, min(len(rows), robot.n)))

@@ -6,6 +6,13 @@ target (pose and twist), then :meth:`Controller.step` does the whole CLIK step (
 each step; the measures that need no timing (joint-limit margins, the task Jacobian's
 singular values, the objectives' costs) are computed from the recorded configurations
 afterwards (:func:`~redres.control.analyse_run`).
+
+With ``viewer=``, the loop also hands its configuration to a live viewer
+(:class:`redres.viewer.Viewer`) at most at the viewer's ``rate``, checked on the wall
+clock after the timed part of the step: :meth:`~redres.viewer.Viewer.push` only stores the
+configuration and returns, and the viewer's own thread sends the latest one, so the run is
+not slowed and, when the browser lags, configurations are dropped, never queued. The
+last configuration is always pushed.
 """
 
 from __future__ import annotations
@@ -13,13 +20,13 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 from .._validate import FloatArray
 from ..errors import InvalidParameterError, SimulationError
-from ..objectives import Objective
+from ..objectives import Objective, ObstacleObjective
 from ..resolution import Scheme
 from ..tasks import FrameTask, Task
 from .analysis import analyse_run, progress_bar, run_duration, run_steps, start_configuration
@@ -29,6 +36,15 @@ from .trajectories import Trajectory
 
 if TYPE_CHECKING:
     from ..robot import Robot
+
+
+class LiveView(Protocol):
+    """What :func:`run` pushes to: :class:`redres.viewer.Viewer` (``push`` returns at once,
+    ``rate`` in Hz bounds how often the run calls it)."""
+
+    rate: float
+
+    def push(self, q: Any, target: Any = None) -> None: ...
 
 
 def run(
@@ -45,6 +61,7 @@ def run(
     log_objectives: Sequence[Objective] = (),
     label: str = "",
     progress: bool | None = None,
+    viewer: LiveView | bool | None = None,
 ) -> RunLog:
     """Run closed-loop rate control and record it.
 
@@ -61,6 +78,12 @@ def run(
             anyway).
         label: name of the run in tables.
         progress: show a progress bar (default: for long runs on a terminal).
+        viewer: a :class:`redres.viewer.Viewer` of this robot to show the run in while it
+            computes (module docstring), or ``True`` to open one (:func:`redres.view`,
+            with the obstacles of any :class:`~redres.objectives.ObstacleObjective` among
+            the objectives; its address is printed); that one stays open after the run
+            with the finished run added to scrub (:meth:`~redres.viewer.Viewer.show_runs`)
+            and is ``log.extra["viewer"]`` (``.close()`` it). Default: no viewer.
 
     Returns:
         The :class:`RunLog`.
@@ -68,7 +91,9 @@ def run(
     Raises:
         InvalidParameterError: non-positive ``dt`` or ``duration``, negative ``gain``, a
             ``duration`` under half a step or over :data:`~redres.control.analysis.MAX_STEPS`
-            steps.
+            steps; a ``viewer`` that is not a viewer, or is one of a robot with another
+            number of joints.
+        MissingDependencyError: ``viewer=True`` without viser (the ``viewer`` extra).
         JointLimitError: ``q0`` outside the joint limits.
         SimulationError: a non-finite joint velocity (names the step).
     """
@@ -84,6 +109,8 @@ def run(
     q = start_configuration(robot, q0)
     steps = run_steps(duration, dt)
     n = robot.n
+    objectives = [*(obj for obj, _ in scheme.objectives), *log_objectives]
+    live, opened = _live_view(viewer, robot, objectives)
     scheme.reset()
 
     log = RunLog.empty(robot.name, scheme.name, dt, steps, n, label)
@@ -98,7 +125,9 @@ def run(
     bar = progress_bar(steps, progress, f"{robot.name} {label or scheme.name}")
     clock = time.perf_counter_ns
     step = controller.step
-    k = 0
+    push_period = round(1e9 / live.rate) if live is not None else 0
+    push_due = 0
+    k, completed = 0, False
     try:
         for k in range(steps):
             t0 = clock()
@@ -108,6 +137,9 @@ def run(
             q_log[k] = q
             q = step(q)
             step_ns[k] = clock() - t0
+            if live is not None and t0 >= push_due:  # at most `rate` pushes a second
+                live.push(q, frame_task.target if frame_task is not None else None)
+                push_due = t0 + push_period
             qd_log[k] = controller.qd
             speed = controller.speed_ratio
             ratio[k] = min(speed, 1.0) if limit_velocity else speed
@@ -126,21 +158,53 @@ def run(
                 pos_err[k] = math.sqrt(float(e @ e))
             if bar is not None:
                 bar.update(1)
+        completed = True
     except SimulationError as exc:
         raise SimulationError(f"step {k} (t = {k * dt:.4f} s): {exc}") from exc
     finally:
         if bar is not None:
             bar.close()
+        if opened and not completed:  # a viewer this run opened dies with it
+            live.close()
         if frame_task is not None and controller.path != "composed" and steps:
             frame_task.compute(robot, q_log[k])  # as if it had computed the last step
 
     log.extra.update(
         inverse_sigma_min=inv_sigma.copy(), algorithmic_singularity=algorithmic, final_q=q
     )
+    if live is not None and steps:
+        live.push(q, frame_task.target if frame_task is not None else None)  # the last one
     frame, rows = (frame_task.frame, frame_task.rows) if frame_task else (None, list(range(6)))
-    objectives = [*(obj for obj, _ in scheme.objectives), *log_objectives]
     analyse_run(robot, log, frame=frame, rows=rows, objectives=objectives)
+    if opened:
+        live.show_runs([log])  # type: ignore[union-attr]
+        log.extra["viewer"] = live
     return log
+
+
+def _live_view(
+    viewer: LiveView | bool | None, robot: Robot, objectives: Sequence[Objective]
+) -> tuple[Any, bool]:
+    """The viewer :func:`run` pushes to (``None``: none) and whether the run opened it."""
+    if viewer is None or viewer is False:
+        return None, False
+    if viewer is True:
+        from ..viewer import view  # the top layer, imported only when a viewer is asked for
+
+        obstacles = [o for obj in objectives if isinstance(obj, ObstacleObjective)
+                     for o in obj.obstacles]  # fmt: skip
+        return view(robot, obstacles=obstacles), True
+    if not callable(getattr(viewer, "push", None)) or not hasattr(viewer, "rate"):
+        raise InvalidParameterError(
+            f"viewer must be a redres.viewer.Viewer (rr.view(robot)), True or None; got {viewer!r}"
+        )
+    shown = getattr(viewer, "robot", None)
+    if shown is not None and getattr(shown, "n", robot.n) != robot.n:
+        raise InvalidParameterError(
+            f"the viewer shows {shown.name!r} with {shown.n} joints; this run's robot "
+            f"{robot.name!r} has {robot.n}: open a viewer of it with rr.view(robot)"
+        )
+    return viewer, False
 
 
 def final_configuration(log: RunLog) -> FloatArray:

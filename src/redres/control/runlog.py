@@ -1,4 +1,4 @@
-"""The record of one control run and its summary metrics."""
+"""The record of one control run, its summary metrics and its warnings."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import FloatArray
+from .runwarnings import RunWarning, run_warnings
 
 
 @dataclass
@@ -30,6 +31,10 @@ class RunLog:
         objectives: value of each logged objective, name -> ``(K,)``.
         step_time_ns: wall time of each control step, ns.
         extra: scheme diagnostics worth keeping (e.g. algorithmic-singularity flags).
+        joint_names, q_min, q_max: the robot's joint names and the position limits the run
+            was measured against, ``(n,)`` (rad or m); recorded by :func:`~redres.run` and
+            :func:`~redres.dynamics.simulate` (``None`` in a log built by hand, which then
+            has no joint-limit warning).
     """
 
     robot: str
@@ -53,6 +58,9 @@ class RunLog:
     objectives: dict[str, FloatArray] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
     label: str = ""
+    joint_names: tuple[str, ...] = ()
+    q_min: FloatArray | None = None
+    q_max: FloatArray | None = None
 
     @classmethod
     def empty(
@@ -75,8 +83,23 @@ class RunLog:
         """Number of control steps."""
         return int(self.t.shape[0])
 
+    @property
+    def warnings(self) -> list[RunWarning]:
+        """What the run did that its user should know
+        (:class:`~redres.control.RunWarning`): a joint past its limits (which, by how much,
+        when), singular configurations, a target not reached (the largest error); empty
+        for a clean run. Each prints as its one-line message."""
+        return run_warnings(self)
+
     def summary(self) -> dict[str, Any]:
-        """Summary metrics with stable keys (used by ``redres demo --json``)."""
+        """Summary metrics with stable keys (``redres run --json`` and ``redres demo --json``
+        print these).
+
+        Besides the metrics: ``min_obstacle_clearance_m``, the smallest arm–obstacle
+        distance over the whole run (only when obstacle distances were logged), and
+        ``warnings``, :attr:`warnings` as a list of
+        :meth:`~redres.control.RunWarning.as_dict`.
+        """
         pe = self.position_error
         steps = np.diff(self.q, axis=0)
         path = float(np.sum(np.linalg.norm(steps, axis=1))) if self.steps > 1 else 0.0
@@ -99,4 +122,8 @@ class RunLog:
         }
         for name, values in self.objectives.items():
             out[f"final_{name}"] = float(values[-1])
+        distance = self.objectives.get("obstacle_distance_m")
+        if distance is not None and len(distance):
+            out["min_obstacle_clearance_m"] = float(np.min(distance))
+        out["warnings"] = [w.as_dict() for w in self.warnings]
         return out
