@@ -72,3 +72,35 @@ def test_run_view_serves_the_runs_it_made(
     out = capsys.readouterr().out
     assert f"2 runs at http://127.0.0.1:{port}" in out
     assert (tmp_path / "report" / "report.html").is_file()  # the report is written too
+
+
+def test_run_view_plays_the_runs_while_they_are_computed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("viser")
+    from redres.viewer import Viewer
+
+    events: list[str] = []
+    push, show_runs = Viewer.push, Viewer.show_runs
+
+    def recording_push(self: Viewer, q: object, target: object = None) -> None:
+        events.append("push")
+        push(self, q, target)
+
+    def recording_show(self: Viewer, runs: object) -> None:
+        events.append("show_runs")
+        show_runs(self, runs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(Viewer, "push", recording_push)
+    monkeypatch.setattr(Viewer, "show_runs", recording_show)
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(
+        'name = "short"\n[robot]\nmodel = "planar3"\n[trajectory]\ntype = "hold"\n'
+        'duration = 0.2\n[[schemes]]\ntype = "dls"\n'
+    )
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    args = ["run", str(scenario), "--quiet", "--out", str(tmp_path / "report"), "--view"]
+    assert main([*args, "--port", str(port), "--seconds", "0.1"]) == 0
+    assert "push" in events and events.index("push") < events.index("show_runs")

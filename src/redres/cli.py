@@ -111,14 +111,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print("redres run: error: give a scenario file (or --list)", file=sys.stderr)
         return 2
     spec = load_scenario(_scenario_path(args.scenario, builtin))
-    after = None
-    if args.view:
-        from .viewer import serve_runs
+    if not args.view:
+        return run_scenarios([spec], _output(args), title=spec.name)
+    from .viewer import Viewer, serve_runs
 
-        def after(runs: list) -> None:  # type: ignore[type-arg]
-            serve_runs(spec, [log for _, log in runs], port=args.port, seconds=args.seconds)
+    viewer = Viewer(spec.robot, obstacles=spec.obstacles, port=args.port)  # live while it runs
+    print(f"redres: {spec.name}: playing the runs at {viewer.url}", file=sys.stderr, flush=True)
 
-    return run_scenarios([spec], _output(args), title=spec.name, after=after)
+    def after(runs: list) -> None:  # type: ignore[type-arg]
+        serve_runs(spec, [log for _, log in runs], viewer=viewer, seconds=args.seconds)
+
+    try:
+        return run_scenarios([spec], _output(args), title=spec.name, after=after, viewer=viewer)
+    finally:
+        viewer.close()
 
 
 def _scenario_path(target: str, builtin: dict[str, Path]) -> Path:

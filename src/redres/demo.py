@@ -20,7 +20,7 @@ import numpy as np
 
 from . import linalg, models
 from ._warmup import warmup
-from .control import RunLog
+from .control import LiveView, RunLog
 from .errors import MissingDependencyError
 from .objectives import JointLimitObjective
 from .report.writer import check_out_dir, write_report
@@ -178,9 +178,11 @@ def run_scenarios(
     title: str,
     examples: bool = False,
     after: Callable[[list[tuple[ScenarioSpec, RunLog]]], None] | None = None,
+    viewer: LiveView | None = None,
 ) -> int:
-    """Run ``specs``, print the table (or JSON), write the report, then hand the runs to
-    ``after`` (``redres run --view`` serves them); returns the exit code."""
+    """Run ``specs`` (shown live in ``viewer``, if given), print the table (or JSON), write
+    the report, then hand the runs to ``after`` (``redres run --view`` serves them);
+    returns the exit code."""
     as_json, quiet, quick = output.as_json, output.quiet, output.quick
     check_out_dir(output.folder, force=output.force)  # before any run
     started = time.perf_counter()
@@ -192,7 +194,8 @@ def run_scenarios(
             spec.duration *= 0.05
         if loud:
             print(f"{spec.name}: {spec.description}", file=sys.stderr)
-        runs += [(spec, log) for log in run_scenario(spec, progress=None if loud else False)]
+        logs = run_scenario(spec, progress=None if loud else False, viewer=viewer)
+        runs += [(spec, log) for log in logs]
     description = " ".join(f"{s.description}." for s in specs)
     report = _write_report(output.folder, runs, title, description, output.force)
     summaries = [summarise(spec.robot, log) for spec, log in runs]

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-from .control import RunLog, run
+from .control import LiveView, RunLog, run
 from .dynamics.simulate import simulate
 from .objectives import ObstacleObjective
 from .scenario import ScenarioSpec
@@ -55,8 +55,12 @@ _MM = {"max_position_error_m", "rms_position_error_m", "min_obstacle_clearance_m
 _OPTIONAL = {"min_obstacle_clearance_m"}  # shown when a run has it
 
 
-def run_scenario(spec: ScenarioSpec, *, progress: bool | None = None) -> list[RunLog]:
-    """Run each scheme of ``spec`` from the same start; returns the logs in order."""
+def run_scenario(
+    spec: ScenarioSpec, *, progress: bool | None = None, viewer: LiveView | None = None
+) -> list[RunLog]:
+    """Run each scheme of ``spec`` from the same start; returns the logs in order. A
+    ``viewer`` shows the rate-control runs live as they are computed (``rr.run``'s
+    ``viewer=``; torque-control runs are shown once finished)."""
     extra = [ObstacleObjective(spec.obstacles)] if spec.obstacles else []
     logs = []
     for s in spec.schemes:
@@ -66,7 +70,7 @@ def run_scenario(spec: ScenarioSpec, *, progress: bool | None = None) -> list[Ru
             logs.append(simulate(spec.robot, s.build(), spec.trajectory, **common))
         else:
             logs.append(run(spec.robot, spec.task(), spec.trajectory, s.build(), gain=spec.gain,
-                            log_objectives=extra, **common))  # fmt: skip
+                            log_objectives=extra, viewer=viewer, **common))  # fmt: skip
     return logs
 
 

@@ -326,10 +326,14 @@ def serve_runs(
     host: str = "127.0.0.1",
     port: int = 8080,
     seconds: float | None = None,
+    viewer: Viewer | None = None,
 ) -> int:
     """Serve finished runs of a scenario's robot (``redres run --view``, ``redres view``)
-    until interrupted or for ``seconds``; returns the exit code."""
-    viewer = Viewer(spec.robot, obstacles=spec.obstacles, host=host, port=port)
+    until interrupted or for ``seconds``, in ``viewer`` (the one that showed them live)
+    or a new one at ``host:port``; returns the exit code."""
+    owned = viewer is None
+    if viewer is None:
+        viewer = Viewer(spec.robot, obstacles=spec.obstacles, host=host, port=port)
     viewer.show_runs(logs)
     print(f"redres: {spec.name}: {len(logs)} runs at {viewer.url} (Ctrl-C to stop)", flush=True)
     try:
@@ -339,5 +343,6 @@ def serve_runs(
     except KeyboardInterrupt:
         pass
     finally:
-        viewer.close()
+        if owned:
+            viewer.close()
     return 0
