@@ -18,8 +18,9 @@ Run: python examples/13_capability_map.py   (REDRES_EXAMPLE_STEPS shortens it)
 # The sweep
 # ---------
 # A vertical slice beside the base (one row of voxels, centres at y = 5 cm), 10 cm
-# voxels, 20 approach directions with one roll each. Voxels that forward-kinematics sampling of random configurations never visits are
-# proved empty and skipped (docs/sweeps.md says how).
+# voxels, 20 approach directions with one roll each. Voxels that forward-kinematics
+# sampling of random configurations never visits are proved empty and skipped
+# (docs/sweeps.md says how).
 import os
 import tempfile
 from pathlib import Path
