@@ -59,17 +59,20 @@ def test_closed_form_reproduces_pose_and_arm_angle(arm_case: tuple[rr.Robot, SRS
     q_true, T = random_poses(robot, 40, 2)
     poses = arm.poses(T)
     phi = np.random.default_rng(3).uniform(-np.pi, np.pi, (40, 25))
-    task, checked = ArmAngleTask(), 0
+    task, checked, pose_error, angle_error = ArmAngleTask(), 0, 0.0, 0.0
     for b in range(8):
         q = poses.joints(phi, b)
         for i in range(40):
             if not poses.valid[i, 1 if BRANCHES[b, 1] < 0 else 0]:
                 continue
             for m in range(25):
-                Tq = robot.fk(q[i, m])
-                assert np.abs(Tq - T[i]).max() < 1e-10
-                assert abs(wrap(task.value(robot, q[i, m]) - phi[i, m])) < 1e-10
+                pose_error = max(pose_error, np.abs(robot.fk(q[i, m]) - T[i]).max())
+                angle = abs(wrap(task.value(robot, q[i, m]) - phi[i, m]))
+                angle_error = max(angle_error, angle)
                 checked += 1
+    print(f"\n{robot.name}: {checked} closed-form configurations: largest |fk - T| "
+          f"{pose_error:.1e}, largest arm-angle error {angle_error:.1e} rad")
+    assert pose_error < 1e-10 and angle_error < 1e-10
     assert checked >= 40 * 25 * 8 * 0.9
     # the configuration a pose was made from is on its branch, at its own arm angle
     for i in range(40):
@@ -93,7 +96,7 @@ def test_endpoints_are_limits(arm_case: tuple[rr.Robot, SRSArm]) -> None:
     _, T = random_poses(robot, 60, 4)
     poses = arm.poses(T)
     arcs = poses.arcs()
-    checked = 0
+    checked, worst = 0, 0.0
     for i in range(60):
         for b in range(8):
             for lo, hi in arcs[i][b]:
@@ -103,10 +106,13 @@ def test_endpoints_are_limits(arm_case: tuple[rr.Robot, SRSArm]) -> None:
                     trio = np.array([[end, end + inward * EPS, end - inward * EPS]])
                     q = poses.joints(np.repeat(trio, 60, axis=0), b)[i]
                     at_limit = np.minimum(np.abs(q[0] - arm.q_min), np.abs(q[0] - arm.q_max))
+                    worst = max(worst, at_limit.min())
                     assert at_limit.min() < 1e-9, (i, b, end)
                     assert robot.within_limits(q[1])
                     assert not robot.within_limits(q[2])
                     checked += 1
+    print(f"\n{robot.name}: {checked} endpoints: a joint within {worst:.1e} rad of its limit; "
+          f"inside at +{EPS} rad, outside at -{EPS} rad")
     assert checked >= 100
 
 
@@ -129,19 +135,21 @@ def test_dense_sampling_agrees(arm_case: tuple[rr.Robot, SRSArm]) -> None:
             for k in wrong:
                 assert np.abs(wrap(grid[k] - ends)).min() <= step, (i, b, grid[k])
             disagreements += len(wrong)
+    print(f"\n{robot.name}: {disagreements} of {30 * 8 * len(grid)} samples disagree, each "
+          f"within one step ({step:.1e} rad) of an endpoint")
     assert disagreements < 0.001 * 30 * 8 * len(grid)
 
 
 def test_trace_agrees_with_closed_form() -> None:
     robot = rr.models.iiwa14()
     arm = SRSArm.from_robot(robot)
-    q_true, T = random_poses(robot, 24, 6)
+    q_true, T = random_poses(robot, 60, 6)
     poses = arm.poses(T)
     arcs = poses.arcs()
     traced = trace(robot, T, q_true, step=0.02)
     phi_true = arm_angles(robot, q_true)
-    worst = 0.0
-    for i in range(24):
+    worst, compared = 0.0, 0
+    for i in range(60):
         b = branch_of(arm, q_true[i], poses.q4[i, 0])
         mine = [a for a in arcs[i][b] if contains(np.array(pieces([a]))[None], phi_true[i : i + 1])[0]]
         assert len(mine) == 1
@@ -152,7 +160,33 @@ def test_trace_agrees_with_closed_form() -> None:
             continue
         assert (traced.ends[i] == LIMIT).all()
         worst = max(worst, abs(wrap(t_lo - lo)), abs(wrap(t_hi - hi)))
-    assert worst < AGREE
+        compared += 1
+    print(f"\niiwa14: trace vs closed form on {compared} arcs: largest endpoint difference "
+          f"{worst:.1e} rad")
+    assert worst < AGREE and compared >= 40
+
+
+def test_trace_ends_at_limits_on_the_panda() -> None:
+    """Off the closed form's arms: each traced direction that ends at a limit ends on the
+    pose (FK), with a joint at its limit, at an arm angle inside the traced arc."""
+    robot = rr.models.panda()
+    q_true, T = random_poses(robot, 16, 8)
+    traced = trace(robot, T, q_true, step=0.02)
+    phi_ends = arm_angles(robot, traced.q_ends.reshape(-1, 7)).reshape(16, 2)
+    limits = 0
+    for i in range(16):
+        assert traced.hi[i] > traced.lo[i]
+        parts = np.array(pieces([traced.arc(i)])) + [-1e-12, 1e-12]  # an end may be lo or hi
+        assert contains(parts[None], phi_ends[i][None])[0].all()
+        for side in range(2):
+            q = traced.q_ends[i, side]
+            np.testing.assert_allclose(robot.fk(q), T[i], atol=1e-9)
+            assert robot.within_limits(q)
+            if traced.ends[i, side] == LIMIT:
+                margin = np.minimum(q - robot.q_min, robot.q_max - q).min()
+                assert margin <= 0.02 * 2.0**-16  # the bisection of a unit-speed step
+                limits += 1
+    assert limits >= 16
 
 
 def test_intervals_from_arcs() -> None:

@@ -58,6 +58,8 @@ class Trace:
         full: the curve closed with the arm angle once around the circle, ``(N,)`` (a
             closed curve whose arm angle comes back without a turn is the arc
             ``[lo, hi]``).
+        q_ends: the last configuration of each direction, ``(N, 2, 7)``, rad (at a
+            joint limit where that direction ended at one).
     """
 
     lo: np.ndarray
@@ -65,6 +67,7 @@ class Trace:
     ends: np.ndarray
     steps: np.ndarray
     full: np.ndarray
+    q_ends: np.ndarray
 
     def arc(self, i: int) -> Arc:
         """Item ``i``'s arc (``lo`` in ``[-π, π)``; ``(-π, π)`` for the whole circle)."""
@@ -153,6 +156,7 @@ def trace(
     ends = np.full((count, 2), BUDGET, dtype=np.int64)
     steps = np.zeros(count, dtype=np.int64)
     full = np.zeros(count, dtype=bool)
+    q_ends = np.repeat(q0[:, None], 2, axis=1)
     J0 = chain.jacobian(q0)[0]
     n0 = _null(J0)
     for side, sign in enumerate((1.0, -1.0)):
@@ -188,7 +192,8 @@ def trace(
             for flag, code in ((out, LIMIT), (closed, CLOSED), (lost, LOST)):
                 ends[rows[flag], side] = code
                 active[rows[flag]] = False
-    return Trace(lo, hi, ends, steps, full)
+        q_ends[:, side] = q
+    return Trace(lo, hi, ends, steps, full, q_ends)
 
 
 def _locate(chain: _Chain, robot: Robot, q: np.ndarray, n: np.ndarray, T: np.ndarray,
