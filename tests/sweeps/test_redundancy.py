@@ -70,8 +70,10 @@ def test_closed_form_reproduces_pose_and_arm_angle(arm_case: tuple[rr.Robot, SRS
                 angle = abs(wrap(task.value(robot, q[i, m]) - phi[i, m]))
                 angle_error = max(angle_error, angle)
                 checked += 1
-    print(f"\n{robot.name}: {checked} closed-form configurations: largest |fk - T| "
-          f"{pose_error:.1e}, largest arm-angle error {angle_error:.1e} rad")
+    print(
+        f"\n{robot.name}: {checked} closed-form configurations: largest |fk - T| "
+        f"{pose_error:.1e}, largest arm-angle error {angle_error:.1e} rad"
+    )
     assert pose_error < 1e-10 and angle_error < 1e-10
     assert checked >= 40 * 25 * 8 * 0.9
     # the configuration a pose was made from is on its branch, at its own arm angle
@@ -111,8 +113,10 @@ def test_endpoints_are_limits(arm_case: tuple[rr.Robot, SRSArm]) -> None:
                     assert robot.within_limits(q[1])
                     assert not robot.within_limits(q[2])
                     checked += 1
-    print(f"\n{robot.name}: {checked} endpoints: a joint within {worst:.1e} rad of its limit; "
-          f"inside at +{EPS} rad, outside at -{EPS} rad")
+    print(
+        f"\n{robot.name}: {checked} endpoints: a joint within {worst:.1e} rad of its limit; "
+        f"inside at +{EPS} rad, outside at -{EPS} rad"
+    )
     assert checked >= 100
 
 
@@ -129,14 +133,18 @@ def test_dense_sampling_agrees(arm_case: tuple[rr.Robot, SRSArm]) -> None:
         sampled = ((q >= arm.q_min) & (q <= arm.q_max)).all(axis=-1)
         for i in range(30):
             parts = np.array(pieces(arcs[i][b]) or np.zeros((0, 2))).reshape(-1, 2)
-            claimed = contains(parts[None], grid[None])[0] if len(parts) else np.zeros_like(grid, bool)
+            claimed = (
+                contains(parts[None], grid[None])[0] if len(parts) else np.zeros_like(grid, bool)
+            )
             wrong = np.flatnonzero(sampled[i] != claimed)
             ends = np.array(endpoints(arcs[i][b]) or [np.inf])
             for k in wrong:
                 assert np.abs(wrap(grid[k] - ends)).min() <= step, (i, b, grid[k])
             disagreements += len(wrong)
-    print(f"\n{robot.name}: {disagreements} of {30 * 8 * len(grid)} samples disagree, each "
-          f"within one step ({step:.1e} rad) of an endpoint")
+    print(
+        f"\n{robot.name}: {disagreements} of {30 * 8 * len(grid)} samples disagree, each "
+        f"within one step ({step:.1e} rad) of an endpoint"
+    )
     assert disagreements < 0.001 * 30 * 8 * len(grid)
 
 
@@ -151,7 +159,9 @@ def test_trace_agrees_with_closed_form() -> None:
     worst, compared = 0.0, 0
     for i in range(60):
         b = branch_of(arm, q_true[i], poses.q4[i, 0])
-        mine = [a for a in arcs[i][b] if contains(np.array(pieces([a]))[None], phi_true[i : i + 1])[0]]
+        mine = [
+            a for a in arcs[i][b] if contains(np.array(pieces([a]))[None], phi_true[i : i + 1])[0]
+        ]
         assert len(mine) == 1
         lo, hi = mine[0]
         t_lo, t_hi = traced.arc(i)
@@ -161,8 +171,10 @@ def test_trace_agrees_with_closed_form() -> None:
         assert (traced.ends[i] == LIMIT).all()
         worst = max(worst, abs(wrap(t_lo - lo)), abs(wrap(t_hi - hi)))
         compared += 1
-    print(f"\niiwa14: trace vs closed form on {compared} arcs: largest endpoint difference "
-          f"{worst:.1e} rad")
+    print(
+        f"\niiwa14: trace vs closed form on {compared} arcs: largest endpoint difference "
+        f"{worst:.1e} rad"
+    )
     assert worst < AGREE and compared >= 40
 
 

@@ -1,4 +1,4 @@
-"""The arm angle of many configurations at once (the quantity :class:`~redres.tasks.ArmAngleTask` controls).
+"""The arm angle of many configurations at once (what :class:`~redres.tasks.ArmAngleTask` controls).
 
 The same definition as :func:`redres.tasks.arm_angle.arm_angle_from_points`
 (Kreutz-Delgado, Long & Seraji, IJRR 11(5), 1992): with shoulder, elbow and wrist points

@@ -150,7 +150,9 @@ def _plan(spec: SweepSpec, robot: Robot) -> Plan:
     if robot.n != 7:
         from ..errors import InvalidParameterError
 
-        raise InvalidParameterError(f"a redundancy map is for 7-DOF arms; {robot.name} has {robot.n}")
+        raise InvalidParameterError(
+            f"a redundancy map is for 7-DOF arms; {robot.name} has {robot.n}"
+        )
     for name in p.points:
         robot.frame_id(name)
     closed = _closed_form(p, robot, frame) is not None

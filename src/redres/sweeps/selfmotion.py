@@ -37,7 +37,7 @@ from .intervals import TWO_PI, Arc
 if TYPE_CHECKING:
     from ..robot import Robot
 
-__all__ = ["LIMIT", "CLOSED", "BUDGET", "LOST", "Trace", "trace"]
+__all__ = ["BUDGET", "CLOSED", "LIMIT", "LOST", "Trace", "trace"]
 
 #: How a direction of a trace ended: a joint met its limit, the loop closed, the step
 #: budget ran out, the corrector failed (a singular task Jacobian).
@@ -113,15 +113,17 @@ class _Chain:
         J = np.zeros((len(q), 6, q.shape[1]))
         for _ in range(iterations):
             J, T = self.jacobian(q)
-            e = np.concatenate((target[:, :3, 3] - T[:, :3, 3],
-                                _log3(target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], 1, 2))), axis=1)  # fmt: skip
+            rotation = _log3(target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], 1, 2))
+            e = np.concatenate((target[:, :3, 3] - T[:, :3, 3], rotation), axis=1)
             error = np.linalg.norm(e, axis=1)
             busy = error > _CORRECTED
             if not busy.any():
                 break
             Jb = J[busy]
             gram = Jb @ np.swapaxes(Jb, 1, 2) + 1e-14 * np.eye(6)
-            q[busy] += np.einsum("nji,nj->ni", Jb, np.linalg.solve(gram, e[busy][..., None])[..., 0])
+            q[busy] += np.einsum(
+                "nji,nj->ni", Jb, np.linalg.solve(gram, e[busy][..., None])[..., 0]
+            )
         return q, error, J
 
 

@@ -90,7 +90,9 @@ def _unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v / np.maximum(norm, 1e-300)[..., None], norm
 
 
-def _euler_basis(links: np.ndarray, axes: np.ndarray, first: int) -> tuple[np.ndarray, np.ndarray, float]:
+def _euler_basis(
+    links: np.ndarray, axes: np.ndarray, first: int
+) -> tuple[np.ndarray, np.ndarray, float]:
     """``(L, Rʳ, σ)`` of three joints from ``first``: ``Lᵀ R_in⁻¹ R_out Rʳ =
     Rz(θ₁) Ry(θ₂) Rz(σθ₃)`` where ``R_out = R_in P₁ Rot(a₁) P₂ Rot(a₂) P₃ Rot(a₃)``."""
     P = [links[first + i][:, :3] for i in range(3)]
@@ -99,8 +101,10 @@ def _euler_basis(links: np.ndarray, axes: np.ndarray, first: int) -> tuple[np.nd
     u3 = axes[first + 2]
     sigma = float(u1 @ u3)
     if abs(u1 @ u2) > _TOL or abs(u2 @ u3) > _TOL or abs(abs(sigma) - 1.0) > _TOL:
-        raise NotSRSError(f"joints {first + 1}-{first + 3} are not a proper-Euler spherical "
-                          "group (first and third axes parallel, second perpendicular)")  # fmt: skip
+        raise NotSRSError(
+            f"joints {first + 1}-{first + 3} are not a proper-Euler spherical group (first "
+            "and third axes parallel, second perpendicular)"
+        )
     basis = np.column_stack((np.cross(u2, u1), u2, u1))
     return P[0] @ P[1] @ P[2] @ basis, basis, math.copysign(1.0, sigma)
 
@@ -238,8 +242,9 @@ class SRSPoses:
         local = np.stack((x_loc, y_loc, np.cross(x_loc, y_loc)), axis=-1)
         R0 = world @ np.swapaxes(local, -1, -2)
         Kw = _skew(wh)[:, None]
-        coeff = np.stack((Kw @ R0, -(Kw @ Kw) @ R0, (wh[:, :, None] * wh[:, None, :])[:, None] @ R0),
-                         axis=2)  # fmt: skip  (N, 2, 3, 3, 3): R3 = sum_k coeff[k] * basis_k
+        coeff = np.stack(
+            (Kw @ R0, -(Kw @ Kw) @ R0, (wh[:, :, None] * wh[:, None, :])[:, None] @ R0), axis=2
+        )  # fmt: skip  (N, 2, 3, 3, 3): R3 = sum_k coeff[k] * basis_k
         Ls, Rs, _ = arm.shoulder_euler
         Lw, Rw, _ = arm.wrist_euler
         shoulder = Ls.T @ coeff @ Rs
