@@ -18,6 +18,8 @@ from redres.sweeps.selfmotion import CLOSED, LIMIT, trace
 from redres.sweeps.srs import BRANCHES, NotSRSError, SRSArm
 from redres.tasks import ArmAngleTask
 
+from .helpers import tree_digest
+
 EPS = 1e-6  # rad: "just inside" / "just outside" an endpoint
 AGREE = 1e-3  # rad: the trace's endpoints against the closed form's
 
@@ -271,3 +273,18 @@ def test_builtin_spec_listed() -> None:
     spec = sweeps.load_spec(sweeps.builtin_specs()["iiwa14_redundancy"])
     assert spec.kind == "redundancy_map" and spec.params.method == "closed_form"
     assert math.isclose(spec.params.reference[2], 1.0)
+
+
+def test_two_workers_give_identical_bytes(tmp_path: Path) -> None:
+    """The trace (IK seeds from each shard's generator, compiled kinematics) gives the same
+    files in-process and on a pool of two workers."""
+    digests = []
+    for workers in (1, 2):
+        folder = tmp_path / f"w{workers}"
+        folder.mkdir()
+        text = SPEC.format(model="panda", poses=6, method="trace").replace("= 25", "= 3")
+        (folder / "r.toml").write_text(text)
+        report = sweeps.run(folder / "r.toml", folder / "out", workers=workers, progress=False)
+        assert report.shards == 2 and report.workers == workers
+        digests.append(tree_digest(folder / "out"))
+    assert digests[0] == digests[1]
