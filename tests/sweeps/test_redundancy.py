@@ -288,3 +288,41 @@ def test_two_workers_give_identical_bytes(tmp_path: Path) -> None:
         assert report.shards == 2 and report.workers == workers
         digests.append(tree_digest(folder / "out"))
     assert digests[0] == digests[1]
+
+
+def test_map_views(tmp_path: Path) -> None:
+    """The HTML view draws a redundancy map's widths and a capability map's reachability
+    index, with one slider step per slice plus the whole map."""
+    import json
+    import re
+
+    from redres.cli import main
+    from redres.sweeps.mapview import map_figure
+
+    from .helpers import write_spec
+
+    (tmp_path / "r.toml").write_text(SPEC.format(model="iiwa14", poses=30, method="auto"))
+    page = tmp_path / "r.html"
+    assert main(["sweep", str(tmp_path / "r.toml"), "--out", str(tmp_path / "r"), "--quiet",
+                 "--html", str(page)]) == 0  # fmt: skip
+    text = page.read_text()
+    figure = json.loads(re.search(r'id="figure" type="application/json">(.*?)</script>', text,
+                                  re.S).group(1))  # fmt: skip
+    m = sweeps.load_redundancy_map(tmp_path / "r")
+    whole = figure["data"][0]
+    assert sorted(whole["marker"]["color"]) == sorted(np.round(m.total_width, 4).tolist())
+    slices = figure["data"][1:]
+    assert sum(len(t["x"]) for t in slices) == 30
+    assert len(figure["layout"]["sliders"][0]["steps"]) == len(slices) + 1
+    assert "Plotly.newPlot" in text
+
+    cap = tmp_path / "cap"
+    cap.mkdir()
+    spec = write_spec(cap)
+    sweeps.run(spec, cap / "out", workers=1, progress=False)
+    figure = map_figure(cap / "out")
+    cmap = sweeps.load_map(cap / "out")
+    np.testing.assert_allclose(figure["data"][0]["marker"]["color"],
+                               np.round(cmap.reachability_index, 4))  # fmt: skip
+    levels = np.unique(cmap.centres[:, 2])
+    assert len(figure["data"]) == len(levels) + 1
