@@ -13,7 +13,7 @@ import pytest
 import redres as rr
 from redres import sweeps
 from redres.sweeps.armangle import arm_angles
-from redres.sweeps.intervals import contains, from_arcs, pieces
+from redres.sweeps.intervals import contains, from_arcs, merge, pieces
 from redres.sweeps.selfmotion import CLOSED, LIMIT, trace
 from redres.sweeps.srs import BRANCHES, NotSRSError, SRSArm
 from redres.tasks import ArmAngleTask
@@ -150,6 +150,31 @@ def test_dense_sampling_agrees(arm_case: tuple[rr.Robot, SRSArm]) -> None:
     assert disagreements < 0.001 * 30 * 8 * len(grid)
 
 
+def test_stored_arrays_equal_the_arcs(arm_case: tuple[rr.Robot, SRSArm]) -> None:
+    """The array path of the sweep (:meth:`SRSPoses.intervals`) gives the pieces of the
+    per-pose path (:meth:`SRSPoses.arcs`), and the union is the union of the branches."""
+    robot, arm = arm_case
+    _, T = random_poses(robot, 200, 9)
+    poses = arm.poses(T)
+    stored, arcs = poses.intervals(8), poses.arcs()
+    for i in range(200):
+        every = []
+        for b in range(8):
+            parts = pieces(arcs[i][b])
+            every += parts
+            assert stored["count"][i, b] == len(parts)
+            k = min(len(parts), 8)
+            np.testing.assert_allclose(stored["intervals"][i, b, :k], np.reshape(parts[:k], (k, 2)),
+                                       rtol=0, atol=1e-12)  # fmt: skip
+            assert abs(stored["width"][i, b] - sum(h - l for l, h in parts)) < 1e-12
+        union = merge(every)
+        assert stored["union_count"][i] == len(union)
+        k = min(len(union), 8)
+        np.testing.assert_allclose(stored["union"][i, :k], np.reshape(union[:k], (k, 2)),
+                                   rtol=0, atol=1e-12)  # fmt: skip
+        assert abs(stored["total_width"][i] - sum(h - l for l, h in union)) < 1e-12
+
+
 def test_trace_agrees_with_closed_form() -> None:
     robot = rr.models.iiwa14()
     arm = SRSArm.from_robot(robot)
@@ -236,14 +261,10 @@ def test_sweep_closed_form(tmp_path: Path) -> None:
     arm = SRSArm.from_robot(robot)
     q_true = m.extra["q_true"]
     np.testing.assert_allclose(np.array([robot.fk(q) for q in q_true]), m.pose, atol=1e-12)
-    arcs = arm.poses(m.pose).arcs()
-    for i in range(60):
-        for b in range(8):
-            parts = pieces(arcs[i][b])
-            assert m.count[i, b] == len(parts)
-            k = min(len(parts), 8)
-            np.testing.assert_array_equal(m.intervals[i, b, :k], np.reshape(parts[:k], (k, 2)))
-            assert np.isnan(m.intervals[i, b, k:]).all()
+    direct = arm.poses(m.pose).intervals(8)
+    for key, stored in (("intervals", m.intervals), ("count", m.count), ("width", m.width),
+                        ("union", m.union), ("total_width", m.total_width)):  # fmt: skip
+        np.testing.assert_array_equal(stored, direct[key])
     assert m.reachable.all()  # each pose's own configuration is within the limits
     assert m.feasible(arm_angles(robot, q_true)).all()
     assert (m.total_width <= 2 * np.pi + 1e-12).all()

@@ -14,7 +14,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-__all__ = ["contains", "from_arcs", "merge", "pack", "pieces", "width"]
+__all__ = ["contains", "from_arcs", "linear_cuts", "merge", "pack", "pieces", "runs", "width"]
 
 TWO_PI = 2.0 * math.pi
 Arc = tuple[float, float]
@@ -96,3 +96,41 @@ def contains(intervals: np.ndarray, phi: np.ndarray) -> np.ndarray:
         )
         return np.asarray(inside.any(axis=-1))
     return np.asarray(((lo <= wrapped[..., None]) & (wrapped[..., None] <= hi)).any(axis=-1))
+
+
+def linear_cuts(cuts: np.ndarray, tol: float = 1e-12) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The circle cut at ``cuts`` (``(..., M)`` in ``[-π, π)``, NaN-padded, any order) and
+    at ``-π``, as a segment: arc ``i`` runs from ``start[..., i]`` to ``stop[..., i]``
+    (``start`` sorted, cuts closer than ``tol`` merged; the last arc ends at ``π``; arcs
+    from ``count`` on are NaN). Returns ``(start, stop, count)``, ``(..., M + 1)`` twice
+    and ``(...)``. An arc through ``±π`` is thus always two arcs, as the stored pieces."""
+    lead = np.full((*cuts.shape[:-1], 1), -math.pi)
+    c = np.sort(np.concatenate((lead, cuts), axis=-1), axis=-1)
+    near = np.zeros(c.shape, dtype=bool)
+    near[..., 1:] = np.diff(c, axis=-1) <= tol  # NaN differences are False
+    c = np.sort(np.where(near, np.nan, c), axis=-1)
+    count = np.isfinite(c).sum(axis=-1)
+    stop = np.concatenate((c[..., 1:], np.full_like(lead, np.nan)), axis=-1)
+    last = np.arange(c.shape[-1]) == (count - 1)[..., None]
+    return c, np.where(last, math.pi, stop), count
+
+
+def runs(
+    start: np.ndarray, stop: np.ndarray, feasible: np.ndarray, slots: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The stored pieces of the arcs of :func:`linear_cuts` whose ``feasible`` flag is set
+    (``(..., A)``; arcs past the count must be False): runs of consecutive feasible arcs
+    joined. Returns ``(pieces (..., slots, 2) NaN-padded, count (...), width (...))``."""
+    off = np.zeros((*feasible.shape[:-1], 1), dtype=bool)
+    first = feasible & ~np.concatenate((off, feasible[..., :-1]), axis=-1)
+    final = feasible & ~np.concatenate((feasible[..., 1:], off), axis=-1)
+    index = np.cumsum(first, axis=-1) - 1
+    out = np.full((*feasible.shape[:-1], slots, 2), np.nan)
+    at_first, at_final = np.nonzero(first), np.nonzero(final)  # paired, in row order
+    piece = index[at_first]
+    keep = piece < slots
+    where: tuple[np.ndarray, ...] = (*(r[keep] for r in at_first[:-1]), piece[keep])
+    out[..., 0][where] = start[at_first][keep]
+    out[..., 1][where] = stop[at_final][keep]
+    widths = np.where(feasible, stop - start, 0.0).sum(axis=-1)
+    return out, first.sum(axis=-1), widths

@@ -211,15 +211,16 @@ def _run(job: ShardJob, robot: Robot) -> dict[str, np.ndarray]:
         out["q_true"] = q_true
     else:
         T, q_true = job.inputs["pose"], None
+    out["pose"] = T
     if bool(job.constants["closed_form"][0]):
         arm = _closed_form(p, robot, frame)
         assert arm is not None
-        arcs = arm.poses(T).arcs()
+        out.update(arm.poses(T).intervals(p.intervals))
+        out["reachable"] = out["total_width"] > 0.0
     else:
         arcs, ends = _traced(p, job, robot, T, q_true, rng)
         out["ends"] = ends
-    out["pose"] = T
-    out.update(_store(arcs, p.intervals))
+        out.update(_store(arcs, p.intervals))
     return out
 
 

@@ -53,7 +53,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import RedresError
-from .intervals import Arc, from_arcs
+from .intervals import Arc, from_arcs, linear_cuts, runs
 
 if TYPE_CHECKING:
     from ..robot import Robot
@@ -258,14 +258,18 @@ class SRSPoses:
         :data:`BRANCHES` row ``branch`` (NaN where not :attr:`valid`)."""
         g2, g4, g6 = BRANCHES[branch]
         e = 0 if g4 > 0 else 1
-        basis = np.stack((np.sin(phi), np.cos(phi), np.ones_like(phi)), axis=-1)
+        sin, cos = np.sin(phi), np.cos(phi)
         q = np.empty((*np.shape(phi), 7))
         for M, sigma, g, first in ((self.shoulder, self.arm.shoulder_euler[2], g2, 0),
                                    (self.wrist, self.arm.wrist_euler[2], g6, 4)):  # fmt: skip
-            m = np.einsum("nmk,nkab->nmab", basis, M[:, e])
-            q[..., first] = np.arctan2(g * m[..., 1, 2], g * m[..., 0, 2])
-            q[..., first + 1] = g * np.arccos(np.clip(m[..., 2, 2], -1.0, 1.0))
-            q[..., first + 2] = sigma * np.arctan2(g * m[..., 2, 1], -g * m[..., 2, 0])
+
+            def entry(r: int, c: int, M: np.ndarray = M) -> np.ndarray:
+                k = M[:, e, :, r, c]  # (N, 3): sin, cos, constant coefficients
+                return np.asarray(sin * k[:, 0, None] + cos * k[:, 1, None] + k[:, 2, None])
+
+            q[..., first] = np.arctan2(g * entry(1, 2), g * entry(0, 2))
+            q[..., first + 1] = g * np.arccos(np.clip(entry(2, 2), -1.0, 1.0))
+            q[..., first + 2] = sigma * np.arctan2(g * entry(2, 1), -g * entry(2, 0))
         q[..., 3] = self.q4[:, e, None]
         q[~self.valid[:, e]] = np.nan
         return q
@@ -324,6 +328,37 @@ class SRSPoses:
                 if self.valid[i, e]:
                     k = kept[i, e]
                     out[i][b] = from_arcs(padded[i, e, :k], inside[i, :k])
+        return out
+
+    def intervals(self, slots: int) -> dict[str, np.ndarray]:
+        """What a redundancy map stores, on arrays (the same pieces as :meth:`arcs`,
+        there per pose in Python): per branch ``intervals`` ``(N, 8, slots, 2)``,
+        ``count``, ``width``, and over the branches ``union`` ``(N, slots, 2)``,
+        ``union_count``, ``total_width`` (:mod:`redres.sweeps.intervals`)."""
+        cuts = self.cuts()
+        out: dict[str, np.ndarray] = {}
+        s_e, t_e, _ = linear_cuts(cuts)  # (N, 2, A): per elbow sign
+        s_u, t_u, _ = linear_cuts(cuts.reshape(len(cuts), -1))  # the union: both elbows' cuts
+        lo, hi = self.arm.q_min, self.arm.q_max
+        flags = []
+        for b in range(8):
+            e = 0 if BRANCHES[b, 1] > 0 else 1
+            q = self.joints(np.nan_to_num((s_e[:, e] + t_e[:, e]) / 2.0), b)
+            inside = np.all((q >= lo) & (q <= hi), axis=-1) & np.isfinite(s_e[:, e])
+            flags.append(inside & self.valid[:, e, None])
+        # each arc of the union lies in one arc of each elbow's cuts (a subset of its cuts)
+        union = np.zeros(s_u.shape, dtype=bool)
+        mid_u = np.nan_to_num((s_u + t_u) / 2.0)
+        for e in range(2):  # the arc of elbow e's cuts holding each union arc's midpoint
+            local = (s_e[:, e, None, :] <= mid_u[:, :, None]).sum(axis=2) - 1  # NaN: False
+            for branch in np.flatnonzero(BRANCHES[:, 1] == (1 if e == 0 else -1)):
+                union |= np.take_along_axis(flags[int(branch)], local, axis=1)
+        union &= np.isfinite(s_u)
+        starts = np.stack([s_e[:, 0 if g4 > 0 else 1] for g4 in BRANCHES[:, 1]], axis=1)
+        stops = np.stack([t_e[:, 0 if g4 > 0 else 1] for g4 in BRANCHES[:, 1]], axis=1)
+        out["intervals"], out["count"], out["width"] = runs(starts, stops, np.stack(flags, 1),
+                                                            slots)  # fmt: skip
+        out["union"], out["union_count"], out["total_width"] = runs(s_u, t_u, union, slots)
         return out
 
 
