@@ -347,3 +347,37 @@ def test_map_views(tmp_path: Path) -> None:
                                np.round(cmap.reachability_index, 4))  # fmt: skip
     levels = np.unique(cmap.centres[:, 2])
     assert len(figure["data"]) == len(levels) + 1
+
+
+def test_grid_source(tmp_path: Path) -> None:
+    """Poses from a capability map's grid: voxel centres x orientations; where the map
+    gives an interval, the closed form's configuration at its middle is within the limits
+    and places the frame at the pose; elsewhere no branch has an interval."""
+    text = """
+kind = "redundancy_map"
+seed = 1
+shard_size = 40
+small_shards = true
+[robot]
+model = "iiwa14"
+[redundancy_map]
+source = "grid"
+resolution = 0.15
+bounds = [[0.3, 0.6], [-0.15, 0.15], [0.3, 0.6]]
+directions = 6
+fk_samples = 20000
+"""
+    (tmp_path / "g.toml").write_text(text)
+    sweeps.run(tmp_path / "g.toml", tmp_path / "out", workers=1, progress=False)
+    m = sweeps.load_redundancy_map(tmp_path / "out")
+    assert len(m.pose) % 6 == 0 and len(m.pose) >= 6 and "q_true" not in m.extra
+    assert m.reachable.any() and not m.reachable.all()
+    robot = rr.models.iiwa14()
+    poses = SRSArm.from_robot(robot).poses(m.pose)
+    for i in range(len(m.pose)):
+        assert m.reachable[i] == (m.count[i] > 0).any()
+        for b in np.flatnonzero(m.count[i] > 0):
+            lo, hi = m.intervals[i, b, 0]
+            q = poses.joints(np.full((len(m.pose), 1), (lo + hi) / 2), int(b))[i, 0]
+            assert robot.within_limits(q)
+            np.testing.assert_allclose(robot.fk(q), m.pose[i], atol=1e-10)
