@@ -19,8 +19,9 @@ the frame:
    arm angle ``φ`` (:mod:`redres.sweeps.armangle`). With ``R₃⁰`` the one of arm angle 0
    (the elbow's offset along ``l = (w × v) × w``), ``R₃(φ) = Rot(ŵ, φ) R₃⁰
    = A_s sin φ + B_s cos φ + C_s``, ``A_s = [ŵ]ₓR₃⁰``, ``B_s = −[ŵ]ₓ²R₃⁰``,
-   ``C_s = ŵŵᵀR₃⁰`` (Shimizu et al., eq. 11–13, about their reference plane; here
-   about the library's, so the map is in the angle the augmented scheme controls).
+   ``C_s = ŵŵᵀR₃⁰`` (Shimizu et al.'s form, there about their own reference
+   plane; here about the library's, so the map is in the angle the augmented scheme
+   controls).
 3. **Joint angles.** The shoulder's three rotations, brought to one frame, are
    ``Rz(θ₁) Ry(θ₂) Rz(σθ₃)`` of ``M = Lᵀ R₃ Rʳ`` (constant ``L``, ``Rʳ`` from the joint
    placements; ``σ = ±1``), so with ``g₂ = ±1``: ``θ₂ = g₂ acos M₃₃``,
