@@ -1,11 +1,12 @@
 """Sweeps: the same solver run millions of times, sharded, resumable, on a cluster.
 
 A sweep is a TOML spec (:mod:`redres.sweeps.spec`) of one kind
-(:data:`~redres.sweeps.kinds.KINDS`): capability maps, IK datasets, base placement from a
-map. :func:`run` cuts it into shards of at least 10⁴ queries, runs them in-process, on a
-local process pool (default), any :class:`concurrent.futures.Executor` or a Dask
-cluster, and stores each one atomically with its manifest entry, so that a sweep killed
-at any moment resumes where it stopped and gives the same bytes whatever the engine.
+(:data:`~redres.sweeps.kinds.KINDS`): capability maps, redundancy maps, IK datasets, base
+placement from a map. :func:`run` cuts it into shards of at least 10⁴ queries, runs them
+in-process, on a local process pool (default), any :class:`concurrent.futures.Executor`
+or a Dask cluster, and stores each one atomically with its manifest entry, so that a
+sweep killed at any moment resumes where it stopped and gives the same bytes whatever
+the engine.
 :func:`load` reads a sweep folder back as named arrays. See docs/sweeps.md.
 
 >>> import redres.sweeps as sw                                  # doctest: +SKIP
@@ -19,11 +20,13 @@ from .capability import CapabilityMap, load_map
 from .engine import SweepReport, run
 from .folder import SweepFolderError
 from .kinds import KINDS  # noqa: F401 - importable, documented in redres.sweeps.kinds
+from .redundancy import RedundancyMap, load_redundancy_map
 from .results import SweepData, load
 from .spec import SweepSpec, SweepSpecError, builtin_specs, load_spec, parse_spec
 
 __all__ = [
     "CapabilityMap",
+    "RedundancyMap",
     "SweepData",
     "SweepFolderError",
     "SweepReport",
@@ -32,6 +35,7 @@ __all__ = [
     "builtin_specs",
     "load",
     "load_map",
+    "load_redundancy_map",
     "load_spec",
     "parse_spec",
     "run",

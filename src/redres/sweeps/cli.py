@@ -5,6 +5,7 @@
     redres sweep SPEC.toml --out DIR [--workers N | --scheduler ADDRESS] [--json]
     redres sweep --list
     redres sweep SPEC.toml --out DIR --reuleaux map.h5   # a capability map, then HDF5
+    redres sweep SPEC.toml --out DIR --html map.html     # then the map's 3D view
 
 ``SPEC`` is a file or the name of a built-in spec. Running the same command again on
 the same folder resumes (finished shards are skipped); a folder of other files, or of a
@@ -36,6 +37,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="array store of a new sweep (default: zarr if installed)")  # fmt: skip
     p.add_argument("--reuleaux", metavar="FILE.h5",
                    help="then export the capability map in Reuleaux's HDF5 layout")  # fmt: skip
+    p.add_argument("--html", metavar="FILE.html",
+                   help="then write the map's 3D view (capability or redundancy map)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
@@ -73,6 +76,10 @@ def main(args: argparse.Namespace) -> int:
         from .reuleaux import export_reuleaux
 
         result["reuleaux"] = str(export_reuleaux(args.out, args.reuleaux))
+    if args.html:
+        from .mapview import write_html
+
+        result["html"] = str(write_html(args.out, args.html))
     if args.json:
         print(json.dumps(result))
     else:
@@ -83,4 +90,6 @@ def main(args: argparse.Namespace) -> int:
               f"{report.workers} workers)")  # fmt: skip
         if args.reuleaux:
             print(f"Reuleaux map: {result['reuleaux']}")
+        if args.html:
+            print(f"map view: {result['html']}")
     return 0
