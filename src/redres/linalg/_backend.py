@@ -131,6 +131,8 @@ def use_fast_path(m: int, n: int) -> ModuleType | None:
 
 def parse_damping(damping: float | AdaptiveDamping) -> tuple[int, float, float, float]:
     """``(mode, lambda, lambda_max, eps)`` for the kernels from a ``damping`` argument."""
+    if type(damping) is float and 0.0 < damping < math.inf:  # the common case, valid
+        return codes.FIXED, damping, 0.0, 1.0
     if isinstance(damping, AdaptiveDamping):
         mode = codes.SELECTIVE if damping.selective else codes.ADAPTIVE
         return mode, 0.0, damping.max_damping, damping.threshold
@@ -321,6 +323,8 @@ def check_finite(J: FloatArray) -> None:
 
 def as_rcond(rcond: Any) -> float:
     """Validated relative rank tolerance (finite, >= 0)."""
+    if type(rcond) is float and 0.0 <= rcond < math.inf:  # the common case, valid
+        return rcond
     return as_scalar(rcond, "rcond", minimum=0.0)
 
 
@@ -493,13 +497,15 @@ def matrix_inverse(
     lazy: bool = False,
 ) -> Parts:
     """``(J#, stats, method)`` for the matrix functions (``rcond`` already validated;
-    ``lazy`` as for :func:`invert`). An exact unweighted inverse of a rank-deficient ``J``
-    is labelled ``"pinv"`` (the truncated SVD pseudo-inverse it falls back to) instead of
-    ``exact_label``."""
+    ``lazy`` as for :func:`invert`: nobody reads the statistics, nor the method, left
+    ``""``). An exact unweighted inverse of a rank-deficient ``J`` is labelled ``"pinv"``
+    (the truncated SVD pseudo-inverse it falls back to) instead of ``exact_label``."""
     Jp, _, stats, mode = invert(
         J, weights=weights, weights_name=weights_name, damping=damping, rcond=rcond,
         want_pinv=True, want_projector=False, lazy=lazy,
     )  # fmt: skip
+    if lazy:
+        return Jp, stats, ""
     method = method_label(mode, weights is not None, exact_label)
     if weights is None and mode == codes.EXACT and stats.rank < min(J.shape):
         method = "pinv"
