@@ -1,8 +1,8 @@
 """First use: how long a new user waits for the first answer, cold and warm.
 
-Every case runs in a fresh Python process, twice: *cold* with an empty compiled-code cache
-(``REDRES_CACHE_DIR`` set to a new, empty folder, as on a fresh install) and *warm* in a
-second process with the cache the first one filled (after the background compilation the
+Every case runs in fresh Python processes: *cold* with an empty compiled-code cache
+(``REDRES_CACHE_DIR`` set to a new, empty folder, as on a fresh install), then *warm*,
+three times, in new processes with the cache the first one filled (after the background compilation the
 cold run started has finished). The time is measured inside the
 child, from before its first import to its first answer, so interpreter start-up (the
 same for every library) is left out. The peers' first solves run the same way:
@@ -141,6 +141,9 @@ while True:
 """,
 }
 
+#: Warm runs after each cold one (a second is cheap; the median of three steadies it).
+WARM_RUNS = 3
+
 _WRAP = """
 import time as _t
 _t0 = _t.perf_counter()
@@ -188,7 +191,7 @@ def main() -> None:
         warm: list[float] = []
         for _ in range(args.repeat):
             with tempfile.TemporaryDirectory(prefix="redres-first-use-") as tmp:
-                for sink in (cold, warm):
+                for sink in (cold, *[warm] * WARM_RUNS):
                     seconds = time_case(body, Path(tmp))
                     if seconds is not None:
                         sink.append(seconds)
@@ -204,9 +207,9 @@ def main() -> None:
 
     load = os.getloadavg()
     print(f"First answer in a fresh process, {machine()}; load average {load[0]:.2f}.")
-    print("Seconds from the first import to the first answer (median of "
-          f"{args.repeat}); cold: empty compiled-code cache; warm: the cache the cold run "
-          "filled.\n")  # fmt: skip
+    print("Seconds from the first import to the first answer; cold: empty compiled-code "
+          f"cache (median of {args.repeat}); warm: the cache the cold run filled (median of "
+          f"{args.repeat * WARM_RUNS}).\n")  # fmt: skip
     rows = [[name, cell(r["cold_s"]), cell(r["warm_s"])] for name, r in results.items()]
     print(table(["first use", "cold, s", "warm, s"], rows))
     switch: dict[str, dict[str, float | None]] = {}
