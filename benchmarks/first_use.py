@@ -2,10 +2,10 @@
 
 Every case runs in fresh Python processes: *cold* with an empty compiled-code cache
 (``REDRES_CACHE_DIR`` set to a new, empty folder, as on a fresh install), then *warm*,
-three times, in new processes with the cache the first one filled (after the background compilation the
-cold run started has finished). The time is measured inside the
-child, from before its first import to its first answer, so interpreter start-up (the
-same for every library) is left out. The peers' first solves run the same way:
+three times, in new processes with the cache the first one filled (after the background
+compilation the cold run started has finished). The time is measured inside the child,
+from before its first import to its first answer, so interpreter start-up (the same for
+every library) is left out. The peers' first solves run the same way:
 
 * ``import redres`` alone;
 * the README example (Panda, Jacobian, ``damped_pinv``);
