@@ -174,6 +174,16 @@ def test_a_folder_that_is_no_sweep_is_refused(tmp_path: Path) -> None:
     assert not (tmp_path / "x.html").exists()
 
 
+def test_an_ik_dataset_has_no_page(tmp_path: Path) -> None:
+    from .test_ikdata import SPEC as DATASET
+
+    (tmp_path / "ik.toml").write_text(DATASET.replace("poses = 50", "poses = 4"))
+    sweeps.run(tmp_path / "ik.toml", tmp_path / "ik", workers=1, progress=False)
+    with pytest.raises(RedresError, match="holds a ik_dataset sweep; pages are written for"):
+        write_html(tmp_path / "ik", tmp_path / "ik.html")
+    assert not (tmp_path / "ik.html").exists()
+
+
 def _open(page: Path, profile: Path) -> _Elements:
     proc = dump_dom(page.as_uri(), profile)
     assert proc.returncode == 0, proc.stderr[-2000:]
