@@ -10,9 +10,12 @@ Measures, each in a fresh temporary folder, after a warm-up (compiled kernels ca
 * **per kind**: a capability map of an 80 cm cube of the Panda's workspace (5 cm
   voxels, 50 directions), an IK dataset of Panda poses (8 solutions from 32 attempts
   each), a base placement from that map, scheme statistics of the demo scenario's
-  schemes on 6 random paths of 1 s: in-process (all threads) and, for the map, on one
-  thread; queries per second per core is the one-thread rate (or the all-core rate
-  over the cores);
+  schemes on 6 random paths of 1 s, and redundancy maps (arm-angle intervals at random
+  poses; a query is one pose): 20,000 iiwa14 poses by the closed form (Shimizu et al.
+  2008; shards of 10,000) and 200 Panda poses by self-motion tracing (2 manifolds
+  each, one shard): in-process (all threads) and, for the capability map, on one
+  thread; queries per second per core is the one-thread rate (or the all-core rate over
+  the cores);
 * **engines**: the same small map on the local process pool with 1 and 2 workers, and
   through a Dask ``LocalCluster`` of 2 single-threaded worker processes (its overhead
   against the pool: cluster start-up, then the run itself);
@@ -67,6 +70,19 @@ model = "panda"
 scenario = "panda_joint_limit_circle"
 paths = 6
 duration = 1.0
+"""
+
+REDUNDANCY = """
+kind = "redundancy_map"
+seed = 1
+shard_size = {shard}
+small_shards = true
+[robot]
+model = "{model}"
+[redundancy_map]
+poses = {poses}
+method = "{method}"
+manifolds = 2
 """
 
 DATASET = """
@@ -164,7 +180,15 @@ poses = {json.dumps([[float(x) for x in p] for p in poses])}
     spec = write(folder, "stats.toml", STATS)
     report = timed_run(spec, folder / "stats", workers=1)
     per_core["scheme_statistics (control steps)"] = report.queries / report.seconds / cores
-    out["queries_per_s_per_core"] = {k: round(v) for k, v in per_core.items()}
+    for model, poses, method in (("iiwa14", 20000, "closed_form"), ("panda", 200, "trace")):
+        shard = min(poses, 10000)
+        text = REDUNDANCY.format(model=model, poses=poses, method=method, shard=shard)
+        spec = write(folder, f"redundancy-{model}.toml", text)
+        report = timed_run(spec, folder / f"redundancy-{model}", workers=1)
+        per_core[f"redundancy_map {model} {method} (poses)"] = (
+            report.queries / report.seconds / cores
+        )
+    out["queries_per_s_per_core"] = {k: round(v, 1) for k, v in per_core.items()}
     return out
 
 

@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 import redres as rr
-from redres.tasks import ArmAngleTask, arm_angle_from_points
+from redres.tasks import ArmAngleTask, arm_angle_from_points, arm_angles
 from redres.testing import assert_jacobian_close, numerical_jacobian
 
 ARMS = ["iiwa14", "srs7", "panda"]
@@ -34,6 +34,63 @@ def test_arm_angle_matches_the_seed_formula(rng: np.random.Generator) -> None:
         l = np.cross(np.cross(w, v), w)
         expected = np.arctan2(wh @ np.cross(l, p), l @ p)
         assert arm_angle_from_points(s, e_pt, w_pt, v).phi == pytest.approx(expected, abs=1e-12)
+
+
+def _geometric_arm_angle(s: np.ndarray, e_pt: np.ndarray, w_pt: np.ndarray, v: np.ndarray) -> float:
+    """An independent construction: the orthonormal frame (x̂, ŷ, ŵ) with x̂ the unit
+    component of ``v`` normal to the shoulder-wrist line (the reference plane's side of
+    ``v``, i.e. the direction of l), ŷ = ŵ × x̂; φ is the polar angle of the elbow's
+    offset in the (x̂, ŷ) plane."""
+    wh = (w_pt - s) / np.linalg.norm(w_pt - s)
+    x = v - wh * (wh @ v)
+    x /= np.linalg.norm(x)
+    y = np.cross(wh, x)
+    offset = e_pt - s
+    return float(np.arctan2(offset @ y, offset @ x))
+
+
+def test_batched_arm_angles_match_a_geometric_construction(rng: np.random.Generator) -> None:
+    """arm_angles on arrays (4, 5, 3) against the frame construction, point by point."""
+    s, e_pt, w_pt = (rng.normal(size=(4, 5, 3)) for _ in range(3))
+    v = rng.normal(size=3)
+    phi = arm_angles(s, e_pt, w_pt, v)
+    assert phi.shape == (4, 5)
+    for i in np.ndindex(4, 5):
+        expected = _geometric_arm_angle(s[i], e_pt[i], w_pt[i], v)
+        assert phi[i] == pytest.approx(expected, abs=1e-12)
+        assert arm_angle_from_points(s[i], e_pt[i], w_pt[i], v).phi == pytest.approx(
+            expected, abs=1e-12
+        )
+
+
+def test_turning_the_elbow_about_the_line_adds_the_turn(rng: np.random.Generator) -> None:
+    """Rodrigues' rotation of the elbow by β about the shoulder-wrist line adds β to φ."""
+    s, e_pt, w_pt = (rng.normal(size=(30, 3)) for _ in range(3))
+    v = rng.normal(size=3)
+    beta = rng.uniform(-np.pi, np.pi, 30)
+    axis = (w_pt - s) / np.linalg.norm(w_pt - s, axis=1, keepdims=True)
+    r = e_pt - s
+    c, s_ = np.cos(beta)[:, None], np.sin(beta)[:, None]
+    along = axis * np.sum(axis * r, axis=1, keepdims=True)
+    turned = r * c + np.cross(axis, r) * s_ + along * (1 - c)
+    change = arm_angles(s, s + turned, w_pt, v) - arm_angles(s, e_pt, w_pt, v)
+    np.testing.assert_allclose(np.angle(np.exp(1j * (change - beta))), 0.0, atol=1e-10)
+
+
+@pytest.mark.parametrize("name", ARMS)
+def test_values_of_many_configurations_match_one_at_a_time(
+    name: str, builtin_robots: dict, rng: np.random.Generator
+) -> None:
+    """ArmAngleTask.values (batch kinematics) against value and the geometric
+    construction on Pinocchio's frame placements."""
+    robot = builtin_robots[name]
+    q = np.array([robot.random_configuration(rng) for _ in range(12)])
+    task = ArmAngleTask()
+    many = task.values(robot, q)
+    for qi, phi in zip(q, many):
+        points = [robot.fk(qi, f)[:3, 3] for f in ("shoulder", "elbow", "wrist")]
+        assert phi == pytest.approx(_geometric_arm_angle(*points, task.reference), abs=1e-10)
+        assert phi == pytest.approx(task.value(robot, qi), abs=1e-12)
 
 
 def test_point_gradients_match_finite_differences(rng: np.random.Generator) -> None:

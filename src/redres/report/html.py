@@ -160,7 +160,7 @@ class RobotPlots:
     files: Mapping[str, str]
 
 
-def _script_json(value: Any) -> str:
+def script_json(value: Any) -> str:
     """JSON safe inside a ``<script>`` element (no ``</`` sequence can close it)."""
     return json.dumps(value, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
 
@@ -262,7 +262,7 @@ def render_page(
     """
     sections = "".join(_plot_section(p) for p in plots)
     shared, figures_list = share_meshes([fig for _, _, fig in views])
-    figures = _script_json(figures_list)
+    figures = script_json(figures_list)
     inline_js = plotly_js.replace("</script", "<\\/script")  # cannot close its element
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
@@ -281,8 +281,8 @@ one self-contained file, works offline</p>
 <footer>Made with redres {escape(version)}. Plots: matplotlib; 3D view: plotly.js (MIT).
 </footer></main>
 <script type="application/json" id="redres-runs">{figures}</script>
-<script type="application/json" id="redres-meshes">{_script_json(shared)}</script>
-<script type="application/json" id="redres-plotly-config">{_script_json(PLOTLY_CONFIG)}</script>
+<script type="application/json" id="redres-meshes">{script_json(shared)}</script>
+<script type="application/json" id="redres-plotly-config">{script_json(PLOTLY_CONFIG)}</script>
 <script>{SCRIPT}</script>
 </body></html>
 """

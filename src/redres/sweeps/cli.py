@@ -5,7 +5,7 @@
     redres sweep SPEC.toml --out DIR [--workers N | --scheduler ADDRESS] [--json]
     redres sweep --list
     redres sweep SPEC.toml --out DIR --reuleaux map.h5   # a capability map, then HDF5
-    redres sweep SPEC.toml --out DIR --html map.html     # then the map's 3D view
+    redres sweep SPEC.toml --out DIR --html page.html    # then the sweep's HTML page
 
 ``SPEC`` is a file or the name of a built-in spec. Running the same command again on
 the same folder resumes (finished shards are skipped); a folder of other files, or of a
@@ -38,7 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p.add_argument("--reuleaux", metavar="FILE.h5",
                    help="then export the capability map in Reuleaux's HDF5 layout")  # fmt: skip
     p.add_argument("--html", metavar="FILE.html",
-                   help="then write the map's 3D view (capability or redundancy map)")  # fmt: skip
+                   help="then write the sweep's page: a map's 3D view, the ranked bases, "
+                   "the scheme statistics")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
@@ -91,5 +92,5 @@ def main(args: argparse.Namespace) -> int:
         if args.reuleaux:
             print(f"Reuleaux map: {result['reuleaux']}")
         if args.html:
-            print(f"map view: {result['html']}")
+            print(f"page: {result['html']}")
     return 0

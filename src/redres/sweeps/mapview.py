@@ -1,30 +1,34 @@
-"""A map as one self-contained HTML page: a 3D view with horizontal slices.
+"""A sweep as one self-contained HTML page (``redres sweep ... --html``).
+
+The page is the run report's (:mod:`redres.report.page`: its styles, plotly.js inlined,
+no network). A capability or redundancy map is a 3D view with horizontal slices; a
+base placement its best bases and a floor plot (:mod:`.placementview`); scheme
+statistics their table and plots (:mod:`.statsview`).
 
 A capability map is drawn as its tested voxels' centres coloured by the reachability
 index (Zacharias et al. 2007, percent); a redundancy map as its poses' positions
 coloured by the width of the arm angles reachable there (rad, the mean over the poses
 sharing a position, e.g. a voxel's orientations). A slider shows the whole map or one
 horizontal slab of it (each distinct height of a voxel grid; 20 equal slabs of heights
-otherwise). plotly.js is inlined (the ``report`` extra), so the page needs no network.
+otherwise).
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import tempfile
-from html import escape
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..errors import MissingDependencyError
+from ..report.page import Section, figure_html, render_document, write_page
 from .folder import SweepFolderError
 from .results import load
 
-__all__ = ["map_figure", "write_html"]
+__all__ = ["KINDS", "map_figure", "write_html"]
+
+#: The kinds a page is written for.
+KINDS = ("capability", "redundancy_map", "base_placement", "scheme_statistics")
 
 _SLABS = 20  # slabs of a map whose heights are not a grid's
 
@@ -66,6 +70,16 @@ def _points(out: str | Path) -> tuple[np.ndarray, np.ndarray, str, float, str]:
         )
     raise SweepFolderError(f"{out} holds a {data.kind} sweep; maps drawn: capability, "
                            "redundancy_map")  # fmt: skip
+
+
+_MAP_INTRO = {
+    "capability": "Each tested voxel's centre, coloured by its reachability index (Zacharias "
+    "et al. 2007): the share of its orientations reachable within the joint limits, percent.",
+    "redundancy_map": "Each pose's position, coloured by the width of the arm angles "
+    "reachable there within the joint limits (rad; the mean over the poses sharing a "
+    "position). Shimizu et al. 2008's closed form on S-R-S arms, self-motion tracing "
+    "elsewhere.",
+}
 
 
 def _slabs(z: np.ndarray) -> tuple[np.ndarray, list[str]]:
@@ -113,45 +127,40 @@ def map_figure(out: str | Path) -> dict[str, Any]:
         "scene": {"aspectmode": "data", "xaxis": {"title": {"text": "x (m)"}},
                   "yaxis": {"title": {"text": "y (m)"}}, "zaxis": {"title": {"text": "z (m)"}}},
         "sliders": [{"active": 0, "steps": steps, "currentvalue": {"prefix": "slice: "}}],
-        "margin": {"l": 0, "r": 0, "t": 40, "b": 0},
+        "margin": {"l": 0, "r": 0, "t": 40, "b": 70},  # room for the slider
         "showlegend": False,
     }  # fmt: skip
     return {"data": data, "layout": layout}
 
 
 def write_html(out: str | Path, path: str | Path) -> Path:
-    """Write the page of the map in sweep folder ``out`` to ``path`` (atomically);
-    returns ``path``.
+    """Write the page of the sweep in folder ``out`` to ``path`` (atomically); returns
+    ``path``.
 
     Raises:
-        MissingDependencyError: plotly (the ``report`` extra) is not installed.
-        SweepFolderError: ``out`` holds no capability or redundancy map.
+        MissingDependencyError: plotly or matplotlib (the ``report`` extra) is missing.
+        SweepFolderError: ``out`` holds no sweep, or one of a kind without a page (the
+            :data:`KINDS` have one).
     """
-    try:
-        from plotly.offline import get_plotlyjs
-    except ImportError:
-        raise MissingDependencyError(
-            "a map's HTML view inlines plotly.js; install it: pip install 'redres[report]'"
-        ) from None
-    figure = map_figure(out)
-    title = figure["layout"]["title"]["text"]
-    payload = json.dumps(figure, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
-    page = (
-        f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{escape(title)}'
-        f'</title></head><body style="margin:0;font-family:system-ui,sans-serif">'
-        f'<script>{get_plotlyjs()}</script><div id="map" style="width:100%;height:96vh">'
-        f'</div><script id="figure" type="application/json">{payload}</script><script>'
-        "const f=JSON.parse(document.getElementById('figure').textContent);"
-        "Plotly.newPlot('map',f.data,f.layout,{displaylogo:false,responsive:true});"
-        "</script></body></html>\n"
-    )
-    target = Path(path)
-    handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=".map-", suffix=".html")
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as f:
-            f.write(page)
-        os.replace(temporary, target)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return target
+    from .. import __version__
+
+    data = load(out)
+    if data.kind in ("capability", "redundancy_map"):
+        figure = map_figure(out)
+        section = Section("Map", _MAP_INTRO[data.kind], figure_html("map", figure))
+        meta = figure["layout"]["title"]["text"]
+    elif data.kind == "base_placement":
+        from .placementview import placement_section
+
+        section, meta = placement_section(out), f"{len(data['count'])} candidate bases"
+    elif data.kind == "scheme_statistics":
+        from .statsview import statistics_section
+
+        section = statistics_section(out)
+        meta = f"{len(data['shape'])} paths x {len(data.meta['labels'])} schemes"
+    else:
+        raise SweepFolderError(f"{out} holds a {data.kind} sweep; pages are written for "
+                               f"{', '.join(KINDS)}")  # fmt: skip
+    title = f"{data.kind.replace('_', ' ')} sweep {data.name}"
+    page = render_document(title=title, meta=meta, sections=[section], version=__version__)
+    return write_page(path, page)

@@ -17,7 +17,7 @@ task Jacobian's smallest singular value was below ``singular_sigma``) and ``step
 (the median wall time of a control step, µs); per path its start ``q0``, its ``shape``
 (0 circle, 1 line) and ``size`` (radius or length, m). Every field but ``step_us`` (a
 clock reading) is the same, byte for byte, however the sweep is run.
-:func:`table` summarises per scheme.
+:func:`summary` and :func:`table` summarise per scheme.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["SCHEME_STATISTICS", "SchemeStatsParams", "table"]
+__all__ = ["SCHEME_STATISTICS", "SchemeStatsParams", "summary", "table"]
 
 
 @dataclass(frozen=True)
@@ -192,23 +192,41 @@ def _run(job: ShardJob, robot: Robot) -> dict[str, np.ndarray]:
     return out
 
 
-def table(out: str | Path) -> str:
-    """Per scheme of the sweep in ``out``: success rate, runs with a limit violation,
-    median and worst RMS tracking error, runs with singular steps, median step time."""
-    from ..runner import aligned_table
+def summary(out: str | Path) -> list[dict[str, Any]]:
+    """Per scheme of the sweep in ``out``, a row: ``scheme`` (label), ``paths``,
+    ``success_pct`` (paths tracked within ``success_tol``), ``violating_pct`` (paths with
+    a step beyond a position limit), ``violation_steps`` (their mean count of such
+    steps), ``rms_error_median_m`` and ``rms_error_max_m`` (RMS tracking error of a path,
+    m; ``inf`` where a simulation failed), ``singular_pct`` (paths with a singular step),
+    ``step_us_median`` (the median of the paths' median step times, µs)."""
     from .results import load
 
     data = load(out)
     rows = []
     for s, label in enumerate(data.meta["labels"]):
-        rms = data["rms_error"][:, s]
-        rows.append([
-            str(label), f"{100 * data['success'][:, s].mean():.1f}",
-            f"{100 * (data['violations'][:, s] > 0).mean():.1f}",
-            f"{1e3 * np.median(rms):.3f}", f"{1e3 * rms.max():.3f}",
-            f"{100 * (data['singular'][:, s] > 0).mean():.1f}",
-            f"{np.median(data['step_us'][:, s]):.1f}",
-        ])  # fmt: skip
+        rms, violations = data["rms_error"][:, s], data["violations"][:, s]
+        rows.append({
+            "scheme": str(label), "paths": len(rms),
+            "success_pct": float(100 * data["success"][:, s].mean()),
+            "violating_pct": float(100 * (violations > 0).mean()),
+            "violation_steps": float(violations.mean()),
+            "rms_error_median_m": float(np.median(rms)), "rms_error_max_m": float(rms.max()),
+            "singular_pct": float(100 * (data["singular"][:, s] > 0).mean()),
+            "step_us_median": float(np.median(data["step_us"][:, s])),
+        })  # fmt: skip
+    return rows
+
+
+def table(out: str | Path) -> str:
+    """:func:`summary` as aligned text: success rate, runs with a limit violation,
+    median and worst RMS tracking error, runs with singular steps, median step time."""
+    from ..runner import aligned_table
+
+    rows = [[
+        r["scheme"], f"{r['success_pct']:.1f}", f"{r['violating_pct']:.1f}",
+        f"{1e3 * r['rms_error_median_m']:.3f}", f"{1e3 * r['rms_error_max_m']:.3f}",
+        f"{r['singular_pct']:.1f}", f"{r['step_us_median']:.1f}",
+    ] for r in summary(out)]  # fmt: skip
     headers = ["scheme", "success %", "violating %", "rms err mm (median)", "rms err mm (max)",
                "singular %", "step us"]  # fmt: skip
     return aligned_table(headers, rows)

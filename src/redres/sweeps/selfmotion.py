@@ -9,8 +9,8 @@ From a solution ``q₀`` the curve is followed by predictor–corrector continua
 (rad, joint space) along the unit null vector ``n`` of the 6×7 task Jacobian (the last
 right singular vector, its sign kept from step to step), the corrector applies Newton
 steps ``Δq = Jᵀ(JJᵀ)⁻¹ e`` on the pose error ``e = [p_d − p; log(R_d Rᵀ)]`` until
-``‖e‖ < 1e-10``. Each point's arm angle (:mod:`redres.sweeps.armangle`) is unwrapped
-along the curve. The trace runs in both directions until a joint leaves its limits —
+``‖e‖ < 1e-10``. Each point's arm angle (:meth:`redres.tasks.ArmAngleTask.values`) is
+unwrapped along the curve. The trace runs in both directions until a joint leaves its limits —
 the crossing is then located by bisection of the last step (to 1e-6 of it) — or the curve
 returns to ``q₀`` (a closed loop inside the limits); the arm angles visited are one
 arc, ``[min, max]`` of the unwrapped angle (the whole circle when it spans ``2π``).
@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import batch
-from .armangle import arm_angles
+from ..tasks.arm_angle import ArmAngleTask
 from .intervals import TWO_PI, Arc
 
 if TYPE_CHECKING:
@@ -150,8 +150,10 @@ def trace(
     q0 = np.asarray(q_start, dtype=np.float64)
     count = len(q0)
 
+    task = ArmAngleTask(*points, reference=(0.0, 0.0, 1.0) if reference is None else reference)
+
     def angle(q: np.ndarray) -> np.ndarray:
-        return arm_angles(robot, q, points, reference, chain.threads_for(len(q)))
+        return task.values(robot, q, threads=chain.threads_for(len(q)))
 
     phi0 = angle(q0)
     lo, hi = phi0.copy(), phi0.copy()

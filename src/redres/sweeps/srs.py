@@ -16,7 +16,7 @@ the frame:
 2. **The shoulder by the arm angle.** For that ``θ₄`` every orientation ``R₃`` of the
    third link that puts ``W`` at its place is one rotation about ``ŵ = (W − S)/|W − S|``
    of another; rotating the upper arm about ``ŵ`` by ``β`` adds ``β`` to the library's
-   arm angle ``φ`` (:mod:`redres.sweeps.armangle`). With ``R₃⁰`` the one of arm angle 0
+   arm angle ``φ`` (:class:`redres.tasks.ArmAngleTask`). With ``R₃⁰`` the one of arm angle 0
    (the elbow's offset along ``l = (w × v) × w``), ``R₃(φ) = Rot(ŵ, φ) R₃⁰
    = A_s sin φ + B_s cos φ + C_s``, ``A_s = [ŵ]ₓR₃⁰``, ``B_s = −[ŵ]ₓ²R₃⁰``,
    ``C_s = ŵŵᵀR₃⁰`` (Shimizu et al.'s form, there about their own reference

@@ -1,6 +1,6 @@
 """Tasks: each gives an error and a Jacobian (docs/conventions.md)."""
 
-from .arm_angle import ArmAngle, ArmAngleTask, arm_angle_from_points
+from .arm_angle import ArmAngle, ArmAngleTask, arm_angle_from_points, arm_angles
 from .base import Task, TaskState, stack, wrap_angle
 from .frame import FrameTask, OrientationTask, PlanarTask, PositionTask
 from .joint import PostureTask
@@ -18,6 +18,7 @@ __all__ = [
     "Task",
     "TaskState",
     "arm_angle_from_points",
+    "arm_angles",
     "stack",
     "wrap_angle",
 ]

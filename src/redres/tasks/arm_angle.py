@@ -15,6 +15,12 @@ points, so their gradients are exact and cheap, and
 ``∂φ = (C ∂S − S ∂C) / (S² + C²)``. The row Jacobian follows from the point Jacobians:
 ``J_φ = ∂φ/∂w (J_w − J_s) + ∂φ/∂e (J_e − J_s)``.
 
+:func:`arm_angles` is this formula on arrays, for many configurations at once (the
+sweeps' redundancy maps, through :meth:`ArmAngleTask.values`, and
+:meth:`ArmAngleTask.value` for one); :func:`arm_angle_from_points` evaluates it on one
+configuration's scalars with its gradients, for the control step, where NumPy's
+per-call overhead on 3-vectors would dominate.
+
 ``S² + C² = |l|² |p|²`` vanishes when the arm is stretched (``p = 0``: the elbow on the
 shoulder–wrist line) or when ``w`` is parallel to ``v``: there ``φ`` is undefined. The
 functions then return a zero gradient and report ``conditioning = |l||p| = 0``.
@@ -35,6 +41,8 @@ from .base import Task, TaskState, wrap_angle
 if TYPE_CHECKING:
     from ..robot import Robot
 
+__all__ = ["ArmAngle", "ArmAngleTask", "arm_angle_from_points", "arm_angles"]
+
 
 @dataclass(frozen=True)
 class ArmAngle:
@@ -51,6 +59,28 @@ class ArmAngle:
     d_elbow: FloatArray
     d_wrist: FloatArray
     conditioning: float
+
+
+def arm_angles(
+    shoulder: FloatArray, elbow: FloatArray, wrist: FloatArray, reference: FloatArray
+) -> FloatArray:
+    """Arm angles of many point triples at once: ``φ = atan2(S, C)`` (module docstring).
+
+    Args:
+        shoulder, elbow, wrist: points, ``(..., 3)``, m (broadcast against each other).
+        reference: the reference vector ``v``, ``(3,)`` or ``(..., 3)``.
+
+    Returns:
+        ``(...)``, rad in ``(-π, π]``; where the angle is undefined (a stretched arm,
+        ``w`` parallel to ``v``) ``atan2`` of (near) zeros, a finite value.
+    """
+    w = np.asarray(wrist, dtype=float) - shoulder
+    e = np.asarray(elbow, dtype=float) - shoulder
+    v = np.broadcast_to(np.asarray(reference, dtype=float), np.broadcast_shapes(w.shape, e.shape))
+    ww = np.sum(w * w, axis=-1)
+    S = np.sqrt(ww) * np.sum(w * np.cross(v, e), axis=-1)
+    C = ww * np.sum(v * e, axis=-1) - np.sum(w * v, axis=-1) * np.sum(w * e, axis=-1)
+    return np.asarray(np.arctan2(S, C))
 
 
 def arm_angle_from_points(
@@ -161,8 +191,22 @@ class ArmAngleTask(Task):
         return angle, row
 
     def value(self, robot: Robot, q: FloatArray) -> float:
-        """The arm angle ``φ(q)``, rad."""
-        return self.evaluate(robot, q)[0].phi
+        """The arm angle ``φ(q)``, rad: :func:`arm_angles` of the three frames' origins."""
+        points = [robot.fk(q, f)[:3, 3] for f in (self.shoulder, self.elbow, self.wrist)]
+        return float(arm_angles(points[0], points[1], points[2], self.reference))
+
+    def values(self, robot: Robot, q: FloatArray, *, threads: int | None = None) -> FloatArray:
+        """The arm angles of configurations ``q`` ``(N, n)`` (rad), ``(N,)``, rad: the
+        frames' origins by :func:`redres.batch.fk` (serial chains), then :func:`arm_angles`.
+
+        Args:
+            threads: threads of the batch kinematics (``None``: all).
+        """
+        from .. import batch
+
+        s, e, w = (batch.fk(robot, q, f, threads=threads)[:, :3, 3]
+                   for f in (self.shoulder, self.elbow, self.wrist))  # fmt: skip
+        return arm_angles(s, e, w, self.reference)
 
     def compute(self, robot: Robot, q: FloatArray) -> TaskState:
         angle, row = self.evaluate(robot, q)
