@@ -183,12 +183,14 @@ def test_warmup_fills_the_cache_so_that_a_second_process_compiles_nothing(
             "misses": sum(sum(d.stats.cache_misses.values()) for d in kernels),
             "hits": sum(sum(d.stats.cache_hits.values()) for d in kernels),
             "modules": sorted(jit._state["kernels"]),
+            "uncached": [m for mods, _ in warm.GROUPS.values() for m in mods if not jit.cached(m)],
         }))
         """),
         tmp_path,
     )
     assert out["misses"] == 0 and out["hits"] > 0
     assert set(out["modules"]) == set(_jit.KERNEL_MODULES)
+    assert out["uncached"] == []  # every module marked, those compiled into callers too
     assert "compiling" not in err
 
 

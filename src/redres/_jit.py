@@ -374,11 +374,16 @@ def compile_on_first_use() -> None:
     _state["foreground"] = True
 
 
-def mark_cached(names: Iterable[str]) -> None:
+def mark_cached(names: Iterable[str], *, workload: bool = False) -> None:
     """Write the markers of the kernel modules ``names`` that this process has compiled
-    something of, so that other processes see them cached (:func:`ready`)."""
+    something of, so that other processes see them cached (:func:`ready`). ``workload``:
+    a warm-up group's workload has run through: mark them all (a module whose kernels are
+    all compiled into their callers, or not on this workload's path, has no signature of
+    its own, yet nothing of it is left to compile for the group)."""
     for name in names:
-        if any(d.signatures for d in _state.get("kernels", {}).get(name, ())):
+        if (workload and _ENABLED) or any(
+            d.signatures for d in _state.get("kernels", {}).get(name, ())
+        ):
             try:
                 _marker(name).parent.mkdir(parents=True, exist_ok=True)
                 _marker(name).touch()

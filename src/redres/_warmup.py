@@ -188,7 +188,7 @@ def _marking(name: str) -> Callable[[], None]:
         if modules and all(map(_jit.cached, modules)):
             return  # loaded from the cache on first use
         workload()
-        _jit.mark_cached(modules)
+        _jit.mark_cached(modules, workload=True)
 
     return call
 
