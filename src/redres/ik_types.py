@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import FloatArray, as_scalar, as_transform
+from ._validate import FloatArray, as_scalar, as_transform, real_array
 from .errors import InvalidParameterError, ShapeError
 from .linalg import AdaptiveDamping
 
@@ -92,10 +92,7 @@ def _options(*values: Any) -> _Options:
 
 def _parse_target(target: Any, position_only: bool) -> tuple[FloatArray, FloatArray | None] | None:
     """``(p_d, R_d)`` (``R_d`` None for position only), or None if the target is not finite."""
-    try:
-        arr = np.asarray(target, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"target must be a 4x4 pose or a 3-vector; got {target!r}") from exc
+    arr = real_array(target, "target", "a 4x4 pose or a 3-vector")
     if arr.shape not in ((3,), (4, 4)):
         raise ShapeError(
             f"target must be a 4x4 homogeneous transform or a position of shape (3,); "
