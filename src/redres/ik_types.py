@@ -3,6 +3,7 @@ options and target, validated once before the iteration (see :mod:`redres.ik`)."
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -81,7 +82,7 @@ def _options(*values: Any) -> _Options:
         as_scalar(tol_o, "tol_orientation", minimum=0.0, strict=True),
         int(iters),
         int(restarts),
-        as_scalar(timeout, "timeout_s", minimum=0.0, strict=True),
+        math.inf if timeout is None else as_scalar(timeout, "timeout_s", minimum=0.0, strict=True),
         as_scalar(max_step, "max_step", minimum=0.0, strict=True),
         as_scalar(k_lim, "k_limits", minimum=0.0),
         damping if damping is not None else AdaptiveDamping(0.05, 0.05),
