@@ -145,6 +145,11 @@ def _complex_calls() -> dict[str, tuple[Callable[[], Any], str]]:
             "c",
         ),
         "wrap_angle": (lambda: tasks.wrap_angle(np.ones(3) + c), "angle"),
+        "arm_angle_from_points": (
+            lambda: tasks.arm_angle_from_points(np.ones(3) + c, z6[:3], z6[:3] + 1, z6[:3]),
+            "shoulder",
+        ),
+        "ArmAngleTask.set_target": (lambda: tasks.ArmAngleTask().set_target(0.1 + 1j), "phi"),
         "ArmAngleTask target": (lambda: tasks.ArmAngleTask(target=0.1 + 1j), "target"),
         "ArmAngleTask reference": (
             lambda: tasks.ArmAngleTask(reference=np.ones(3) + c),
