@@ -207,3 +207,56 @@ def test_result_is_frozen(builtin_robots: dict) -> None:
     assert isinstance(result, IKResult)
     with pytest.raises(dataclasses.FrozenInstanceError):
         result.converged = False  # type: ignore[misc]
+
+
+_DETERMINISM_SCRIPT = """
+import hashlib, sys
+import numpy as np
+import redres as rr
+robot = rr.models.panda()
+out = []
+for k in range(3):
+    T = robot.fk(robot.random_configuration(np.random.default_rng(100 + k)))
+    T[:3, 3] *= 1.0 + 0.6 * k  # k = 2: out of reach, every restart used
+    r = rr.ik(robot, T, seed=k, max_iterations=6, max_restarts=8, timeout_s=None)
+    out.append(r.q.tobytes() + bytes([r.converged]) + r.iterations.to_bytes(4, "little"))
+    out.append(np.float64(r.position_error).tobytes())
+print(hashlib.sha256(b"".join(out)).hexdigest(), rr.ik.__module__)
+"""
+
+
+@pytest.mark.parametrize("path", ["compiled", "reference"])
+def test_iteration_budget_is_deterministic_across_processes(path: str) -> None:
+    """Issue 18, item 11: with ``timeout_s=None`` only the iteration budget binds, so two
+    fresh processes give bit-identical results (solutions, iteration counts, errors), on
+    the compiled path and on the reference path (kernels disabled) alike."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ)
+    if path == "reference":
+        env["REDRES_DISABLE_JIT"] = "1"
+    else:  # compiled in the tests' cache, on the caller's path (conftest: foreground)
+        env.pop("REDRES_DISABLE_JIT", None)
+    digests = [
+        subprocess.run(
+            [sys.executable, "-c", _DETERMINISM_SCRIPT], env=env, capture_output=True,
+            text=True, timeout=300, check=True,
+        ).stdout.split()[0]
+        for _ in range(2)
+    ]  # fmt: skip
+    assert digests[0] == digests[1]
+
+
+def test_no_wall_clock_budget_is_none(builtin_robots: dict) -> None:
+    """``timeout_s=None``: the iteration budget alone (every restart of an unreachable
+    target is used, whatever the machine's speed); the default 0.5 s is a wall-clock one."""
+    robot = builtin_robots["panda"]
+    T = robot.fk(robot.neutral())
+    T[:3, 3] *= 3.0
+    result = ik(robot, T, max_iterations=5, max_restarts=7, timeout_s=None, seed=0)
+    assert not result.converged and result.restarts == 7
+    assert "iteration and restart budget" in result.message
+    with pytest.raises(NonFiniteError, match="timeout_s must be finite"):
+        ik(robot, T, timeout_s=math.inf)

@@ -53,6 +53,15 @@ def as_vector(
     return arr
 
 
+def real_array(value: Any, name: str, what: str = "an array") -> FloatArray:
+    """``value`` as a float64 array of any shape (no copy when it is one already), its
+    values unchecked; a complex array is an :class:`~redres.errors.InvalidParameterError`
+    naming ``name``, never made real; non-numbers a :class:`~redres.errors.ShapeError`."""
+    if type(value) is np.ndarray and value.dtype == np.float64:
+        return value
+    return _real_array(value, name, what)
+
+
 def _real_array(value: Any, name: str, what: str) -> FloatArray:
     """``value`` as a float64 array; complex values are refused, not made real."""
     try:

@@ -45,7 +45,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from . import _jit
-from ._validate import FloatArray, as_scalar
+from ._validate import FloatArray, as_scalar, real_array
 from .errors import InvalidParameterError, NonFiniteError, ShapeError
 from .linalg import _backend as be
 from .linalg import _codes as codes
@@ -350,10 +350,7 @@ def ik(
 def _targets(value: Any) -> tuple[FloatArray, int]:
     """Targets as ``(N, 4, 4)`` C-contiguous float64 and the task rows (6, or 3 for
     positions)."""
-    try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"targets must be poses (N, 4, 4) or positions (N, 3): {exc}") from exc
+    array = real_array(value, "targets", "poses (N, 4, 4) or positions (N, 3)")
     if array.ndim == 2 and array.shape[1] == 3:
         T = np.tile(np.eye(4), (len(array), 1, 1))
         T[:, :3, 3] = array
@@ -375,10 +372,20 @@ def _keys(keys: Any, seed: int, count: int) -> Any:
     return np.array(array, dtype=np.int64)  # a writeable copy: the compiled type
 
 
+def _is_complex(value: Any) -> bool:
+    """Whether ``value`` holds complex numbers (False for ragged input: found below)."""
+    try:
+        return bool(np.iscomplexobj(value))
+    except (TypeError, ValueError):
+        return False
+
+
 def _rows(value: Any, name: str, width: int, count: int | None = None) -> FloatArray:
     """``value`` as a C-contiguous float64 ``(N, width)`` array: ``N`` rows, or, when
     ``count`` is given, ``count`` rows or one ``(width,)`` vector for all (kept as one
     row). Ragged or mis-shaped input raises :class:`ShapeError` naming the row."""
+    if _is_complex(value):
+        real_array(value, name)  # raises: complex is refused by name, not made real
     try:
         array = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:

@@ -55,6 +55,15 @@ processes whose kernels are still compiling behind take the reference path
 ``robot.data``, the clock read every iteration, restarts drawn by the generator itself);
 ``tests/test_ik_compiled.py`` checks the two against each other.
 
+Determinism: the default budget has a wall-clock part (``timeout_s=0.5``), so when it binds
+the result depends on the machine's speed and load. ``timeout_s=None`` leaves only the
+iteration budget (``max_iterations`` per attempt, ``max_restarts`` restarts): with an
+integer ``seed`` the result is then a function of the inputs alone, bit-identical across
+processes on one path (compiled, or the reference path with ``REDRES_DISABLE_JIT=1``;
+``tests/test_ik.py::test_iteration_budget_is_deterministic_across_processes``). The two
+paths agree to the tolerances, not bit for bit; a process whose kernels are still
+compiling behind takes the reference path (``redres warmup`` compiles them first).
+
 Bad input: a target containing NaN or infinity returns ``converged=False`` with a
 message and no iteration (a sensor glitch should not raise inside a control program); a
 target of the wrong shape or a 4x4 that is not a homogeneous transform raises
@@ -97,7 +106,7 @@ def ik(
     tol_orientation: float = 1e-5,
     max_iterations: int = 100,
     max_restarts: int = 50,
-    timeout_s: float = 0.5,
+    timeout_s: float | None = 0.5,
     seed: int | np.random.Generator | None = None,
     q_preferred: Any = None,
     arm_angle: float | None = None,
@@ -121,9 +130,14 @@ def ik(
         tol_orientation: orientation tolerance (rotation angle), rad (> 0).
         max_iterations: iterations per attempt, and again for a preference (>= 1).
         max_restarts: random restarts after the first attempt (>= 0).
-        timeout_s: wall-clock budget of the whole solve, s (> 0); checked every iteration.
-            (The first call in a process also loads the compiled kernels of
-            :mod:`redres.linalg`, before the clock starts.)
+        timeout_s: wall-clock budget of the whole solve, s (> 0), on top of the iteration
+            budget (``max_iterations`` per attempt, ``max_restarts`` restarts); whichever
+            runs out first ends the solve. ``None``: no wall-clock budget, so the result
+            depends only on the inputs and ``seed``: deterministic, bit-identical across
+            processes (module docstring, "Determinism"). The default 0.5 s is a wall-clock
+            budget: when it binds (a slow or loaded machine, a hard target), results
+            differ between runs. (The first call in a process also loads the compiled
+            kernels of :mod:`redres.linalg`, before the clock starts.)
         seed: seed or generator of the random restarts (``None``: fresh entropy).
         q_preferred: preferred configuration, shape ``(n,)``: among the solutions, one
             locally closest to it (module docstring).

@@ -3,12 +3,13 @@ options and target, validated once before the iteration (see :mod:`redres.ik`)."
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ._validate import FloatArray, as_scalar, as_transform
+from ._validate import FloatArray, as_scalar, as_transform, real_array
 from .errors import InvalidParameterError, ShapeError
 from .linalg import AdaptiveDamping
 
@@ -81,7 +82,7 @@ def _options(*values: Any) -> _Options:
         as_scalar(tol_o, "tol_orientation", minimum=0.0, strict=True),
         int(iters),
         int(restarts),
-        as_scalar(timeout, "timeout_s", minimum=0.0, strict=True),
+        math.inf if timeout is None else as_scalar(timeout, "timeout_s", minimum=0.0, strict=True),
         as_scalar(max_step, "max_step", minimum=0.0, strict=True),
         as_scalar(k_lim, "k_limits", minimum=0.0),
         damping if damping is not None else AdaptiveDamping(0.05, 0.05),
@@ -92,10 +93,7 @@ def _options(*values: Any) -> _Options:
 
 def _parse_target(target: Any, position_only: bool) -> tuple[FloatArray, FloatArray | None] | None:
     """``(p_d, R_d)`` (``R_d`` None for position only), or None if the target is not finite."""
-    try:
-        arr = np.asarray(target, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"target must be a 4x4 pose or a 3-vector; got {target!r}") from exc
+    arr = real_array(target, "target", "a 4x4 pose or a 3-vector")
     if arr.shape not in ((3,), (4, 4)):
         raise ShapeError(
             f"target must be a 4x4 homogeneous transform or a position of shape (3,); "

@@ -181,7 +181,7 @@ def test_non_finite_inputs_are_named(backend: str, where: str, value: float, dam
         (np.ones((2, 3)), np.ones(2), np.ones(0), r"grad must have shape \(3,\)"),
         (np.ones((2, 3)), np.ones(2), np.ones((3, 1)), "grad must"),
         (np.ones((8, 3)), np.ones(2), None, r"xd must have shape \(8,\)"),
-        ([["a"]], [1.0], None, "arrays of numbers"),
+        ([["a"]], [1.0], None, "J must be an array of numbers"),
     ],
 )
 def test_wrong_shapes(backend: str, J, xd, grad, match: str) -> None:

@@ -31,8 +31,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .. import _jit
-from .._validate import as_matrix, as_scalar
-from ..errors import NonFiniteError, NotPositiveDefiniteError, ShapeError
+from .._validate import as_matrix, as_scalar, real_array
+from ..errors import InvalidParameterError, NonFiniteError, NotPositiveDefiniteError, ShapeError
 from . import _codes as codes
 from ._info import AdaptiveDamping, InverseInfo
 
@@ -155,10 +155,7 @@ def parse_weights(weights: Any, n: int, name: str) -> tuple[int, FloatArray, Flo
     """
     if weights is None:
         return codes.NO_WEIGHTS, EMPTY_1D, EMPTY_2D
-    try:
-        w = np.ascontiguousarray(weights, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"{name} must be an array of numbers; got {weights!r}") from exc
+    w = np.ascontiguousarray(real_array(weights, name))
     if w.shape == (n,):
         return codes.DIAGONAL, w, EMPTY_2D
     if w.shape == (n, n):
@@ -183,6 +180,8 @@ def raise_status(status: int, names: dict[str, str]) -> None:
     if status in _NONFINITE:
         key = _NONFINITE[status]
         raise NonFiniteError(f"{names.get(key, key)} contains NaN or infinity")
+    if status == codes.XD_TOO_LARGE:
+        raise too_large(names.get("xd", "xd"))
     w = names.get("W", "W")
     if status == codes.W_NOT_SPD:
         raise NotPositiveDefiniteError(
@@ -195,6 +194,29 @@ def raise_status(status: int, names: dict[str, str]) -> None:
             "(use (W + W.T) / 2 if the asymmetry is rounding)"
         )
     raise RuntimeError(f"unexpected kernel status {status}")  # pragma: no cover
+
+
+def too_large(name: str) -> InvalidParameterError:
+    """The error for a task velocity beyond ``±MAX_TASK_RATE``."""
+    return InvalidParameterError(
+        f"{name} must lie within ±{codes.MAX_TASK_RATE:g} (a task velocity, m/s or rad/s); "
+        "larger values overflow the joint velocity"
+    )
+
+
+def check_sigma(sigma_max: float) -> None:
+    """Refuse a matrix whose largest singular value overflows float64 (the kernels scale
+    the matrix, so its inverse is still finite, but its diagnostics would hold inf)."""
+    if sigma_max == math.inf:
+        raise InvalidParameterError(
+            "J's largest singular value overflows float64 (entries near 1.7e308); rescale J"
+        )
+
+
+def check_rate(xd: FloatArray, name: str = "xd") -> None:
+    """The kernels' bound on a (finite) task velocity, for the NumPy paths (same error)."""
+    if xd.size and np.abs(xd).max() > codes.MAX_TASK_RATE:
+        raise too_large(name)
 
 
 def weight_factor(mode: int, diag: FloatArray, full: FloatArray, name: str) -> FloatArray:
@@ -364,6 +386,9 @@ def filter_factors(
     return f, lam2, int(significant.sum()), damping
 
 
+_FLOAT_MAX = float(np.finfo(np.float64).max)
+
+
 class Filtered:
     """SVD of a (weighted) matrix and the filter of one inverse (NumPy reference path)."""
 
@@ -372,7 +397,21 @@ class Filtered:
     def __init__(
         self, Jw: FloatArray, mode: int, lam: float, lam_max: float, eps: float, rcond: float
     ) -> None:
-        self.U, sigma, self.Vt = np.linalg.svd(Jw, full_matrices=False)
+        # The kernels' scaling (_dense_kernels._scale): an SVD of entries near 1.7e308
+        # overflows (inf - inf), and a matrix of entries below TINY_SCALE counts as zero.
+        top = float(np.abs(Jw).max())
+        if top < codes.TINY_SCALE:
+            Jw, top = np.zeros_like(Jw), 1.0
+        elif 1e-100 <= top <= 1e100:
+            top = 1.0
+        self.U, sigma, self.Vt = np.linalg.svd(Jw / top if top != 1.0 else Jw, full_matrices=False)
+        if top != 1.0:
+            if sigma[0] > _FLOAT_MAX / top:
+                raise InvalidParameterError(
+                    f"J's largest singular value overflows float64 (largest entry {top:g}); "
+                    "rescale J"
+                )
+            sigma = sigma * top
         self.f, _, rank, damping = filter_factors(sigma, mode, lam, lam_max, eps, rcond)
         self.p = sigma * self.f  # weights of the row-space projector J# J in the V basis
         self.stats = Stats(rank, float(sigma[-1]), float(sigma[0]), damping)
@@ -444,6 +483,7 @@ def invert(
         )  # fmt: skip
         if status:
             raise_status(status, {"J": "J", "W": weights_name})
+        check_sigma(smax)
         return Factored(Jp, N, Stats(rank, smin, smax, used), mode)
     check_finite(J)
     factor = weight_factor(wmode, wdiag, wfull, weights_name)
@@ -483,6 +523,7 @@ def task_inertia(
     )  # fmt: skip
     if status:
         raise_status(status, {"J": "J", "W": "M"})
+    check_sigma(smax)
     return Factored(Lam, Jp, Stats(rank, smin, smax, used), mode)
 
 

@@ -19,7 +19,17 @@ GRAD_SHAPE = 8
 W_SHAPE = 9
 J_EMPTY = 10
 SCALAR_INVALID = 11  # k_null, damping or rcond of the fast lane (rate_step says which)
-# 12 to 15: free
+XD_TOO_LARGE = 12
+# 13 to 15: free
+
+#: Bound on the entries of a task velocity ``xd`` (a ``RedresError`` beyond): far above any
+#: physical rate, and low enough that ``J# xd`` cannot overflow for any Jacobian the kernels
+#: invert with the default ``rcond`` (``|J#| <= 1 / (rcond * TINY_SCALE)`` = 1e210).
+MAX_TASK_RATE = 1e50
+#: A matrix whose largest absolute entry is below this counts as zero (rank 0, ``J# = 0``):
+#: the inverse of subnormal entries (5e-324) is not representable, and its damped inverse is
+#: zero to within ``TINY_SCALE / damping**2``.
+TINY_SCALE = 1e-200
 
 # Damping modes.
 EXACT = 0

@@ -13,6 +13,7 @@ from ._codes import (
     FULL,
     NO_WEIGHTS,
     OK,
+    TINY_SCALE,
     W_ASYMMETRIC,
     W_NONFINITE,
     W_NOT_SPD,
@@ -26,6 +27,15 @@ _SYMMETRY_RTOL = 1e-9
 def _finite_1d(a):  # type: ignore[no-untyped-def]
     for i in range(a.shape[0]):
         if not math.isfinite(a[i]):
+            return False
+    return True
+
+
+@kernel
+def _bounded_1d(a, bound):  # type: ignore[no-untyped-def]
+    """Whether every entry of the (finite) vector ``a`` lies within ``±bound``."""
+    for i in range(a.shape[0]):
+        if abs(a[i]) > bound:
             return False
     return True
 
@@ -172,14 +182,15 @@ def _scale(Js):  # type: ignore[no-untyped-def]
     """Largest absolute entry s of Js; Js is divided by s unless s is in [1e-100, 1e100].
 
     Returns the factor applied (1.0 when the entries are already safe to square and sum,
-    0.0 for a zero matrix).
+    0.0 for a zero matrix, and for one whose entries are all below ``TINY_SCALE``: its
+    inverse, about ``1/s``, would overflow).
     """
     m, n = Js.shape
     s = 0.0
     for i in range(m):
         for j in range(n):
             s = max(s, abs(Js[i, j]))
-    if s == 0.0:
+    if s < TINY_SCALE:
         return 0.0
     if 1e-100 <= s <= 1e100:
         return 1.0

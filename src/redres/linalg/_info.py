@@ -131,7 +131,7 @@ class AdaptiveDamping:
 
     def damping_for(self, sigma_min: float) -> float:
         """Damping ``lambda`` this law applies at a given smallest singular value."""
-        return adaptive_damping(sigma_min, self.max_damping, self.threshold)
+        return _law(sigma_min, self.max_damping, self.threshold)
 
 
 def adaptive_damping(sigma_min: float, max_damping: float, threshold: float) -> float:
@@ -141,7 +141,20 @@ def adaptive_damping(sigma_min: float, max_damping: float, threshold: float) -> 
         sigma_min: Smallest singular value (>= 0), units of the Jacobian.
         max_damping: ``lambda_max`` (>= 0), same units.
         threshold: ``eps`` (> 0), same units.
+
+    Raises:
+        InvalidParameterError, NonFiniteError: an argument that is not a finite real number
+            in its range.
     """
+    return _law(
+        as_scalar(sigma_min, "sigma_min"),
+        as_scalar(max_damping, "max_damping", minimum=0.0),
+        as_scalar(threshold, "threshold", minimum=0.0, strict=True),
+    )
+
+
+def _law(sigma_min: float, max_damping: float, threshold: float) -> float:
+    """:func:`adaptive_damping` on checked numbers."""
     if sigma_min >= threshold:
         return 0.0
     ratio = max(sigma_min, 0.0) / threshold

@@ -41,15 +41,18 @@ from ._codes import (
     J_EMPTY,
     J_NONFINITE,
     LAZY,
+    MAX_TASK_RATE,
     NO_WEIGHTS,
     OK,
     SCALAR_INVALID,
     SELECTIVE,
     XD_NONFINITE,
     XD_SHAPE,
+    XD_TOO_LARGE,
 )
 from ._dense_kernels import (
     _back_project,
+    _bounded_1d,
     _cholesky,
     _cholesky_solve,
     _copy_finite_2d,
@@ -235,6 +238,8 @@ def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, 
         return J_NONFINITE, 0, 0.0, 0.0, 0.0
     if not _finite_1d(xd):
         return XD_NONFINITE, 0, 0.0, 0.0, 0.0
+    if not _bounded_1d(xd, MAX_TASK_RATE):
+        return XD_TOO_LARGE, 0, 0.0, 0.0, 0.0
     bad = 0.0
     for j in range(n):
         x = grad[j] if has_grad else 0.0
@@ -294,13 +299,16 @@ def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, 
 @kernel
 def finite_inputs(q, J, xd):  # type: ignore[no-untyped-def]
     """Which of ``q``, ``J``, ``xd`` is the first to hold a NaN or an infinity (1, 2, 3),
-    else 0: :meth:`redres.resolution.Scheme.step`'s check in one call."""
+    else 4 if ``xd`` has an entry beyond ``±MAX_TASK_RATE``, else 0:
+    :meth:`redres.resolution.Scheme.step`'s check in one call."""
     if not _finite_1d(q):
         return 1
     if not _finite_2d(J):
         return 2
     if not _finite_1d(xd):
         return 3
+    if not _bounded_1d(xd, MAX_TASK_RATE):
+        return 4
     return 0
 
 

@@ -7,13 +7,18 @@ reachable per unit joint speed (Maciejewski & Klein 1988; Yoshikawa 1985).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import NonFiniteError, ShapeError
+from .._validate import real_array
+from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from . import _backend as be
 from ._backend import FloatArray
 from ._info import condition_from
+
+_FLOAT_MAX = float(np.finfo(np.float64).max)
 
 __all__ = [
     "condition_number",
@@ -32,8 +37,21 @@ def singular_values(J: ArrayLike) -> FloatArray:
 
     Returns:
         ``sigma``, shape ``(min(m, n),)``, in the units of ``J``'s entries.
+
+    Raises:
+        InvalidParameterError: the largest singular value overflows float64 (entries near
+            1.7e308); the SVD runs on ``J`` scaled to unit size, so any smaller ``J`` works.
     """
-    return np.asarray(np.linalg.svd(be.as_jacobian(J), compute_uv=False), dtype=np.float64)
+    A = be.as_jacobian(J)
+    top = float(np.abs(A).max())
+    if top == 0.0 or 1e-100 <= top <= 1e100:
+        return np.asarray(np.linalg.svd(A, compute_uv=False), dtype=np.float64)
+    sigma = np.linalg.svd(A / top, compute_uv=False)
+    if sigma[0] > _FLOAT_MAX / top:
+        raise InvalidParameterError(
+            f"J's largest singular value overflows float64 (largest entry {top:g}); rescale J"
+        )
+    return np.asarray(sigma * top, dtype=np.float64)
 
 
 def sigma_min(J: ArrayLike) -> float:
@@ -73,11 +91,25 @@ def manipulability(J: ArrayLike) -> float:
 
     Returns:
         ``w >= 0``, in units of the product of the ``m`` rows' units.
+
+    Raises:
+        InvalidParameterError: ``w`` overflows float64 (``J``'s entries about
+            ``1e308 ** (1 / m)`` or larger).
     """
     A = be.as_jacobian(J)
     if A.shape[0] > A.shape[1]:
         return 0.0
-    return float(np.prod(np.linalg.svd(A, compute_uv=False)))
+    sigma = singular_values(A)
+    if sigma[-1] == 0.0:  # exactly singular: w = 0 (and 0 * inf is no product)
+        return 0.0
+    with np.errstate(over="ignore", under="ignore"):
+        w = float(np.prod(sigma))
+    if not math.isfinite(w):
+        raise InvalidParameterError(
+            "the manipulability of J (the product of its singular values) overflows "
+            "float64; rescale J"
+        )
+    return w
 
 
 def manipulability_gradient(J: ArrayLike, dJ_dq: ArrayLike) -> FloatArray:
@@ -101,10 +133,7 @@ def manipulability_gradient(J: ArrayLike, dJ_dq: ArrayLike) -> FloatArray:
     """
     A = be.as_jacobian(J)
     m, n = A.shape
-    try:
-        D = np.asarray(dJ_dq, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"dJ_dq must be an array of numbers; got {dJ_dq!r}") from exc
+    D = real_array(dJ_dq, "dJ_dq")
     if D.shape != (n, m, n):
         raise ShapeError(
             f"dJ_dq must have shape (n, m, n) = ({n}, {m}, {n}) with dJ_dq[k] = dJ/dq_k; "

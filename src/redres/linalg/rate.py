@@ -20,7 +20,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._validate import as_scalar
+from .._validate import as_scalar, real_array
 from ..errors import NonFiniteError, ShapeError
 from . import _backend as be
 from ._backend import FloatArray
@@ -30,6 +30,8 @@ __all__ = ["RateStep", "rate_step"]
 
 _F64 = np.float64
 _contiguous = np.ascontiguousarray
+_ndarray = np.ndarray
+_INF = float("inf")
 _empty = np.empty
 _new_tuple = tuple.__new__
 _NO_GRAD = be.EMPTY_1D
@@ -116,15 +118,13 @@ def rate_step(
     Raises:
         ShapeError: an array has the wrong shape.
         NonFiniteError: an input contains NaN or infinity (the message names it).
-        InvalidParameterError: negative ``damping`` or ``rcond``.
+        InvalidParameterError: negative ``damping`` or ``rcond``; ``xd`` beyond ±1e50
+            (``MAX_TASK_RATE``, where ``J# xd`` could overflow).
         NotPositiveDefiniteError: ``weights`` is not positive definite.
     """
-    try:
-        Ja = _contiguous(J, _F64)
-        xa = _contiguous(xd, _F64)
-        ga = _NO_GRAD if grad is None else _contiguous(grad, _F64)
-    except (TypeError, ValueError) as exc:
-        raise ShapeError(f"J, xd and grad must be arrays of numbers: {exc}") from exc
+    Ja = _contiguous(J) if type(J) is _ndarray and J.dtype == _F64 else _checked(J, "J")
+    xa = _contiguous(xd) if type(xd) is _ndarray and xd.dtype == _F64 else _checked(xd, "xd")
+    ga = _NO_GRAD if grad is None else _checked(grad, "grad")
     if Ja.ndim != 2 or xa.ndim != 1 or ga.ndim != 1 or (grad is not None and not ga.size):
         _raise_shape(Ja, xa, ga, grad is not None)
     m, n = Ja.shape
@@ -142,12 +142,17 @@ def rate_step(
                 )
             except TypeError:  # a scalar that is not a number
                 status = -1
-            if not status:
+            if not status and smax != _INF:
                 info = _new_tuple(InverseInfo, (rank, full, smin, smax, used, _LABELS[mode]))
                 return _new_tuple(RateStep, (qd, info, null if return_null else None))
             # else bad input: the general path finds it again and raises the error naming it
     qd, info, null = _general_step(Ja, xa, ga, grad is not None, k_null, damping, weights, rcond)
     return _new_tuple(RateStep, (qd, info, null if return_null else None))
+
+
+def _checked(value: Any, name: str) -> FloatArray:
+    """``value`` as a C-contiguous float64 array; complex refused by name (not made real)."""
+    return _contiguous(real_array(value, name))
 
 
 def _general_step(
@@ -177,6 +182,7 @@ def _general_step(
         )
         if status:
             be.raise_status(status, _NAMES)
+        be.check_sigma(smax)
     else:
         qd, null, (rank, smin, smax, used) = _numpy_step(
             J, xd, grad, k, wmode, wdiag, wfull, (mode, lam, lam_max, eps, rc)
@@ -211,6 +217,7 @@ def _numpy_step(
     for arr, name in ((J, "J"), (xd, "xd"), (grad, "grad")):
         if not np.isfinite(arr).all():
             raise NonFiniteError(f"{name} contains NaN or infinity")
+    be.check_rate(xd)
     mode, lam, lam_max, eps, rcond = spec
     factor = be.weight_factor(wmode, wdiag, wfull, "weights")
     filt = be.Filtered(be.weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)

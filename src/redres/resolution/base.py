@@ -211,7 +211,8 @@ class Scheme(ABC):
         Raises:
             ShapeError: the shapes do not match ``robot.n`` and each other.
             NonFiniteError: an input contains NaN or infinity (the message names it).
-            InvalidParameterError: an input is complex (its imaginary part would be lost).
+            InvalidParameterError: an input is complex (its imaginary part would be lost), or
+                ``xd`` has an entry beyond ±1e50 (where the joint velocity could overflow).
         """
         q, J, xd = step_arrays(q, J, xd, robot.n)
         return self._step(robot, q, J, xd)
@@ -267,12 +268,15 @@ def step_arrays(q: Any, J: Any, xd: Any, n: int) -> tuple[FloatArray, FloatArray
         ) or False
     if lane:  # one compiled pass over the three
         bad = lane(q, J, xd)  # type: ignore[operator]
+        if bad == 4:
+            raise be.too_large("xd")
         if bad:
             raise NonFiniteError(f"{('q', 'J', 'xd')[bad - 1]} contains NaN or infinity")
         return q, J, xd
     for arr, name in ((q, "q"), (J, "J"), (xd, "xd")):
         if not _isfinite(arr).all():
             raise NonFiniteError(f"{name} contains NaN or infinity")
+    be.check_rate(xd)
     return q, J, xd
 
 

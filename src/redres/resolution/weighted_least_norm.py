@@ -23,8 +23,8 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar, checked_keywords
-from ..errors import InvalidParameterError
+from .._validate import FloatArray, as_scalar, checked_keywords, real_array
+from ..errors import InvalidParameterError, ShapeError
 from ..linalg import AdaptiveDamping, rate_step
 from .base import Inverse, Scheme, StepResult, make_inverse
 from .gradient_projection import WeightedObjective, total_gradient, weighted_objectives
@@ -43,6 +43,7 @@ def joint_limit_gradient(q: FloatArray, q_min: FloatArray, q_max: FloatArray, c:
     ``2q − q_max − q_min = b − a``), ``h = (a + b)(b − a)/(c a² b²) = (1/a² − 1/b²)/c``:
     the same number, and for an unbounded side (``a`` or ``b`` infinite) its limit, 0.
     """
+    q, c = real_array(q, "q"), real_array(c, "c")  # complex refused by name, not made real
     to_max = np.maximum(q_max - q, 1e-12)
     to_min = np.maximum(q - q_min, 1e-12)
     return (1.0 / to_max**2 - 1.0 / to_min**2) / c
@@ -93,8 +94,8 @@ class WeightedLeastNormScheme(Scheme):
     ) -> None:
         """The arguments are described in ``help(WeightedLeastNormScheme)``."""
         try:
-            c_arr = np.asarray(c, dtype=float)
-        except (TypeError, ValueError):
+            c_arr = real_array(c, "c")
+        except ShapeError:
             raise InvalidParameterError(
                 f"c must be a positive number or one per joint; got {c!r}"
             ) from None

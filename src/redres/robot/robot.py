@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import pinocchio as pin
 
-from .._validate import FloatArray, as_rng, as_scalar, as_vector
+from .._validate import FloatArray, as_rng, as_scalar, as_vector, real_array
 from ..errors import FrameNotFoundError, InvalidParameterError, JointLimitError, ShapeError
 from ._frames import add_frame
 from .derivatives import revolute_jacobian_derivatives
@@ -262,7 +262,7 @@ class Robot(RobotFiles):
 
     def within_limits(self, q: Any, tol: float = 0.0) -> bool:
         """Whether ``q`` is inside the position limits, up to ``tol``."""
-        return bool(np.all(self.joint_limit_margin(q) >= -tol))
+        return bool(np.all(self.joint_limit_margin(q) >= -as_scalar(tol, "tol")))
 
     def frame_id(self, frame: str | None) -> int:
         """Pinocchio index of ``frame`` (``None``: the tip)."""
@@ -460,7 +460,7 @@ class Robot(RobotFiles):
 
 def _limit_vector(value: Any, n: int) -> FloatArray:
     """Acceleration limits: positive numbers, ``inf`` allowed (unknown)."""
-    arr = np.array(value, dtype=float)
+    arr = np.array(real_array(value, "qdd_max"), dtype=float)
     if arr.shape != (n,):
         raise ShapeError(f"qdd_max must have shape ({n},); got shape {arr.shape}")
     if np.isnan(arr).any() or np.any(arr <= 0):

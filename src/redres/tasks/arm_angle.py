@@ -83,10 +83,29 @@ def arm_angles(
     return np.asarray(np.arctan2(S, C))
 
 
-def arm_angle_from_points(
+def arm_angle_from_points(shoulder: Any, elbow: Any, wrist: Any, reference: Any) -> ArmAngle:
+    """Arm angle of three points about the shoulder–wrist line (module docstring).
+
+    Args:
+        shoulder, elbow, wrist: the three points, shape ``(3,)``, m (world).
+        reference: the reference direction, shape ``(3,)``.
+
+    Raises:
+        ShapeError, NonFiniteError, InvalidParameterError: a point that is not a finite
+            real 3-vector (complex values are refused, not made real).
+    """
+    return _arm_angle(
+        as_vector(shoulder, "shoulder", 3),
+        as_vector(elbow, "elbow", 3),
+        as_vector(wrist, "wrist", 3),
+        as_vector(reference, "reference", 3),
+    )
+
+
+def _arm_angle(
     shoulder: FloatArray, elbow: FloatArray, wrist: FloatArray, reference: FloatArray
 ) -> ArmAngle:
-    """Arm angle of three points about the shoulder–wrist line (module docstring).
+    """:func:`arm_angle_from_points` on checked points (the task's hot path).
 
     Written on scalars: on 3-vectors, NumPy's per-call overhead would dominate.
     """
@@ -180,12 +199,12 @@ class ArmAngleTask(Task):
 
     def set_target(self, phi: float, rate: float = 0.0) -> None:
         """Desired arm angle (rad) and its rate (rad/s)."""
-        self.target, self.rate = float(phi), float(rate)
+        self.target, self.rate = as_scalar(phi, "phi"), as_scalar(rate, "rate")
 
     def evaluate(self, robot: Robot, q: FloatArray) -> tuple[ArmAngle, FloatArray]:
         """Arm angle with its point gradients, and the Jacobian row, shape ``(n,)``."""
         points, jacobians = robot.point_jacobians(q, (self.shoulder, self.elbow, self.wrist))
-        angle = arm_angle_from_points(points[0], points[1], points[2], self.reference)
+        angle = _arm_angle(points[0], points[1], points[2], self.reference)
         row = angle.d_shoulder @ jacobians[0] + angle.d_elbow @ jacobians[1]
         row = row + angle.d_wrist @ jacobians[2]
         return angle, row

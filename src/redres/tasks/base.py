@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._validate import FloatArray
+from .._validate import FloatArray, real_array
 
 if TYPE_CHECKING:
     from ..robot import Robot
@@ -68,4 +68,4 @@ def stack(states: list[TaskState]) -> TaskState:
 
 def wrap_angle(angle: Any) -> Any:
     """Angle(s) wrapped into ``(-π, π]``."""
-    return np.pi - np.mod(np.pi - np.asarray(angle), 2.0 * np.pi)
+    return np.pi - np.mod(np.pi - real_array(angle, "angle"), 2.0 * np.pi)

@@ -139,6 +139,19 @@ def factor(J, free, G, L):  # type: ignore[no-untyped-def]
 
 
 @kernel
+def _ridge(G, L, m):  # type: ignore[no-untyped-def]
+    """``L Lᵀ = G + δ I`` with ``δ = 1e-12 ×`` the largest diagonal of ``G``, for a
+    rank-deficient ``J W`` (an exactly singular ``J``); False when ``G = 0``. With it
+    :func:`min_norm`'s refinement converges to the least-squares solution of ``J W``
+    (each pass shrinks the residual along a singular value ``σ`` by ``δ / (σ² + δ)``), so
+    a consistent task is met to rounding and :func:`solved` tells an inconsistent one."""
+    top = 0.0
+    for i in range(m):
+        top = max(top, G[i, i])
+    return top > 0.0 and _cholesky(G, L, m, _RANK_TOL * top)
+
+
+@kernel
 def min_norm(J, free, L, r, y, res, out):  # type: ignore[no-untyped-def]
     """``out = (J W)⁺ r = W Jᵀ (J W Jᵀ)⁻¹ r``, refined once against the residual."""
     m, n = J.shape
@@ -209,7 +222,7 @@ def _sns(J, xd, lo, hi, qd0, tol, qd, G, L, wm, wn, wb, factored):  # type: igno
         qn[k] = qd0[k]
     best = -1.0
     for it in range(n + 1):
-        if not (it == 0 and factored) and not factor(J, free, G, L):
+        if not (it == 0 and factored) and not factor(J, free, G, L) and not _ridge(G, L, m):
             break
         for i in range(m):
             acc = xd[i]
@@ -218,7 +231,7 @@ def _sns(J, xd, lo, hi, qd0, tol, qd, G, L, wm, wn, wb, factored):  # type: igno
             r[i] = acc
         min_norm(J, free, L, r, y, res, qd)
         if not solved(r, res):
-            break  # J W numerically rank-deficient: the task cannot be met with W
+            break  # the task is not in the range of J W: it cannot be met with W
         worst, j_worst = tol, -1
         for k in range(n):
             qd[k] += qn[k]
@@ -243,7 +256,8 @@ def _sns(J, xd, lo, hi, qd0, tol, qd, G, L, wm, wn, wb, factored):  # type: igno
     if best < 0.0:
         return FAILED, 0.0
     free[:] = best_free
-    factor(J, free, G, L)
+    if not factor(J, free, G, L):
+        _ridge(G, L, m)
     for i in range(m):
         acc = best * xd[i]
         for k in range(n):

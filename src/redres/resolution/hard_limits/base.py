@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ... import _jit
-from ..._validate import FloatArray, as_scalar
+from ..._validate import FloatArray, as_scalar, real_array
 from ...linalg import RCOND, InverseInfo
 from ...linalg._backend import invert
 from ..base import Scheme, StepResult
@@ -113,7 +113,12 @@ class BoxScheme(Scheme):
         self.dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
         self.objectives = tuple(weighted_objectives(objectives))
         self.k_null = as_scalar(k_null, "k_null", minimum=0.0)
-        self._overrides = (qd_max, qdd_max)
+        # Checked for type here (complex or non-numbers refused by name); for shape and
+        # values against the robot by JointLimits.from_robot on the first step.
+        self._overrides = (
+            None if qd_max is None else real_array(qd_max, "qd_max", "a number or a vector"),
+            None if qdd_max is None else real_array(qdd_max, "qdd_max", "a number or a vector"),
+        )
         #: The previous joint velocity (``None`` = at rest); the scheme's own copy.
         self.qd_prev: FloatArray | None = None
         self._robot: Any = None

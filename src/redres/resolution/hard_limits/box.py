@@ -56,7 +56,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..._validate import FloatArray, as_scalar, as_vector
+from ..._validate import FloatArray, as_scalar, as_vector, real_array
 from ...errors import InvalidParameterError, JointLimitError, NonFiniteError, ShapeError
 from ._codes import BOUND_KINDS
 from ._compiled import kernels
@@ -69,7 +69,8 @@ IntArray = NDArray[np.int8]
 
 
 def _limit_array(value: Any, name: str, n: int, *, positive: bool) -> FloatArray:
-    arr = np.full(n, value, dtype=float) if np.ndim(value) == 0 else np.array(value, dtype=float)
+    arr = real_array(value, name, "a number or a vector")
+    arr = np.full(n, arr, dtype=float) if arr.ndim == 0 else np.array(arr, dtype=float)
     if arr.shape != (n,):
         raise ShapeError(f"{name} must have shape ({n},) or be a scalar; got shape {arr.shape}")
     if np.isnan(arr).any():
@@ -129,8 +130,8 @@ class JointLimits:
         return cls(
             robot.q_min,
             robot.q_max,
-            robot.qd_max if qd_max is None else np.asarray(qd_max, dtype=float),
-            robot.qdd_max if qdd_max is None else np.asarray(qdd_max, dtype=float),
+            robot.qd_max if qd_max is None else real_array(qd_max, "qd_max"),
+            robot.qdd_max if qdd_max is None else real_array(qdd_max, "qdd_max"),
         )  # validated by __post_init__
 
 
@@ -181,7 +182,7 @@ def braking_velocity(distance: ArrayLike, dt: float, qdd_max: ArrayLike) -> Floa
         The bound, rad/s, shape of the broadcast inputs.
     """
     dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
-    d, acc = np.broadcast_arrays(np.asarray(distance, float), np.asarray(qdd_max, float))
+    d, acc = np.broadcast_arrays(real_array(distance, "distance"), real_array(qdd_max, "qdd_max"))
     if np.isnan(d).any() or np.isnan(acc).any() or np.any(acc <= 0.0):
         raise InvalidParameterError("distance must not be NaN and qdd_max must be > 0")
     braking = kernels().braking

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..._validate import FloatArray, as_matrix, as_vector
+from ..._validate import FloatArray, as_matrix, as_vector, real_array
 from ...errors import ShapeError
 from ._codes import LP_SCALED
 from ._compiled import kernels
@@ -51,8 +51,8 @@ def largest_scale(J: ArrayLike, xd: ArrayLike, lower: ArrayLike, upper: ArrayLik
     J = as_matrix(J, "J")
     m, n = J.shape
     xd = as_vector(xd, "xd", m)
-    lo = np.ascontiguousarray(lower, dtype=float)
-    hi = np.ascontiguousarray(upper, dtype=float)
+    lo = np.ascontiguousarray(real_array(lower, "lower"))
+    hi = np.ascontiguousarray(real_array(upper, "upper"))
     if lo.shape != (n,) or hi.shape != (n,):
         raise ShapeError(f"lower and upper must have shape ({n},); got {lo.shape}, {hi.shape}")
     if np.isnan(lo).any() or np.isnan(hi).any() or np.any(lo > hi):

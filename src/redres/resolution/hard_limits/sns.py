@@ -13,8 +13,12 @@ joint free (``W = I``) and the null-space velocity ``q̇_N`` equal to the second
    scaling factor); remember the best ``(s, W, q̇_N)`` seen.
 3. Saturate the *most critical joint* (the first to reach its bound as ``s`` grows; the
    worst violator if none limits ``s``): ``W_jj = 0``, ``q̇_N,j`` = the bound it crosses.
-4. When ``J W`` loses rank, the task cannot be met: return the best remembered solution
-   with the task scaled by ``s`` (``J q̇ = s ẋ``, same direction).
+4. When the task leaves the range of ``J W`` (the residual of step 1 is not at rounding
+   level), it cannot be met: return the best remembered solution with the task scaled by
+   ``s`` (``J q̇ = s ẋ``, same direction). A rank-deficient ``J W`` alone does not end the
+   loop: ``(J W)⁺`` then comes from ``J W Jᵀ + δ I`` (``δ = 1e-12 ×`` its largest
+   diagonal), refined to the least-squares solution, so that a task in the range of an
+   exactly singular ``J`` is still met (issue 18, item 3).
 
 The greedy choice of saturated joints does not always find the largest feasible scale
 (nor a feasible solution whenever one exists; on random boxes it misses in about one
