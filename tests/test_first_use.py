@@ -61,7 +61,7 @@ def test_a_cold_process_answers_at_once_and_switches_when_compiled(tmp_path: Pat
             """
         J = rr.models.panda().jacobian(rr.models.panda().neutral())
         first = rr.linalg.damped_pinv(J, 0.01)
-        numba_at_first = "numba" in sys.modules
+        compiled_at_first = any(compiled for _, compiled in jit._modules)
         deadline = time.monotonic() + 400
         while not jit.ready("redres.linalg._kernels") and time.monotonic() < deadline:
             time.sleep(0.2)
@@ -71,7 +71,8 @@ def test_a_cold_process_answers_at_once_and_switches_when_compiled(tmp_path: Pat
         misses = sum(sum(d.stats.cache_misses.values())
                      for d in jit._state["kernels"][module.__name__])
         stop_behind()
-        print(json.dumps({"numba_at_first": numba_at_first, "compiled": jit.is_compiled(module),
+        print(json.dumps({"compiled_at_first": compiled_at_first,
+                          "compiled": jit.is_compiled(module),
                           "hits": hits, "misses": misses,
                           "diff": float(np.abs(first - after).max())}))
         """,
@@ -79,7 +80,9 @@ def test_a_cold_process_answers_at_once_and_switches_when_compiled(tmp_path: Pat
         tmp_path,
     )
     assert "compiling kernels in a background process" in err
-    assert out["numba_at_first"] is False  # the first answer came from the NumPy path
+    # The first answer came from the NumPy path: no compiled kernel module was loaded (numba
+    # itself may be: the caller prepares its CPU target in a thread meanwhile, _jit.prepare).
+    assert out["compiled_at_first"] is False
     assert out["compiled"] is True
     assert out["hits"] > 0 and out["misses"] == 0  # loaded what the background compiled
     assert out["diff"] <= 1e-12
