@@ -13,21 +13,11 @@ from typing import Any
 
 import numpy as np
 import pytest
+from _cases import SCHEMES, finite
 
 import redres as rr
 from redres.errors import InvalidParameterError, RedresError
 from redres.linalg import _backend as be
-from redres.objectives import JointLimitObjective
-from redres.resolution import (
-    AugmentedJacobianScheme,
-    GradientProjectionScheme,
-    PriorityScheme,
-    PseudoInverseScheme,
-    QPScheme,
-    SNSScheme,
-    WeightedLeastNormScheme,
-)
-from redres.tasks import PostureTask
 
 L = rr.linalg
 
@@ -36,10 +26,6 @@ L = rr.linalg
 def backend(request: pytest.FixtureRequest) -> Iterator[str]:
     with be.jit_enabled(request.param == "compiled"):
         yield request.param
-
-
-def _finite(value: Any) -> bool:
-    return bool(np.isfinite(np.asarray(value, dtype=float)).all())
 
 
 def _pattern(entry: float) -> np.ndarray:
@@ -67,14 +53,14 @@ LINALG: dict[str, Callable[[np.ndarray], Any]] = {
 def test_subnormal_jacobians_count_as_zero(backend: str, name: str, entry: float) -> None:
     """Entries below TINY_SCALE (1e-200): J# = 0 and N = I (rank 0), finite, not 1/5e-324."""
     value = LINALG[name](_pattern(entry))
-    assert _finite(value), (name, value)
+    assert finite(value), (name, value)
     n = 7
     expected = np.eye(n) if name == "nullspace_projector" else np.zeros_like(value)
     if name == "rate_step damped":  # J = 0: qd = -k_null grad
         expected = -np.ones(n)
     np.testing.assert_array_equal(value, expected)
     _, info = L.pinv(_pattern(entry), return_info=True)
-    assert info.rank == 0 and _finite([info.sigma_min, info.sigma_max])
+    assert info.rank == 0 and finite([info.sigma_min, info.sigma_max])
 
 
 @pytest.mark.parametrize("entry", [1e-190, 1e-140, 1e120, 1e150, 1e300])
@@ -113,19 +99,7 @@ def test_jacobian_at_the_edge_of_overflow(backend: str, name: str, entry: float)
     except InvalidParameterError as exc:
         assert "overflows float64" in str(exc)
         return
-    assert _finite(value), (name, value)
-
-
-SCHEMES: dict[str, Callable[[], Any]] = {
-    "pinv": PseudoInverseScheme,
-    "dls": lambda: PseudoInverseScheme(damping=0.05),
-    "gradient_projection": lambda: GradientProjectionScheme([JointLimitObjective()]),
-    "wln": WeightedLeastNormScheme,
-    "augmented": AugmentedJacobianScheme,
-    "priority": lambda: PriorityScheme([PostureTask()]),
-    "sns": lambda: SNSScheme(1e-3),
-    "qp": lambda: QPScheme(1e-3),
-}
+    assert finite(value), (name, value)
 
 
 @pytest.mark.parametrize("name", sorted(SCHEMES))
@@ -152,11 +126,11 @@ def test_schemes_answer_finitely_up_to_the_bound(backend: str, name: str) -> Non
             result = SCHEMES[name]().step(robot, q, J_used, xd)
         except RedresError:
             continue  # a clear error is allowed; a non-finite answer is not
-        assert _finite(result.qd), (name, result.qd)
+        assert finite(result.qd), (name, result.qd)
 
 
 def test_rate_step_refuses_task_velocities_that_overflow(backend: str) -> None:
     J = rr.models.panda().jacobian(np.zeros(7))
     with pytest.raises(InvalidParameterError, match=r"xd must lie within"):
         L.rate_step(J, np.full(6, 1.7e308))
-    assert _finite(L.rate_step(J, np.full(6, 1e50)).qd)
+    assert finite(L.rate_step(J, np.full(6, 1e50)).qd)

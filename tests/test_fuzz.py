@@ -17,23 +17,13 @@ from typing import Any
 
 import numpy as np
 import pytest
+from _cases import SCHEMES, finite
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import redres as rr
 from redres.errors import RedresError
-from redres.objectives import JointLimitObjective
-from redres.resolution import (
-    AugmentedJacobianScheme,
-    GradientProjectionScheme,
-    PriorityScheme,
-    PseudoInverseScheme,
-    QPScheme,
-    SNSScheme,
-    WeightedLeastNormScheme,
-)
 from redres.scenario import load_scenario
-from redres.tasks import PostureTask
 
 FUZZ = settings(
     deadline=None, suppress_health_check=list(HealthCheck), derandomize=True, database=None
@@ -44,12 +34,6 @@ NASTY_FLOATS = st.sampled_from(
     [0.0, -0.0, -1.0, 1e-300, 5e-324, 1e300, 1.7e308, -1e300, math.inf, -math.inf, math.nan]
 ) | st.floats(allow_nan=True, allow_infinity=True)
 NASTY_INTS = st.sampled_from([0, -1, 2**53 + 1, 10**400, -(10**400)]) | st.integers()
-
-
-def finite(value: Any) -> bool:
-    """Whether every number in ``value`` (an array, a number, a sequence of them) is finite."""
-    arr = np.asarray(value, dtype=float)
-    return bool(np.isfinite(arr).all())
 
 
 def outcome(call: Callable[[], Any]) -> Any:
@@ -303,18 +287,6 @@ def test_linalg_on_extreme_jacobians(name: str, entry: float) -> None:
     J[2, 5:] = -entry, entry
     value = outcome(lambda: LINALG[name](J))
     assert value is None or finite(value)
-
-
-SCHEMES = {
-    "pinv": PseudoInverseScheme,
-    "dls": lambda: PseudoInverseScheme(damping=0.05),
-    "gradient_projection": lambda: GradientProjectionScheme([JointLimitObjective()]),
-    "wln": WeightedLeastNormScheme,
-    "augmented": AugmentedJacobianScheme,
-    "priority": lambda: PriorityScheme([PostureTask()]),
-    "sns": lambda: SNSScheme(1e-3),
-    "qp": lambda: QPScheme(1e-3),
-}
 
 
 @settings(FUZZ, max_examples=400)
