@@ -172,3 +172,14 @@ def test_stretched_arm_reports_an_undefined_angle() -> None:
 def test_reference_must_be_nonzero() -> None:
     with pytest.raises(rr.errors.InvalidParameterError, match="non-zero"):
         ArmAngleTask(reference=(0.0, 0.0, 0.0))
+
+
+def test_arm_angles_refuse_complex_and_mismatched_points() -> None:
+    s, e, w = np.zeros(3), np.array([0.3, 0.0, 0.3]), np.array([0.0, 0.0, 0.6])
+    v = np.array([0.0, 0.0, 1.0])
+    with pytest.raises(rr.errors.InvalidParameterError, match="elbow must be real"):
+        arm_angles(s, e + 0.5j, w, v)
+    with pytest.raises(rr.errors.ShapeError, match="3-vectors"):
+        arm_angles(s, np.zeros((4, 3)), np.zeros((5, 3)), v)
+    with pytest.raises(rr.errors.ShapeError, match="3-vectors"):
+        arm_angles(s[:2], e[:2], w[:2], v[:2])

@@ -34,8 +34,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar, as_vector
-from ..errors import InvalidParameterError
+from .._validate import FloatArray, as_scalar, as_vector, real_array
+from ..errors import InvalidParameterError, ShapeError
 from .base import Task, TaskState, wrap_angle
 
 if TYPE_CHECKING:
@@ -73,10 +73,23 @@ def arm_angles(
     Returns:
         ``(...)``, rad in ``(-π, π]``; where the angle is undefined (a stretched arm,
         ``w`` parallel to ``v``) ``atan2`` of (near) zeros, a finite value.
+
+    Raises:
+        InvalidParameterError: a complex input (refused, not made real).
+        ShapeError: inputs whose last axis is not 3 or that do not broadcast.
     """
-    w = np.asarray(wrist, dtype=float) - shoulder
-    e = np.asarray(elbow, dtype=float) - shoulder
-    v = np.broadcast_to(np.asarray(reference, dtype=float), np.broadcast_shapes(w.shape, e.shape))
+    given = {"shoulder": shoulder, "elbow": elbow, "wrist": wrist, "reference": reference}
+    points = {name: real_array(value, name) for name, value in given.items()}
+    try:
+        shape = np.broadcast_shapes(*(a.shape for a in points.values()))
+    except ValueError:
+        shape = ()
+    if not shape or shape[-1] != 3:
+        shapes = ", ".join(f"{k} {a.shape}" for k, a in points.items())
+        raise ShapeError(f"the points must be 3-vectors that broadcast together; got {shapes}")
+    w = points["wrist"] - points["shoulder"]
+    e = points["elbow"] - points["shoulder"]
+    v = np.broadcast_to(points["reference"], shape)
     ww = np.sum(w * w, axis=-1)
     S = np.sqrt(ww) * np.sum(w * np.cross(v, e), axis=-1)
     C = ww * np.sum(v * e, axis=-1) - np.sum(w * v, axis=-1) * np.sum(w * e, axis=-1)
