@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -198,41 +198,52 @@ def _viewer_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seconds", type=float, default=None, help="stop the viewer after this")
 
 
+def _command(
+    sub: argparse._SubParsersAction[argparse.ArgumentParser],
+    name: str,
+    func: Callable[[argparse.Namespace], int],
+    help: str,
+) -> argparse.ArgumentParser:
+    """The subcommand ``name``, run by ``func(args)``."""
+    parser = sub.add_parser(name, help=help)
+    parser.set_defaults(func=func)
+    return parser
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="redres", description="Redundancy resolution for robot manipulators."
     )
     parser.add_argument("--version", action="version", version=f"redres {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    robots = sub.add_parser("robots", help="list the built-in robot models")
+    robots = _command(sub, "robots", _cmd_robots, "list the built-in robot models")
     robots.add_argument("--json", action="store_true", help="print JSON instead of a table")
     robots.add_argument(
         "--all", action="store_true",
         help="with --json: an object with the built-in and the example-robot-data robots",
     )  # fmt: skip
-    robots.set_defaults(func=_cmd_robots)
-    demo = sub.add_parser("demo", help="compare every scheme on the built-in scenarios")
-    _output_options(demo)
-    demo.set_defaults(func=_cmd_demo)
-    run = sub.add_parser("run", help="run a scenario file (TOML)")
+    _output_options(
+        _command(sub, "demo", _cmd_demo, "compare every scheme on the built-in scenarios")
+    )
+    run = _command(sub, "run", _cmd_run, "run a scenario file (TOML)")
     run.add_argument("scenario", nargs="?", help="scenario file or built-in scenario name")
     run.add_argument("--list", action="store_true", help="list the built-in scenarios")
     run.add_argument("--view", action="store_true", help="then show the runs in the browser")
     _viewer_options(run)
     _output_options(run)
-    run.set_defaults(func=_cmd_run)
-    view = sub.add_parser("view", help="run a scenario and show its runs in the browser (viser)")
+    view = _command(
+        sub, "view", _cmd_view, "run a scenario and show its runs in the browser (viser)"
+    )
     view.add_argument("scenario", help="scenario file or built-in scenario name")
     _viewer_options(view)
-    view.set_defaults(func=_cmd_view)
-    warm = sub.add_parser("warmup", help="compile the kernels now (a first call is then fast)")
+    warm = _command(
+        sub, "warmup", _cmd_warmup, "compile the kernels now (a first call is then fast)"
+    )
     warm.add_argument("groups", nargs="*", help="what to compile (default all; see --list)")
     warm.add_argument("--list", action="store_true", help="list the groups and what is cached")
     warm.add_argument("--quiet", action="store_true", help="print nothing")
     warm.add_argument("--jobs", type=int, default=2, help="processes to compile in (default 2)")
-    warm.set_defaults(func=_cmd_warmup)
-    bench = sub.add_parser("bench", help="run the control-step benchmark against peers")
-    bench.set_defaults(func=_cmd_bench)
+    _command(sub, "bench", _cmd_bench, "run the control-step benchmark against peers")
     from .sweeps.cli import register as register_sweep
 
     register_sweep(sub)

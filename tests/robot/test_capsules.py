@@ -38,3 +38,24 @@ def test_capsule_end_points_are_rigid(name: str, rng: np.random.Generator) -> No
             b = T[:3, :3] @ cap.b + T[:3, 3]
             assert np.allclose(a, robot.fk(q, start)[:3, 3], atol=1e-12), cap.name
             assert np.allclose(b, robot.fk(q, end)[:3, 3], atol=1e-12), cap.name
+
+
+def test_capsule_chain_is_one_capsule_between_per_segment() -> None:
+    """The chain's capsule i is ``capsule_between(links[i], points[i], points[i+1])``, and
+    mismatched lengths are refused by name."""
+    from redres.errors import ShapeError
+    from redres.robot import capsule_between, capsule_chain
+
+    robot = rr.models.panda()
+    points, links = ("base", "shoulder", "elbow", "tcp"), ("link1", "link3", "link7")
+    chain = capsule_chain(robot, points, links, (0.1, 0.2, 0.3), names=("a", "b", "c"))
+    for i, capsule in enumerate(chain):
+        one = capsule_between(robot, links[i], points[i], points[i + 1], (0.1, 0.2, 0.3)[i])
+        assert (capsule.frame, capsule.radius, capsule.name) == (links[i], one.radius, "abc"[i])
+        np.testing.assert_array_equal(capsule.a, one.a)
+        np.testing.assert_array_equal(capsule.b, one.b)
+    assert capsule_chain(robot, points, links, (0.1, 0.2, 0.3))[1].name == "shoulder-elbow"
+    with pytest.raises(ShapeError, match="4 points, 2 links"):
+        capsule_chain(robot, points, links[:2], (0.1, 0.2))
+    with pytest.raises(ShapeError, match="2 names"):
+        capsule_chain(robot, points, links, (0.1, 0.2, 0.3), names=("a", "b"))

@@ -12,7 +12,8 @@ from importlib import resources
 
 import numpy as np
 
-from ..robot import Robot, capsule_between
+from ..robot import Robot
+from .srs import sew_capsules
 
 #: A bent-elbow pose away from singularities, rad.
 HOME = (0.0, np.pi / 6, 0.0, -np.pi / 2, 0.0, np.pi / 3, 0.0)
@@ -32,10 +33,5 @@ def iiwa14() -> Robot:
     robot.add_frame("elbow", "link4", np.eye(4))
     robot.add_frame("wrist", "link6", np.eye(4))
     robot = Robot(robot.model, tip="flange", name="iiwa14", home=HOME)
-    robot.capsules = [
-        capsule_between(robot, "link1", "link0", "shoulder", 0.09, name="base"),
-        capsule_between(robot, "link3", "shoulder", "elbow", 0.08, name="upper_arm"),
-        capsule_between(robot, "link5", "elbow", "wrist", 0.07, name="forearm"),
-        capsule_between(robot, "link7", "wrist", "flange", 0.06, name="hand"),
-    ]
+    robot.capsules = sew_capsules(robot, "link0", "flange", (0.09, 0.08, 0.07, 0.06))
     return robot

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..robot import DHLink, Robot, capsule_between
+from ..robot import DHLink, Robot, capsule_chain
 
 #: Joint limits (Franka "Limits for Panda").
 Q_MIN = (-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973)
@@ -165,11 +165,9 @@ def panda(*, hand: bool = True) -> Robot:
         },
         home=HOME,
     )
-    robot.capsules = [
-        capsule_between(robot, "link1", "base", "shoulder", 0.09, name="base"),
-        capsule_between(robot, "link3", "shoulder", "elbow", 0.08, name="upper_arm"),
-        capsule_between(robot, "link4", "elbow", "wrist", 0.07, name="forearm"),
-        capsule_between(robot, "link6", "wrist", "link7", 0.06, name="wrist"),
-        capsule_between(robot, "link7", "link7", "tcp", 0.05, name="hand"),
-    ]
+    robot.capsules = capsule_chain(
+        robot, ("base", "shoulder", "elbow", "wrist", "link7", "tcp"),
+        links=("link1", "link3", "link4", "link6", "link7"), radii=(0.09, 0.08, 0.07, 0.06, 0.05),
+        names=("base", "upper_arm", "forearm", "wrist", "hand"),
+    )  # fmt: skip
     return robot

@@ -8,9 +8,11 @@ are synthetic (uniform cylinders of radius 0.05 m), for dynamics examples only.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
-from ..robot import DHLink, Robot, capsule_between
+from ..robot import Capsule, DHLink, Robot, capsule_chain
 
 D_BS, D_SE, D_EW, D_WF = 0.34, 0.40, 0.40, 0.126
 HOME = (0.0, np.pi / 6, 0.0, -np.pi / 2, 0.0, np.pi / 3, 0.0)
@@ -68,10 +70,16 @@ def srs7() -> Robot:
         frames={"shoulder": ("link1", eye), "elbow": ("link3", eye), "wrist": ("link5", eye)},
         home=HOME,
     )
-    robot.capsules = [
-        capsule_between(robot, "link1", "base", "shoulder", 0.08, name="base"),
-        capsule_between(robot, "link3", "shoulder", "elbow", 0.07, name="upper_arm"),
-        capsule_between(robot, "link5", "elbow", "wrist", 0.06, name="forearm"),
-        capsule_between(robot, "link7", "wrist", "tool", 0.05, name="hand"),
-    ]
+    robot.capsules = sew_capsules(robot, "base", "tool", (0.08, 0.07, 0.06, 0.05))
     return robot
+
+
+def sew_capsules(robot: Robot, base: str, tip: str, radii: Sequence[float]) -> list[Capsule]:
+    """The four capsules of a spherical–revolute–spherical arm whose frames ``shoulder``,
+    ``elbow`` and ``wrist`` sit at the joint centres: base → shoulder on ``link1``, the
+    upper arm on ``link3``, the forearm on ``link5``, wrist → ``tip`` on ``link7``."""
+    return capsule_chain(
+        robot, (base, "shoulder", "elbow", "wrist", tip),
+        links=("link1", "link3", "link5", "link7"), radii=radii,
+        names=("base", "upper_arm", "forearm", "hand"),
+    )  # fmt: skip

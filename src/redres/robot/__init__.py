@@ -1,6 +1,6 @@
 """Robot models: kinematics and dynamics of one serial chain, on Pinocchio."""
 
-from .capsules import Capsule, capsule_between
+from .capsules import Capsule, capsule_between, capsule_chain
 from .chain import ChainPoseError, NotSerialChainError, SerialChain
 from .dh import DHLink
 from .files import LoadOptions
@@ -16,4 +16,5 @@ __all__ = [
     "Robot",
     "SerialChain",
     "capsule_between",
+    "capsule_chain",
 ]

@@ -7,6 +7,7 @@ no collision library is needed for these primitives.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -49,3 +50,39 @@ def capsule_between(
     a = (T_inv @ robot.fk(q, start)[:, 3])[:3]
     b = (T_inv @ robot.fk(q, end)[:, 3])[:3]
     return Capsule(frame, a, b, float(radius), name or f"{start}-{end}")
+
+
+def capsule_chain(
+    robot: Robot,
+    points: Sequence[str],
+    links: Sequence[str],
+    radii: Sequence[float],
+    names: Sequence[str] = (),
+) -> list[Capsule]:
+    """Capsules along a path of frame origins, one per segment: capsule ``i`` is fixed to
+    ``links[i]`` and runs from the origin of ``points[i]`` to that of ``points[i + 1]``
+    (:func:`capsule_between`), e.g. base → shoulder → elbow → wrist → tool of an arm.
+
+    Args:
+        robot: the model the frames belong to.
+        points: ``k + 1`` frame names, the segments' end points in order.
+        links: ``k`` frames the segments are fixed to.
+        radii: ``k`` radii, m.
+        names: ``k`` capsule names (default ``"start-end"``).
+
+    Raises:
+        ShapeError: the sequences' lengths do not match.
+    """
+    k = len(points) - 1
+    if k < 1 or len(links) != k or len(radii) != k or (names and len(names) != k):
+        from ..errors import ShapeError
+
+        raise ShapeError(
+            f"capsule_chain needs k + 1 points and k links, radii (and names); got "
+            f"{len(points)} points, {len(links)} links, {len(radii)} radii, {len(names)} names"
+        )
+    return [
+        capsule_between(robot, links[i], points[i], points[i + 1], radii[i],
+                        name=names[i] if names else "")
+        for i in range(k)
+    ]  # fmt: skip

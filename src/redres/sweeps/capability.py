@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import batch
-from .grid import occupancy, reach_bound
+from .grid import occupancy, reach_bound, read_grid_source
 from .kind import Field, Kind, Plan, ShardJob
 from .orientations import directions, frames, nearest
 
@@ -97,17 +97,11 @@ class CapabilityParams:
 
 
 def _parse(r: Reader, base: Path) -> CapabilityParams:
-    bounds = r.bounds("bounds")
     params = CapabilityParams(
-        resolution=r.positive("resolution", 0.05),
-        bounds=None if bounds is None else tuple((lo, hi) for lo, hi in bounds),
-        directions=r.integer("directions", 50, minimum=1),
-        rolls=r.integer("rolls", 1, minimum=1),
-        fk_samples=r.integer("fk_samples", 200_000, minimum=0),
-        dilation=r.integer("dilation", 1, minimum=-1),
-        seeds_per_voxel=r.integer("seeds_per_voxel", 4, minimum=0),
-        solutions=r.integer("solutions", 1, minimum=1),
-        refine=r.integer("refine", 2, minimum=0),
+        **read_grid_source(r, CapabilityParams),
+        seeds_per_voxel=r.integer("seeds_per_voxel", CapabilityParams.seeds_per_voxel, minimum=0),
+        solutions=r.integer("solutions", CapabilityParams.solutions, minimum=1),
+        refine=r.integer("refine", CapabilityParams.refine, minimum=0),
         keep_configurations=r.boolean("keep_configurations", False),
     )
     r.done()

@@ -28,13 +28,17 @@ The samples found in each voxel also seed its IK queries (:mod:`redres.sweeps.ca
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .. import batch
 from ..robot import Robot
 
-__all__ = ["Occupancy", "occupancy", "reach_bound"]
+if TYPE_CHECKING:
+    from .spec import Reader
+
+__all__ = ["Occupancy", "occupancy", "reach_bound", "read_grid_source"]
 
 _CHUNK = 100_000  # configurations per batch.fk call (bounded memory)
 
@@ -147,3 +151,18 @@ def _dilate(mask: np.ndarray, radius: int) -> np.ndarray:
                 (slice(None),) * axis + (slice(step, None),)]  # fmt: skip
         out = grown
     return out
+
+
+def read_grid_source(r: Reader, params: Any) -> dict[str, Any]:
+    """The grid source's keys of a sweep spec (``resolution``, ``bounds``, ``directions``,
+    ``rolls``, ``fk_samples``, ``dilation``), checked, with the defaults of the parameter
+    dataclass ``params`` of the sweep kind (its fields of the same names)."""
+    bounds = r.bounds("bounds")
+    return {
+        "resolution": r.positive("resolution", params.resolution),
+        "bounds": None if bounds is None else tuple((lo, hi) for lo, hi in bounds),
+        "directions": r.integer("directions", params.directions, minimum=1),
+        "rolls": r.integer("rolls", params.rolls, minimum=1),
+        "fk_samples": r.integer("fk_samples", params.fk_samples, minimum=0),
+        "dilation": r.integer("dilation", params.dilation, minimum=-1),
+    }

@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import batch
-from .grid import occupancy, reach_bound
+from .grid import occupancy, reach_bound, read_grid_source
 from .ikdata import distinct
 from .intervals import Arc, merge, pack, pieces, width
 from .kind import Field, Kind, Plan, ShardJob
@@ -104,7 +104,6 @@ def _choice(r: Reader, key: str, default: str, options: tuple[str, ...]) -> str:
 
 
 def _parse(r: Reader, base: Path) -> RedundancyParams:
-    bounds = r.bounds("bounds")
     names = tuple(r.string(k, d) for k, d in (("shoulder", "shoulder"), ("elbow", "elbow"),
                                                ("wrist", "wrist")))  # fmt: skip
     reference = r.get("reference", "vector", np.array([0.0, 0.0, 1.0]), size=3)
@@ -114,12 +113,7 @@ def _parse(r: Reader, base: Path) -> RedundancyParams:
         source=_choice(r, "source", "random", ("random", "grid")),
         poses=r.integer("poses", 10_000, minimum=1),
         margin=r.nonnegative("margin", 0.0),
-        resolution=r.positive("resolution", 0.1),
-        bounds=None if bounds is None else tuple((lo, hi) for lo, hi in bounds),
-        directions=r.integer("directions", 20, minimum=1),
-        rolls=r.integer("rolls", 1, minimum=1),
-        fk_samples=r.integer("fk_samples", 100_000, minimum=0),
-        dilation=r.integer("dilation", 1, minimum=-1),
+        **read_grid_source(r, RedundancyParams),
         method=_choice(r, "method", "auto", ("auto", "closed_form", "trace")),
         intervals=r.integer("intervals", 8, minimum=1),
         manifolds=r.integer("manifolds", 4, minimum=1),
