@@ -49,6 +49,7 @@ from ._validate import FloatArray, as_scalar, real_array
 from .errors import InvalidParameterError, NonFiniteError, ShapeError
 from .linalg import _backend as be
 from .linalg import _codes as codes
+from .linalg import _weights as wt
 from .linalg import rate_step as _single_rate_step
 from .linalg._info import RCOND, AdaptiveDamping, InverseInfo
 from .robot import Robot, SerialChain
@@ -206,7 +207,7 @@ def rate_step(
     gs = np.empty((0, n)) if grad is None else _rows(grad, "grad", n, count)
     k, rc = as_scalar(k_null, "k_null"), be.as_rcond(rcond)
     mode, lam, lam_max, eps = be.parse_damping(damping)
-    wmode, wdiag, wfull = be.parse_weights(weights, n, "weights")
+    wmode, wdiag, wfull = wt.parse_weights(weights, n, "weights")
     wdiag, wfull = _typed(wdiag), _typed(wfull)
     method = (_LABELS if weights is None else _WEIGHTED_LABELS)[mode]
     kernels = _compiled(threads)

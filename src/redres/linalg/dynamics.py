@@ -29,6 +29,7 @@ from .._validate import as_matrix
 from ..errors import NotPositiveDefiniteError
 from . import _backend as be
 from . import _codes as codes
+from . import _weights as wt
 from ._backend import DampedOptions, FloatArray, Result, WithInfo
 from ._info import RCOND, AdaptiveDamping
 
@@ -51,7 +52,7 @@ def mass_matrix_factor(M: ArrayLike, n: int) -> FloatArray:
         NotPositiveDefiniteError: ``M`` is not symmetric or not positive definite.
     """
     try:
-        return be.weight_factor(codes.FULL, be.EMPTY_1D, as_matrix(M, "M", (n, n)), "M")
+        return wt.weight_factor(codes.FULL, wt.EMPTY_1D, as_matrix(M, "M", (n, n)), "M")
     except NotPositiveDefiniteError as exc:
         raise _not_a_mass_matrix(exc) from exc
 
@@ -99,7 +100,7 @@ def _decompose_svd(
     m, n = A.shape
     L = mass_matrix_factor(M, n)
     mode, lam, lam_max, eps = be.parse_damping(damping)
-    Jw = be.solve_lower(L, A.T).T  # J L^-T
+    Jw = wt.solve_lower(L, A.T).T  # J L^-T
     U, sigma, Vt = np.linalg.svd(Jw, full_matrices=True)
     k = min(m, n)
     f, lam2, rank, used = be.filter_factors(sigma, mode, lam, lam_max, eps, rcond)
@@ -115,7 +116,7 @@ def _decompose_svd(
         g[k:] = 1.0 / (tail * tail) if tail > 0.0 else 0.0
     Lam = (U * g) @ U.T
     Lam = 0.5 * (Lam + Lam.T)
-    J_bar = be.solve_lower(L, (Vt[:k].T * f) @ U[:, :k].T, trans="T")
+    J_bar = wt.solve_lower(L, (Vt[:k].T * f) @ U[:, :k].T, trans="T")
     stats = be.Stats(rank, float(sigma[-1]), float(sigma[0]), used)
     return Lam, np.asarray(J_bar), A, stats, _method(mode)
 

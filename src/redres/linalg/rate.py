@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike
 from .._validate import as_scalar, real_array
 from ..errors import NonFiniteError, ShapeError
 from . import _backend as be
+from . import _weights as wt
 from ._backend import FloatArray
 from ._info import RCOND, AdaptiveDamping, InverseInfo
 
@@ -34,7 +35,7 @@ _ndarray = np.ndarray
 _INF = float("inf")
 _empty = np.empty
 _new_tuple = tuple.__new__
-_NO_GRAD = be.EMPTY_1D
+_NO_GRAD = wt.EMPTY_1D
 _NAMES = {"J": "J", "xd": "xd", "grad": "grad", "W": "weights"}
 # InverseInfo.method by damping mode (the codes EXACT, FIXED, ADAPTIVE, SELECTIVE are 0..3).
 _LABELS = tuple(be.method_label(mode, False, "pinv") for mode in range(4))
@@ -172,7 +173,7 @@ def _general_step(
         _raise_shape(J, xd, grad, has_grad)
     k, rc = as_scalar(k_null, "k_null"), be.as_rcond(rcond)
     mode, lam, lam_max, eps = be.parse_damping(damping)
-    wmode, wdiag, wfull = be.parse_weights(weights, n, "weights")
+    wmode, wdiag, wfull = wt.parse_weights(weights, n, "weights")
     labels = _LABELS if weights is None else _WEIGHTED_LABELS
     kern = be.use_fast_path(m, n)
     if kern is not None:
@@ -219,12 +220,12 @@ def _numpy_step(
             raise NonFiniteError(f"{name} contains NaN or infinity")
     be.check_rate(xd)
     mode, lam, lam_max, eps, rcond = spec
-    factor = be.weight_factor(wmode, wdiag, wfull, "weights")
-    filt = be.Filtered(be.weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
+    factor = wt.weight_factor(wmode, wdiag, wfull, "weights")
+    filt = be.Filtered(wt.weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
     task = filt.apply(xd)
     null = np.zeros_like(task)
     if grad.size:
-        null = -k * filt.project(be.weigh_up(grad, wmode, factor))
-    qd = be.unweigh_rows(task + null, wmode, factor)
-    null = be.unweigh_rows(null, wmode, factor)
+        null = -k * filt.project(wt.weigh_up(grad, wmode, factor))
+    qd = wt.unweigh_rows(task + null, wmode, factor)
+    null = wt.unweigh_rows(null, wmode, factor)
     return np.ascontiguousarray(qd), np.ascontiguousarray(null), filt.stats
