@@ -102,7 +102,7 @@ def _parse(r: Reader, base: Path) -> CapabilityParams:
         seeds_per_voxel=r.integer("seeds_per_voxel", CapabilityParams.seeds_per_voxel, minimum=0),
         solutions=r.integer("solutions", CapabilityParams.solutions, minimum=1),
         refine=r.integer("refine", CapabilityParams.refine, minimum=0),
-        keep_configurations=r.boolean("keep_configurations", False),
+        keep_configurations=r.boolean("keep_configurations", CapabilityParams.keep_configurations),
     )
     r.done()
     return params

@@ -110,15 +110,15 @@ def _parse(r: Reader, base: Path) -> RedundancyParams:
     if np.linalg.norm(reference) < 1e-9:
         raise r.fail("reference", "must be a non-zero vector")
     params = RedundancyParams(
-        source=_choice(r, "source", "random", ("random", "grid")),
-        poses=r.integer("poses", 10_000, minimum=1),
-        margin=r.nonnegative("margin", 0.0),
+        source=_choice(r, "source", RedundancyParams.source, ("random", "grid")),
+        poses=r.integer("poses", RedundancyParams.poses, minimum=1),
+        margin=r.nonnegative("margin", RedundancyParams.margin),
         **read_grid_source(r, RedundancyParams),
-        method=_choice(r, "method", "auto", ("auto", "closed_form", "trace")),
-        intervals=r.integer("intervals", 8, minimum=1),
-        manifolds=r.integer("manifolds", 4, minimum=1),
-        step=r.positive("step", 0.02),
-        max_steps=r.integer("max_steps", 4000, minimum=1),
+        method=_choice(r, "method", RedundancyParams.method, ("auto", "closed_form", "trace")),
+        intervals=r.integer("intervals", RedundancyParams.intervals, minimum=1),
+        manifolds=r.integer("manifolds", RedundancyParams.manifolds, minimum=1),
+        step=r.positive("step", RedundancyParams.step),
+        max_steps=r.integer("max_steps", RedundancyParams.max_steps, minimum=1),
         points=(names[0], names[1], names[2]),
         reference=(float(reference[0]), float(reference[1]), float(reference[2])),
     )
