@@ -59,3 +59,15 @@ def test_capsule_chain_is_one_capsule_between_per_segment() -> None:
         capsule_chain(robot, points, links[:2], (0.1, 0.2))
     with pytest.raises(ShapeError, match="2 names"):
         capsule_chain(robot, points, links, (0.1, 0.2, 0.3), names=("a", "b"))
+
+
+@pytest.mark.parametrize("radius", [-0.01, float("nan"), "thick"])
+def test_a_capsule_radius_that_is_not_a_length_is_refused_by_name(radius: object) -> None:
+    from redres.errors import RedresError
+    from redres.robot import capsule_between, capsule_chain
+
+    robot = rr.models.panda()
+    with pytest.raises(RedresError, match="radius"):
+        capsule_between(robot, "link1", "base", "shoulder", radius)  # type: ignore[arg-type]
+    with pytest.raises(RedresError, match="radius"):
+        capsule_chain(robot, ("base", "shoulder"), ("link1",), (radius,))  # type: ignore[arg-type]

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._validate import FloatArray
+from .._validate import FloatArray, as_scalar
 
 if TYPE_CHECKING:
     from .robot import Robot
@@ -45,11 +45,12 @@ def capsule_between(
     Both origins must be fixed relative to ``frame`` (e.g. on the joint axes at either end
     of a link); their local coordinates are read at ``robot.neutral()``.
     """
+    r = as_scalar(radius, "radius", minimum=0.0)
     q = robot.neutral()
     T_inv = np.linalg.inv(robot.fk(q, frame))
     a = (T_inv @ robot.fk(q, start)[:, 3])[:3]
     b = (T_inv @ robot.fk(q, end)[:, 3])[:3]
-    return Capsule(frame, a, b, float(radius), name or f"{start}-{end}")
+    return Capsule(frame, a, b, r, name or f"{start}-{end}")
 
 
 def capsule_chain(
