@@ -512,6 +512,9 @@ def test_bad_input_is_refused_with_a_clear_error() -> None:
         controller.step(np.zeros((7, 1)))
     with pytest.raises(ShapeError):
         controller.step("not a configuration")
+    for path_task in (task, ComposedFrameTask()):  # the fused path and the composed one
+        with pytest.raises(InvalidParameterError, match="q .*complex"):
+            Controller(robot, path_task, PseudoInverseScheme()).step(q + 0.5j)
     with pytest.raises(ShapeError, match="rotation"):
         task.set_target(np.diag([2.0, 1.0, 1.0, 1.0]))
     with pytest.raises(NonFiniteError):

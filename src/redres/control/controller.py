@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar, checked_keywords
+from .._validate import FloatArray, as_scalar, checked_keywords, real_array
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError, SimulationError
 from ..linalg import InverseInfo
 from ..linalg import _backend as be
@@ -255,10 +255,10 @@ class Controller:
             SimulationError: the scheme returned a non-finite joint velocity.
         """
         n = self._n
-        try:
-            qa = _contiguous(q, _F64)
-        except (TypeError, ValueError) as exc:
-            raise ShapeError(f"q must be an array of {n} numbers: {exc}") from exc
+        if type(q) is _ndarray and q.dtype == _F64 and q.flags.c_contiguous:
+            qa = q
+        else:  # complex q is refused by name (real_array), never made real
+            qa = _contiguous(real_array(q, "q", f"an array of {n}"))
         if qa.shape != self._shape:
             raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
         if self._pending and ready():
