@@ -1,11 +1,13 @@
-"""Recount issue 18's reliability campaign for the cases this branch fixed (items 4, 7, 8, 10,
-11): how many bad inputs give a clear ``RedresError`` (or, for the command, one
-``redres: error:`` line and exit 2), a raw traceback, silent NaN/inf output, or a hang.
+"""Recount issue 18's reliability campaign (items 2–8, 10, 11): how many bad inputs give a
+clear ``RedresError`` (or, for the command, one ``redres: error:`` line and exit 2), a raw
+traceback, silent NaN/inf output, or a hang; and how many feasible hard-limit tasks near a
+singularity (item 3) are met, with the scheme's ``feasible`` flag set.
 
-    PYTHONPATH=src python benchmarks/reliability.py [--json]
+    PYTHONPATH=src python benchmarks/reliability.py [--json] [--tasks N]
 
 Runs on any checkout (point ``PYTHONPATH`` at another ``src`` to compare with main). The
-command-line cases run in subprocesses with a time limit; the library cases in process.
+command-line cases and the hang triggers of item 2 run in subprocesses with a time limit
+(a hang in compiled code ignores Ctrl-C); the other library cases run in process.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
@@ -40,6 +43,7 @@ duration = 0.02
 type = "pinv"
 """
 TIMEOUT = 120.0
+HANG_TIMEOUT = 60.0  # item 2's subprocesses: a step takes microseconds, an import seconds
 
 
 def cli_cases(tmp: Path) -> dict[str, tuple[str, str]]:
@@ -267,6 +271,180 @@ def complex_cases() -> dict[str, Callable[[], Any]]:
     return cases
 
 
+_CHILD = """
+import sys, warnings
+import numpy as np
+import redres as rr
+from redres.errors import RedresError
+from redres.resolution import QPScheme, SNSScheme, braking_velocity
+warnings.simplefilter("ignore")
+panda = rr.models.panda()
+J = panda.jacobian(panda.neutral())
+def wide_dh(limit):
+    return rr.Robot.from_dh([dict(a=0.3, alpha=0, d=0, q_min=-limit, q_max=limit)] * 3)
+try:
+    value = np.asarray(getattr(CALL, "qd", CALL), dtype=float)
+    print("RESULT", "ran" if np.isfinite(value).all() else "silent non-finite")
+except RedresError:
+    print("RESULT clear error")
+except Exception as exc:
+    print("RESULT raw", type(exc).__name__)
+"""
+
+#: Item 2: inputs that made the braking loop of the hard-limit box spin forever.
+HANG_CASES = {
+    "SNS step at q = 1e300": "SNSScheme(1e-3).step(panda, np.full(7, 1e300), J, np.zeros(6))",
+    "QP step at q = 1e300": "QPScheme(1e-3).step(panda, np.full(7, 1e300), J, np.zeros(6))",
+    "SNS step at q = 3e27": "SNSScheme(1e-3).step(panda, np.full(7, 3e27), J, np.zeros(6))",
+    "braking_velocity(1e30, 1e-3, 1)": "braking_velocity(1e30, 1e-3, 1.0)",
+    "braking_velocity(1, 1e-300, 1)": "braking_velocity(1.0, 1e-300, 1.0)",
+    "braking_velocity(1, 1e-3, 1e-300)": "braking_velocity(1.0, 1e-3, 1e-300)",
+    "braking_velocity(1, 1e-3, 5e-324)": "braking_velocity(1.0, 1e-3, 5e-324)",
+    "SNSScheme(dt=1e-300) step": "SNSScheme(1e-300).step(panda, panda.neutral(), J, np.zeros(6))",
+    "SNSScheme(qdd_max=1e-300) step": (
+        "SNSScheme(1e-3, qdd_max=1e-300).step(panda, panda.neutral(), J, np.zeros(6))"
+    ),
+    "DH limits ±1e35, SNS step": (
+        "SNSScheme(1e-3).step(wide_dh(1e35), np.zeros(3), np.eye(3)[:2], np.zeros(2))"
+    ),
+    "DH limits ±1e35, QP step": (
+        "QPScheme(1e-3).step(wide_dh(1e35), np.zeros(3), np.eye(3)[:2], np.zeros(2))"
+    ),
+}
+
+
+def run_child(code: str) -> str:
+    """Item 2's case ``code`` in a fresh interpreter, killed after :data:`HANG_TIMEOUT`."""
+    script = _CHILD.replace("CALL", f"({code})")
+    try:
+        proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                              timeout=HANG_TIMEOUT, check=False, env=os.environ)  # fmt: skip
+    except subprocess.TimeoutExpired:
+        return "hang"
+    lines = [x for x in proc.stdout.splitlines() if x.startswith("RESULT ")]
+    if not lines:
+        return f"exit {proc.returncode} (no result)"
+    return lines[-1].removeprefix("RESULT ")
+
+
+def out_cases(tmp: Path) -> list[tuple[str, str]]:
+    """Item 5: ``--out`` folders that hold a user's files. A case passes ("clear error")
+    when the command refuses with one message and the user's file is intact; a stale
+    staging folder of an earlier report must be cleaned ("ran")."""
+    rows = []
+    for i, user_file in enumerate(["report.html", "panda-joints.png", "notes.txt"]):
+        folder = tmp / f"user{i}"
+        folder.mkdir()
+        (folder / user_file).write_text("the user's own file")
+        result = run_cli(tmp, GOOD, str(folder))
+        if (folder / user_file).read_text() != "the user's own file":
+            result = "user's file replaced"
+        rows.append((f"folder holding the user's {user_file}", result))
+    cwd_before = sorted(os.listdir(Path.cwd()))
+    result = run_cli(tmp, GOOD, "")
+    if sorted(os.listdir(Path.cwd())) != cwd_before:
+        result = "wrote into the current directory"
+    rows.append(('--out ""', result))
+    earlier = tmp / "earlier"
+    earlier.mkdir()
+    (earlier / ".redres-report").write_text("")
+    (earlier / ".redres-staging-stale").mkdir()
+    hours_ago = time.time() - 7200.0  # the writer cleans staging folders older than an hour
+    os.utime(earlier / ".redres-staging-stale", (hours_ago, hours_ago))
+    result = run_cli(tmp, GOOD, str(earlier))
+    if (earlier / ".redres-staging-stale").exists():
+        result = "stale staging folder left"
+    rows.append(("earlier report with a stale staging folder (should run)", result))
+    return rows
+
+
+def scheme_cases() -> dict[str, Callable[[], Any]]:
+    """Item 6: schemes, objectives and the controller handed bad ``q``/``xd``."""
+    robot = rr.models.panda()
+    q, J = robot.neutral(), robot.jacobian(robot.neutral())
+    res, obj, tasks = rr.resolution, rr.objectives, rr.tasks
+    nan_q, x0 = np.full(7, np.nan), np.zeros(6)
+    makers: dict[str, Callable[[], Any]] = {
+        "PriorityScheme": lambda: res.PriorityScheme([tasks.PostureTask()]),
+        "GradientProjectionScheme": lambda: res.GradientProjectionScheme(
+            [obj.JointLimitObjective()]
+        ),
+        "WeightedLeastNormScheme": res.WeightedLeastNormScheme,
+        "AugmentedJacobianScheme": lambda: res.AugmentedJacobianScheme([tasks.PostureTask()]),
+    }
+    cases: dict[str, Callable[[], Any]] = {}
+    for name, make in makers.items():
+        bad = {
+            "xd = None": (q, None),
+            "xd = NaN": (q, np.full(6, np.nan)),
+            "xd = inf": (q, np.full(6, np.inf)),
+            "q = NaN": (nan_q, x0),
+            "q of shape (5,)": (np.zeros(5), x0),
+            "xd of shape (4,)": (q, np.zeros(4)),
+        }
+        for label, (qq, xx) in bad.items():
+            cases[f"{name}.step, {label}"] = lambda make=make, qq=qq, xx=xx: make().step(
+                robot, qq, J, xx
+            )
+    cases["JointLimitObjective.gradient(q = NaN)"] = lambda: obj.JointLimitObjective().gradient(
+        robot, nan_q
+    )
+    T = robot.fk(q)
+    far = T.copy()
+    far[:3, 3] = 1e300
+
+    def overflowing_twist() -> Any:
+        task = tasks.FrameTask()
+        task.set_target(far)
+        return rr.control.Controller(robot, task, res.PseudoInverseScheme(), gain=1e300).step(q)
+
+    cases["Controller.step, overflowing twist"] = overflowing_twist
+    return cases
+
+
+def feasible_tasks(count: int, seed: int = 18) -> list[tuple[str, str, str]]:
+    """Item 3: ``count`` tasks per scheme near a singularity (σ_min of 1e-12 to 1e-6, Panda
+    and planar 3R), feasible by construction (``ẋ = J q̇*`` with ``q̇*`` drawn in the box),
+    plus the issue's planar 3R reproduction. "met": ``‖J q̇ − ẋ‖ ≤ 1e-9 max(1, ‖ẋ‖)`` and
+    ``feasible``; "met, flag false"; "missed"."""
+    rng = np.random.default_rng(seed)
+    robots = [rr.models.panda(), rr.models.planar([1.0, 1.0, 1.0])]
+    rows = []
+    folded = (np.array([np.pi, -np.pi, np.pi - 1e-9]), [0.0073213, -0.0147677, -0.0257017],
+              np.array([2.53e-11, 0.0256468, -0.0253003]))  # fmt: skip
+    planar = robots[1]
+    J = planar.jacobian(folded[0])[[0, 1, 5]]
+    sns = rr.resolution.SNSScheme(1e-3, qd_max=3, qdd_max=20)
+    sns.qd_prev = np.array(folded[1])
+    rows.append(("SNS", "the issue's folded planar 3R", _met(sns, planar, folded[0], J, folded[2])))
+    for i in range(count):
+        robot = robots[i % 2]
+        q = robot.q_min + rng.uniform(0.05, 0.95, robot.n) * (robot.q_max - robot.q_min)
+        J = robot.jacobian(q)
+        J = J[[0, 1, 5]] if robot.n == 3 else J
+        U, s, Vt = np.linalg.svd(J, full_matrices=False)
+        s[-1] = 10.0 ** rng.uniform(-12, -6)
+        J = (U * s) @ Vt
+        prev = rng.uniform(-0.5, 0.5, robot.n) * robot.qd_max
+        for make in (rr.resolution.QPScheme, rr.resolution.SNSScheme):
+            scheme = make(1e-3)
+            scheme.qd_prev = prev.copy()
+            lo, hi = scheme.step(robot, q, J, np.zeros(J.shape[0])).details.bounds
+            xd = J @ (lo + rng.uniform(0.0, 1.0, robot.n) * (hi - lo))
+            scheme.qd_prev = prev.copy()
+            rows.append((make.name.upper(), f"{robot.n}-joint, σ_min {s[-1]:.0e}",
+                         _met(scheme, robot, q, J, xd)))  # fmt: skip
+    return rows
+
+
+def _met(scheme: Any, robot: rr.Robot, q: Any, J: Any, xd: Any) -> str:
+    result = scheme.step(robot, q, J, xd)
+    ok = np.linalg.norm(J @ result.qd - xd) <= 1e-9 * max(1.0, float(np.linalg.norm(xd)))
+    if ok:
+        return "met" if result.feasible else "met, flag false"
+    return "missed, flag true" if result.feasible else "missed"
+
+
 def classify(call: Callable[[], Any], expect_error: bool = True) -> str:
     import warnings
 
@@ -297,6 +475,7 @@ def _finite(value: Any) -> bool:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", action="store_true")
+    parser.add_argument("--tasks", type=int, default=400, help="item 3's tasks per scheme")
     args = parser.parse_args()
     rows: list[tuple[str, str, str]] = []
     with tempfile.TemporaryDirectory() as folder:
@@ -314,9 +493,17 @@ def main() -> int:
         )
         for name, call in complex_cases().items():
             rows.append(("complex input (item 10)", name, classify(call)))
+        for name, code in HANG_CASES.items():
+            rows.append(("hang triggers (item 2)", name, run_child(code)))
+        for name, result in out_cases(tmp):
+            rows.append(("--out (item 5)", name, result))
+        for name, call in scheme_cases().items():
+            rows.append(("scheme input (item 6)", name, classify(call)))
+    tasks = feasible_tasks(args.tasks)
     counts = Counter(result for _, _, result in rows)
+    met = {s: Counter(r for g, _, r in tasks if g == s) for s in ("QP", "SNS")}
     if args.json:
-        print(json.dumps({"counts": counts, "cases": rows}))
+        print(json.dumps({"counts": counts, "cases": rows, "feasible tasks": met}))
         return 0
     for group, name, result in rows:
         print(f"{group:26s} {name:50s} {result}")
@@ -324,6 +511,12 @@ def main() -> int:
     for group in dict.fromkeys(g for g, _, _ in rows):
         sub = Counter(r for g, _, r in rows if g == group)
         print(f"  {group}: " + ", ".join(f"{n} {k}" for k, n in sub.most_common()))
+    for scheme, tally in met.items():
+        told = ", ".join(f"{n} {k}" for k, n in tally.most_common())
+        print(f"feasible tasks near a singularity (item 3), {scheme}: {told}")
+    for scheme, name, result in tasks:
+        if result != "met":
+            print(f"  {scheme} {name}: {result}")
     return 0
 
 
