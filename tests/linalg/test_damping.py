@@ -166,3 +166,35 @@ def test_bad_adaptive_parameters(kwargs, error, match: str) -> None:
 def test_bad_damping_is_rejected_by_name(backend: str, damping: float, error) -> None:
     with pytest.raises(error, match="damping"):
         rl.damped_pinv(np.eye(2), damping)
+
+
+def _scaled_dls(A: np.ndarray, mu: float, s: float) -> np.ndarray:
+    """Oracle: ``J#(s A, s mu) = J#(A, mu) / s`` (the damped inverse depends on the
+    damping only through sigma / lambda), from NumPy's SVD of the unscaled ``A``."""
+    U, sv, Vt = np.linalg.svd(A, full_matrices=False)
+    return (Vt.T * (sv / (sv**2 + mu**2))) @ U.T / s
+
+
+@pytest.mark.parametrize("s", [1e-150, 1e-160, 1e-190])
+@pytest.mark.parametrize("mu", [1e-3, 1.0, 30.0])
+def test_damping_whose_square_underflows_is_still_applied(
+    backend: str, rng: np.random.Generator, s: float, mu: float
+) -> None:
+    """lambda = s mu below 1e-150 on a J of entries about s: lambda^2 (and sigma^2) are
+    subnormal or zero in float64; the inverse must still be the damped one (it was the
+    undamped one, or lost five digits, before)."""
+    A = rng.standard_normal((5, 7))
+    ref = _scaled_dls(A, mu, s)
+    for return_info in (False, True):
+        out = rl.damped_pinv(s * A, s * mu, return_info=return_info)
+        X = out[0] if return_info else out
+        np.testing.assert_allclose(X, ref, rtol=1e-10, atol=1e-10 * np.abs(ref).max())
+    _, info = rl.damped_pinv(s * A, s * mu, return_info=True)
+    assert info.damping == pytest.approx(s * mu, rel=1e-12)
+    sv = np.linalg.svd(A, compute_uv=False)
+    assert info.sigma_max == pytest.approx(s * sv[0], rel=1e-10)
+    spec = rl.AdaptiveDamping(s * mu, s * 10.0 * sv[0])  # always inside the damped region
+    X = rl.damped_pinv(s * A, spec)
+    lam = s * mu * np.sqrt(1.0 - (sv[-1] / (10.0 * sv[0])) ** 2)
+    np.testing.assert_allclose(X, _scaled_dls(A, lam / s, s), rtol=1e-10,
+                               atol=1e-10 * np.abs(ref).max())  # fmt: skip

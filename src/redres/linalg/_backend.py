@@ -373,6 +373,11 @@ class Factored(NamedTuple):
     mode: int
 
 
+#: Below this, a damping (or a singular value) squared is subnormal or zero in float64:
+#: :func:`redres.linalg.damping.rescaled_inverse` takes over.
+SMALL_DAMPING = 1e-150
+
+
 def invert(
     J: FloatArray,
     *,
@@ -391,6 +396,14 @@ def invert(
     """
     m, n = J.shape
     mode, lam, lam_max, eps = parse_damping(damping)
+    if mode != codes.EXACT and min(lam if mode == codes.FIXED else min(lam_max, eps),
+                                   math.inf) < SMALL_DAMPING:  # fmt: skip
+        from .damping import rescaled_inverse  # a rare case; damping imports this module
+
+        rescaled = rescaled_inverse(J, weights, weights_name, damping, rcond, want_pinv,
+                                    want_projector)  # fmt: skip
+        if rescaled is not None:
+            return rescaled
     kmode = codes.LAZY if lazy and mode == codes.FIXED else mode
     wmode, wdiag, wfull = parse_weights(weights, n, weights_name)
     kern = use_fast_path(m, n)
@@ -404,6 +417,15 @@ def invert(
         if status:
             raise_status(status, {"J": "J", "W": weights_name})
         check_sigma(smax)
+        if mode != codes.EXACT and smax < SMALL_DAMPING:
+            # the kernels square the scale of so tiny a J: subnormal, digits lost (below
+            # TINY_SCALE they count it as zero, smax = 0, while J^T / λ² need not be)
+            from .damping import rescaled_inverse
+
+            rescaled = rescaled_inverse(J, weights, weights_name, damping, rcond, want_pinv,
+                                        want_projector)  # fmt: skip
+            if rescaled is not None:
+                return rescaled
         return Factored(Jp, N, Stats(rank, smin, smax, used), mode)
     check_finite(J)
     factor = weight_factor(wmode, wdiag, wfull, weights_name)

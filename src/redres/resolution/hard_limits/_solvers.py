@@ -15,6 +15,8 @@ from ...errors import InvalidParameterError, MissingDependencyError
 _EXTRA = "pip install 'redres[qp]'"
 _DAQP_ARGS = ("H", "f", "A", "bupper", "blower", "sense")
 _EQUALITY = 5  # DAQP's sense flag of an equality row
+#: Relative tolerance of "the task is met" (``StepResult.feasible``; .base.task_met).
+MET_TOLERANCE = 1e-9
 
 
 def backend(solver: str) -> Any:
@@ -142,6 +144,39 @@ class QPSolver:
         return solution.x if solution.found else None
 
 
+def orthonormal_rows(A: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray] | None:
+    """The equality ``A x = b`` rewritten with orthonormal rows, ``Vᵀ x = S⁻¹ Uᵀ b`` from the
+    SVD ``A = U S Vᵀ`` (the same solution set when ``A`` has full row rank): near a
+    singularity the rows of ``A`` are nearly dependent and an active-set solver may call
+    a feasible equality infeasible, while ``Vᵀ`` is perfectly conditioned (issue 18,
+    item 3). Rows with ``σ = 0`` are dropped when ``uᵀb`` is at rounding level (the
+    equation is ``0 = 0``); None when such a row is not (no solution)."""
+    U, s, Vt = np.linalg.svd(A, full_matrices=False)
+    ub = U.T @ b
+    zero = s <= np.finfo(float).tiny
+    if np.any(np.abs(ub[zero]) > 1e-12 * max(float(np.abs(ub).max()), np.finfo(float).tiny)):
+        return None
+    keep = ~zero
+    return np.ascontiguousarray(Vt[keep]), ub[keep] / s[keep]
+
+
+def solve_exact(
+    qp: QPSolver, qd0: FloatArray, A: FloatArray, b: FloatArray, lo: FloatArray, hi: FloatArray
+) -> FloatArray | None:
+    """``argmin ½‖x − q̇_0‖²  s.t.  A x = b, lo ≤ x ≤ hi`` with :func:`orthonormal_rows`'
+    constraints (the retry of an exact QP the backend called infeasible)."""
+    rows = orthonormal_rows(A, b)
+    if rows is None or not np.all(np.isfinite(rows[1])):
+        return None
+    V, b = rows
+    x = qp.solve(np.eye(lo.shape[0]), -qd0, V, b, lo, hi)
+    if x is not None:  # the backend meets Vᵀx = b to its tolerance: one exact projection
+        refined = np.minimum(np.maximum(x + V.T @ (b - V @ x), lo), hi)
+        if np.linalg.norm(V @ refined - b) <= np.linalg.norm(V @ x - b):
+            x = refined
+    return x
+
+
 def solve_levels(
     qp: QPSolver,
     rows: list[FloatArray],
@@ -164,6 +199,8 @@ def solve_levels(
         A = Jk if not held_rows else np.vstack([*held_rows, Jk])
         b = xk if not held else np.concatenate([*held, xk])
         x = qp.solve(eye, -qd0, A, b, lo, hi)
+        if x is None:
+            x = solve_exact(qp, qd0, A, b, lo, hi)
         ok = x is not None
         if x is None:
             JW = Jk * task_weights[:, None] if k == 0 and task_weights is not None else Jk
@@ -176,8 +213,9 @@ def solve_levels(
         if x is not None:
             qd = np.minimum(np.maximum(x, lo), hi)
         achieved = Jk @ qd
-        exact.append(ok)
-        residuals.append(float(np.linalg.norm(achieved - xk)))
+        residual = float(np.linalg.norm(achieved - xk))
+        exact.append(ok or residual <= MET_TOLERANCE * float(np.linalg.norm(xk)))  # met
+        residuals.append(residual)
         held_rows.append(Jk)
         held.append(achieved)
     return qd, exact, residuals

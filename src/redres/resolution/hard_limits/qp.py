@@ -58,8 +58,10 @@ from ...tasks import Task, stack
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._compiled import kernels, pending
-from ._solvers import QPSolver, WarmQP, sense, solve_levels
+from ._solvers import MET_TOLERANCE, QPSolver, WarmQP, sense, solve_exact, solve_levels
 from .base import STEP_NAMES, BoxScheme, Workspace, box_details
+
+_MET2 = MET_TOLERANCE * MET_TOLERANCE
 
 if TYPE_CHECKING:
     from ...robot import Robot
@@ -188,7 +190,7 @@ class QPScheme(BoxScheme):
         )  # fmt: skip
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
-        finished = None
+        finished, single = None, False
         if self.levels or not (inside or self._qp.daqp):  # other backends: no warm start
             rows, targets = self._stack(robot, q, J, xd)
             qd, exact, residuals = solve_levels(self._qp, rows, targets, (out[2], out[3]), qd0,
@@ -198,10 +200,13 @@ class QPScheme(BoxScheme):
             exact = [True]
         else:
             met, finished = self._single(J, xd, qd0, out, full)
+            single = finished is None  # not proved infeasible (Farkas' lemma)
             exact = [met]
         if finished is None:
             finished = self._finish(J, xd, out, ws.M, ws.wm, full, False)
         active, residual = finished
+        if single and residual * residual > _MET2 * (xd @ xd):
+            exact[0], active, residual = self._refine(J, xd, qd0, out, full, active, residual)
         levels = residuals if self.levels else [residual]
         return self._result(
             out, codes, Jc, all(exact), active,
@@ -230,6 +235,35 @@ class QPScheme(BoxScheme):
         x = self._least_violating(out)
         out[0] = x if x is not None else np.clip(qd0, out[2], out[3])
         return False, None
+
+    def _refine(
+        self,
+        J: FloatArray,
+        xd: FloatArray,
+        qd0: FloatArray,
+        out: FloatArray,
+        full: bool,
+        active: int,
+        residual: float,
+    ) -> tuple[bool, int, float]:
+        """A single-level step whose ``‖J q̇ − ẋ‖`` exceeds ``1e-9 ‖ẋ‖`` (near a
+        singularity the backend's equality rows are nearly dependent): the exact QP again
+        on orthonormal rows (:func:`._solvers.solve_exact`), kept if closer to the task.
+        Returns ``(task met, #active, residual)``; ``feasible`` means the task is met."""
+        kept = out[0].copy()
+        x = solve_exact(self._qp, qd0, J, xd, out[2], out[3])
+        if x is not None:
+            out[0] = x
+            ws = self._ws
+            again = self._finish(J, xd, out, ws.M, ws.wm, full, False)
+            if again[1] < residual:
+                active, residual = again
+            else:
+                out[0] = kept
+                active, residual = self._finish(J, xd, out, ws.M, ws.wm, full, False)
+        met = bool(residual * residual <= _MET2 * (xd @ xd))
+        self._infeasible_before = self._infeasible_before and not met
+        return met, active, residual
 
     def _least_violating(self, out: FloatArray) -> FloatArray | None:
         """The least-violating QP on the normal equations ``P``, ``c`` that ``qp_begin``

@@ -45,6 +45,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import numpy as np
 from numpy.typing import ArrayLike
 
 from ... import _jit
@@ -52,9 +53,10 @@ from ..._validate import FloatArray, as_scalar, checked_keywords
 from ...linalg._backend import raise_status
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective
-from ._codes import METHODS, NEAREST
+from ._codes import FEASIBLE, LP_SCALED, METHODS, NEAREST
 from ._compiled import kernels, pending
-from .base import STEP_NAMES, BoxScheme, Workspace, box_details
+from ._solvers import orthonormal_rows
+from .base import STEP_NAMES, BoxScheme, Workspace, box_details, task_met
 
 if TYPE_CHECKING:
     from ...robot import Robot
@@ -130,6 +132,26 @@ class SNSScheme(BoxScheme):
         self._kernel = _jit.entry_point(kernels().sns_step, args)
         self._ws, self._robot, self._pending = ws, robot, pending("_kernels")
 
+    @staticmethod
+    def _orthonormal_lp(
+        J: FloatArray, xd: FloatArray, out: FloatArray, method: int, s: float
+    ) -> tuple[int, float]:
+        """Near a singularity the simplex on ``J``'s nearly dependent rows may miss the
+        largest scale: the LP again on the orthonormal rows ``Vᵀ q̇ = s S⁻¹Uᵀ ẋ``
+        (:func:`._solvers.orthonormal_rows`), taken when its scale is larger (writes
+        ``out[0]``). Returns ``(method, scale)``."""
+        rows = orthonormal_rows(J, xd)
+        if rows is None or not np.all(np.isfinite(rows[1])) or rows[0].shape[0] == 0:
+            return method, s
+        lo, hi = out[2], out[3]
+        qd = np.empty(J.shape[1])
+        found, scale = kernels("_lp_kernels").largest_scale(rows[0], rows[1], lo, hi, qd,
+                                                            False, 0.0)  # fmt: skip
+        if found == LP_SCALED and scale > s:
+            out[0] = np.minimum(np.maximum(qd, lo), hi)
+            return LP_SCALED, float(scale)
+        return method, s
+
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         ws, qd0, prev = self._inputs(robot, q, J, xd)
         out, codes, Jc = ws.outputs()
@@ -140,7 +162,15 @@ class SNSScheme(BoxScheme):
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
         s = 0.0 if method == NEAREST else s
+        met = method == FEASIBLE  # Algorithm 1 met the task (refined solves)
+        if not met:  # the flag means "task met" (task_met), whatever the LP reported
+            met = task_met(J, xd, out[0])
+            if not met:
+                s = 0.0 if s == 1.0 else s  # a scale the answer does not achieve
+                method, s = self._orthonormal_lp(J, xd, out, method, s)
+                met = task_met(J, xd, out[0])
+            s = 1.0 if met else min(s, 1.0 - 1e-16)
         return self._result(
-            out, codes, Jc, s == 1.0, active,
+            out, codes, Jc, met, active,
             lambda: SNSDetails(s, METHODS[method], *box_details(out, codes, relaxed)),
         )  # fmt: skip
