@@ -53,13 +53,19 @@ from ..._validate import FloatArray, as_scalar, checked_keywords
 from ...linalg._backend import raise_status
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective
-from ._codes import FEASIBLE, LP_SCALED, METHODS, NEAREST
+from ._codes import FEASIBLE, LP_SCALED, METHODS, NEAREST, SCALED
 from ._compiled import kernels, pending
 from ._solvers import orthonormal_rows
 from .base import STEP_NAMES, BoxScheme, Workspace, box_details, task_met
 
 if TYPE_CHECKING:
     from ...robot import Robot
+
+
+def _ill_conditioned(J: FloatArray) -> bool:
+    """``σ_min < 1e-6 σ_max``: where the simplex on ``J``'s rows may miss (issue 18)."""
+    sv = np.linalg.svd(J, compute_uv=False)
+    return bool(sv[-1] < 1e-6 * sv[0])
 
 
 @dataclass(frozen=True)
@@ -163,9 +169,11 @@ class SNSScheme(BoxScheme):
             raise_status(status, STEP_NAMES)
         s = 0.0 if method == NEAREST else s
         met = method == FEASIBLE  # Algorithm 1 met the task (refined solves)
-        if not met:  # the flag means "task met" (task_met), whatever the LP reported
+        if (
+            method != FEASIBLE and method != SCALED
+        ):  # the flag means "task met" (task_met), whatever the LP said
             met = task_met(J, xd, out[0])
-            if not met:
+            if not met and (method != LP_SCALED or s == 1.0) and _ill_conditioned(J):
                 s = 0.0 if s == 1.0 else s  # a scale the answer does not achieve
                 method, s = self._orthonormal_lp(J, xd, out, method, s)
                 met = task_met(J, xd, out[0])
