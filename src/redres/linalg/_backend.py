@@ -378,6 +378,14 @@ class Factored(NamedTuple):
 SMALL_DAMPING = 1e-150
 
 
+def _rescaled(*args: Any) -> Factored | None:
+    """:func:`redres.linalg.damping.rescaled_inverse` (a rare case, imported on use: that
+    module imports this one)."""
+    from .damping import rescaled_inverse
+
+    return rescaled_inverse(*args)
+
+
 def invert(
     J: FloatArray,
     *,
@@ -396,12 +404,9 @@ def invert(
     """
     m, n = J.shape
     mode, lam, lam_max, eps = parse_damping(damping)
-    if mode != codes.EXACT and min(lam if mode == codes.FIXED else min(lam_max, eps),
-                                   math.inf) < SMALL_DAMPING:  # fmt: skip
-        from .damping import rescaled_inverse  # a rare case; damping imports this module
-
-        rescaled = rescaled_inverse(J, weights, weights_name, damping, rcond, want_pinv,
-                                    want_projector)  # fmt: skip
+    rescale = (J, weights, weights_name, damping, rcond, want_pinv, want_projector)
+    if mode != codes.EXACT and (lam if mode == codes.FIXED else min(lam_max, eps)) < SMALL_DAMPING:
+        rescaled = _rescaled(*rescale)
         if rescaled is not None:
             return rescaled
     kmode = codes.LAZY if lazy and mode == codes.FIXED else mode
@@ -420,10 +425,7 @@ def invert(
         if mode != codes.EXACT and smax < SMALL_DAMPING:
             # the kernels square the scale of so tiny a J: subnormal, digits lost (below
             # TINY_SCALE they count it as zero, smax = 0, while J^T / λ² need not be)
-            from .damping import rescaled_inverse
-
-            rescaled = rescaled_inverse(J, weights, weights_name, damping, rcond, want_pinv,
-                                        want_projector)  # fmt: skip
+            rescaled = _rescaled(*rescale)
             if rescaled is not None:
                 return rescaled
         return Factored(Jp, N, Stats(rank, smin, smax, used), mode)

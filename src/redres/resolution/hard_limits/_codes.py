@@ -21,3 +21,9 @@ METHODS: tuple[str, ...] = ("sns", "sns-scaled", "lp", "nearest", "failed")
 
 #: Outcome of the bounded-variable simplex.
 OPTIMAL, ITERATION_LIMIT, SINGULAR_BASIS = 0, 1, 2
+
+#: "The task is met" (``StepResult.feasible`` of SNS and the QP):
+#: ``‖J q̇ − ẋ‖ ≤ MET_TOLERANCE ‖ẋ‖ + MET_ROUNDING ‖J‖_F ‖q̇‖`` (the second term is the
+#: rounding of ``J q̇`` itself).
+MET_TOLERANCE = 1e-9
+MET_ROUNDING = 1e-15

@@ -23,6 +23,8 @@ from ._codes import (
     FAILED,
     FEASIBLE,
     LP_SCALED,
+    MET_ROUNDING,
+    MET_TOLERANCE,
     NONE,
     POSITION,
     RELAXED_ACCELERATION,
@@ -37,6 +39,10 @@ _INF = math.inf
 # relative, and float steps of k ± 1 stop being exact (2^53): no correction loop there.
 _K_EXACT = 2.0**50
 _RANK_TOL = 1e-12  # Cholesky pivot / largest Gram diagonal below which J W is rank-deficient
+# Cholesky pivot / largest Gram diagonal below which J may be ill-conditioned, sigma_min <
+# 1e-6 sigma_max: every pivot is >= sigma_min^2 (interlacing), about m sigma_min^2 for a
+# generic near-null direction; 1e-8 leaves a factor 100 of margin.
+_ILL_TOL = 1e-8
 
 # --------------------------------------------------------------------------- the box
 
@@ -365,11 +371,48 @@ def epilogue(J, xd, out, M, wm, full, factored):  # type: ignore[no-untyped-def]
 def sns_step(q, prev, dt, lim, J, xd, qd0, use_qd0, tol, out, codes, Jc, M, wm, wn, wb):  # type: ignore[no-untyped-def]
     """Box and SNS step in one call. ``out`` rows: q̇, null term, lower, upper; ``codes``
     rows: lower kind, upper kind, relaxed; ``Jc``: a copy of ``J``. Returns
-    ``(status, method, scale, #relaxed, #active)``."""
+    ``(status, method, scale, #relaxed, #active, met, ill, full)``: ``met``, the task is met
+    (:data:`._codes.MET_TOLERANCE`); ``ill``, it is not, after the LP, and ``J`` may be
+    ill-conditioned (:func:`_well_conditioned` fails), where the LP on ``J``'s nearly
+    dependent rows may have missed it; ``full``, ``J`` has full row rank (the prologue's
+    factor, for :func:`epilogue` after such a retry)."""
     status, relaxed, full = prologue(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M)
     if status != OK:
-        return status, FAILED, 0.0, 0, 0
+        return status, FAILED, 0.0, 0, 0, False, False, False
     method, s, factored = _sns_step(J, xd, out[2], out[3], qd0, use_qd0, tol, out[0], M[0],
                                     M[1], wm, wn, wb, full)  # fmt: skip
-    active, _ = epilogue(J, xd, out, M, wm, full, factored)
-    return OK, method, s, relaxed, active
+    active, residual = epilogue(J, xd, out, M, wm, full, factored)
+    met, ill = method == FEASIBLE, False  # Algorithm 1 met the task (refined solves)
+    if method != FEASIBLE and method != SCALED:  # the LP's answer: is the task met?
+        met = _task_met(J, xd, out[0], residual)
+        ill = not met and not (full and _well_conditioned(M[0], M[1], J.shape[0]))
+    return OK, method, s, relaxed, active, met, ill, full
+
+
+@kernel
+def _task_met(J, xd, qd, residual):  # type: ignore[no-untyped-def]
+    """``‖J q̇ − ẋ‖ ≤ MET_TOLERANCE ‖ẋ‖ + MET_ROUNDING ‖J‖_F ‖q̇‖`` (``residual`` given)."""
+    m, n = J.shape
+    x2, j2, q2 = 0.0, 0.0, 0.0
+    for i in range(m):
+        x2 += xd[i] * xd[i]
+        for k in range(n):
+            j2 += J[i, k] * J[i, k]
+    for k in range(n):
+        q2 += qd[k] * qd[k]
+    return residual <= MET_TOLERANCE * math.sqrt(x2) + MET_ROUNDING * math.sqrt(j2 * q2)
+
+
+@kernel
+def _well_conditioned(G, L, m):  # type: ignore[no-untyped-def]
+    """Every Cholesky pivot of ``G = J Jᵀ = L Lᵀ`` above ``_ILL_TOL`` times ``G``'s largest
+    diagonal. A screen for ``σ_min < 1e-6 σ_max``, not a bound: a pivot is never below
+    ``σ_min²``, and the last one is about ``m σ_min²`` when the near-null direction is
+    generic in ``J``'s rows (as at a robot's singularities), but a matrix built against the
+    elimination order can hide it."""
+    top = 0.0
+    low = math.inf
+    for i in range(m):
+        top = max(top, G[i, i])
+        low = min(low, L[i, i] * L[i, i])
+    return low > _ILL_TOL * top

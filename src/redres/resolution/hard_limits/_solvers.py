@@ -11,12 +11,11 @@ import numpy as np
 
 from ..._validate import FloatArray
 from ...errors import InvalidParameterError, MissingDependencyError
+from ._codes import MET_TOLERANCE
 
 _EXTRA = "pip install 'redres[qp]'"
 _DAQP_ARGS = ("H", "f", "A", "bupper", "blower", "sense")
 _EQUALITY = 5  # DAQP's sense flag of an equality row
-#: Relative tolerance of "the task is met" (``StepResult.feasible``; .base.task_met).
-MET_TOLERANCE = 1e-9
 
 
 def backend(solver: str) -> Any:

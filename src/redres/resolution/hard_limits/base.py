@@ -22,7 +22,7 @@ from ...linalg import RCOND, InverseInfo
 from ...linalg._backend import invert
 from ..base import Scheme, StepResult
 from ..gradient_projection import WeightedObjective, total_gradient, weighted_objectives
-from ._solvers import MET_TOLERANCE
+from ._codes import MET_ROUNDING, MET_TOLERANCE
 from .box import Binding, JointLimits, binding_bounds
 
 if TYPE_CHECKING:
@@ -188,12 +188,12 @@ class BoxScheme(Scheme):
 
 
 def task_met(J: FloatArray, xd: FloatArray, qd: FloatArray) -> bool:
-    """Whether ``q̇`` meets the task: ``‖J q̇ − ẋ‖ ≤ 1e-9 ‖ẋ‖ + 1e-15 ‖J‖_F ‖q̇‖`` (the second
-    term is rounding of ``J q̇`` itself). The meaning of ``StepResult.feasible`` for SNS and
-    QP alike, checked whenever the algorithm itself did not conclude so."""
+    """Whether ``q̇`` meets the task (:data:`._codes.MET_TOLERANCE`; the kernels'
+    ``_task_met``): the meaning of ``StepResult.feasible`` for SNS and QP alike, checked
+    whenever the algorithm itself did not conclude so."""
     residual = float(np.linalg.norm(J @ qd - xd))
     size = float(np.linalg.norm(J)) * float(np.linalg.norm(qd))
-    return residual <= MET_TOLERANCE * float(np.linalg.norm(xd)) + 1e-15 * size
+    return residual <= MET_TOLERANCE * float(np.linalg.norm(xd)) + MET_ROUNDING * size
 
 
 def box_details(

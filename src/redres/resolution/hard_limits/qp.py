@@ -57,8 +57,9 @@ from ...linalg._backend import raise_status
 from ...tasks import Task, stack
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective
+from ._codes import MET_TOLERANCE
 from ._compiled import kernels, pending
-from ._solvers import MET_TOLERANCE, QPSolver, WarmQP, sense, solve_exact, solve_levels
+from ._solvers import QPSolver, WarmQP, sense, solve_exact, solve_levels
 from .base import STEP_NAMES, BoxScheme, Workspace, box_details
 
 _MET2 = MET_TOLERANCE * MET_TOLERANCE
@@ -220,20 +221,24 @@ class QPScheme(BoxScheme):
         ``out[0]``; after an infeasible step, the latter first: module docstring). Returns
         whether the task is met exactly, and ``(#active, residual)`` when the step is
         already finished (else None: the caller finishes it)."""
-        if self._infeasible_before:
-            x = self._least_violating(out)
-            if x is not None:
-                ws = self._ws
-                proved, active, residual = self._end(J, xd, x, out, ws.M, ws.wm, full)
-                if proved:
-                    return False, (active, residual)
+        ws, tried = self._ws, self._infeasible_before
+        lv = self._least_violating(out) if tried else None
+        if lv is not None:
+            proved, active, residual = self._end(J, xd, lv, out, ws.M, ws.wm, full)
+            if proved:
+                return False, (active, residual)
         x, flag = self._exact_qp.solve(None, self._f, J, self._bu, self._bl)
         self._infeasible_before = flag <= 0
         if flag > 0:
             out[0] = x
             return True, None
-        x = self._least_violating(out)
-        out[0] = x if x is not None else np.clip(qd0, out[2], out[3])
+        if not tried:  # proved infeasible (Farkas): no retry on orthonormal rows needed
+            lv = self._least_violating(out)
+            if lv is not None:
+                proved, active, residual = self._end(J, xd, lv, out, ws.M, ws.wm, full)
+                if proved:
+                    return False, (active, residual)
+        out[0] = lv if lv is not None else np.clip(qd0, out[2], out[3])
         return False, None
 
     def _refine(

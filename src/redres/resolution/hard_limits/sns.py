@@ -62,12 +62,6 @@ if TYPE_CHECKING:
     from ...robot import Robot
 
 
-def _ill_conditioned(J: FloatArray) -> bool:
-    """``σ_min < 1e-6 σ_max``: where the simplex on ``J``'s rows may miss (issue 18)."""
-    sv = np.linalg.svd(J, compute_uv=False)
-    return bool(sv[-1] < 1e-6 * sv[0])
-
-
 @dataclass(frozen=True)
 class SNSDetails:
     """What an SNS step adds to its :class:`~redres.resolution.StepResult`.
@@ -136,6 +130,8 @@ class SNSScheme(BoxScheme):
         args = (q, ws.zero, self.dt, ws.lim, J, xd, ws.zero, False, self.tolerance,
                 *ws.outputs(), ws.M, ws.wm, ws.wn, ws.wb)  # fmt: skip
         self._kernel = _jit.entry_point(kernels().sns_step, args)
+        self._finish = _jit.entry_point(kernels().epilogue, (J, xd, ws.outputs()[0], ws.M,
+                                                             ws.wm, False, False))  # fmt: skip
         self._ws, self._robot, self._pending = ws, robot, pending("_kernels")
 
     @staticmethod
@@ -161,22 +157,19 @@ class SNSScheme(BoxScheme):
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         ws, qd0, prev = self._inputs(robot, q, J, xd)
         out, codes, Jc = ws.outputs()
-        status, method, s, relaxed, active = self._kernel(
+        status, method, s, relaxed, active, met, ill, full = self._kernel(
             q, prev, self.dt, ws.lim, J, xd, qd0, bool(self.objectives), self.tolerance,
             out, codes, Jc, ws.M, ws.wm, ws.wn, ws.wb,
         )  # fmt: skip
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
         s = 0.0 if method == NEAREST else s
-        met = method == FEASIBLE  # Algorithm 1 met the task (refined solves)
-        if (
-            method != FEASIBLE and method != SCALED
-        ):  # the flag means "task met" (task_met), whatever the LP said
+        if ill and (method != LP_SCALED or s == 1.0):  # the LP may have missed the task
+            s = 0.0 if s == 1.0 else s  # a scale the answer does not achieve
+            method, s = self._orthonormal_lp(J, xd, out, method, s)
+            active, _ = self._finish(J, xd, out, ws.M, ws.wm, full, False)  # the new q̇'s
             met = task_met(J, xd, out[0])
-            if not met and (method != LP_SCALED or s == 1.0) and _ill_conditioned(J):
-                s = 0.0 if s == 1.0 else s  # a scale the answer does not achieve
-                method, s = self._orthonormal_lp(J, xd, out, method, s)
-                met = task_met(J, xd, out[0])
+        if method != FEASIBLE and method != SCALED:  # the flag and scale mean "task met"
             s = 1.0 if met else min(s, 1.0 - 1e-16)
         return self._result(
             out, codes, Jc, met, active,
