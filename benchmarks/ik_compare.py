@@ -283,12 +283,15 @@ def run_arm(
 ) -> list[dict[str, Any]]:
     robot = rr.models.load(name)
     frame = peers.TIP_FRAME[name]
-    peers.check_same_robot(name, tmp)
     rng = np.random.default_rng(seed)
     targets = [robot.fk(robot.random_configuration(rng), frame) for _ in range(count)]
     rows = []
-    for label, attempt in contenders(name, robot, tmp, limit, wanted).items():
-        attempt(targets[0], robot.neutral(), limit)  # warm-up: imports, compiled kernels
+    with peers.native_output_to_stderr():  # peers' parsers print warnings (TRAC-IK's URDF)
+        peers.check_same_robot(name, tmp)
+        chosen = contenders(name, robot, tmp, limit, wanted)
+        for attempt in chosen.values():
+            attempt(targets[0], robot.neutral(), limit)  # warm-up: imports, compiled kernels
+    for label, attempt in chosen.items():
         ok, times, attempts = 0, [], []
         for k, T in enumerate(tqdm(targets, desc=f"IK {name} {label}", leave=False)):
             success, seconds, tries = solve(attempt, robot, frame, T,

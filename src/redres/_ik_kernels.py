@@ -46,6 +46,8 @@ BUDGET = 2
 #: Layout of ``options``.
 TOL_POSITION, TOL_ORIENTATION, MAX_STEP, K_LIMITS, MAX_DAMPING, THRESHOLD = range(6)
 PREFERENCE_TOL, MAX_ITERATIONS, PATIENCE, N_OPTIONS = 6, 7, 8, 9
+#: Scratch of the Cholesky step: two 6x6 matrices and two 6-vectors.
+SCRATCH = 84
 #: Layout of ``state`` (kept between calls for one target).
 BEST_SCORE, BEST_POSITION, BEST_ORIENTATION, ERR_POSITION, ERR_ORIENTATION = range(5)
 UNSETTLED, N_STATE = 5, 6
@@ -54,6 +56,8 @@ _ERROR_SCALE = 0.1  # m or rad: damping and the joint-limit term fade out below 
 _PREFERENCE_GAIN = 0.5  # fraction of the distance to the preference covered per iteration
 _PREFERENCE_STEP = 0.1  # rad: largest joint motion per iteration toward the preference
 _STICKY_ERROR = 1e-3  # m + rad: above this error in phase 2, clamped joints are released
+_FLAT_ITERATIONS = 3  # an attempt whose error has not fallen by _FLAT_GAIN in this many
+_FLAT_GAIN = 0.01  # iterations has stalled (stuck at a local minimum, often at limits)
 _RCOND = 1e-10  # redres.linalg.RCOND: rank tolerance of the exact step
 _MASK = 0xFFFFFFFF
 
@@ -104,13 +108,14 @@ def _cap(dq, largest):  # type: ignore[no-untyped-def]
 
 @kernel
 def _direction(  # type: ignore[no-untyped-def]
-    J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k, lam, threshold, grad, task, pref
+    J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k, lam, threshold, grad, task, pref,
+    scratch,
 ):
     """``task`` (and, in phase 2, ``pref``) <- the two parts of the step with the
     ``blocked`` joints' columns removed; returns ``σ_min`` of the (blocked) Jacobian, or
     ``threshold`` when it is at least that (the damping law needs no more).
     Phase 1: the joint-limit term is in ``task``; phase 2: ``pref`` is the null-space
-    step toward ``q_pref``."""
+    step toward ``q_pref``. ``scratch``: :data:`SCRATCH` values."""
     n = q.shape[0]
     for j in range(n):
         b = blocked[j]
@@ -129,7 +134,7 @@ def _direction(  # type: ignore[no-untyped-def]
             free += 1
     if free < rows and _dual_step(J, e, rows, blocked, free, grad, k, lam, task, null):
         sigma = 0.0  # as the reference: σ_rows of J with blocked columns, rank < rows
-    elif not _primal_step(Jb, e, rows, grad, k, lam, threshold, task, null):
+    elif not _primal_step(Jb, e, rows, grad, k, lam, threshold, task, null, scratch):
         sigma = _rate_step(Jb[:rows], e[:rows], grad, task, null, k, lam, _RCOND)[3]
     else:
         sigma = threshold  # σ_min >= threshold: all the next damping law needs
@@ -140,21 +145,22 @@ def _direction(  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _primal_step(J, e, rows, grad, k, lam, threshold, out, null):  # type: ignore[no-untyped-def]
+def _primal_step(J, e, rows, grad, k, lam, threshold, out, null, scratch):  # type: ignore[no-untyped-def]
     """``out <- Jᵀ (J Jᵀ + λ² I)⁻¹ (e + k J grad) − k grad`` (``null`` <- its second
     part, if of length n) when ``σ_min(J) >= threshold``, found by the Cholesky
     factorisation of ``J Jᵀ − threshold² I`` succeeding; else False. There
     :func:`redres.linalg._kernels.step` takes the same Cholesky path (``σ_min/σ_max``
     is far above its 1e-3), so this is its formula without the eigenvalues it computes
     for ``σ_min`` (the reference's damping law gives 0 for any ``σ_min >= threshold``).
+    ``scratch``: :data:`SCRATCH` values (no allocation per iteration).
     """
     n = J.shape[1]
     if not threshold > 0.0:
         return False
-    A = np.empty((rows, rows))
-    L = np.empty((rows, rows))
-    r = np.empty(rows)
-    rt = np.empty(rows)
+    A = scratch[: rows * rows].reshape((rows, rows))
+    L = scratch[36 : 36 + rows * rows].reshape((rows, rows))
+    r = scratch[72 : 72 + rows]
+    rt = scratch[78 : 78 + rows]
     _gram(J, rows, A)
     if not _cholesky(A, L, rows, -threshold * threshold):
         return False
@@ -329,7 +335,7 @@ def solve(  # type: ignore[no-untyped-def]
     settled.
     """
     n = q.shape[0]
-    work = np.empty(18 * n + 22)
+    work = np.empty(18 * n + 22 + SCRATCH)
     flags = np.zeros(2 * n, dtype=np.bool_)
     T, e, J = work[:16].reshape((4, 4)), work[16:22], work[22 : 22 + 6 * n].reshape((6, n))
     iterations = 0
@@ -365,6 +371,7 @@ def _attempt(  # type: ignore[no-untyped-def]
     T, e = work[:16].reshape((4, 4)), work[16:22]
     J, Jb = work[22 : 22 + 6 * n].reshape((6, n)), work[22 + 6 * n : 22 + 12 * n].reshape((6, n))
     vectors = work[22 + 12 * n : 22 + 18 * n].reshape((6, n))
+    scratch = work[22 + 18 * n : 22 + 18 * n + SCRATCH]
     grad, task, pref, cand, last, qn = (vectors[0], vectors[1], vectors[2], vectors[3],
                                         vectors[4], vectors[5])  # fmt: skip
     blocked, sticky = flags[:n], flags[n:]
@@ -380,6 +387,7 @@ def _attempt(  # type: ignore[no-untyped-def]
     at_limit = True
     moved = math.inf
     check_error, check_at = math.inf, 0
+    flat_error, flat_at = math.inf, 0
     scale = 1.0
     it, limit = 0, max_iterations
     for j in range(n):
@@ -402,6 +410,10 @@ def _attempt(  # type: ignore[no-untyped-def]
                 for j in range(n):
                     sticky[j] = False
         elif not has_cand:
+            if ep + eo < (1.0 - _FLAT_GAIN) * flat_error:
+                flat_error, flat_at = ep + eo, it
+            elif it - flat_at >= _FLAT_ITERATIONS:
+                return STALLED, it, False
             if it - check_at >= patience:
                 if ep + eo > 0.5 * check_error:
                     return STALLED, it, False
@@ -428,12 +440,13 @@ def _attempt(  # type: ignore[no-untyped-def]
                 recompute = recompute or sticky[j]
         if not recompute:
             sigma = _direction(J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k,
-                               lam, threshold, grad, task, pref)  # fmt: skip
+                               lam, threshold, grad, task, pref, scratch)  # fmt: skip
         if at_limit:
             for _ in range(3):
                 if recompute:
                     sigma = _direction(J, Jb, e, rows, q, blocked, prefer, q_pref, mid,
-                                       weight, k, lam, threshold, grad, task, pref)  # fmt: skip
+                                       weight, k, lam, threshold, grad, task, pref,
+                                       scratch)  # fmt: skip
                 if not _blocked_more(q, lo, hi, task, pref, prefer, blocked):
                     break
                 recompute = True

@@ -84,7 +84,7 @@ from . import _jit
 from ._ik_reference import ReferenceSolver
 from ._validate import FloatArray, as_scalar, as_vector
 from .errors import InvalidParameterError
-from .ik_types import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target
+from .ik_types import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target, sampling_box
 from .linalg import AdaptiveDamping, rate_step
 
 if TYPE_CHECKING:
@@ -328,11 +328,10 @@ def _limits(lo: FloatArray, hi: FloatArray) -> FloatArray:
     """``[lo, hi, sample_lo, sample_hi, mid, weight]`` (6, n), as the reference solver."""
     finite = np.isfinite(lo) & np.isfinite(hi)
     span = np.where(finite, hi - lo, 1.0)
+    sample_lo, sample_hi = sampling_box(lo, hi)
     return np.array(
         (
-            lo, hi, np.where(finite, lo, np.maximum(lo, -math.pi)),
-            np.where(finite, hi, np.minimum(hi, math.pi)),
-            np.where(finite, (lo + hi) / 2.0, 0.0),
+            lo, hi, sample_lo, sample_hi, np.where(finite, (lo + hi) / 2.0, 0.0),
             np.where(finite & (span > 0), 2.0 / (span * span), 0.0),
         ),
         dtype=np.float64,
