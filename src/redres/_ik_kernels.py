@@ -110,7 +110,7 @@ def _cap(dq, largest):  # type: ignore[no-untyped-def]
 def _direction(  # type: ignore[no-untyped-def]
     J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k, lam, threshold, grad, task, pref,
     scratch,
-):
+):  # fmt: skip
     """``task`` (and, in phase 2, ``pref``) <- the two parts of the step with the
     ``blocked`` joints' columns removed; returns ``σ_min`` of the (blocked) Jacobian, or
     ``threshold`` when it is at least that (the damping law needs no more).
