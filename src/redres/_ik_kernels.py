@@ -263,11 +263,14 @@ def solve_packed(links, axes, kinds, limits, problem, io, rows, has_pref, key, f
     weight``; ``problem`` is the target (16 values, row-major 4x4), the options
     (:data:`N_OPTIONS`) and, when ``has_pref``, ``q_pref`` (n); ``io`` is ``q`` (n),
     ``best_q`` (n) and ``state`` (:data:`N_STATE`). ``q`` is first clipped into the
-    limits. Returns ``(status, attempts, iterations)``, status -1 (nothing done) when the
-    target is not a finite homogeneous transform with a rotation block (the checks of
-    :func:`redres._validate.as_transform`).
+    limits. Returns ``(status, attempts, iterations)``, status -1 (nothing done) when
+    ``q`` holds NaN or infinity or the target is not a finite homogeneous transform with
+    a rotation block (the checks of :func:`redres._validate.as_transform`).
     """
     n = limits.shape[1]
+    for j in range(n):
+        if not math.isfinite(io[j]):
+            return -1, 0, 0
     target = problem[:16].reshape((4, 4))
     if not _is_pose(target):
         return -1, 0, 0

@@ -61,7 +61,7 @@ class ReferenceSolver:
         finite = np.isfinite(self.lo) & np.isfinite(self.hi)
         span = np.where(finite, self.hi - self.lo, 1.0)
         self.sample_lo, self.sample_hi = sampling_box(self.lo, self.hi)
-        self.mid = np.where(finite, (self.lo + self.hi) / 2.0, 0.0)
+        self.mid = (np.where(finite, self.lo, 0.0) + np.where(finite, self.hi, 0.0)) / 2.0
         self.limit_weight = np.where(finite & (span > 0), 2.0 / (span * span), 0.0)
         self.q_pref = q_pref
         self.arm_task = None

@@ -62,7 +62,8 @@ def sampling_box(lo: FloatArray, hi: FloatArray) -> tuple[FloatArray, FloatArray
     """Box of the random restarts: :data:`RESTART_SPAN` of each finite range about its
     middle, ``[max(lo, −π), min(hi, π)]`` where a limit is infinite."""
     finite = np.isfinite(lo) & np.isfinite(hi)
-    mid, half = (lo + hi) / 2.0, RESTART_SPAN * (hi - lo) / 2.0
+    a, b = np.where(finite, lo, 0.0), np.where(finite, hi, 0.0)
+    mid, half = (a + b) / 2.0, RESTART_SPAN * (b - a) / 2.0
     return (
         np.where(finite, mid - half, np.maximum(lo, -math.pi)),
         np.where(finite, mid + half, np.minimum(hi, math.pi)),
