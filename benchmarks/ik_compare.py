@@ -35,8 +35,9 @@ Times are per target, all attempts included, failures at their elapsed time.
 The default time limit is the TRAC-IK protocol's 5 ms per target (Beeson & Ames,
 "TRAC-IK", Humanoids 2015).
 
-Run: ``python benchmarks/ik_compare.py [--targets 1000] [--seed 7] [--limit 0.005]
-[--libraries redres KDL ...]`` (``--libraries``: substrings of the rows to run).
+Run: ``python benchmarks/ik_compare.py [--targets 1000 | --quick] [--seed 7] [--limit 0.005]
+[--libraries redres KDL ...]`` (``--libraries``: substrings of the rows to run; ``--quick``:
+100 targets).
 """
 
 from __future__ import annotations
@@ -310,12 +311,15 @@ def run_arm(
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--targets", type=int, default=1000)
+    parser.add_argument("--quick", action="store_true", help="100 targets (a smoke run)")
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--limit", type=float, default=0.005, help="time limit per target, s")
     parser.add_argument("--libraries", nargs="+", help="substrings of the rows to run")
     parser.add_argument("--arms", nargs="+", default=list(peers.ARMS))
     parser.add_argument("--json", type=Path, help="also write the figures to this file")
     args = parser.parse_args()
+    if args.quick:
+        args.targets = 100
     warnings.simplefilter("ignore")  # rtb's and ikpy's deprecation notices
     rr.warmup(["linalg", "chain", "ik"], quiet=True)  # compiled before timing, not behind
     rows: list[dict[str, Any]] = []

@@ -35,10 +35,12 @@ Each iteration, from the error ``e = [p_d − p; log(R_d Rᵀ)]`` (docs/conventi
   (up to three passes), so that the other joints do the work instead of the clip undoing
   part of a Newton step. The result is always within the limits.
 * An attempt that stops making progress (the error not halved over ``patience``
-  iterations) or uses ``max_iterations`` restarts from a configuration drawn uniformly
-  within the limits by the seeded generator, up to ``max_restarts`` times, all within
-  ``timeout_s``. The best configuration found is returned with ``converged=False`` when
-  the budget runs out (unreachable targets).
+  iterations, or not 1 % lower over the last 3: a local minimum, typically with joints
+  clamped at their limits) or uses ``max_iterations`` restarts from a configuration drawn
+  uniformly within the middle 70 % of each joint range (:data:`~redres.ik_types.RESTART_SPAN`;
+  starts near a limit end clamped there more often) by the seeded generator, up to
+  ``max_restarts`` times, all within ``timeout_s``. The best configuration found is
+  returned with ``converged=False`` when the budget runs out (unreachable targets).
 
 Speed: inputs are validated once. For a frame at the end of a serial chain
 (:class:`~redres.robot.SerialChain`) the iteration then runs compiled, one kernel call
