@@ -225,3 +225,31 @@ def test_a_flat_error_ends_the_attempt(
     result = call(robot, T, **kw)
     assert not result.converged and result.restarts == 5
     assert result.iterations < 6 * 100 // 2, result.iterations  # without it: 6 * 100
+
+
+@pytest.mark.parametrize("lam", [0.0, 0.02])
+@pytest.mark.parametrize("smallest", [0.2, 0.01, 1e-5])
+def test_primal_step_equals_the_rate_step(lam: float, smallest: float) -> None:
+    """The Cholesky step = redres.linalg.rate_step (task part, null-space part), and its
+    σ_min: ``threshold`` (0.05) when above it, the rate step's below; −1 (the caller takes
+    the rate step) where that one takes its SVD (σ_min/σ_max < 1e-3)."""
+    module = _jit.compiled("redres._ik_kernels")
+    rng = np.random.default_rng(int(1 / smallest))
+    for _ in range(10):
+        U, _r = np.linalg.qr(rng.normal(size=(6, 6)))
+        V, _r = np.linalg.qr(rng.normal(size=(7, 7)))
+        s = np.geomspace(2.0, smallest, 6)
+        J = U @ np.diag(s) @ V[:6]
+        e, grad = rng.normal(size=6), rng.normal(size=7)
+        out, null, scratch = np.empty(7), np.empty(7), np.empty(module.SCRATCH)
+        sigma = module._primal_step(J, e, 6, grad, 0.3, lam, 0.05, out, null, scratch)
+        if smallest < 2e-3:
+            assert sigma == -1.0
+            continue
+        ref = rr.linalg.rate_step(J, e, grad, k_null=0.3, damping=lam, return_null=True)
+        assert abs(ref.info.sigma_min - smallest) < 1e-9  # the Jacobian as built
+        expected = 0.05 if smallest > 0.05 else ref.info.sigma_min
+        assert abs(sigma - expected) < 1e-12
+        scale = 1.0 + np.abs(ref.qd).max()
+        assert np.abs(out - ref.qd).max() < 1e-9 * scale
+        assert np.abs(null - ref.null_term).max() < 1e-9 * scale
