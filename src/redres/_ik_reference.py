@@ -33,8 +33,9 @@ _ERROR_SCALE = 0.1  # m or rad: damping and the joint-limit term fade out below 
 _PREFERENCE_GAIN = 0.5  # fraction of the distance to the preference covered per iteration
 _PREFERENCE_STEP = 0.1  # rad: largest joint motion per iteration toward the preference
 _STICKY_ERROR = 1e-3  # m + rad: above this error in phase 2, clamped joints are released
-_FLAT_ITERATIONS = 3  # an attempt whose error has not fallen by _FLAT_GAIN in this many
-_FLAT_GAIN = 0.01  # iterations has stalled (stuck at a local minimum, often at limits)
+# An attempt whose error has not fallen by _FLAT_GAIN in _FLAT_ITERATIONS iterations has
+# stalled (stuck at a local minimum, often at limits).
+_FLAT_ITERATIONS, _FLAT_GAIN = 3, 0.01
 
 _CONVERGED, _STALLED, _BUDGET, _TIMEOUT = range(4)
 #: ``(task part, preference part)`` of a step; :meth:`ReferenceSolver.direction` at one ``q``.
