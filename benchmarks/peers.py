@@ -7,8 +7,12 @@ through the system site-packages.
 
 from __future__ import annotations
 
+import ctypes
+import os
 import re
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +28,26 @@ SYSTEM_SITE = "/usr/lib/python3/dist-packages"
 
 def note(message: str) -> None:
     print(f"  note: {message}", file=sys.stderr)
+
+
+@contextmanager
+def native_output_to_stderr() -> Iterator[None]:
+    """Send what native code prints on standard output (file descriptor 1) to standard
+    error while the block runs: a peer's C++ parser warns there (kdl_parser: "The root
+    link ... has an inertia specified in the URDF ..."), and a benchmark's standard
+    output is its table, which run_all.py copies into docs/benchmarks.md."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    os.dup2(2, 1)
+    try:
+        yield
+    finally:
+        try:
+            ctypes.CDLL(None).fflush(None)  # C stdio's buffer, written before fd 1 returns
+        except (OSError, AttributeError):  # pragma: no cover - no C library to flush
+            pass
+        os.dup2(saved, 1)
+        os.close(saved)
 
 
 def panda_urdf_without_fingers() -> str:

@@ -187,3 +187,69 @@ def test_target_checks_in_the_kernel_keep_the_messages(builtin_robots: dict) -> 
     assert ik_module.ik(robot, readonly, seed=0).converged
     fortran = np.asfortranarray(T)
     assert ik_module.ik(robot, fortran, seed=0).converged
+
+
+def test_restarts_are_drawn_in_the_middle_of_each_range() -> None:
+    """The sampling box: RESTART_SPAN of each finite range about its middle (by hand),
+    [-pi, pi] clipped to a half-infinite range, on both paths."""
+    from redres._ik_reference import ReferenceSolver
+    from redres.ik_types import RESTART_SPAN
+
+    lo = np.array([-2.0, 0.0, -np.inf, -1.0])
+    hi = np.array([2.0, 3.0, np.inf, np.inf])
+    limits = ik_module._limits(lo, hi)
+    assert np.allclose(limits[2, :2], [-2.0 * RESTART_SPAN, 1.5 - 1.5 * RESTART_SPAN])
+    assert np.allclose(limits[3, :2], [2.0 * RESTART_SPAN, 1.5 + 1.5 * RESTART_SPAN])
+    assert np.array_equal(limits[2, 2:], [-np.pi, -1.0])
+    assert np.array_equal(limits[3, 2:], [np.pi, np.pi])
+    robot = rr.models.panda()
+    solver = ReferenceSolver(robot, robot.frame_id(None), (np.zeros(3), None),
+                             ik_module._options_of(1e-6, 1e-5, 10, 0, 1.0, 0.5, 0.1, None,
+                                                   10, 1e-5)[0], None, None)  # fmt: skip
+    box = ik_module._limits(robot.q_min, robot.q_max)[2:4]
+    assert np.array_equal(box, [solver.sample_lo, solver.sample_hi])
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_flat_error_ends_the_attempt(
+    compiled: bool, builtin_robots: dict, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Out of reach, the error soon stops falling: each attempt ends after some
+    tens of iterations (error not 1 % lower in 3), not the budget (``patience`` is 100)."""
+    robot = builtin_robots["iiwa14"]
+    T = robot.fk(robot.neutral())
+    T[:3, 3] += [3.0, 0.0, 0.0]
+    kw = {"max_iterations": 100, "patience": 100, "max_restarts": 5, "timeout_s": None,
+          "seed": 2}  # fmt: skip
+    call = ik_module.ik if compiled else (lambda *a, **k: reference(monkeypatch, *a, **k))
+    result = call(robot, T, **kw)
+    assert not result.converged and result.restarts == 5
+    assert result.iterations < 6 * 100 // 2, result.iterations  # without it: 6 * 100
+
+
+@pytest.mark.parametrize("lam", [0.0, 0.02])
+@pytest.mark.parametrize("smallest", [0.2, 0.01, 1e-5])
+def test_primal_step_equals_the_rate_step(lam: float, smallest: float) -> None:
+    """The Cholesky step = redres.linalg.rate_step (task part, null-space part), and its
+    σ_min: ``threshold`` (0.05) when above it, the rate step's below; −1 (the caller takes
+    the rate step) where that one takes its SVD (σ_min/σ_max < 1e-3)."""
+    module = _jit.compiled("redres._ik_kernels")
+    rng = np.random.default_rng(int(1 / smallest))
+    for _ in range(10):
+        U, _r = np.linalg.qr(rng.normal(size=(6, 6)))
+        V, _r = np.linalg.qr(rng.normal(size=(7, 7)))
+        s = np.geomspace(2.0, smallest, 6)
+        J = U @ np.diag(s) @ V[:6]
+        e, grad = rng.normal(size=6), rng.normal(size=7)
+        out, null, scratch = np.empty(7), np.empty(7), np.empty(module.SCRATCH)
+        sigma = module._primal_step(J, e, 6, grad, 0.3, lam, 0.05, out, null, scratch)
+        if smallest < 2e-3:
+            assert sigma == -1.0
+            continue
+        ref = rr.linalg.rate_step(J, e, grad, k_null=0.3, damping=lam, return_null=True)
+        assert abs(ref.info.sigma_min - smallest) < 1e-9  # the Jacobian as built
+        expected = 0.05 if smallest > 0.05 else ref.info.sigma_min
+        assert abs(sigma - expected) < 1e-12
+        scale = 1.0 + np.abs(ref.qd).max()
+        assert np.abs(out - ref.qd).max() < 1e-9 * scale
+        assert np.abs(null - ref.null_term).max() < 1e-9 * scale

@@ -17,9 +17,7 @@ sampling box by a counter-based generator: uniform number ``c`` of attempt ``r``
 so results do not depend on how the attempts are split between calls, on threads, or on
 any generator's state. The arithmetic stays within ``int64`` (products wrap identically
 in numba and are exact in plain Python), so the plain-Python twin draws the same numbers.
-
-The caller reads the clock between calls (an attempt is at most ``max_iterations``
-iterations, typically tens of microseconds).
+The caller reads the clock between calls (an attempt: at most ``max_iterations``).
 """
 
 from __future__ import annotations
@@ -36,16 +34,17 @@ from .linalg._dense_kernels import (
     _finite_2d,
     _gram,
 )
+from .linalg._eigen_kernels import _extreme_eigenvalues, _tridiagonalize
 from .linalg._kernels import step as _rate_step
 from .robot._chain_kernels import pose_error
 
 #: Status of :func:`solve`: converged, the last attempt stalled, or it used its iterations.
-CONVERGED = 0
-STALLED = 1
-BUDGET = 2
+CONVERGED, STALLED, BUDGET = 0, 1, 2
 #: Layout of ``options``.
 TOL_POSITION, TOL_ORIENTATION, MAX_STEP, K_LIMITS, MAX_DAMPING, THRESHOLD = range(6)
 PREFERENCE_TOL, MAX_ITERATIONS, PATIENCE, N_OPTIONS = 6, 7, 8, 9
+#: Scratch of the Cholesky step: three 6x6 matrices and six 6-vectors.
+SCRATCH = 144
 #: Layout of ``state`` (kept between calls for one target).
 BEST_SCORE, BEST_POSITION, BEST_ORIENTATION, ERR_POSITION, ERR_ORIENTATION = range(5)
 UNSETTLED, N_STATE = 5, 6
@@ -54,7 +53,10 @@ _ERROR_SCALE = 0.1  # m or rad: damping and the joint-limit term fade out below 
 _PREFERENCE_GAIN = 0.5  # fraction of the distance to the preference covered per iteration
 _PREFERENCE_STEP = 0.1  # rad: largest joint motion per iteration toward the preference
 _STICKY_ERROR = 1e-3  # m + rad: above this error in phase 2, clamped joints are released
+_FLAT_ITERATIONS = 3  # an attempt whose error has not fallen by _FLAT_GAIN in this many
+_FLAT_GAIN = 0.01  # iterations has stalled (stuck at a local minimum, often at limits)
 _RCOND = 1e-10  # redres.linalg.RCOND: rank tolerance of the exact step
+_CHOLESKY_MIN_RATIO = 1e-3  # linalg._kernels: below this σ_min/σ_max it takes the SVD
 _MASK = 0xFFFFFFFF
 
 
@@ -104,13 +106,14 @@ def _cap(dq, largest):  # type: ignore[no-untyped-def]
 
 @kernel
 def _direction(  # type: ignore[no-untyped-def]
-    J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k, lam, threshold, grad, task, pref
-):
+    J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k, lam, threshold, grad, task, pref,
+    scratch,
+):  # fmt: skip
     """``task`` (and, in phase 2, ``pref``) <- the two parts of the step with the
     ``blocked`` joints' columns removed; returns ``σ_min`` of the (blocked) Jacobian, or
     ``threshold`` when it is at least that (the damping law needs no more).
     Phase 1: the joint-limit term is in ``task``; phase 2: ``pref`` is the null-space
-    step toward ``q_pref``."""
+    step toward ``q_pref``. ``scratch``: :data:`SCRATCH` values."""
     n = q.shape[0]
     for j in range(n):
         b = blocked[j]
@@ -129,10 +132,10 @@ def _direction(  # type: ignore[no-untyped-def]
             free += 1
     if free < rows and _dual_step(J, e, rows, blocked, free, grad, k, lam, task, null):
         sigma = 0.0  # as the reference: σ_rows of J with blocked columns, rank < rows
-    elif not _primal_step(Jb, e, rows, grad, k, lam, threshold, task, null):
-        sigma = _rate_step(Jb[:rows], e[:rows], grad, task, null, k, lam, _RCOND)[3]
     else:
-        sigma = threshold  # σ_min >= threshold: all the next damping law needs
+        sigma = _primal_step(Jb, e, rows, grad, k, lam, threshold, task, null, scratch)
+        if sigma < 0.0:  # near-singular: the rate step's SVD
+            sigma = _rate_step(Jb[:rows], e[:rows], grad, task, null, k, lam, _RCOND)[3]
     if prefer:
         for j in range(n):
             task[j] -= pref[j]
@@ -140,26 +143,39 @@ def _direction(  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _primal_step(J, e, rows, grad, k, lam, threshold, out, null):  # type: ignore[no-untyped-def]
+def _primal_step(J, e, rows, grad, k, lam, threshold, out, null, scratch):  # type: ignore[no-untyped-def]
     """``out <- Jᵀ (J Jᵀ + λ² I)⁻¹ (e + k J grad) − k grad`` (``null`` <- its second
-    part, if of length n) when ``σ_min(J) >= threshold``, found by the Cholesky
-    factorisation of ``J Jᵀ − threshold² I`` succeeding; else False. There
-    :func:`redres.linalg._kernels.step` takes the same Cholesky path (``σ_min/σ_max``
-    is far above its 1e-3), so this is its formula without the eigenvalues it computes
-    for ``σ_min`` (the reference's damping law gives 0 for any ``σ_min >= threshold``).
+    part, if of length n) by the Cholesky factorisation of ``J Jᵀ + λ² I``, the path
+    :func:`redres.linalg._kernels.step` takes where ``σ_min/σ_max >= 1e-3``, without
+    its general-purpose preamble. Returns ``σ_min(J)`` for the next damping law, or
+    ``threshold`` when it is at least that (the Cholesky factorisation of
+    ``J Jᵀ − threshold² I`` succeeds: the law gives 0, no eigenvalues needed); below,
+    ``σ_min`` as that step finds it (Householder tridiagonalisation, extreme
+    eigenvalues). Returns −1 where that step would take its SVD (``σ_min/σ_max <
+    1e-3``, fewer columns than rows). ``scratch``: :data:`SCRATCH` values.
     """
     n = J.shape[1]
-    if not threshold > 0.0:
-        return False
-    A = np.empty((rows, rows))
-    L = np.empty((rows, rows))
-    r = np.empty(rows)
-    rt = np.empty(rows)
+    if not threshold > 0.0 or n < rows:
+        return -1.0
+    A = scratch[: rows * rows].reshape((rows, rows))
+    L = scratch[36 : 36 + rows * rows].reshape((rows, rows))
+    r = scratch[72 : 72 + rows]
+    rt = scratch[78 : 78 + rows]
     _gram(J, rows, A)
+    sigma = threshold
     if not _cholesky(A, L, rows, -threshold * threshold):
-        return False
-    if not _cholesky(A, L, rows, lam * lam):  # pragma: no cover - A ≻ threshold² I
-        return False
+        T = scratch[84 : 84 + rows * rows].reshape((rows, rows))
+        for a in range(rows):
+            for b in range(a + 1):
+                T[a, b] = A[a, b]
+        d, off, v, p = scratch[120:126], scratch[126:132], scratch[132:138], scratch[138:144]
+        _tridiagonalize(T, rows, d, off, v, p)
+        lowest, highest = _extreme_eigenvalues(d, off, rows, True)
+        sigma = math.sqrt(max(lowest, 0.0))
+        if not sigma >= _CHOLESKY_MIN_RATIO * math.sqrt(max(highest, 0.0)) or sigma == 0.0:
+            return -1.0
+    if not _cholesky(A, L, rows, lam * lam):  # pragma: no cover - A + λ² I ≻ 0 here
+        return -1.0
     for a in range(rows):
         acc = 0.0
         for j in range(n):
@@ -170,7 +186,7 @@ def _primal_step(J, e, rows, grad, k, lam, threshold, out, null):  # type: ignor
     if null.shape[0] == n:
         _cholesky_solve(L, rt, rows)
     _back_project(J, rows, r, rt, grad, k, out, null)
-    return True
+    return sigma
 
 
 @kernel
@@ -257,11 +273,14 @@ def solve_packed(links, axes, kinds, limits, problem, io, rows, has_pref, key, f
     weight``; ``problem`` is the target (16 values, row-major 4x4), the options
     (:data:`N_OPTIONS`) and, when ``has_pref``, ``q_pref`` (n); ``io`` is ``q`` (n),
     ``best_q`` (n) and ``state`` (:data:`N_STATE`). ``q`` is first clipped into the
-    limits. Returns ``(status, attempts, iterations)``, status -1 (nothing done) when the
-    target is not a finite homogeneous transform with a rotation block (the checks of
-    :func:`redres._validate.as_transform`).
+    limits. Returns ``(status, attempts, iterations)``, status -1 (nothing done) when
+    ``q`` holds NaN or infinity or the target is not a finite homogeneous transform with
+    a rotation block (the checks of :func:`redres._validate.as_transform`).
     """
     n = limits.shape[1]
+    for j in range(n):
+        if not math.isfinite(io[j]):
+            return -1, 0, 0
     target = problem[:16].reshape((4, 4))
     if not _is_pose(target):
         return -1, 0, 0
@@ -329,7 +348,7 @@ def solve(  # type: ignore[no-untyped-def]
     settled.
     """
     n = q.shape[0]
-    work = np.empty(18 * n + 22)
+    work = np.empty(18 * n + 22 + SCRATCH)
     flags = np.zeros(2 * n, dtype=np.bool_)
     T, e, J = work[:16].reshape((4, 4)), work[16:22], work[22 : 22 + 6 * n].reshape((6, n))
     iterations = 0
@@ -365,6 +384,7 @@ def _attempt(  # type: ignore[no-untyped-def]
     T, e = work[:16].reshape((4, 4)), work[16:22]
     J, Jb = work[22 : 22 + 6 * n].reshape((6, n)), work[22 + 6 * n : 22 + 12 * n].reshape((6, n))
     vectors = work[22 + 12 * n : 22 + 18 * n].reshape((6, n))
+    scratch = work[22 + 18 * n : 22 + 18 * n + SCRATCH]
     grad, task, pref, cand, last, qn = (vectors[0], vectors[1], vectors[2], vectors[3],
                                         vectors[4], vectors[5])  # fmt: skip
     blocked, sticky = flags[:n], flags[n:]
@@ -380,6 +400,7 @@ def _attempt(  # type: ignore[no-untyped-def]
     at_limit = True
     moved = math.inf
     check_error, check_at = math.inf, 0
+    flat_error, flat_at = math.inf, 0
     scale = 1.0
     it, limit = 0, max_iterations
     for j in range(n):
@@ -402,6 +423,10 @@ def _attempt(  # type: ignore[no-untyped-def]
                 for j in range(n):
                     sticky[j] = False
         elif not has_cand:
+            if ep + eo < (1.0 - _FLAT_GAIN) * flat_error:
+                flat_error, flat_at = ep + eo, it
+            elif it - flat_at >= _FLAT_ITERATIONS:
+                return STALLED, it, False
             if it - check_at >= patience:
                 if ep + eo > 0.5 * check_error:
                     return STALLED, it, False
@@ -428,12 +453,13 @@ def _attempt(  # type: ignore[no-untyped-def]
                 recompute = recompute or sticky[j]
         if not recompute:
             sigma = _direction(J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k,
-                               lam, threshold, grad, task, pref)  # fmt: skip
+                               lam, threshold, grad, task, pref, scratch)  # fmt: skip
         if at_limit:
             for _ in range(3):
                 if recompute:
                     sigma = _direction(J, Jb, e, rows, q, blocked, prefer, q_pref, mid,
-                                       weight, k, lam, threshold, grad, task, pref)  # fmt: skip
+                                       weight, k, lam, threshold, grad, task, pref,
+                                       scratch)  # fmt: skip
                 if not _blocked_more(q, lo, hi, task, pref, prefer, blocked):
                     break
                 recompute = True

@@ -21,7 +21,7 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from ._validate import FloatArray
-from .ik_types import IKResult, _Options
+from .ik_types import IKResult, _Options, sampling_box
 from .linalg import adaptive_damping, rate_step
 
 if TYPE_CHECKING:
@@ -33,6 +33,9 @@ _ERROR_SCALE = 0.1  # m or rad: damping and the joint-limit term fade out below 
 _PREFERENCE_GAIN = 0.5  # fraction of the distance to the preference covered per iteration
 _PREFERENCE_STEP = 0.1  # rad: largest joint motion per iteration toward the preference
 _STICKY_ERROR = 1e-3  # m + rad: above this error in phase 2, clamped joints are released
+# An attempt whose error has not fallen by _FLAT_GAIN in _FLAT_ITERATIONS iterations has
+# stalled (stuck at a local minimum, often at limits).
+_FLAT_ITERATIONS, _FLAT_GAIN = 3, 0.01
 
 _CONVERGED, _STALLED, _BUDGET, _TIMEOUT = range(4)
 #: ``(task part, preference part)`` of a step; :meth:`ReferenceSolver.direction` at one ``q``.
@@ -58,9 +61,8 @@ class ReferenceSolver:
         self.lo, self.hi = robot.q_min, robot.q_max
         finite = np.isfinite(self.lo) & np.isfinite(self.hi)
         span = np.where(finite, self.hi - self.lo, 1.0)
-        self.sample_lo = np.where(finite, self.lo, np.maximum(self.lo, -math.pi))
-        self.sample_hi = np.where(finite, self.hi, np.minimum(self.hi, math.pi))
-        self.mid = np.where(finite, (self.lo + self.hi) / 2.0, 0.0)
+        self.sample_lo, self.sample_hi = sampling_box(self.lo, self.hi)
+        self.mid = (np.where(finite, self.lo, 0.0) + np.where(finite, self.hi, 0.0)) / 2.0
         self.limit_weight = np.where(finite & (span > 0), 2.0 / (span * span), 0.0)
         self.q_pref = q_pref
         self.arm_task = None
@@ -122,6 +124,7 @@ class ReferenceSolver:
         self.at_limit = True
         moved = math.inf
         check_error, check_at = math.inf, 0
+        flat_error, flat_at = math.inf, 0
         clock = time.perf_counter
         it, limit = 0, o.max_iterations
         while it < limit:
@@ -136,6 +139,10 @@ class ReferenceSolver:
                     self.sticky = np.zeros(q.size, dtype=bool)
                     self.preference_scale, self.last_preference = 1.0, None
             elif self.candidate is None:
+                if ep + eo < (1.0 - _FLAT_GAIN) * flat_error:
+                    flat_error, flat_at = ep + eo, it
+                elif it - flat_at >= _FLAT_ITERATIONS:
+                    return (*self.end(q, _STALLED), it)
                 if it - check_at >= o.patience:
                     if ep + eo > 0.5 * check_error:
                         return (*self.end(q, _STALLED), it)

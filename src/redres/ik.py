@@ -35,10 +35,12 @@ Each iteration, from the error ``e = [p_d − p; log(R_d Rᵀ)]`` (docs/conventi
   (up to three passes), so that the other joints do the work instead of the clip undoing
   part of a Newton step. The result is always within the limits.
 * An attempt that stops making progress (the error not halved over ``patience``
-  iterations) or uses ``max_iterations`` restarts from a configuration drawn uniformly
-  within the limits by the seeded generator, up to ``max_restarts`` times, all within
-  ``timeout_s``. The best configuration found is returned with ``converged=False`` when
-  the budget runs out (unreachable targets).
+  iterations, or not 1 % lower over the last 3: a local minimum, typically with joints
+  clamped at their limits) or uses ``max_iterations`` restarts from a configuration drawn
+  uniformly within the middle 70 % of each joint range (:data:`~redres.ik_types.RESTART_SPAN`;
+  starts near a limit end clamped there more often) by the seeded generator, up to
+  ``max_restarts`` times, all within ``timeout_s``. The best configuration found is
+  returned with ``converged=False`` when the budget runs out (unreachable targets).
 
 Speed: inputs are validated once. For a frame at the end of a serial chain
 (:class:`~redres.robot.SerialChain`) the iteration then runs compiled, one kernel call
@@ -84,7 +86,7 @@ from . import _jit
 from ._ik_reference import ReferenceSolver
 from ._validate import FloatArray, as_scalar, as_vector
 from .errors import InvalidParameterError
-from .ik_types import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target
+from .ik_types import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target, sampling_box
 from .linalg import AdaptiveDamping, rate_step
 
 if TYPE_CHECKING:
@@ -174,10 +176,12 @@ def ik(
     if q_preferred is not None and arm_angle is not None:
         raise InvalidParameterError("give q_preferred or arm_angle, not both")
     q_pref = None if q_preferred is None else as_vector(q_preferred, "q_preferred", robot.n)
-    if q0 is not None:
-        q_start = as_vector(q0, "q0", robot.n)
-    else:
+    if q0 is None:
         q_start = q_pref if q_pref is not None else robot.neutral()
+    elif compiled is not None and _is_float_vector(q0, robot.n):
+        q_start = q0  # checked in the kernel (finite), for the message below if not
+    else:
+        q_start = as_vector(q0, "q0", robot.n)
     if compiled is not None and (raw or spec is not None):
         problem = _problem(target if raw else spec, packed, q_pref)
         rows = 3 if position_only or (spec is not None and spec[1] is None) else 6
@@ -185,6 +189,8 @@ def ik(
                                  options, seed, start)  # fmt: skip
         if result is not None:
             return result
+        if q0 is not None:
+            q_start = as_vector(q0, "q0", robot.n)  # raises if the kernel refused q0
         spec = _parse_target(target, position_only)  # raises, or None: not finite
     q_start = np.clip(q_start, robot.q_min, robot.q_max)
     if spec is None:
@@ -327,12 +333,12 @@ def _chain_arguments(robot: Robot, fid: int) -> tuple[Any, ...] | None:
 def _limits(lo: FloatArray, hi: FloatArray) -> FloatArray:
     """``[lo, hi, sample_lo, sample_hi, mid, weight]`` (6, n), as the reference solver."""
     finite = np.isfinite(lo) & np.isfinite(hi)
-    span = np.where(finite, hi - lo, 1.0)
+    a, b = np.where(finite, lo, 0.0), np.where(finite, hi, 0.0)  # no inf - inf
+    span = np.where(finite, b - a, 1.0)
+    sample_lo, sample_hi = sampling_box(lo, hi)
     return np.array(
         (
-            lo, hi, np.where(finite, lo, np.maximum(lo, -math.pi)),
-            np.where(finite, hi, np.minimum(hi, math.pi)),
-            np.where(finite, (lo + hi) / 2.0, 0.0),
+            lo, hi, sample_lo, sample_hi, (a + b) / 2.0,
             np.where(finite & (span > 0), 2.0 / (span * span), 0.0),
         ),
         dtype=np.float64,
@@ -350,6 +356,10 @@ def _warm_arguments() -> tuple[Any, ...]:
     problem[16:19] = 1.0
     io = np.zeros(2 + 6)
     return (*chain, limits, problem, io, 6, False, 0, 0, 1)
+
+
+def _is_float_vector(value: Any, n: int) -> bool:
+    return type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (n,)
 
 
 def _is_float_pose(target: Any) -> bool:
@@ -396,7 +406,8 @@ def _solve_compiled(
     start: float,
 ) -> IKResult | None:
     """The attempts in the kernel, one call each, the clock read between them; None when
-    the kernel refuses the target (not a finite homogeneous transform)."""
+    the kernel refuses the start (not finite) or the target (not a finite homogeneous
+    transform)."""
     entry, arguments = compiled
     n = q.shape[0]
     io = np.empty(2 * n + 6)
@@ -411,8 +422,8 @@ def _solve_compiled(
         iterations += used
         if status == 0:  # _ik_kernels.CONVERGED
             note = _UNSETTLED if io[2 * n + 5] else ""
-            return IKResult(io[:n].copy(), True, iterations, attempt, float(io[2 * n + 3]),
-                            float(io[2 * n + 4]), clock() - start, "converged" + note)  # fmt: skip
+            return _result(io[:n].copy(), True, iterations, attempt, float(io[2 * n + 3]),
+                           float(io[2 * n + 4]), clock() - start, "converged" + note)  # fmt: skip
         if status < 0:
             return None
         timeout = clock() > deadline
@@ -422,7 +433,7 @@ def _solve_compiled(
             key = _restart_key(seed)
         attempt += 1
     why = "time budget" if timeout else "iteration and restart budget"
-    return IKResult(
+    return _result(
         io[n : 2 * n].copy(), False, iterations, attempt, float(io[2 * n + 1]),
         float(io[2 * n + 2]), clock() - start,
         f"not converged: {why} exhausted; returning the best configuration found",
@@ -430,3 +441,17 @@ def _solve_compiled(
 
 
 _UNSETTLED = " (the preference had not settled when the budget ran out)"
+_FIELDS = tuple(field.name for field in dataclasses.fields(IKResult))
+
+
+def _result(*values: Any) -> IKResult:
+    """``IKResult(*values)`` without the frozen dataclass's ``__init__`` (one
+    ``object.__setattr__`` per field, a fifth of a solve's Python overhead): the same
+    object, its remaining fields at their defaults."""
+    result = object.__new__(IKResult)
+    state = result.__dict__
+    for name, value in zip(_FIELDS, values, strict=False):
+        state[name] = value
+    state.setdefault("arm_angle", None)
+    state.setdefault("preference_met", None)
+    return result

@@ -52,6 +52,22 @@ class IKResult:
 
 #: rad: an arm-angle preference counts as met within this distance (wrapped).
 ARM_ANGLE_TOL = 1e-4
+#: Restarts are drawn within the middle part of each finite joint range: this fraction
+#: of the range, about its middle (configurations near a limit start more attempts that
+#: end clamped there at a local minimum).
+RESTART_SPAN = 0.7
+
+
+def sampling_box(lo: FloatArray, hi: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Box of the random restarts: :data:`RESTART_SPAN` of each finite range about its
+    middle, ``[max(lo, −π), min(hi, π)]`` where a limit is infinite."""
+    finite = np.isfinite(lo) & np.isfinite(hi)
+    a, b = np.where(finite, lo, 0.0), np.where(finite, hi, 0.0)
+    mid, half = (a + b) / 2.0, RESTART_SPAN * (b - a) / 2.0
+    return (
+        np.where(finite, mid - half, np.maximum(lo, -math.pi)),
+        np.where(finite, mid + half, np.minimum(hi, math.pi)),
+    )
 
 
 @dataclass(frozen=True)
