@@ -124,13 +124,14 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, work):  # type: i
     trace = 0.0
     for i in range(m):
         trace += A[i, i]
-        for j in range(i + 1):
-            T[i, j] = A[i, j]
     if dmode == LAZY:  # fixed damping, no singular values wanted
         shift = lam * lam / (scale * scale)
         if shift >= _LAZY_MIN_SHIFT * trace and _cholesky(A, C, m, shift):
             return True, -1, math.nan, math.nan, lam
         dmode = FIXED
+    for i in range(m):
+        for j in range(i + 1):
+            T[i, j] = A[i, j]
     _tridiagonalize(T, m, mu, off, v, p)
     lowest, highest = _extreme_eigenvalues(mu, off, m, True)
     smax_s = math.sqrt(max(highest, 0.0))
@@ -208,14 +209,37 @@ def _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec):  # type: ign
 
 
 @kernel
+def _step_size(m, n, wmode):  # type: ignore[no-untyped-def]
+    """Floats of scratch :func:`_step_into` uses for an ``m x n`` Jacobian and the weight
+    mode ``wmode``: the scaled Jacobian, the factors, :func:`_core`'s scratch, the vectors
+    and the weight factor."""
+    return m * n + 3 * m * m + 8 * m + n + _factor_size(n, wmode)
+
+
+@kernel
 def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
     """``out <- J# xd - k_null (I - J# J) grad``; ``(status, rank, smin, smax, damping)``.
 
     Any weights (``wmode`` selects ``wdiag`` (n,) or ``W`` (n, n); the other may be empty)
     and damping mode; ``J`` non-empty and the scalars validated by the caller. When
     ``null`` has length n it receives the secondary part ``out - J# xd`` (the null-space
-    term), from the same factorisation; pass a length-0 array otherwise.
+    term), from the same factorisation; pass a length-0 array otherwise. The step is
+    :func:`_step_into` with scratch allocated here (a loop over many steps passes its own).
     """
+    m, n = J.shape
+    work = np.empty(_step_size(m, n, wmode))
+    return _step_into(
+        J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond, work
+    )
+
+
+@kernel
+def _step_into(  # type: ignore[no-untyped-def]
+    J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond, work
+):
+    """:func:`_step` in the scratch ``work``, a float64 vector of at least
+    :func:`_step_size` entries (its contents are overwritten; a shorter one is replaced by
+    a new array)."""
     m, n = J.shape
     has_grad = grad.shape[0] > 0
     want_null = null.shape[0] == n
@@ -224,8 +248,10 @@ def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, 
     if has_grad and grad.shape[0] != n:
         return GRAD_SHAPE, 0, 0.0, 0.0, 0.0
     fsize = _factor_size(n, wmode)
-    work = np.empty(m * n + 3 * m * m + 8 * m + n + fsize)
-    Lw = _factor_view(work[work.shape[0] - fsize :], n, wmode)
+    size = m * n + 3 * m * m + 8 * m + n + fsize
+    if work.shape[0] < size:
+        work = np.empty(size)
+    Lw = _factor_view(work[size - fsize : size], n, wmode)
     Js = work[: m * n].reshape((m, n))
     C = work[m * n : m * n + m * m].reshape((m, m))
     base = m * n + m * m
@@ -233,7 +259,7 @@ def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, 
     dvec = work[base + m : base + 2 * m]
     g = work[base + 2 * m : base + 2 * m + n]
     rt = work[base + 2 * m + n : base + 3 * m + n]
-    scratch = work[base + 3 * m + n : work.shape[0] - fsize]
+    scratch = work[base + 3 * m + n : size - fsize]
     if not _copy_finite_2d(J, Js):
         return J_NONFINITE, 0, 0.0, 0.0, 0.0
     if not _finite_1d(xd):
