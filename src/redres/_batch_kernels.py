@@ -37,7 +37,7 @@ from ._ik_kernels import (
 )
 from ._jit import kernel, parallel_range
 from .linalg._codes import OK, Q_NONFINITE
-from .linalg._kernels import _step_into, _step_size
+from .linalg._kernels import _step_into, _step_scratch
 from .robot._chain_kernels import fk, jacobian
 
 prange = parallel_range()
@@ -81,7 +81,7 @@ def rate_steps(links, axes, kinds, q, xd, grad, k_null, weights, spec, qd, rank,
     for c in prange(chunks):
         T = np.empty((4, 4))
         J = np.empty((6, n))
-        work = np.empty(_step_size(6, n, wmode))
+        scratch = _step_scratch(6, n, wmode)
         none = np.empty(0)
         for i in range(c * CHUNK, min(count, (c + 1) * CHUNK)):
             if not jacobian(links, axes, kinds, q[i], False, T, J):
@@ -94,7 +94,7 @@ def rate_steps(links, axes, kinds, q, xd, grad, k_null, weights, spec, qd, rank,
                 g = grad[i] if grad.shape[0] > 1 else grad[0]
             code, r, smin, smax, used = _step_into(
                 J, x, g, qd[i], none, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond,
-                work,
+                scratch,
             )  # fmt: skip
             status[i] = code
             rank[i] = r
