@@ -175,8 +175,8 @@ def rate_step(
     damping: float | AdaptiveDamping = 0.0,
     weights: Any | None = None,
     rcond: float = RCOND,
-    return_info: bool = True,
     threads: int | None = None,
+    return_info: bool = True,
 ) -> BatchRateStep:
     """The rate step ``qd = J# xd − k_null N grad`` of each row of ``q``, with ``J`` the
     world-aligned Jacobian of ``frame`` there: row ``i`` is
@@ -191,9 +191,10 @@ def rate_step(
         frame: the task frame (default: tip).
         k_null, damping, weights, rcond: as :func:`redres.linalg.rate_step` (one value
             for all items).
+        threads: threads for this call (``None``: all).
         return_info: ``False``: the singular values are not wanted, so that with a
             fixed damping ``λ > 0`` each step may skip them (the two extreme eigenvalues
-            of ``J Jᵀ``, a third of a step) and solve ``(J Jᵀ + λ² I) y = xd`` by Cholesky
+            of ``J Jᵀ``, about half of a step) and solve ``(J Jᵀ + λ² I) y = xd`` by Cholesky
             at once whenever ``λ² >= 1e-6 trace(J Jᵀ)`` (then ``κ <= 1 + 1e6``, as
             accurate as the Cholesky path with them); those items report rank -1,
             ``full_rank`` False and NaN ``sigma_min``/``sigma_max`` (``damping`` is λ),
@@ -202,7 +203,6 @@ def rate_step(
             relative nearer a singularity, where it uses an SVD. Other damping modes
             need the singular values to choose their factorisation and report them
             either way.
-        threads: threads for this call (``None``: all).
 
     Returns:
         A :class:`BatchRateStep`: ``qd (N, n)`` and each item's diagnostics.
