@@ -3,7 +3,9 @@
 Each item is one configuration: its tip Jacobian (6 x 7, world-aligned) and the damped
 least-squares step ``qd = Jᵀ (J Jᵀ + λ² I)⁻¹ xd`` (λ = 0.01). Contenders, same items:
 
-* ``rr.batch.rate_step`` on 1 thread and on all cores (one compiled parallel kernel);
+* ``rr.batch.rate_step`` on 1 thread and on all cores (one compiled parallel kernel),
+  with its diagnostics, and on 1 thread with ``return_info=False`` (the singular values
+  skipped, as the NumPy batch below does);
 * NumPy vectorised: a Python loop of Pinocchio ``computeFrameJacobian`` into one
   ``(N, 6, 7)`` array, then one batched ``np.linalg.solve`` and ``matmul``;
 * a Python loop of ``robot.jacobian(q)`` + ``rr.linalg.rate_step(J, xd, damping=λ)``;
@@ -67,6 +69,9 @@ def contenders(robot: rr.Robot, q: np.ndarray, xd: np.ndarray) -> dict[str, Call
     return {
         "rr.batch.rate_step, 1 thread": lambda: (
             rr.batch.rate_step(robot, q, xd, damping=DAMPING, threads=1).qd
+        ),
+        "rr.batch.rate_step, 1 thread, return_info=False": lambda: (
+            rr.batch.rate_step(robot, q, xd, damping=DAMPING, return_info=False, threads=1).qd
         ),
         f"rr.batch.rate_step, all cores ({os.cpu_count()})": lambda: (
             rr.batch.rate_step(robot, q, xd, damping=DAMPING).qd

@@ -88,6 +88,48 @@ def test_rate_steps_equal_the_single_calls(
     assert not step.full_rank[7] or (robot.n > 6 and step.sigma_min[7] > 0)
 
 
+def test_without_info_fixed_damping_skips_the_singular_values(
+    robot: rr.Robot, rng: np.random.Generator
+) -> None:
+    """``return_info=False``: the Cholesky solve of ``J Jᵀ + λ² I`` without eigenvalues,
+    equal to the single call bit for bit where that one takes its Cholesky path, and to
+    the normal equations (NumPy) everywhere, singular items included."""
+    q = configurations(robot, rng)
+    q[11] = q[7] + 1e-7  # near the singular configuration
+    xd, grad = rng.normal(size=(N, 6)), rng.normal(size=(N, robot.n))
+    chain = robot.chain()
+    for g, w in ((None, None), (grad, rng.uniform(0.5, 2.0, robot.n))):
+        full = batch.rate_step(robot, q, xd, g, k_null=2.0, damping=0.02, weights=w)
+        lean = batch.rate_step(
+            robot, q, xd, g, k_null=2.0, damping=0.02, weights=w, return_info=False
+        )
+        assert np.all(lean.rank == -1) and not lean.full_rank.any()
+        assert np.isnan(lean.sigma_min).all() and np.isnan(lean.sigma_max).all()
+        assert np.all(lean.damping == 0.02) and lean.method == full.method
+        cholesky = full.sigma_min >= 1e-3 * full.sigma_max
+        assert np.array_equal(lean.qd[cholesky], full.qd[cholesky])
+        assert not cholesky[7]  # the singular item takes the SVD path with its info
+        Winv = np.ones(robot.n) if w is None else 1.0 / w
+        for i in range(N):
+            J = chain.jacobian(q[i])
+            gi = np.zeros(robot.n) if g is None else g[i]
+            # qd = -k g + W^-1 Jᵀ (J W^-1 Jᵀ + λ² I)^-1 (xd + k J g): the damped weighted step
+            y = np.linalg.solve((J * Winv) @ J.T + 0.02**2 * np.eye(6), xd[i] + 2.0 * J @ gi)
+            expected = Winv * (J.T @ y) - 2.0 * gi
+            np.testing.assert_allclose(lean.qd[i], expected, rtol=0, atol=1e-9, err_msg=str(i))
+        assert np.array_equal(
+            lean.qd, batch.rate_step(robot, q, xd, g, k_null=2.0, damping=0.02, weights=w,
+                                     return_info=False, threads=1).qd
+        )  # fmt: skip
+    # A damping too small to make J Jᵀ + λ² I well conditioned, and the other modes: the
+    # singular values are needed to choose the factorisation, and reported.
+    for damping in (1e-6, 0.0, DAMPINGS[2]):
+        lean = batch.rate_step(robot, q, xd, damping=damping, return_info=False)
+        full = batch.rate_step(robot, q, xd, damping=damping)
+        for a, b in zip(lean, full, strict=True):
+            assert np.array_equal(a, b) if isinstance(a, np.ndarray) else a == b
+
+
 def test_full_weights_equal_the_single_calls(rng: np.random.Generator) -> None:
     robot = rr.models.panda()
     q, xd = configurations(robot, rng, 70), rng.normal(size=6)

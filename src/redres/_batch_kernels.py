@@ -7,8 +7,8 @@ numba ``prange`` loop (``@kernel(parallel=True)``). Items are independent and ev
 item is computed by the same per-item code with the same arguments as the single call,
 so the results do not depend on the number of threads and equal the single calls bit
 for bit. The loop runs over chunks of :data:`CHUNK` items, each with its own scratch
-(the frame pose, the Jacobian), so that nothing is allocated per item but what
-``_step`` allocates itself.
+(the frame pose, the Jacobian, the rate step's: ``_step_into``, the body of ``_step``),
+so that nothing is allocated per item.
 
 :func:`ik_solves` runs the compiled position IK of :mod:`redres._ik_kernels`
 (``solve_packed``, the kernel behind :func:`redres.ik.ik`) on each item, with a fixed
@@ -37,7 +37,7 @@ from ._ik_kernels import (
 )
 from ._jit import kernel, parallel_range
 from .linalg._codes import OK, Q_NONFINITE
-from .linalg._kernels import _step
+from .linalg._kernels import _step_into, _step_scratch
 from .robot._chain_kernels import fk, jacobian
 
 prange = parallel_range()
@@ -68,7 +68,8 @@ def jacobians(links, axes, kinds, q, local, T, J, status):  # type: ignore[no-un
 @kernel(parallel=True)
 def rate_steps(links, axes, kinds, q, xd, grad, k_null, weights, spec, qd, rank, stats, status):  # type: ignore[no-untyped-def]
     """``qd[i]`` <- ``J# xd - k_null (I - J# J) grad`` with ``J`` the world-aligned
-    Jacobian at ``q[i]`` (N x n), as ``_kernels._step`` computes it: ``xd`` (N x 6, or
+    Jacobian at ``q[i]`` (N x n), as ``_kernels._step`` computes it (its body,
+    ``_step_into``, in the chunk's scratch): ``xd`` (N x 6, or
     1 x 6 for all items), ``grad`` (N x n, 1 x n for all, or 0 x n for none),
     ``weights = (wmode, wdiag, W)`` and ``spec = (dmode, lam, lam_max, eps, rcond)``, the
     arguments of ``_step``. ``rank[i]``, ``stats[i]`` <-
@@ -80,6 +81,7 @@ def rate_steps(links, axes, kinds, q, xd, grad, k_null, weights, spec, qd, rank,
     for c in prange(chunks):
         T = np.empty((4, 4))
         J = np.empty((6, n))
+        scratch = _step_scratch(6, n, wmode)
         none = np.empty(0)
         for i in range(c * CHUNK, min(count, (c + 1) * CHUNK)):
             if not jacobian(links, axes, kinds, q[i], False, T, J):
@@ -90,9 +92,10 @@ def rate_steps(links, axes, kinds, q, xd, grad, k_null, weights, spec, qd, rank,
                 g = none
             else:
                 g = grad[i] if grad.shape[0] > 1 else grad[0]
-            code, r, smin, smax, used = _step(
-                J, x, g, qd[i], none, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond
-            )
+            code, r, smin, smax, used = _step_into(
+                J, x, g, qd[i], none, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond,
+                scratch,
+            )  # fmt: skip
             status[i] = code
             rank[i] = r
             stats[i, 0] = smin

@@ -45,7 +45,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from . import _jit
-from ._validate import FloatArray, as_scalar, real_array
+from ._batch_inputs import _keys, _rows, _targets, _typed
+from ._validate import FloatArray, as_scalar
 from .errors import InvalidParameterError, NonFiniteError, ShapeError
 from .linalg import _backend as be
 from .linalg import _codes as codes
@@ -72,10 +73,12 @@ class BatchRateStep(NamedTuple):
 
     Attributes:
         qd: joint velocities, ``(N, n)``, rad/s.
-        rank: rank of each inverse (``int64``, ``(N,)``).
+        rank: rank of each inverse (``int64``, ``(N,)``); -1 where it was not computed
+            (:func:`rate_step` with ``return_info=False``).
         full_rank: ``rank == min(6, n)``, ``(N,)``.
-        sigma_min: smallest singular value of each Jacobian, ``(N,)``.
-        sigma_max: largest singular value, ``(N,)``.
+        sigma_min: smallest singular value of each Jacobian, ``(N,)``; NaN where not
+            computed.
+        sigma_max: largest singular value, ``(N,)``; NaN where not computed.
         damping: damping applied to each item, ``(N,)`` (units of ``J``).
         method: the inverse, as :attr:`redres.linalg.InverseInfo.method`
             (``"pinv"``, ``"damped"``, ``"adaptive"``, ``"weighted-…"``).
@@ -173,6 +176,7 @@ def rate_step(
     weights: Any | None = None,
     rcond: float = RCOND,
     threads: int | None = None,
+    return_info: bool = True,
 ) -> BatchRateStep:
     """The rate step ``qd = J# xd − k_null N grad`` of each row of ``q``, with ``J`` the
     world-aligned Jacobian of ``frame`` there: row ``i`` is
@@ -188,6 +192,17 @@ def rate_step(
         k_null, damping, weights, rcond: as :func:`redres.linalg.rate_step` (one value
             for all items).
         threads: threads for this call (``None``: all).
+        return_info: ``False``: the singular values are not wanted, so that with a
+            fixed damping ``λ > 0`` each step may skip them (the two extreme eigenvalues
+            of ``J Jᵀ``, about half of a step) and solve ``(J Jᵀ + λ² I) y = xd`` by Cholesky
+            at once whenever ``λ² >= 1e-6 trace(J Jᵀ)`` (then ``κ <= 1 + 1e6``, as
+            accurate as the Cholesky path with them); those items report rank -1,
+            ``full_rank`` False and NaN ``sigma_min``/``sigma_max`` (``damping`` is λ),
+            and their ``qd`` equals the single call's bit for bit wherever that call
+            takes the Cholesky path (``sigma_min >= 1e-3 sigma_max``), to about 1e-10
+            relative nearer a singularity, where it uses an SVD. Other damping modes
+            need the singular values to choose their factorisation and report them
+            either way.
 
     Returns:
         A :class:`BatchRateStep`: ``qd (N, n)`` and each item's diagnostics.
@@ -216,7 +231,8 @@ def rate_step(
         return _rate_loop(chain, qs, xs, gs, options, method)
     qd, rank = np.empty((count, n)), np.zeros(count, dtype=np.int64)
     stats, status = np.zeros((count, 3)), np.zeros(count, dtype=np.int64)
-    args = (*chain.arrays, qs, xs, gs, k, (wmode, wdiag, wfull), (mode, lam, lam_max, eps, rc))
+    kmode = codes.LAZY if mode == codes.FIXED and not return_info else mode
+    args = (*chain.arrays, qs, xs, gs, k, (wmode, wdiag, wfull), (kmode, lam, lam_max, eps, rc))
     _launch(kernels.rate_steps, (*args, qd, rank, stats, status), threads)
     _check(status, len(xs) > 1, len(gs) > 1)
     full = rank == min(_TASK_ROWS, n)
@@ -346,86 +362,6 @@ def ik(
 
 
 # ---------------------------------------------------------------------- helpers
-
-
-def _targets(value: Any) -> tuple[FloatArray, int]:
-    """Targets as ``(N, 4, 4)`` C-contiguous float64 and the task rows (6, or 3 for
-    positions)."""
-    array = real_array(value, "targets", "poses (N, 4, 4) or positions (N, 3)")
-    if array.ndim == 2 and array.shape[1] == 3:
-        T = np.tile(np.eye(4), (len(array), 1, 1))
-        T[:, :3, 3] = array
-        return T, 3
-    if array.ndim != 3 or array.shape[1:] != (4, 4):
-        raise ShapeError(f"targets must have shape (N, 4, 4) or (N, 3); got {array.shape}")
-    return _typed(array), 6
-
-
-def _keys(keys: Any, seed: int, count: int) -> Any:
-    """The restart keys: ``keys`` checked, or drawn from ``default_rng(seed)``."""
-    if keys is None:
-        return np.random.default_rng(seed).integers(0, 2**62, count)
-    array = np.asarray(keys)
-    if array.shape != (count,) or array.dtype.kind not in "iu":
-        raise ShapeError(f"keys must be {count} integers, shape ({count},); got {array.shape}")
-    if count and (array.min() < 0 or array.max() >= 2**62):
-        raise InvalidParameterError("keys must lie in [0, 2**62)")
-    return np.array(array, dtype=np.int64)  # a writeable copy: the compiled type
-
-
-def _is_complex(value: Any) -> bool:
-    """Whether ``value`` holds complex numbers (False for ragged input: found below)."""
-    try:
-        return bool(np.iscomplexobj(value))
-    except (TypeError, ValueError):
-        return False
-
-
-def _rows(value: Any, name: str, width: int, count: int | None = None) -> FloatArray:
-    """``value`` as a C-contiguous float64 ``(N, width)`` array: ``N`` rows, or, when
-    ``count`` is given, ``count`` rows or one ``(width,)`` vector for all (kept as one
-    row). Ragged or mis-shaped input raises :class:`ShapeError` naming the row."""
-    if _is_complex(value):
-        real_array(value, name)  # raises: complex is refused by name, not made real
-    try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise _ragged(value, name, width) or ShapeError(
-            f"{name} must be an array of numbers of shape (N, {width}): {exc}"
-        ) from exc
-    if count is not None and array.shape == (width,):
-        return _typed(array[None])
-    expected = f"(N, {width})" if count is None else f"({count}, {width}) or ({width},)"
-    if array.ndim != 2 or array.shape[1] != width or count not in (None, len(array)):
-        hint = f"; for one item use {name}[None]" if array.shape == (width,) else ""
-        raise ShapeError(f"{name} must have shape {expected}; got shape {array.shape}{hint}")
-    return _typed(array)
-
-
-def _typed(array: FloatArray) -> FloatArray:
-    """``array`` C-contiguous and writeable: the one array type the kernels are compiled
-    (and cached) for; a read-only input would compile them again."""
-    out = np.ascontiguousarray(array)
-    return out if out.flags.writeable and out.flags.aligned else out.copy()
-
-
-def _ragged(value: Any, name: str, width: int) -> ShapeError | None:
-    """The error naming the first row of ``value`` that is not ``width`` numbers."""
-    try:
-        rows = list(value)
-    except TypeError:
-        return None
-    for i, row in enumerate(rows):
-        try:
-            shape = np.asarray(row, dtype=np.float64).shape
-        except (TypeError, ValueError) as exc:
-            return ShapeError(f"{name}[{i}] is not a vector of {width} numbers: {exc}")
-        if shape != (width,):
-            return ShapeError(
-                f"{name}[{i}] has shape {shape}; every row of {name} must have shape "
-                f"({width},) (ragged input)"
-            )
-    return None
 
 
 def _compiled(threads: int | None) -> Any:

@@ -93,7 +93,7 @@ def _damping_squared(sigma, dmode, lam, lam_max, eps):  # type: ignore[no-untype
 
 
 @kernel
-def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, work):  # type: ignore[no-untyped-def]
+def _core(Js, scale, dmode, lam, lam_max, eps, rcond, mats, dvec, work):  # type: ignore[no-untyped-def]
     """Factor the inverse of the scaled matrix Js (m x n).
 
     Returns ``(use_cholesky, rank, sigma_min, sigma_max, damping)``:
@@ -106,31 +106,34 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, work):  # type: i
       ``1 / sigma_i^2`` above the rank tolerance and 0 below. Using B itself, not ``G Js``,
       keeps the tiny rows of the near-singular directions accurate to their own size.
 
-    Singular values and damping are in the units of the unscaled matrix. ``work`` is
-    scratch space of at least ``2 m^2 + 4 m`` floats; ``dvec`` has length m. ``LAZY``
+    ``C`` is ``mats[0]``; ``mats`` (3, m, m) and ``work`` (at least ``4 m`` floats) are
+    scratch space (rows of a 3-D array rather than reshaped slices of one vector: a
+    reshape costs more than a 6 x 6 Cholesky factorisation); ``dvec`` has length m.
+    Singular values and damping are in the units of the unscaled matrix. ``LAZY``
     damping is ``FIXED`` that may skip the eigenvalues: rank -1 and NaN singular values
     when it does (:data:`_LAZY_MIN_SHIFT`).
     """
     m, n = Js.shape
     kmin = min(m, n)
-    A = work[: m * m].reshape((m, m))
-    T = work[m * m : 2 * m * m].reshape((m, m))
-    base = 2 * m * m
-    mu = work[base : base + m]
-    off = work[base + m : base + 2 * m]
-    v = work[base + 2 * m : base + 3 * m]
-    p = work[base + 3 * m : base + 4 * m]
+    C = mats[0]
+    A = mats[1]
+    T = mats[2]
+    mu = work[:m]
+    off = work[m : 2 * m]
+    v = work[2 * m : 3 * m]
+    p = work[3 * m : 4 * m]
     _gram(Js, m, A)
     trace = 0.0
     for i in range(m):
         trace += A[i, i]
-        for j in range(i + 1):
-            T[i, j] = A[i, j]
     if dmode == LAZY:  # fixed damping, no singular values wanted
         shift = lam * lam / (scale * scale)
         if shift >= _LAZY_MIN_SHIFT * trace and _cholesky(A, C, m, shift):
             return True, -1, math.nan, math.nan, lam
         dmode = FIXED
+    for i in range(m):
+        for j in range(i + 1):
+            T[i, j] = A[i, j]
     _tridiagonalize(T, m, mu, off, v, p)
     lowest, highest = _extreme_eigenvalues(mu, off, m, True)
     smax_s = math.sqrt(max(highest, 0.0))
@@ -208,14 +211,39 @@ def _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec):  # type: ign
 
 
 @kernel
+def _step_scratch(m, n, wmode):  # type: ignore[no-untyped-def]
+    """Scratch of :func:`_step_into` for an ``m x n`` Jacobian and the weight mode
+    ``wmode``: ``(Js (m, n), mats (3, m, m), Lw, vec (7 m + n))`` (the scaled Jacobian,
+    the factors, the weight factor (:func:`_factor_view`), the vectors). Separate arrays
+    and rows of a 3-D one, not reshaped slices of one buffer: in the compiled code each
+    reshape costs about as much as a 6 x 6 Cholesky factorisation."""
+    Lw = _factor_view(np.empty(_factor_size(n, wmode)), n, wmode)
+    return np.empty((m, n)), np.empty((3, m, m)), Lw, np.empty(7 * m + n)
+
+
+@kernel
 def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
     """``out <- J# xd - k_null (I - J# J) grad``; ``(status, rank, smin, smax, damping)``.
 
     Any weights (``wmode`` selects ``wdiag`` (n,) or ``W`` (n, n); the other may be empty)
     and damping mode; ``J`` non-empty and the scalars validated by the caller. When
     ``null`` has length n it receives the secondary part ``out - J# xd`` (the null-space
-    term), from the same factorisation; pass a length-0 array otherwise.
+    term), from the same factorisation; pass a length-0 array otherwise. The step is
+    :func:`_step_into` with scratch allocated here (a loop over many steps passes its own).
     """
+    m, n = J.shape
+    scratch = _step_scratch(m, n, wmode)
+    return _step_into(
+        J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond, scratch
+    )
+
+
+@kernel
+def _step_into(  # type: ignore[no-untyped-def]
+    J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond, scratch
+):
+    """:func:`_step` in ``scratch``, the arrays of ``_step_scratch(m, n, wmode)`` (their
+    contents are overwritten: one scratch serves any number of steps of that size)."""
     m, n = J.shape
     has_grad = grad.shape[0] > 0
     want_null = null.shape[0] == n
@@ -223,17 +251,13 @@ def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, 
         return XD_SHAPE, 0, 0.0, 0.0, 0.0
     if has_grad and grad.shape[0] != n:
         return GRAD_SHAPE, 0, 0.0, 0.0, 0.0
-    fsize = _factor_size(n, wmode)
-    work = np.empty(m * n + 3 * m * m + 8 * m + n + fsize)
-    Lw = _factor_view(work[work.shape[0] - fsize :], n, wmode)
-    Js = work[: m * n].reshape((m, n))
-    C = work[m * n : m * n + m * m].reshape((m, m))
-    base = m * n + m * m
-    r = work[base : base + m]
-    dvec = work[base + m : base + 2 * m]
-    g = work[base + 2 * m : base + 2 * m + n]
-    rt = work[base + 2 * m + n : base + 3 * m + n]
-    scratch = work[base + 3 * m + n : work.shape[0] - fsize]
+    Js, mats, Lw, vec = scratch
+    C = mats[0]
+    r = vec[:m]
+    dvec = vec[m : 2 * m]
+    rt = vec[2 * m : 3 * m]
+    work = vec[3 * m : 7 * m]
+    g = vec[7 * m : 7 * m + n]
     if not _copy_finite_2d(J, Js):
         return J_NONFINITE, 0, 0.0, 0.0, 0.0
     if not _finite_1d(xd):
@@ -263,7 +287,7 @@ def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, 
                 null[j] = out[j]
         return OK, 0, 0.0, 0.0, lam_used
     use_chol, rank, smin, smax, lam_used = _core(
-        Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, scratch
+        Js, scale, dmode, lam, lam_max, eps, rcond, mats, dvec, work
     )
     # Cholesky: qd = Js^T (Js Js^T + lam^2)^-1 (xd / s + k Js g) - k g.
     # SVD (Js now holds B): qd = B^T diag(d) (G xd / s + k B g) - k g.
@@ -348,15 +372,12 @@ def inverse(J, wdiag, W, Jp, N, Lam, wmode, dmode, lam, lam_max, eps, rcond):  #
     want_pinv = Jp.shape[0] > 0
     want_projector = N.shape[0] > 0
     want_inertia = Lam.shape[0] > 0
-    fsize = _factor_size(n, wmode)
-    work = np.empty(2 * m * n + 3 * m * m + 6 * m + fsize)
-    Lw = _factor_view(work[work.shape[0] - fsize :], n, wmode)
-    Js = work[: m * n].reshape((m, n))
-    X = work[m * n : 2 * m * n].reshape((m, n))
-    C = work[2 * m * n : 2 * m * n + m * m].reshape((m, m))
-    col = work[2 * m * n + m * m : 2 * m * n + m * m + m]
-    dvec = work[2 * m * n + m * m + m : 2 * m * n + m * m + 2 * m]
-    scratch = work[2 * m * n + m * m + 2 * m : work.shape[0] - fsize]
+    Js, mats, Lw, vec = _step_scratch(m, n, wmode)
+    X = np.empty((m, n))
+    C = mats[0]
+    col = vec[:m]
+    dvec = vec[m : 2 * m]
+    scratch = vec[3 * m : 7 * m]
     if not _copy_finite_2d(J, Js):
         return J_NONFINITE, 0, 0.0, 0.0, 0.0
     status = _weigh(Js, wmode, wdiag, W, Lw)
@@ -376,7 +397,7 @@ def inverse(J, wdiag, W, Jp, N, Lam, wmode, dmode, lam, lam_max, eps, rcond):  #
                 Lam[a, b] = 1.0 / (lam_used * lam_used) if a == b and lam_used > 0.0 else 0.0
         return OK, 0, 0.0, 0.0, lam_used
     use_chol, rank, smin, smax, lam_used = _core(
-        Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec, scratch
+        Js, scale, dmode, lam, lam_max, eps, rcond, mats, dvec, scratch
     )
     if want_inertia:
         _inertia(C, dvec, use_chol, scale, Lam)
