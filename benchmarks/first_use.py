@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import statistics
 import subprocess
 import sys
@@ -187,6 +188,18 @@ def wait_for_background(cache: Path, limit: float = 900.0) -> None:
         time.sleep(0.5)
 
 
+def stop_background(cache: Path) -> None:
+    """End the background compilation a switch loop started (its own session, the lock
+    file's process id): the loop has switched, and the rest of the kernels would take the
+    cores from the next run for minutes (the cache is thrown away)."""
+    for lock in cache.glob("compiling-*.pid"):
+        try:
+            os.killpg(int(lock.read_text()), signal.SIGTERM)
+        except (ValueError, ProcessLookupError, PermissionError):
+            pass
+        lock.unlink(missing_ok=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=1, help="runs per case (median)")
@@ -228,7 +241,7 @@ def main() -> None:
             for policy, sink in runs.items():
                 with tempfile.TemporaryDirectory(prefix="redres-first-use-") as tmp:
                     seconds = time_case(body, Path(tmp), policy)
-                    wait_for_background(Path(tmp))
+                    stop_background(Path(tmp))
                 if seconds is not None:
                     sink.append(seconds)
         row = {policy: statistics.median(v) if v else None for policy, v in runs.items()}
