@@ -193,11 +193,11 @@ def test_restarts_are_drawn_in_the_middle_of_each_range() -> None:
     """The sampling box: RESTART_SPAN of each finite range about its middle (by hand),
     [-pi, pi] clipped to a half-infinite range, on both paths."""
     from redres._ik_reference import ReferenceSolver
-    from redres.ik_types import RESTART_SPAN
+    from redres.ik_types import RESTART_SPAN, limit_arrays
 
     lo = np.array([-2.0, 0.0, -np.inf, -1.0])
     hi = np.array([2.0, 3.0, np.inf, np.inf])
-    limits = ik_module._limits(lo, hi)
+    limits = limit_arrays(lo, hi)
     assert np.allclose(limits[2, :2], [-2.0 * RESTART_SPAN, 1.5 - 1.5 * RESTART_SPAN])
     assert np.allclose(limits[3, :2], [2.0 * RESTART_SPAN, 1.5 + 1.5 * RESTART_SPAN])
     assert np.array_equal(limits[2, 2:], [-np.pi, -1.0])
@@ -206,7 +206,7 @@ def test_restarts_are_drawn_in_the_middle_of_each_range() -> None:
     solver = ReferenceSolver(robot, robot.frame_id(None), (np.zeros(3), None),
                              ik_module._options_of(1e-6, 1e-5, 10, 0, 1.0, 0.5, 0.1, None,
                                                    10, 1e-5)[0], None, None)  # fmt: skip
-    box = ik_module._limits(robot.q_min, robot.q_max)[2:4]
+    box = limit_arrays(robot.q_min, robot.q_max)[2:4]
     assert np.array_equal(box, [solver.sample_lo, solver.sample_hi])
 
 

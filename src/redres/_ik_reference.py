@@ -21,7 +21,7 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from ._validate import FloatArray
-from .ik_types import IKResult, _Options, sampling_box
+from .ik_types import IKResult, _Options, limit_arrays
 from .linalg import adaptive_damping, rate_step
 
 if TYPE_CHECKING:
@@ -59,11 +59,9 @@ class ReferenceSolver:
         self.p_d, self.R_d = spec
         self.o = options
         self.lo, self.hi = robot.q_min, robot.q_max
-        finite = np.isfinite(self.lo) & np.isfinite(self.hi)
-        span = np.where(finite, self.hi - self.lo, 1.0)
-        self.sample_lo, self.sample_hi = sampling_box(self.lo, self.hi)
-        self.mid = (np.where(finite, self.lo, 0.0) + np.where(finite, self.hi, 0.0)) / 2.0
-        self.limit_weight = np.where(finite & (span > 0), 2.0 / (span * span), 0.0)
+        _, _, self.sample_lo, self.sample_hi, self.mid, self.limit_weight = limit_arrays(
+            self.lo, self.hi
+        )
         self.q_pref = q_pref
         self.arm_task = None
         if arm_angle is not None:

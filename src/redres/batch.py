@@ -322,7 +322,8 @@ def ik(
         InvalidParameterError: a tolerance, budget or gain out of range.
         NotSerialChainError: the model is not a serial chain up to ``frame``.
     """
-    from .ik import _limits, _options_of
+    from .ik import _options_of
+    from .ik_types import limit_arrays
 
     chain = robot.chain(frame)
     n = chain.n
@@ -349,7 +350,7 @@ def ik(
     kernels = _compiled(threads)
     if kernels is None:
         kernels = _jit.load(_MODULE)  # the plain-Python twin: the same code, slowly
-    args = (*chain.arrays, _limits(robot.q_min, robot.q_max), T, starts, packed, rows, key,
+    args = (*chain.arrays, limit_arrays(robot.q_min, robot.q_max), T, starts, packed, rows, key,
             o.max_restarts + 1, q, errors, counts, status)  # fmt: skip
     _launch(kernels.ik_solves, args, threads)
     if status.any():

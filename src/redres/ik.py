@@ -86,7 +86,7 @@ from . import _jit
 from ._ik_reference import ReferenceSolver
 from ._validate import FloatArray, as_scalar, as_vector
 from .errors import InvalidParameterError
-from .ik_types import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target, sampling_box
+from .ik_types import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target, limit_arrays
 from .linalg import AdaptiveDamping, rate_step
 
 if TYPE_CHECKING:
@@ -327,22 +327,7 @@ def _chain_arguments(robot: Robot, fid: int) -> tuple[Any, ...] | None:
         chain = robot.chain(robot.model.frames[fid].name)
     except NotSerialChainError:
         return None
-    return (*chain.arrays, _limits(robot.q_min, robot.q_max))
-
-
-def _limits(lo: FloatArray, hi: FloatArray) -> FloatArray:
-    """``[lo, hi, sample_lo, sample_hi, mid, weight]`` (6, n), as the reference solver."""
-    finite = np.isfinite(lo) & np.isfinite(hi)
-    a, b = np.where(finite, lo, 0.0), np.where(finite, hi, 0.0)  # no inf - inf
-    span = np.where(finite, b - a, 1.0)
-    sample_lo, sample_hi = sampling_box(lo, hi)
-    return np.array(
-        (
-            lo, hi, sample_lo, sample_hi, (a + b) / 2.0,
-            np.where(finite & (span > 0), 2.0 / (span * span), 0.0),
-        ),
-        dtype=np.float64,
-    )  # fmt: skip
+    return (*chain.arrays, limit_arrays(robot.q_min, robot.q_max))
 
 
 def _warm_arguments() -> tuple[Any, ...]:
@@ -350,7 +335,7 @@ def _warm_arguments() -> tuple[Any, ...]:
     chain = (np.zeros((2, 3, 4)), np.eye(3)[2:], np.array([2], dtype=np.int64))
     for array in chain:  # the types of SerialChain.arrays, read-only
         array.flags.writeable = False
-    limits = _limits(np.array([-1.0]), np.array([1.0]))
+    limits = limit_arrays(np.array([-1.0]), np.array([1.0]))
     problem = np.zeros(16 + 9)
     problem[:16] = np.eye(4).ravel()
     problem[16:19] = 1.0
@@ -442,6 +427,8 @@ def _solve_compiled(
 
 _UNSETTLED = " (the preference had not settled when the budget ran out)"
 _FIELDS = tuple(field.name for field in dataclasses.fields(IKResult))
+_DEFAULTS = {f.name: f.default for f in dataclasses.fields(IKResult)
+             if f.default is not dataclasses.MISSING}  # fmt: skip
 
 
 def _result(*values: Any) -> IKResult:
@@ -449,9 +436,5 @@ def _result(*values: Any) -> IKResult:
     ``object.__setattr__`` per field, a fifth of a solve's Python overhead): the same
     object, its remaining fields at their defaults."""
     result = object.__new__(IKResult)
-    state = result.__dict__
-    for name, value in zip(_FIELDS, values, strict=False):
-        state[name] = value
-    state.setdefault("arm_angle", None)
-    state.setdefault("preference_met", None)
+    result.__dict__.update(_DEFAULTS, **dict(zip(_FIELDS, values, strict=False)))
     return result

@@ -58,16 +58,24 @@ ARM_ANGLE_TOL = 1e-4
 RESTART_SPAN = 0.7
 
 
-def sampling_box(lo: FloatArray, hi: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Box of the random restarts: :data:`RESTART_SPAN` of each finite range about its
-    middle, ``[max(lo, −π), min(hi, π)]`` where a limit is infinite."""
+def limit_arrays(lo: FloatArray, hi: FloatArray) -> FloatArray:
+    """The IK's view of the joint limits, ``[lo, hi, sample_lo, sample_hi, mid, weight]``
+    (6, n), for the compiled solver and the reference one alike: the restart box
+    (:data:`RESTART_SPAN` of each finite range about its middle, ``[max(lo, −π), min(hi,
+    π)]`` where a limit is infinite), the middle of each range and the weight
+    ``2 / span²`` of the joint-limit cost (0 for an infinite range)."""
     finite = np.isfinite(lo) & np.isfinite(hi)
-    a, b = np.where(finite, lo, 0.0), np.where(finite, hi, 0.0)
-    mid, half = (a + b) / 2.0, RESTART_SPAN * (b - a) / 2.0
-    return (
-        np.where(finite, mid - half, np.maximum(lo, -math.pi)),
-        np.where(finite, mid + half, np.minimum(hi, math.pi)),
-    )
+    a, b = np.where(finite, lo, 0.0), np.where(finite, hi, 0.0)  # no inf - inf
+    mid, span = (a + b) / 2.0, b - a
+    half = RESTART_SPAN * span / 2.0
+    return np.array(
+        (
+            lo, hi, np.where(finite, mid - half, np.maximum(lo, -math.pi)),
+            np.where(finite, mid + half, np.minimum(hi, math.pi)), mid,
+            np.where(finite & (span > 0), 2.0 / np.where(span > 0, span * span, 1.0), 0.0),
+        ),
+        dtype=np.float64,
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)
