@@ -221,25 +221,35 @@ class QPScheme(BoxScheme):
         ``out[0]``; after an infeasible step, the latter first: module docstring). Returns
         whether the task is met exactly, and ``(#active, residual)`` when the step is
         already finished (else None: the caller finishes it)."""
-        ws, tried = self._ws, self._infeasible_before
-        lv = self._least_violating(out) if tried else None
-        if lv is not None:
-            proved, active, residual = self._end(J, xd, lv, out, ws.M, ws.wm, full)
-            if proved:
-                return False, (active, residual)
+        tried = self._infeasible_before
+        if tried:
+            lv = self._least_violating(out)
+            finished = self._proved(J, xd, lv, out, full)
+            if finished is not None:
+                return False, finished
         x, flag = self._exact_qp.solve(None, self._f, J, self._bu, self._bl)
         self._infeasible_before = flag <= 0
         if flag > 0:
             out[0] = x
             return True, None
-        if not tried:  # proved infeasible (Farkas): no retry on orthonormal rows needed
+        if not tried:
             lv = self._least_violating(out)
-            if lv is not None:
-                proved, active, residual = self._end(J, xd, lv, out, ws.M, ws.wm, full)
-                if proved:
-                    return False, (active, residual)
+            finished = self._proved(J, xd, lv, out, full)
+            if finished is not None:  # no retry on orthonormal rows needed
+                return False, finished
         out[0] = lv if lv is not None else np.clip(qd0, out[2], out[3])
         return False, None
+
+    def _proved(
+        self, J: FloatArray, xd: FloatArray, lv: FloatArray | None, out: FloatArray, full: bool
+    ) -> tuple[int, float] | None:
+        """When the least-violating answer ``lv`` proves the task infeasible (Farkas'
+        lemma, ``qp_end``), the finished step's ``(#active, residual)``; else None."""
+        if lv is None:
+            return None
+        ws = self._ws
+        proved, active, residual = self._end(J, xd, lv, out, ws.M, ws.wm, full)
+        return (active, residual) if proved else None
 
     def _refine(
         self,
