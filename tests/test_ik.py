@@ -153,10 +153,20 @@ def test_seeded_restarts_are_reproducible(builtin_robots: dict) -> None:
     robot = builtin_robots["panda"]
     T = robot.fk(robot.random_configuration(np.random.default_rng(11)))
     runs = [ik(robot, T, max_iterations=4, seed=s, timeout_s=NO_TIMEOUT) for s in (7, 7)]
-    gen = ik(robot, T, max_iterations=4, seed=np.random.default_rng(7), timeout_s=NO_TIMEOUT)
+    gens = [ik(robot, T, max_iterations=4, seed=np.random.default_rng(7), timeout_s=NO_TIMEOUT)
+            for _ in range(2)]  # fmt: skip
+    other = ik(robot, T, max_iterations=4, seed=8, timeout_s=NO_TIMEOUT)
     assert runs[0].restarts > 0  # four iterations per attempt force restarts
-    assert np.array_equal(runs[0].q, runs[1].q) and np.array_equal(runs[0].q, gen.q)
-    assert runs[0].iterations == runs[1].iterations == gen.iterations
+    assert np.array_equal(runs[0].q, runs[1].q) and np.array_equal(gens[0].q, gens[1].q)
+    assert runs[0].iterations == runs[1].iterations and gens[0].iterations == gens[1].iterations
+    assert not np.array_equal(runs[0].q, other.q)  # the seed is the restarts' key
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, True, "7", [1, 2]])
+def test_a_bad_seed_is_refused_by_name(builtin_robots: dict, seed: object) -> None:
+    robot = builtin_robots["iiwa14"]
+    with pytest.raises(InvalidParameterError, match="seed must be"):
+        ik(robot, robot.fk(robot.neutral()), seed=seed)
 
 
 def test_preferred_configuration_is_locally_closest(builtin_robots: dict) -> None:

@@ -124,19 +124,36 @@ def test_attempts_split_across_calls_give_the_same_answer(builtin_robots: dict) 
     packed = ik_module._options_of(1e-6, 1e-5, 8, 0, 1.0, 0.5, 0.1, None, 10, 1e-5)[1]
     problem = ik_module._problem(T, packed, None)
     ends = []
-    for chunks in ([(0, 5)], [(0, 1), (1, 3), (3, 5)]):
+    # (first, stop) ranges, and the iteration budget per call (``spend``): a call ends
+    # after the attempt that reaches it, the caller calls again for the rest.
+    for chunks, spend in (([(0, 5)], 10**9), ([(0, 1), (1, 3), (3, 5)], 10**9),
+                          ([(0, 5)], 1), ([(0, 5)], 9)):  # fmt: skip
         io = np.zeros(2 * 7 + 6)
         io[:7] = robot.neutral()
         io[14:17] = np.inf
-        total = 0
+        total, calls = 0, []
         for first, stop in chunks:
-            status, attempts, used = module.solve_packed(
-                links, axes, kinds, limits, problem, io, 6, False, 12345, first, stop
-            )
-            assert status != module.CONVERGED and attempts == stop - first
-            total += used
-        ends.append((io.copy(), total))
-    assert np.array_equal(ends[0][0], ends[1][0]) and ends[0][1] == ends[1][1]
+            while first < stop:
+                status, attempts, used = module.solve_packed(
+                    links, axes, kinds, limits, problem, io, 6, False, 12345, first, stop, spend
+                )
+                assert status != module.CONVERGED and 1 <= attempts <= stop - first
+                first += attempts
+                total += used
+                calls.append((attempts, used))
+        ends.append((io.copy(), total, calls))
+    for io, total, _ in ends[1:]:
+        assert np.array_equal(ends[0][0], io) and ends[0][1] == total
+    each = [used for attempts, used in ends[2][2]]  # spend 1: one attempt a call
+    assert len(each) == 5 and all(1 <= used <= 8 for used in each)
+    grouped, made, spent = [], 0, 0  # spend 9: a call ends once its iterations reach 9
+    for used in each:
+        made, spent = made + 1, spent + used
+        if spent >= 9:
+            grouped.append(made)
+            made = spent = 0
+    grouped += [made] if made else []
+    assert [attempts for attempts, _ in ends[3][2]] == grouped
 
 
 def test_a_tree_takes_the_reference_path() -> None:
@@ -241,8 +258,8 @@ def test_primal_step_equals_the_rate_step(lam: float, smallest: float) -> None:
         s = np.geomspace(2.0, smallest, 6)
         J = U @ np.diag(s) @ V[:6]
         e, grad = rng.normal(size=6), rng.normal(size=7)
-        out, null, scratch = np.empty(7), np.empty(7), np.empty(module.SCRATCH)
-        sigma = module._primal_step(J, e, 6, grad, 0.3, lam, 0.05, out, null, scratch)
+        out, null, mats, vecs = np.empty(7), np.empty(7), np.empty((3, 6, 6)), np.empty((6, 6))
+        sigma = module._primal_step(J, e, 6, grad, 0.3, lam, 0.05, out, null, mats, vecs)
         if smallest < 2e-3:
             assert sigma == -1.0
             continue

@@ -42,6 +42,7 @@ from .robot._chain_kernels import fk, jacobian
 
 prange = parallel_range()
 
+_NO_SPEND = 2**62  # solve_packed's iteration budget per call: none (no clock here)
 #: Items per chunk of the parallel loop (its scratch is reused within a chunk).
 CHUNK = 64
 
@@ -153,7 +154,7 @@ def ik_solves(  # type: ignore[no-untyped-def]
             while attempt < attempts and found < slots:
                 result, made, used = solve_packed(
                     links, axes, kinds, limits, problem, io, rows, False, keys[i], attempt,
-                    attempts,
+                    attempts, _NO_SPEND,
                 )  # fmt: skip
                 if result < 0:
                     code = -1

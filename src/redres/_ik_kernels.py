@@ -17,7 +17,8 @@ sampling box by a counter-based generator: uniform number ``c`` of attempt ``r``
 so results do not depend on how the attempts are split between calls, on threads, or on
 any generator's state. The arithmetic stays within ``int64`` (products wrap identically
 in numba and are exact in plain Python), so the plain-Python twin draws the same numbers.
-The caller reads the clock between calls (an attempt: at most ``max_iterations``).
+The caller reads the clock between calls: a call ends after the attempt that brings its
+iterations to ``spend``, so with ``spend = max_iterations`` at most twice that many.
 """
 
 from __future__ import annotations
@@ -43,8 +44,6 @@ CONVERGED, STALLED, BUDGET = 0, 1, 2
 #: Layout of ``options``.
 TOL_POSITION, TOL_ORIENTATION, MAX_STEP, K_LIMITS, MAX_DAMPING, THRESHOLD = range(6)
 PREFERENCE_TOL, MAX_ITERATIONS, PATIENCE, N_OPTIONS = 6, 7, 8, 9
-#: Scratch of the Cholesky step: three 6x6 matrices and six 6-vectors.
-SCRATCH = 144
 #: Layout of ``state`` (kept between calls for one target).
 BEST_SCORE, BEST_POSITION, BEST_ORIENTATION, ERR_POSITION, ERR_ORIENTATION = range(5)
 UNSETTLED, N_STATE = 5, 6
@@ -107,13 +106,13 @@ def _cap(dq, largest):  # type: ignore[no-untyped-def]
 @kernel
 def _direction(  # type: ignore[no-untyped-def]
     J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k, lam, threshold, grad, task, pref,
-    scratch,
+    mats, vecs,
 ):  # fmt: skip
     """``task`` (and, in phase 2, ``pref``) <- the two parts of the step with the
     ``blocked`` joints' columns removed; returns ``σ_min`` of the (blocked) Jacobian, or
     ``threshold`` when it is at least that (the damping law needs no more).
     Phase 1: the joint-limit term is in ``task``; phase 2: ``pref`` is the null-space
-    step toward ``q_pref``. ``scratch``: :data:`SCRATCH` values."""
+    step toward ``q_pref``. ``mats`` (3, 6, 6), ``vecs`` (6, 6): scratch."""
     n = q.shape[0]
     for j in range(n):
         b = blocked[j]
@@ -133,7 +132,7 @@ def _direction(  # type: ignore[no-untyped-def]
     if free < rows and _dual_step(J, e, rows, blocked, free, grad, k, lam, task, null):
         sigma = 0.0  # as the reference: σ_rows of J with blocked columns, rank < rows
     else:
-        sigma = _primal_step(Jb, e, rows, grad, k, lam, threshold, task, null, scratch)
+        sigma = _primal_step(Jb, e, rows, grad, k, lam, threshold, task, null, mats, vecs)
         if sigma < 0.0:  # near-singular: the rate step's SVD
             sigma = _rate_step(Jb[:rows], e[:rows], grad, task, null, k, lam, _RCOND)[3]
     if prefer:
@@ -143,7 +142,7 @@ def _direction(  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _primal_step(J, e, rows, grad, k, lam, threshold, out, null, scratch):  # type: ignore[no-untyped-def]
+def _primal_step(J, e, rows, grad, k, lam, threshold, out, null, mats, vecs):  # type: ignore[no-untyped-def]
     """``out <- Jᵀ (J Jᵀ + λ² I)⁻¹ (e + k J grad) − k grad`` (``null`` <- its second
     part, if of length n) by the Cholesky factorisation of ``J Jᵀ + λ² I``, the path
     :func:`redres.linalg._kernels.step` takes where ``σ_min/σ_max >= 1e-3``, without
@@ -152,23 +151,23 @@ def _primal_step(J, e, rows, grad, k, lam, threshold, out, null, scratch):  # ty
     ``J Jᵀ − threshold² I`` succeeds: the law gives 0, no eigenvalues needed); below,
     ``σ_min`` as that step finds it (Householder tridiagonalisation, extreme
     eigenvalues). Returns −1 where that step would take its SVD (``σ_min/σ_max <
-    1e-3``, fewer columns than rows). ``scratch``: :data:`SCRATCH` values.
+    1e-3``, fewer columns than rows). ``mats`` (3, 6, 6), ``vecs`` (6, 6): scratch
+    (2-D and 3-D arrays indexed by row: a reshape per call costs as much as a Cholesky
+    factorisation).
     """
     n = J.shape[1]
     if not threshold > 0.0 or n < rows:
         return -1.0
-    A = scratch[: rows * rows].reshape((rows, rows))
-    L = scratch[36 : 36 + rows * rows].reshape((rows, rows))
-    r = scratch[72 : 72 + rows]
-    rt = scratch[78 : 78 + rows]
+    A, L = mats[0], mats[1]
+    r, rt = vecs[0], vecs[1]
     _gram(J, rows, A)
     sigma = threshold
     if not _cholesky(A, L, rows, -threshold * threshold):
-        T = scratch[84 : 84 + rows * rows].reshape((rows, rows))
+        T = mats[2]
         for a in range(rows):
             for b in range(a + 1):
                 T[a, b] = A[a, b]
-        d, off, v, p = scratch[120:126], scratch[126:132], scratch[132:138], scratch[138:144]
+        d, off, v, p = vecs[2], vecs[3], vecs[4], vecs[5]
         _tridiagonalize(T, rows, d, off, v, p)
         lowest, highest = _extreme_eigenvalues(d, off, rows, True)
         sigma = math.sqrt(max(lowest, 0.0))
@@ -267,7 +266,7 @@ def _blocked_more(q, lo, hi, task, pref, prefer, blocked):  # type: ignore[no-un
 
 
 @kernel
-def solve_packed(links, axes, kinds, limits, problem, io, rows, has_pref, key, first, stop):  # type: ignore[no-untyped-def]
+def solve_packed(links, axes, kinds, limits, problem, io, rows, has_pref, key, first, stop, spend):  # type: ignore[no-untyped-def]
     """:func:`solve` for a call from Python, with few arrays to unbox (each costs about as
     much as an iteration): ``limits`` (6, n) stacks ``lo, hi, sample_lo, sample_hi, mid,
     weight``; ``problem`` is the target (16 values, row-major 4x4), the options
@@ -290,7 +289,7 @@ def solve_packed(links, axes, kinds, limits, problem, io, rows, has_pref, key, f
     for j in range(n):
         q[j] = min(max(q[j], limits[0, j]), limits[1, j])
     return solve(links, axes, kinds, limits, target, rows, q_pref, options, key, 0, first,
-                 stop, q, best_q, state)  # fmt: skip
+                 stop, spend, q, best_q, state)  # fmt: skip
 
 
 @kernel
@@ -327,6 +326,7 @@ def solve(  # type: ignore[no-untyped-def]
     item,
     first,
     stop,
+    spend,
     q,
     best_q,
     state,
@@ -339,18 +339,20 @@ def solve(  # type: ignore[no-untyped-def]
     joint-limit cost); ``target`` (4, 4); ``rows`` 3 (position) or 6 (pose); ``q_pref``
     (n) enables the preference phase, length 0 none; ``options``: the layout
     :data:`TOL_POSITION` … :data:`PATIENCE`; ``key``, ``item``: the restart stream.
-    ``q`` (n): in, the start of attempt ``first`` when it is 0 (later attempts draw
-    theirs); out, the solution when converged, else the last attempt's end. ``best_q``
-    and ``state`` (:data:`N_STATE`; ``state[BEST_SCORE] = inf`` before the first call)
-    carry the best configuration over calls. Returns ``(status, attempts made,
+    ``spend``: the call ends after the attempt that brings its iterations to this
+    many (the caller reads its clock between calls). ``q`` (n): in, the start of
+    attempt ``first`` when it is 0 (later attempts draw theirs); out, the solution when
+    converged, else the last attempt's end. ``best_q`` and ``state`` (:data:`N_STATE`;
+    ``state[BEST_SCORE] = inf`` before the first call) carry the best configuration over
+    calls. Returns ``(status, attempts made,
     iterations)``; when converged, ``state[ERR_POSITION]``, ``state[ERR_ORIENTATION]``
     hold the errors at ``q`` and ``state[UNSETTLED]`` whether the preference had not
     settled.
     """
     n = q.shape[0]
-    work = np.empty(18 * n + 22 + SCRATCH)
+    T, e, J, Jb = np.empty((4, 4)), np.empty(6), np.empty((6, n)), np.empty((6, n))
+    vectors, mats, vecs = np.empty((6, n)), np.empty((3, 6, 6)), np.empty((6, 6))
     flags = np.zeros(2 * n, dtype=np.bool_)
-    T, e, J = work[:16].reshape((4, 4)), work[16:22], work[22 : 22 + 6 * n].reshape((6, n))
     iterations = 0
     status = BUDGET
     attempt = first
@@ -360,8 +362,8 @@ def solve(  # type: ignore[no-untyped-def]
                 u = uniform(key, item, attempt, j)
                 q[j] = limits[2, j] + (limits[3, j] - limits[2, j]) * u
         status, used, unsettled = _attempt(
-            links, axes, kinds, limits, target, rows, q_pref, options, q, best_q, state, work,
-            flags,
+            links, axes, kinds, limits, target, rows, q_pref, options, q, best_q, state, T, e,
+            J, Jb, vectors, mats, vecs, flags,
         )  # fmt: skip
         iterations += used
         attempt += 1
@@ -371,20 +373,21 @@ def solve(  # type: ignore[no-untyped-def]
             state[ERR_POSITION], state[ERR_ORIENTATION] = ep, eo
             state[UNSETTLED] = 1.0 if unsettled else 0.0
             break
+        if iterations >= spend:
+            break
     return status, attempt - first, iterations
 
 
 @kernel
 def _attempt(  # type: ignore[no-untyped-def]
-    links, axes, kinds, limits, target, rows, q_pref, options, q, best_q, state, work, flags
-):
+    links, axes, kinds, limits, target, rows, q_pref, options, q, best_q, state, T, e, J, Jb,
+    vectors, mats, vecs, flags,
+):  # fmt: skip
     """One attempt from ``q`` (updated in place: the answer when converged);
-    ``(status, iterations, whether the preference had not settled)``."""
+    ``(status, iterations, whether the preference had not settled)``. The rest is
+    scratch: ``T`` (4, 4), ``e`` (6), ``J``, ``Jb``, ``vectors`` (6, n), ``mats``
+    (3, 6, 6), ``vecs`` (6, 6), ``flags`` (2n)."""
     n = q.shape[0]
-    T, e = work[:16].reshape((4, 4)), work[16:22]
-    J, Jb = work[22 : 22 + 6 * n].reshape((6, n)), work[22 + 6 * n : 22 + 12 * n].reshape((6, n))
-    vectors = work[22 + 12 * n : 22 + 18 * n].reshape((6, n))
-    scratch = work[22 + 18 * n : 22 + 18 * n + SCRATCH]
     grad, task, pref, cand, last, qn = (vectors[0], vectors[1], vectors[2], vectors[3],
                                         vectors[4], vectors[5])  # fmt: skip
     blocked, sticky = flags[:n], flags[n:]
@@ -453,13 +456,13 @@ def _attempt(  # type: ignore[no-untyped-def]
                 recompute = recompute or sticky[j]
         if not recompute:
             sigma = _direction(J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k,
-                               lam, threshold, grad, task, pref, scratch)  # fmt: skip
+                               lam, threshold, grad, task, pref, mats, vecs)  # fmt: skip
         if at_limit:
             for _ in range(3):
                 if recompute:
                     sigma = _direction(J, Jb, e, rows, q, blocked, prefer, q_pref, mid,
                                        weight, k, lam, threshold, grad, task, pref,
-                                       scratch)  # fmt: skip
+                                       mats, vecs)  # fmt: skip
                 if not _blocked_more(q, lo, hi, task, pref, prefer, blocked):
                     break
                 recompute = True

@@ -291,10 +291,9 @@ def ik(
     attempt 0 from ``q0[i]``, then random restarts drawn by the counter-based generator
     under ``keys[i]``), with the budget ``max_restarts`` restarts of at most
     ``max_iterations`` iterations each and no clock: with ``solutions=1`` it equals
-    ``rr.ik(robot, targets[i], q0=q0[i], seed=g, timeout_s=inf, ...)`` for a generator
-    ``g`` whose first ``integers(0, 2**62)`` draw is ``keys[i]`` (that draw is how
-    :func:`~redres.ik.ik` keys its restarts). With ``solutions=S > 1`` the attempts go on
-    after a success until ``S`` solutions are found or the budget is spent (restarts
+    ``rr.ik(robot, targets[i], q0=q0[i], seed=int(keys[i]), timeout_s=None, ...)`` (an
+    integer seed is :func:`~redres.ik.ik`'s restart key). With ``solutions=S > 1`` the
+    attempts go on after a success until ``S`` solutions are found or the budget is spent (restarts
     from random configurations may find the same solution again; see ``found``).
 
     Args:

@@ -43,15 +43,17 @@ Each iteration, from the error ``e = [p_d − p; log(R_d Rᵀ)]`` (docs/conventi
   returned with ``converged=False`` when the budget runs out (unreachable targets).
 
 Speed: inputs are validated once. For a frame at the end of a serial chain
-(:class:`~redres.robot.SerialChain`) the iteration then runs compiled, one kernel call
-per attempt (:mod:`redres._ik_kernels`: the chain kernels for the error and Jacobian,
-the compiled rate step of :mod:`redres.linalg`, no Pinocchio call, nothing written into
-``robot.data``), the clock read between attempts: the time budget is checked once per
-attempt (at most ``max_iterations`` iterations, tens of microseconds), not every
-iteration. The restart configurations come from that module's counter-based generator,
-keyed by the first draw of the generator ``seed`` gives (so ``seed=7`` and
-``default_rng(7)`` still agree, and the draws no longer depend on any generator's later
-state). The arm-angle preference, frames that are not at the end of a serial chain, and
+(:class:`~redres.robot.SerialChain`) the iteration then runs compiled
+(:mod:`redres._ik_kernels`: the chain kernels for the error and Jacobian, the compiled
+rate step of :mod:`redres.linalg`, no Pinocchio call, nothing written into
+``robot.data``): one kernel call for the first attempt, then calls of as many restarts
+as fit in ``max_iterations`` iterations (the call ends after the attempt that reaches
+them), the clock read between calls: the time budget is checked at least every
+``2 max_iterations`` iterations (well under a millisecond), not every iteration. The
+restart configurations come from that module's counter-based generator, keyed by the
+integer ``seed`` itself, by the first ``integers(0, 2**62)`` draw of a generator given as
+``seed``, or by fresh entropy (``seed=None``); the draws depend on no generator's later
+state. The arm-angle preference, frames that are not at the end of a serial chain, and
 processes whose kernels are still compiling behind take the reference path
 (:mod:`redres._ik_reference`: the same iteration in Python on Pinocchio, writing into
 ``robot.data``, the clock read every iteration, restarts drawn by the generator itself);
@@ -76,6 +78,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import secrets
 import time
 from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
@@ -140,7 +143,8 @@ def ik(
             budget: when it binds (a slow or loaded machine, a hard target), results
             differ between runs. (The first call in a process also loads the compiled
             kernels of :mod:`redres.linalg`, before the clock starts.)
-        seed: seed or generator of the random restarts (``None``: fresh entropy).
+        seed: key (a non-negative integer) or generator of the random restarts
+            (``None``: fresh entropy; module docstring).
         q_preferred: preferred configuration, shape ``(n,)``: among the solutions, one
             locally closest to it (module docstring).
         arm_angle: preferred arm angle, rad, of a 7-DOF arm with ``shoulder``, ``elbow``
@@ -175,6 +179,10 @@ def ik(
     spec = None if raw else _parse_target(target, position_only)
     if q_preferred is not None and arm_angle is not None:
         raise InvalidParameterError("give q_preferred or arm_angle, not both")
+    if not (seed is None or isinstance(seed, np.random.Generator) or _is_key(seed)):
+        raise InvalidParameterError(
+            f"seed must be a non-negative integer, a numpy Generator or None; got {seed!r}"
+        )
     q_pref = None if q_preferred is None else as_vector(q_preferred, "q_preferred", robot.n)
     if q0 is None:
         q_start = q_pref if q_pref is not None else robot.neutral()
@@ -340,7 +348,7 @@ def _warm_arguments() -> tuple[Any, ...]:
     problem[:16] = np.eye(4).ravel()
     problem[16:19] = 1.0
     io = np.zeros(2 + 6)
-    return (*chain, limits, problem, io, 6, False, 0, 0, 1)
+    return (*chain, limits, problem, io, 6, False, 0, 0, 1, 1)
 
 
 def _is_float_vector(value: Any, n: int) -> bool:
@@ -374,10 +382,22 @@ _EYE4 = np.eye(4)
 
 
 def _restart_key(seed: int | np.random.Generator | None) -> int:
-    """The key of the restart configurations (:mod:`redres._ik_kernels`): the first
-    draw of the seeded generator, so that ``seed=7`` and ``default_rng(7)`` agree."""
-    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    return int(rng.integers(0, 2**62))
+    """The key of the restart configurations (:mod:`redres._ik_kernels`): an integer seed
+    itself (modulo ``2**62``; the generator hashes it), the first ``integers(0, 2**62)``
+    draw of a generator, fresh entropy for None. (``np.random.default_rng(seed)`` costs
+    30 µs, a third of a solve.)"""
+    if seed is None:
+        return secrets.randbits(62)
+    if isinstance(seed, np.random.Generator):
+        return int(seed.integers(0, _KEYS))
+    return int(seed) % _KEYS  # checked by ik(): _is_key
+
+
+_KEYS = 2**62
+
+
+def _is_key(seed: Any) -> bool:
+    return isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and bool(seed >= 0)
 
 
 def _solve_compiled(
@@ -390,7 +410,7 @@ def _solve_compiled(
     seed: int | np.random.Generator | None,
     start: float,
 ) -> IKResult | None:
-    """The attempts in the kernel, one call each, the clock read between them; None when
+    """The attempts in the kernel, the clock read between calls; None when
     the kernel refuses the start (not finite) or the target (not a finite homogeneous
     transform)."""
     entry, arguments = compiled
@@ -400,26 +420,27 @@ def _solve_compiled(
     io[2 * n : 2 * n + 3] = math.inf  # the best score and its errors, none yet
     deadline = start + options.timeout_s
     clock = time.perf_counter
-    key, attempt, iterations = 0, 0, 0
+    # Attempt 0 draws nothing: the key is made only when a restart is needed.
+    key, made, iterations, stop, spend = 0, 0, 0, 1, options.max_iterations
     while True:
-        status, _, used = entry(*arguments, problem, io, rows, has_pref, key, attempt,
-                                attempt + 1)  # fmt: skip
+        status, attempts, used = entry(*arguments, problem, io, rows, has_pref, key, made,
+                                       stop, spend)  # fmt: skip
+        made += attempts
         iterations += used
         if status == 0:  # _ik_kernels.CONVERGED
             note = _UNSETTLED if io[2 * n + 5] else ""
-            return _result(io[:n].copy(), True, iterations, attempt, float(io[2 * n + 3]),
+            return _result(io[:n].copy(), True, iterations, made - 1, float(io[2 * n + 3]),
                            float(io[2 * n + 4]), clock() - start, "converged" + note)  # fmt: skip
         if status < 0:
             return None
         timeout = clock() > deadline
-        if timeout or attempt >= options.max_restarts:
+        if timeout or made > options.max_restarts:
             break
-        if attempt == 0:
-            key = _restart_key(seed)
-        attempt += 1
+        if made == 1:
+            key, stop = _restart_key(seed), options.max_restarts + 1
     why = "time budget" if timeout else "iteration and restart budget"
     return _result(
-        io[n : 2 * n].copy(), False, iterations, attempt, float(io[2 * n + 1]),
+        io[n : 2 * n].copy(), False, iterations, made - 1, float(io[2 * n + 1]),
         float(io[2 * n + 2]), clock() - start,
         f"not converged: {why} exhausted; returning the best configuration found",
     )  # fmt: skip
