@@ -17,8 +17,10 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/redres demo
 
+# On every core (pytest-xdist; tests/conftest.py: one compilation of a kernel at a time
+# across the workers); `python -m pytest` alone runs the same suite in one process.
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist worksteal --durations=25
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
