@@ -256,3 +256,21 @@ print(json.dumps([before, objects, after, sorted(set(redres.__all__) - set(dir(r
     assert missing == []
     with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
         redres.nonexistent  # noqa: B018
+
+
+def test_a_first_use_waits_for_what_its_module_imports(monkeypatch: pytest.MonkeyPatch) -> None:
+    needed = _jit.needs("redres._ik_kernels")
+    assert needed[0] == "redres._ik_kernels"
+    assert {
+        "redres.robot._chain_kernels",
+        "redres.linalg._kernels",
+        "redres.linalg._dense_kernels",
+        "redres.linalg._eigen_kernels",
+    } <= set(needed)
+    assert "redres.control._kernels" not in needed and set(needed) <= set(_jit.KERNEL_MODULES)
+    assert set(_jit._COLD_SECONDS) == set(_jit.KERNEL_MODULES)
+    monkeypatch.setattr(_jit, "cached", lambda name: False)
+    cold = _jit.cold_seconds("redres._ik_kernels")
+    assert cold == sum(_jit._COLD_SECONDS[m] for m in needed) > _jit._COLD_SECONDS[needed[0]]
+    monkeypatch.setattr(_jit, "cached", lambda name: name != "redres._ik_kernels")
+    assert _jit.cold_seconds("redres._ik_kernels") == _jit._COLD_SECONDS["redres._ik_kernels"]

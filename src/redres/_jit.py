@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import importlib.util
 import os
 import sys
 import tempfile
@@ -84,15 +85,54 @@ CONSTANT_MODULES: tuple[str, ...] = (
     "redres.robot._chain_codes",
 )
 
-#: Rough cold compile time of each module on a 2-core machine, s (for the message).
+#: Cold compile time of each module's own kernels on a 2-core machine, s (for the
+#: messages), with the modules it imports already cached. Measured on an empty cache
+#: (2026-12, quiet 2-core machine): a first ``damped_pinv`` 16.6 s, a first ``rr.ik`` 57 s
+#: (compile on the caller's path); ``redres warmup --jobs 1`` per group: chain 4.5 s,
+#: controller 14.4, batch 53.2, hard limits 35.0 (172 s in all). What a first use waits
+#: for is the sum over what it :func:`needs`: :func:`cold_seconds`.
 _COLD_SECONDS: dict[str, float] = {
-    "redres.linalg._kernels": 20.0,
-    "redres.control._kernels": 8.0,
-    "redres.robot._kernels": 2.0,
-    "redres._batch_kernels": 30.0,
-    "redres.resolution.hard_limits._kernels": 20.0,  # with _lp_kernels (SNS's simplex)
+    "redres.linalg._dense_kernels": 0.0,  # compiled with the callers in linalg._kernels
+    "redres.linalg._eigen_kernels": 0.0,
+    "redres.linalg._kernels": 16.0,
+    "redres.robot._kernels": 0.0,
+    "redres.robot._chain_kernels": 4.5,
+    "redres.control._kernels": 14.0,
+    "redres._ik_kernels": 36.0,
+    "redres._batch_kernels": 53.0,
+    "redres.resolution.hard_limits._kernels": 31.0,  # with _lp_kernels (SNS's simplex)
+    "redres.resolution.hard_limits._lp_kernels": 0.0,
     "redres.resolution.hard_limits._qp_kernels": 4.0,
 }
+
+
+def needs(name: str) -> tuple[str, ...]:
+    """Kernel module ``name`` and every kernel module it imports, directly or not (from
+    the sources' ``import`` statements, without importing them): what its first
+    compilation compiles."""
+    import ast
+
+    found: dict[str, None] = {}
+    todo = [name]
+    while todo:
+        module = todo.pop()
+        if module in found:
+            continue
+        found[module] = None
+        package = module.rsplit(".", 1)[0]
+        for node in ast.walk(ast.parse(_module_file(module).read_bytes())):
+            if isinstance(node, ast.ImportFrom) and node.module is not None:
+                base = importlib.util.resolve_name("." * node.level + node.module, package) \
+                    if node.level else node.module  # fmt: skip
+                todo.extend(m for m in (base,) if m in KERNEL_MODULES)
+    return tuple(found)
+
+
+def cold_seconds(name: str) -> float:
+    """Roughly how long the first use of kernel module ``name`` compiles, s: the
+    :data:`_COLD_SECONDS` of what it :func:`needs` that is not :func:`cached` yet."""
+    return sum(_COLD_SECONDS.get(m, 0.0) for m in needs(name) if not cached(m))
+
 
 _ENABLED = os.environ.get("REDRES_DISABLE_JIT", "") in ("", "0")
 _OPTIONS: dict[str, Any] = {"nogil": True, "error_model": "numpy"}
@@ -332,8 +372,8 @@ def _announce(name: str) -> None:
     pending.add(name)
     if _state.get("quiet"):
         return
-    seconds = _COLD_SECONDS.get(name)
-    about = f", about {seconds:.0f} s" if seconds else ""
+    seconds = cold_seconds(name)
+    about = f", about {seconds:.0f} s" if seconds >= 0.5 else ""
     print(
         f"redres: compiling {name.removeprefix('redres.')} kernels on first use{about}; "
         f"cached in {cache_dir()} for later runs (`redres warmup` compiles them up front)",
