@@ -272,5 +272,9 @@ def test_a_first_use_waits_for_what_its_module_imports(monkeypatch: pytest.Monke
     monkeypatch.setattr(_jit, "cached", lambda name: False)
     cold = _jit.cold_seconds("redres._ik_kernels")
     assert cold == sum(_jit._COLD_SECONDS[m] for m in needed) > _jit._COLD_SECONDS[needed[0]]
+    both = set(needed) | set(_jit.needs("redres._batch_kernels"))  # counted once each
+    assert _jit.cold_seconds("redres._ik_kernels", "redres._batch_kernels") == sum(
+        _jit._COLD_SECONDS[m] for m in both
+    )
     monkeypatch.setattr(_jit, "cached", lambda name: name != "redres._ik_kernels")
     assert _jit.cold_seconds("redres._ik_kernels") == _jit._COLD_SECONDS["redres._ik_kernels"]

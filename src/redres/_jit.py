@@ -122,16 +122,17 @@ def needs(name: str) -> tuple[str, ...]:
         package = module.rsplit(".", 1)[0]
         for node in ast.walk(ast.parse(_module_file(module).read_bytes())):
             if isinstance(node, ast.ImportFrom) and node.module is not None:
-                base = importlib.util.resolve_name("." * node.level + node.module, package) \
-                    if node.level else node.module  # fmt: skip
-                todo.extend(m for m in (base,) if m in KERNEL_MODULES)
+                base = importlib.util.resolve_name("." * node.level + node.module, package)
+                if base in KERNEL_MODULES:
+                    todo.append(base)
     return tuple(found)
 
 
-def cold_seconds(name: str) -> float:
-    """Roughly how long the first use of kernel module ``name`` compiles, s: the
-    :data:`_COLD_SECONDS` of what it :func:`needs` that is not :func:`cached` yet."""
-    return sum(_COLD_SECONDS.get(m, 0.0) for m in needs(name) if not cached(m))
+def cold_seconds(*names: str) -> float:
+    """Roughly how long the first use of kernel modules ``names`` compiles, s: the
+    :data:`_COLD_SECONDS` of what they :func:`needs` that is not :func:`cached` yet."""
+    wanted = dict.fromkeys(m for name in names for m in needs(name))
+    return sum(_COLD_SECONDS.get(m, 0.0) for m in wanted if not cached(m))
 
 
 _ENABLED = os.environ.get("REDRES_DISABLE_JIT", "") in ("", "0")

@@ -127,18 +127,24 @@ def as_scalar(
     return x
 
 
-def as_rng(rng: Any, name: str = "rng") -> np.random.Generator:
-    """A NumPy generator from a generator, a seed (an integer >= 0) or None (fresh)."""
-    if isinstance(rng, np.random.Generator):
-        return rng
-    if rng is None or (
-        isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) and rng >= 0
+def as_seed(seed: Any, name: str = "seed") -> int | np.integer[Any] | np.random.Generator | None:
+    """``seed`` checked to be a generator, a seed (an integer >= 0) or None, as given."""
+    if (
+        seed is None
+        or isinstance(seed, np.random.Generator)
+        or (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0)
     ):
-        return np.random.default_rng(rng)
+        return seed  # type: ignore[no-any-return]
     raise InvalidParameterError(
         f"{name} must be a numpy.random.Generator, a seed (an integer >= 0) or None; got "
-        f"{short_repr(rng)}"
+        f"{short_repr(seed)}"
     )
+
+
+def as_rng(rng: Any, name: str = "rng") -> np.random.Generator:
+    """A NumPy generator from a generator, a seed (an integer >= 0) or None (fresh)."""
+    rng = as_seed(rng, name)
+    return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
 
 
 def short_repr(value: Any, limit: int = 80) -> str:

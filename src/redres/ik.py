@@ -87,7 +87,7 @@ import numpy as np
 
 from . import _jit
 from ._ik_reference import ReferenceSolver
-from ._validate import FloatArray, as_scalar, as_vector
+from ._validate import FloatArray, as_scalar, as_seed, as_vector
 from .errors import InvalidParameterError
 from .ik_types import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target, limit_arrays
 from .linalg import AdaptiveDamping, rate_step
@@ -179,10 +179,7 @@ def ik(
     spec = None if raw else _parse_target(target, position_only)
     if q_preferred is not None and arm_angle is not None:
         raise InvalidParameterError("give q_preferred or arm_angle, not both")
-    if not (seed is None or isinstance(seed, np.random.Generator) or _is_key(seed)):
-        raise InvalidParameterError(
-            f"seed must be a non-negative integer, a numpy Generator or None; got {seed!r}"
-        )
+    as_seed(seed)
     q_pref = None if q_preferred is None else as_vector(q_preferred, "q_preferred", robot.n)
     if q0 is None:
         q_start = q_pref if q_pref is not None else robot.neutral()
@@ -390,14 +387,10 @@ def _restart_key(seed: int | np.random.Generator | None) -> int:
         return secrets.randbits(62)
     if isinstance(seed, np.random.Generator):
         return int(seed.integers(0, _KEYS))
-    return int(seed) % _KEYS  # checked by ik(): _is_key
+    return int(seed) % _KEYS  # checked by ik(): as_seed
 
 
 _KEYS = 2**62
-
-
-def _is_key(seed: Any) -> bool:
-    return isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and bool(seed >= 0)
 
 
 def _solve_compiled(
