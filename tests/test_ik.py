@@ -10,6 +10,7 @@ speed is measured in benchmarks/ik.py.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import math
 
 import numpy as np
@@ -113,6 +114,25 @@ def test_time_budget(builtin_robots: dict) -> None:
     T[:3, 3] += [3.0, 0.0, 0.0]
     result = ik(robot, T, timeout_s=1e-9, max_restarts=1000, seed=0)
     assert not result.converged and "time budget" in result.message and result.restarts == 0
+
+
+def test_a_budget_that_changes_on_every_call_is_still_checked_and_cached(
+    builtin_robots: dict,
+) -> None:
+    """A caller that passes the time left of its own budget gives a new ``timeout_s`` on
+    every call: the other options stay validated once (one cache entry), the budget is
+    checked on each call."""
+    ik_module = importlib.import_module("redres.ik")  # rr.ik is the function
+    robot = builtin_robots["panda"]
+    T = robot.fk(robot.random_configuration(np.random.default_rng(3)))
+    ik(robot, T, seed=0, timeout_s=1.0, max_iterations=77)
+    entries = len(ik_module._OPTIONS)
+    results = [ik(robot, T, seed=0, timeout_s=1.0 + k / 7, max_iterations=77) for k in range(5)]
+    assert len(ik_module._OPTIONS) == entries
+    assert all(r.converged and np.array_equal(r.q, results[0].q) for r in results)
+    for bad in (-1.0, 0.0, math.inf, math.nan, "one", np.array([1.0, 2.0])):
+        with pytest.raises((InvalidParameterError, NonFiniteError)):
+            ik(robot, T, seed=0, timeout_s=bad, max_iterations=77)  # type: ignore[arg-type]
 
 
 def test_non_finite_target_is_a_result_not_an_exception(builtin_robots: dict) -> None:

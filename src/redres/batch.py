@@ -337,8 +337,8 @@ def ik(
     starts = _typed(np.clip(starts, robot.q_min, robot.q_max))
     if isinstance(solutions, bool) or not isinstance(solutions, (int, np.integer)) or solutions < 1:
         raise InvalidParameterError(f"solutions must be an integer >= 1; got {solutions!r}")
-    o, packed = _options_of(
-        tol_position, tol_orientation, max_iterations, max_restarts, 1.0, max_step,
+    o, packed, _ = _options_of(
+        tol_position, tol_orientation, max_iterations, max_restarts, None, max_step,
         k_limits, damping, patience, 1e-5,
     )  # fmt: skip
     key = _keys(keys, seed, count)

@@ -167,7 +167,7 @@ def ik(
     """
     _warm_up(arm_angle is not None)
     start = time.perf_counter()
-    options, packed = _options_of(
+    options, packed, timeout = _options_of(
         tol_position, tol_orientation, max_iterations, max_restarts, timeout_s,
         max_step, k_limits, damping, patience, preference_tol,
     )  # fmt: skip
@@ -191,7 +191,7 @@ def ik(
         problem = _problem(target if raw else spec, packed, q_pref)
         rows = 3 if position_only or (spec is not None and spec[1] is None) else 6
         result = _solve_compiled(compiled, problem, rows, q_start, q_pref is not None,
-                                 options, seed, start)  # fmt: skip
+                                 options, start + timeout, seed, start)  # fmt: skip
         if result is not None:
             return result
         if q0 is not None:
@@ -204,6 +204,7 @@ def ik(
             "target contains NaN or infinity: nothing to solve",
         )  # fmt: skip
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    options = dataclasses.replace(options, timeout_s=timeout)
     if arm_angle is not None:
         return _arm_angle_solve(robot, fid, spec, options, as_scalar(arm_angle, "arm_angle"),
                                 q_start, rng, start)  # fmt: skip
@@ -283,14 +284,19 @@ _CHAINS: WeakKeyDictionary[Robot, dict[int, tuple[Any, ...] | None]] = WeakKeyDi
 _ENTRY: list[Any] = []  # the native entry point of _ik_kernels.solve, once loaded
 
 
-def _options_of(*values: Any) -> tuple[_Options, FloatArray]:
-    """:func:`redres.ik_types._options`, and the ``options`` array of the kernel."""
+def _options_of(*values: Any) -> tuple[_Options, FloatArray, float]:
+    """:func:`redres.ik_types._options` with no time budget (``timeout_s`` infinite), the
+    ``options`` array of the kernel, and the budget ``timeout_s`` (``values[4]``), which
+    is checked on every call outside the cache: a caller that passes the time left of its
+    own budget gives a new float each time, and a full validation costs a third of a
+    solve."""
+    key = values[:4] + values[5:]
     try:
-        found = _OPTIONS.get(values)
+        found = _OPTIONS.get(key)
     except TypeError:  # an unhashable value: validate (and refuse) it below
         found = None
     if found is None:
-        o = _options(*values)
+        o = _options(*key[:4], None, *key[4:])
         d = o.damping
         packed = np.array([
             o.tol_position, o.tol_orientation, o.max_step, o.k_limits, d.max_damping,
@@ -298,8 +304,13 @@ def _options_of(*values: Any) -> tuple[_Options, FloatArray]:
         ])  # fmt: skip
         found = (o, packed)
         if len(_OPTIONS) < 64:
-            _OPTIONS[values] = found
-    return found
+            _OPTIONS[key] = found
+    timeout = values[4]
+    if timeout is None:
+        timeout = math.inf
+    elif not (type(timeout) is float and 0.0 < timeout < math.inf):
+        timeout = as_scalar(timeout, "timeout_s", minimum=0.0, strict=True)
+    return found[0], found[1], timeout
 
 
 def _compiled(robot: Robot, fid: int) -> tuple[Any, ...] | None:
@@ -400,6 +411,7 @@ def _solve_compiled(
     q: FloatArray,
     has_pref: bool,
     options: _Options,
+    deadline: float,
     seed: int | np.random.Generator | None,
     start: float,
 ) -> IKResult | None:
@@ -411,7 +423,6 @@ def _solve_compiled(
     io = np.empty(2 * n + 6)
     io[:n] = q
     io[2 * n : 2 * n + 3] = math.inf  # the best score and its errors, none yet
-    deadline = start + options.timeout_s
     clock = time.perf_counter
     # Attempt 0 draws nothing: the key is made only when a restart is needed.
     key, made, iterations, stop, spend = 0, 0, 0, 1, options.max_iterations

@@ -66,6 +66,10 @@ def kernels() -> ModuleType | None:
     if loaded is not None or not _state["enabled"] or _state.get("failed"):
         return loaded
     loaded = _jit.compiled(_LINALG)
+    if loaded is None and not _jit.pending(_LINALG):
+        # it became ready between the two questions (a background compile that failed
+        # at once: compiled on first use now); None again means numba is not there
+        loaded = _jit.compiled(_LINALG)
     if loaded is not None:
         for hook in _on_switch:
             hook()
