@@ -74,7 +74,7 @@ Attempt = Callable[[np.ndarray, np.ndarray, float], np.ndarray]
 
 
 def solved(robot: rr.Robot, frame: str, q: np.ndarray, T: np.ndarray) -> bool:
-    """Our check of a solution: redres forward kinematics and the joint limits."""
+    """Our check of a solution: Pinocchio forward kinematics (robot.fk) and the joint limits."""
     if not (np.all(np.isfinite(q)) and robot.within_limits(q)):
         return False
     F = robot.fk(q, frame)
@@ -330,7 +330,7 @@ def main() -> int:
     print(f"{machine()}; load average at the end {load}")
     print(
         f"{args.targets} random reachable pose targets per arm (seed {args.seed}), tolerance "
-        f"{TOL_POSITION:g} m and {TOL_ORIENTATION:g} rad checked with redres forward "
+        f"{TOL_POSITION:g} m and {TOL_ORIENTATION:g} rad checked with Pinocchio forward "
         f"kinematics, joint limits enforced, time limit {args.limit * 1e3:.0f} ms per target.\n"
     )
     headers = ["arm", "library", "success", "median ms", "mean ms", "p99 ms", "attempts (mean)"]

@@ -4,7 +4,7 @@ into a joint limit, tracked by each library's best equivalent configuration.
 The scenario is ``redres.scenario.builtin("panda_joint_limit_circle")``: the TCP on a 10 cm
 circle, 2.5 s per turn, four turns (10 s at 1 kHz, 10,000 steps), from the same start
 configuration. Every contender closes the same loop at dt = 1 ms and every figure below is
-computed here, with redres forward kinematics, from the configuration at the start of
+computed here, with Pinocchio forward kinematics (robot.fk), from the configuration at the start of
 each step: the largest TCP position and orientation errors against the reference, the
 largest position error after the first 0.25 s (the schemes with acceleration limits start
 from rest on a circle that starts at full speed), and the smallest joint-limit margin

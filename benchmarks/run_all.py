@@ -40,7 +40,8 @@ ROOT = HERE.parent
 PAGE = ROOT / "docs" / "benchmarks.md"
 COMMAND = "make bench  # = .venv/bin/python benchmarks/run_all.py"
 PACKAGES = ("redres", "numpy", "scipy", "pin", "numba", "qpsolvers", "daqp", "pin-pink",
-            "mink", "mujoco", "roboticstoolbox-python", "ikpy")  # fmt: skip
+            "mink", "mujoco", "roboticstoolbox-python", "ikpy", "pytracik", "torch",
+            "pytorch-kinematics")  # fmt: skip
 
 
 @dataclass
@@ -82,13 +83,13 @@ BENCHES = [
     Bench("ik_compare", "ik_compare.py", "Position inverse kinematics",
           "Same 1,000 random reachable pose targets per arm, same starting configurations "
           "(neutral, then the same seeded random restarts), same tolerance checked by us "
-          "with redres forward kinematics, same time limit; solutions outside the joint "
+          "with Pinocchio forward kinematics (robot.fk), same time limit; solutions outside the joint "
           "limits are failures. Times per target, all attempts and failures included.",
           quick=["--targets", "20"], json=True),
     Bench("quality", "quality.py", "Quality on a joint-limit problem: the Panda joint-limit circle",
           "Each library's best equivalent configuration tracks the circle that drives plain "
           "pseudo-inverse control past joint 2's limit; errors and margins computed here "
-          "from each run's configurations with redres forward kinematics.", json=True),
+          "from each run's configurations with Pinocchio forward kinematics (robot.fk).", json=True),
     Bench("ik", "ik.py", "redres IK alone: pose and position-only targets",
           "`benchmarks/ik.py`: redres' `ik` with its default options (its own restarts).",
           quick=["--targets", "50"], markdown=False),
@@ -105,6 +106,11 @@ BENCHES = [
           "against a NumPy-vectorised batch (Pinocchio loop + batched solve) and a Python "
           "loop of single calls, as items per second; then the first batch call of a fresh "
           "process with an empty and a warm cache.", quick=["--quick"]),
+    Bench("batch_ik", "batch_ik.py", "Batch position IK (Panda, iiwa14)",
+          "`benchmarks/batch_ik.py`: `rr.batch.ik` on one thread and on all cores against "
+          "pytorch_kinematics' CPU batch IK (`pip install pytorch-kinematics`, a 4 GB "
+          "install with torch: not in the bench extra), pose targets per second, every "
+          "solution checked with Pinocchio's forward kinematics.", quick=["--quick"]),
     Bench("dynamics", "dynamics.py", "Operational-space control step (Panda)",
           "`benchmarks/dynamics.py` (redres alone).", quick=["--rounds", "3"], markdown=False),
 ]  # fmt: skip
