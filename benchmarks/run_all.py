@@ -81,15 +81,15 @@ BENCHES = [
           "constant for the Python and Pinocchio call overhead; the least-squares line "
           "below is that prediction fitted to the measurements."),
     Bench("ik_compare", "ik_compare.py", "Position inverse kinematics",
-          "Same 1,000 random reachable pose targets per arm, same starting configurations "
+          "Same 10,000 random reachable pose targets per arm, same starting configurations "
           "(neutral, then the same seeded random restarts), same tolerance checked by us "
-          "with Pinocchio forward kinematics (robot.fk), same time limit; solutions outside the joint "
-          "limits are failures. Times per target, all attempts and failures included.",
-          quick=["--targets", "20"], json=True),
+          "with Pinocchio forward kinematics (robot.fk), same time limit; solutions outside "
+          "the joint limits are failures. Times per target, all attempts and failures included.",
+          args=["--targets", "10000"], quick=["--targets", "20"], json=True),
     Bench("quality", "quality.py", "Quality on a joint-limit problem: the Panda joint-limit circle",
           "Each library's best equivalent configuration tracks the circle that drives plain "
           "pseudo-inverse control past joint 2's limit; errors and margins computed here "
-          "from each run's configurations with Pinocchio forward kinematics (robot.fk).", json=True),
+          "from each run's configurations with Pinocchio forward kinematics.", json=True),
     Bench("ik", "ik.py", "redres IK alone: pose and position-only targets",
           "`benchmarks/ik.py`: redres' `ik` with its default options (its own restarts).",
           quick=["--targets", "50"], markdown=False),
