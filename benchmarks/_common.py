@@ -57,3 +57,12 @@ def machine() -> str:
 
 def median(values: np.ndarray) -> float:
     return float(statistics.median(values.tolist()))
+
+
+def load_text(before: Sequence[float], after: Sequence[float]) -> str:
+    """``load average (1/5/15 min) a/b/c before, d/e/f after``: the machine's load."""
+
+    def three(values: Sequence[float]) -> str:
+        return "/".join(f"{v:.2f}" for v in values)
+
+    return f"load average (1/5/15 min) {three(before)} before, {three(after)} after"

@@ -39,7 +39,7 @@ import pinocchio as pin
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))  # this checkout's redres
 
-from _common import machine, median, table
+from _common import load_text, machine, median, table
 
 import redres as rr
 
@@ -140,11 +140,7 @@ def main() -> None:
                      f"{wall / count * 1e9:,.0f}", f"{loop / wall:.0f}x"])  # fmt: skip
     print("## Jacobian + damped least-squares step per item (Panda)\n")
     print(f"{machine()}, Pinocchio {pin.__version__}; {count:,} items per batch, medians of")
-    print(
-        f"{rounds} interleaved rounds; load average (1/5/15 min) "
-        f"{'/'.join(f'{v:.2f}' for v in load_before)} before, "
-        f"{'/'.join(f'{v:.2f}' for v in load_after)} after.\n"
-    )
+    print(f"{rounds} interleaved rounds; {load_text(load_before, load_after)}.\n")
     headers = ["contender", "items/s (wall)", "items per CPU-s", "ns/item (wall)", "vs loop"]
     print(table(headers, rows))
     if args.no_cold:

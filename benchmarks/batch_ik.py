@@ -38,7 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))  # this checkout's redres
 
 import peers
-from _common import machine, median, table
+from _common import load_text, machine, median, table
 from ik_compare import solved
 
 import redres as rr
@@ -140,8 +140,7 @@ def main() -> None:
     print(f"{machine()}; {count:,} random reachable pose targets per arm (seed 7), medians of")
     print(
         f"{rounds} runs; success: Pinocchio FK within 1e-6 m and 1e-5 rad, limits enforced; "
-        f"load average (1/5/15 min) {'/'.join(f'{v:.2f}' for v in before)} before, "
-        f"{'/'.join(f'{v:.2f}' for v in after)} after.\n"
+        f"{load_text(before, after)}.\n"
     )
     headers = ["arm", "contender", "targets/s (wall)", "targets per CPU-s", "success"]
     print(table(headers, rows))

@@ -37,7 +37,7 @@ import pinocchio as pin
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))  # this checkout's redres
 
-from _common import interleaved, machine, median, table
+from _common import interleaved, load_text, machine, median, table
 
 import redres as rr
 
@@ -156,11 +156,7 @@ def main() -> None:
     headers = ["case"] + [f"{arm} {what}" for arm in ARMS for what in ("µs", "÷ kernel")]
     print("## Tip pose + world-aligned Jacobian: compiled chain vs Pinocchio\n")
     print(f"{machine()}, Pinocchio {pin.__version__}; medians of {rounds} interleaved rounds")
-    print(
-        f"x 5 batches x {batch} calls; load average (1/5/15 min) "
-        f"{'/'.join(f'{v:.2f}' for v in load_before)} before, "
-        f"{'/'.join(f'{v:.2f}' for v in load_after)} after.\n"
-    )
+    print(f"x 5 batches x {batch} calls; {load_text(load_before, load_after)}.\n")
     print(table(headers, rows))
     compiled = {arm: in_compiled_code(arm) for arm in ARMS}
     print("\nInside compiled code (a numba loop of calls; best of 5 x 200,000), µs per call:\n")
