@@ -242,7 +242,11 @@ def _cache_root() -> Path:
 
 
 def kernel(
-    func: Callable[..., Any] | None = None, *, parallel: bool = False, inline: bool = False
+    func: Callable[..., Any] | None = None,
+    *,
+    parallel: bool = False,
+    inline: bool = False,
+    nogil: bool = True,
 ) -> Any:
     """Mark ``func`` as a kernel: compiled by numba (``nogil``, NumPy error model, cached
     as the module docstring says) on its first call, or left as plain Python when the
@@ -250,14 +254,16 @@ def kernel(
     kernels calling kernels type-check. ``@kernel(parallel=True)``: numba's
     ``parallel=True``, loops over :func:`parallel_range` on its threads (:func:`threads`).
     ``@kernel(inline=True)``: numba's ``inline="always"``, a helper compiled into each
-    kernel that calls it (no call, as if written there; callable from Python as well)."""
+    kernel that calls it (no call, as if written there; callable from Python as well).
+    ``@kernel(nogil=False)``: a kernel called from Python for about a microsecond keeps
+    the GIL (releasing and taking it back costs some 30 ns a call)."""
     if func is None:
-        return lambda f: kernel(f, parallel=parallel, inline=inline)
+        return lambda f: kernel(f, parallel=parallel, inline=inline, nogil=nogil)
     if not _ENABLED or _state.get("plain_import"):
         return func
     import numba
 
-    options = dict(_OPTIONS, parallel=parallel, inline="always" if inline else "never")
+    options = dict(_OPTIONS, parallel=parallel, inline="always" if inline else "never", nogil=nogil)
     dispatcher = numba.njit(**options)(func)
     if cache_dir() is not None:
         try:

@@ -77,37 +77,6 @@ def _kernels() -> Any:
     return _jit.load("redres.control._kernels")
 
 
-def _random_rotation(rng: np.random.Generator, angle: float) -> np.ndarray:
-    axis = rng.normal(size=3)
-    return np.asarray(pin.exp3(angle * axis / np.linalg.norm(axis)))
-
-
-@pytest.mark.parametrize(
-    "angle",
-    [0.0, 1e-12, 1e-8, 1e-5, 1e-4, 2e-4, 0.1, 1.0, 2.0, 2.69, 2.7, 3.0, 3.14, np.pi - 1e-6,
-     np.pi - 1e-10],
-)  # fmt: skip
-def test_so3_log_matches_pinocchio_at_every_angle(angle: float, rng: np.random.Generator) -> None:
-    log = _kernels()._so3_log
-    for _ in range(20):
-        R = _random_rotation(rng, angle)
-        out = np.empty(3)
-        log(R, out)
-        assert np.allclose(out, pin.log3(R), rtol=0, atol=2e-9)
-        assert np.allclose(pin.exp3(out), R, rtol=0, atol=1e-14)  # exp(log R) = R
-
-
-def test_so3_log_at_exactly_pi_gives_a_valid_logarithm() -> None:
-    log = _kernels()._so3_log
-    for axis in np.eye(3).tolist() + [[1.0, 1.0, 0.0], [1.0, -2.0, 3.0]]:
-        u = np.array(axis) / np.linalg.norm(axis)
-        R = 2.0 * np.outer(u, u) - np.eye(3)  # rotation by pi about u
-        out = np.empty(3)
-        log(R, out)
-        assert np.isclose(np.linalg.norm(out), np.pi, rtol=0, atol=1e-12)
-        assert np.allclose(pin.exp3(out), R, rtol=0, atol=1e-14)
-
-
 def composed_step(
     robot: rr.Robot,
     q: np.ndarray,

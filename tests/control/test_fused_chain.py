@@ -205,10 +205,11 @@ def test_the_plain_python_twin_gives_the_compiled_step(rng: np.random.Generator)
     controller = Controller(robot, FrameTask(), GradientProjectionScheme([JointLimitObjective()]))
     q = robot.random_configuration(rng, margin=0.2)
     controller.task.set_target(robot.fk(robot.random_configuration(rng)))  # type: ignore[attr-defined]
-    controller.step(q)
+    q_compiled = controller.step(q)
     compiled = controller._out
     twin = _jit._get(_KERNELS, compiled=False)
     assert not _jit.is_compiled(twin)
-    out = np.empty_like(compiled)
-    assert twin.chain_step(controller._config, q, out) == 0
+    q_next, out = np.empty_like(q), np.empty_like(compiled)
+    assert twin.chain_step(controller._config, q, q_next, out) == 0
     np.testing.assert_allclose(out, compiled, rtol=0, atol=TOL)
+    np.testing.assert_allclose(q_next, q_compiled, rtol=0, atol=TOL)

@@ -240,3 +240,47 @@ def test_the_lazy_lane_skips_the_singular_values_only_when_it_may() -> None:
         assert status == 0 and used == lam
         assert (rank == -1 and np.isnan(smin)) if skipped else (rank == 6 and smin > 0)
         assert np.allclose(Jp, _damped_oracle(J, lam), rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("with_grad", [False, True])
+@pytest.mark.parametrize("with_null", [False, True])
+def test_the_lazy_rate_step_gives_the_bits_of_the_general_path(
+    with_grad: bool, with_null: bool
+) -> None:
+    """``_step`` with LAZY damping takes the one-pass ``_lazy_step`` (J itself, the Gram
+    matrix factored in place); FIXED damping takes the general path (eigenvalues first,
+    then the same Cholesky solve): the joint velocities and null-space terms are the same
+    bits. Below the shift bound, and with a NaN, LAZY falls back and reports as FIXED."""
+    rng = np.random.default_rng(11)
+    codes = _backend.codes
+    for trial in range(50):
+        J = rng.normal(size=(6, 7)) * 10.0 ** rng.uniform(-3, 3)
+        xd, grad = rng.normal(size=6), rng.normal(size=7) if with_grad else np.zeros(0)
+        lam = float(np.sqrt(np.trace(J @ J.T))) * (0.1 if trial % 2 else 2e-3)
+        results = {}
+        for mode in (codes.LAZY, codes.FIXED):
+            out, null = np.empty(7), np.empty(7 if with_null else 0)
+            status, rank, *_ = kernels._step(
+                J, xd, grad, out, null, 0.7, codes.NO_WEIGHTS, np.zeros(0), np.zeros((0, 0)),
+                mode, lam, 0.0, 1.0, 1e-10,
+            )  # fmt: skip
+            assert status == codes.OK
+            results[mode] = (out, null, rank)
+        assert results[codes.LAZY][2] == -1 and results[codes.FIXED][2] == 6
+        np.testing.assert_array_equal(results[codes.LAZY][0], results[codes.FIXED][0])
+        np.testing.assert_array_equal(results[codes.LAZY][1], results[codes.FIXED][1])
+        expected = _damped_oracle(J, lam) @ xd
+        if with_grad:
+            Jp = _damped_oracle(J, lam)
+            expected -= 0.7 * (np.eye(7) - Jp @ J) @ grad
+        np.testing.assert_allclose(results[codes.LAZY][0], expected, rtol=1e-9, atol=1e-9)
+    J = rng.normal(size=(6, 7))
+    small = 1e-4 * float(np.sqrt(np.trace(J @ J.T)))  # below the shift bound: eigenvalues
+    out = np.empty(7)
+    args = (np.zeros(0), out, np.zeros(0), 0.0, codes.NO_WEIGHTS, np.zeros(0), np.zeros((0, 0)))
+    status, rank, *_ = kernels._step(J, np.ones(6), *args, codes.LAZY, small, 0.0, 1.0, 1e-10)
+    assert status == codes.OK and rank == 6
+    bad = np.ones(6)
+    bad[2] = np.nan
+    status, *_ = kernels._step(J, bad, *args, codes.LAZY, 0.5, 0.0, 1.0, 1e-10)
+    assert status == codes.XD_NONFINITE

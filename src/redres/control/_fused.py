@@ -95,10 +95,10 @@ def serial_chain(robot: Robot, frame: str | None) -> SerialChain | None:
 
 
 def block_size(n: int) -> int:
-    """Length of the fused kernels' output block for ``n`` joints: ``q+``, ``qd`` (n each),
-    five diagnostics, ``e`` (6), the pose (16) and the Jacobian (6 n)
-    (``redres.control._kernels.clik_step``)."""
-    return 8 * n + 27
+    """Length of the fused kernels' output block for ``n`` joints: ``qd`` (n), five
+    diagnostics, ``e`` (6), the pose (16) and the Jacobian (6 n)
+    (``redres.control._kernels.clik_step``; ``q+`` goes to an array of its own)."""
+    return 7 * n + 27
 
 
 def ready() -> bool:
@@ -205,8 +205,8 @@ def native(name: str) -> Callable[..., Any] | None:
     frame = (np.zeros((6, 1)), np.eye(4), np.zeros(1), config)
     task = (np.zeros((1, 1)), np.zeros(1))
     warm = {
-        "clik_step": (*frame, np.zeros(block_size(1))),
-        "chain_step": (chain, np.zeros(1), np.zeros(block_size(1))),
+        "clik_step": (*frame, np.zeros(1), np.zeros(block_size(1))),
+        "chain_step": (chain, np.zeros(1), np.zeros(1), np.zeros(block_size(1))),
         "frame_command": (*frame, *task, np.zeros(6)),
         "chain_command": (chain, np.zeros(1), np.zeros(22 + 6), *task),
         "integrate": (np.zeros(1), np.zeros(1), 0.0, np.zeros(1)),

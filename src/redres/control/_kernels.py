@@ -1,6 +1,7 @@
-"""The compiled CLIK step of a frame task (internal): pose error with its own SO(3)
-logarithm, the rate step of :mod:`redres.linalg._kernels`, velocity scaling and
-integration in one call, for the controller's fast path. Compiled through
+"""The compiled CLIK step of a frame task (internal): pose error (with the SO(3)
+logarithm of :mod:`redres.robot._chain_kernels`), the rate step of
+:mod:`redres.linalg._kernels`, velocity scaling and integration in one call, for the
+controller's fast path. Compiled through
 :mod:`redres._jit`; the ``config`` vector's layout is the ``CFG_*`` offsets of
 :mod:`redres.linalg._codes`.
 
@@ -42,47 +43,7 @@ from ..linalg._codes import (
 )
 from ..linalg._dense_kernels import _finite_1d, _finite_2d
 from ..linalg._kernels import _step
-from ..robot._chain_kernels import jacobian
-
-
-@kernel
-def _so3_log(M, out):  # type: ignore[no-untyped-def]
-    """``out[:3] <- log(M)`` for a rotation matrix M: the rotation vector ``theta u``.
-
-    ``theta = atan2(sin, cos)`` from the skew and trace parts, accurate at every angle;
-    below ``cos = -0.9`` (``theta > 2.69``) the axis comes from the symmetric part
-    ``(M + M^T)/2 - cos I = (1 - cos) u u^T`` (its largest diagonal entry), with the sign
-    of the skew part, since ``sin`` alone loses the axis near ``pi``.
-    """
-    wx = M[2, 1] - M[1, 2]
-    wy = M[0, 2] - M[2, 0]
-    wz = M[1, 0] - M[0, 1]
-    s = 0.5 * math.sqrt(wx * wx + wy * wy + wz * wz)
-    c = 0.5 * (M[0, 0] + M[1, 1] + M[2, 2] - 1.0)
-    theta = math.atan2(s, c)
-    if c > -0.9:
-        # theta / (2 sin theta), by its series where sin theta is tiny (theta < 1e-4).
-        f = 0.5 * theta / s if s > 1e-4 else 0.5 + theta * theta / 12.0
-        out[0] = f * wx
-        out[1] = f * wy
-        out[2] = f * wz
-        return
-    one_minus_c = 1.0 - c
-    k = 0
-    for i in range(1, 3):
-        if M[i, i] > M[k, k]:
-            k = i
-    bkk = M[k, k] - c
-    norm = math.sqrt(bkk * one_minus_c)
-    skew = (wx, wy, wz)
-    sign = 0.0
-    for i in range(3):
-        u = (0.5 * (M[i, k] + M[k, i]) - (c if i == k else 0.0)) / norm
-        out[i] = u
-        sign += u * skew[i]
-    f = -theta if sign < 0.0 else theta
-    for i in range(3):
-        out[i] *= f
+from ..robot._chain_kernels import _rotation_log, jacobian
 
 
 @kernel
@@ -99,6 +60,14 @@ def _rows_at(config, n):  # type: ignore[no-untyped-def]
 
 
 @kernel
+def _target_dot(config, H, i, j):  # type: ignore[no-untyped-def]
+    """``(R_d Rᵀ)[i, j]``: row ``i`` of the target rotation (``config``, row-major) dotted
+    with row ``j`` of the frame's rotation ``H[:3, :3]``."""
+    d = CFG_ROTATION + 3 * i
+    return config[d] * H[j, 0] + config[d + 1] * H[j, 1] + config[d + 2] * H[j, 2]
+
+
+@kernel
 def frame_command(J, H, q, config, Jm, xd, e):  # type: ignore[no-untyped-def]
     """The frame-task part of :func:`clik_step` (alone: for schemes with their own step):
     ``e = [p_d - p; log(R_d R^T)]`` into ``e`` (6), the task rows of ``J`` into ``Jm``
@@ -111,17 +80,31 @@ def frame_command(J, H, q, config, Jm, xd, e):  # type: ignore[no-untyped-def]
         return Q_SHAPE
     if not _finite_1d(q):
         return Q_NONFINITE
+    return _frame_rows(J, H, config, rows, m, Jm, xd, e)
+
+
+@kernel
+def _frame_rows(J, H, config, rows, m, Jm, xd, e):  # type: ignore[no-untyped-def]
+    """:func:`frame_command` past its checks of the shapes and of ``q``."""
+    n = J.shape[1]
     if not _finite_2d(H):
         return POSE_NONFINITE
-    M = np.empty((3, 3))
     for i in range(3):
         e[i] = config[CFG_POSITION + i] - H[i, 3]
-        for j in range(3):
-            acc = 0.0
-            for k in range(3):
-                acc += config[CFG_ROTATION + 3 * i + k] * H[j, k]
-            M[i, j] = acc
-    _so3_log(M, e[3:])
+    x, y, z = _rotation_log(
+        _target_dot(config, H, 0, 0),
+        _target_dot(config, H, 0, 1),
+        _target_dot(config, H, 0, 2),
+        _target_dot(config, H, 1, 0),
+        _target_dot(config, H, 1, 1),
+        _target_dot(config, H, 1, 2),
+        _target_dot(config, H, 2, 0),
+        _target_dot(config, H, 2, 1),
+        _target_dot(config, H, 2, 2),
+    )
+    e[3] = x
+    e[4] = y
+    e[5] = z
     for i in range(m):
         r = int(config[rows + i])
         xd[i] = config[CFG_TWIST + r] + config[CFG_GAIN + r] * e[r]
@@ -131,31 +114,48 @@ def frame_command(J, H, q, config, Jm, xd, e):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def chain_command(config, q, block, Jm, xd):  # type: ignore[no-untyped-def]
-    """:func:`frame_command` with the frame's pose and Jacobian from its serial chain
-    (:func:`redres.robot._chain_kernels.jacobian`, world-aligned), which ``config`` holds
-    after the task rows (``links, axes, kinds`` of
-    :attr:`redres.robot.chain.SerialChain.arrays`, flattened; ``CFG_JOINTS`` = k),
-    instead of Pinocchio. ``block`` (``22 + 6 n``) receives
-    ``[e (6) | T (4x4, row-major) | J (6 x n, row-major)]``. Returns a status."""
+def _chain_kinematics(config, q, T, J):  # type: ignore[no-untyped-def]
+    """``T`` (4x4) and ``J`` (6 x n) <- the frame's pose and world-aligned Jacobian from
+    its serial chain (:func:`redres.robot._chain_kernels.jacobian`), which ``config``
+    holds after the task rows (``links, axes, kinds`` of
+    :attr:`redres.robot.chain.SerialChain.arrays`, flattened; ``CFG_JOINTS`` = k).
+    Returns a status: ``Q_SHAPE`` when ``config`` does not hold a chain for ``n`` joints,
+    ``Q_NONFINITE`` when ``q`` holds NaN or ±inf."""
     n = q.shape[0]
     rows, m = _rows_at(config, n)
     k = int(config[CFG_JOINTS])
     start = rows + m
-    if rows < 0 or k < 0 or config.shape[0] != start + 16 * k + 12 or block.shape[0] != 22 + 6 * n:
+    if rows < 0 or k < 0 or config.shape[0] != start + 16 * k + 12:
         return Q_SHAPE
     axes_at = start + 12 * (k + 1)
     links = config[start:axes_at].reshape((k + 1, 3, 4))
     axes = config[axes_at : axes_at + 3 * k].reshape((k, 3))
-    kinds = config[axes_at + 3 * k :]
-    T = block[6:22].reshape((4, 4))
-    J = block[22:].reshape((6, n))
-    jacobian(links, axes, kinds, q, False, T, J)  # (q's finiteness: frame_command checks)
-    return frame_command(J, T, q, config, Jm, xd, block[:6])
+    if not jacobian(links, axes, config[axes_at + 3 * k :], q, False, T, J):
+        return Q_NONFINITE
+    return OK
 
 
 @kernel
-def clik_step(J, H, q, config, out):  # type: ignore[no-untyped-def]
+def chain_command(config, q, block, Jm, xd):  # type: ignore[no-untyped-def]
+    """:func:`frame_command` with the frame's pose and Jacobian from its serial chain
+    (:func:`_chain_kinematics`) instead of Pinocchio. ``block`` (``22 + 6 n``) receives
+    ``[e (6) | T (4x4, row-major) | J (6 x n, row-major)]``. Returns a status."""
+    n = q.shape[0]
+    rows, m = _rows_at(config, n)
+    if rows < 0 or block.shape[0] != 22 + 6 * n:
+        return Q_SHAPE
+    if Jm.shape[0] != m or Jm.shape[1] != n or xd.shape[0] != m:
+        return Q_SHAPE
+    T = block[6:22].reshape((4, 4))
+    J = block[22:].reshape((6, n))
+    status = _chain_kinematics(config, q, T, J)
+    if status != OK:
+        return status
+    return _frame_rows(J, T, config, rows, m, Jm, xd, block[:6])
+
+
+@kernel(nogil=False)  # called from Python, about a microsecond
+def clik_step(J, H, q, config, q_next, out):  # type: ignore[no-untyped-def]
     """One fused CLIK step on a frame task: pose error, rate step, limits, integration.
 
     Inputs: ``J`` the frame's 6 x n world-aligned Jacobian, ``H`` its 4 x 4 placement,
@@ -171,9 +171,10 @@ def clik_step(J, H, q, config, out):  # type: ignore[no-untyped-def]
 
     with the same floating-point operations as the composed step (the quadratic cost's
     gradient ``a * (q - r)``, the division by the speed ratio), so that both give the same
-    bits where the inverse does. Writes the output block ``out`` (``8 n + 27``)::
+    bits where the inverse does. Writes ``q+`` into ``q_next`` (n) and the output block
+    ``out`` (``7 n + 27``)::
 
-        [q+ (n) | qd (n) | rank, sigma_min, sigma_max, damping, speed (5)
+        [qd (n) | rank, sigma_min, sigma_max, damping, speed (5)
          | e (6) | H (4x4, row-major) | J (6 x n, row-major)]
 
     where ``speed`` is ``max_j |qd_j| / qd_max_j`` before scaling (0 when limits are
@@ -181,12 +182,12 @@ def clik_step(J, H, q, config, out):  # type: ignore[no-untyped-def]
     """
     n = q.shape[0]
     rows, m = _rows_at(config, n)
-    if rows < 0 or out.shape[0] != 8 * n + 27:
+    if rows < 0 or out.shape[0] != 7 * n + 27 or q_next.shape[0] != n:
         return Q_SHAPE
     work = np.empty(m * n + m + n)  # Jm, xd, the cost's gradient: one allocation
     Jm = work[: m * n].reshape((m, n))
     xd = work[m * n : m * n + m]
-    block = out[2 * n + 5 :]
+    block = out[n + 5 :]
     status = frame_command(J, H, q, config, Jm, xd, block[:6])
     if status != OK:
         return status
@@ -196,39 +197,40 @@ def clik_step(J, H, q, config, out):  # type: ignore[no-untyped-def]
     for i in range(6):
         for j in range(n):
             block[22 + n * i + j] = J[i, j]
-    return _resolve(Jm, xd, work[m * n + m :], q, config, out)
+    return _resolve(Jm, xd, work[m * n + m :], q, config, q_next, out)
 
 
-@kernel
-def chain_step(config, q, out):  # type: ignore[no-untyped-def]
+@kernel(nogil=False)  # called from Python, about a microsecond
+def chain_step(config, q, q_next, out):  # type: ignore[no-untyped-def]
     """:func:`clik_step` with the frame's pose and Jacobian from its serial chain (as
-    :func:`chain_command`): the whole step without Pinocchio, in three arguments (each
-    array argument costs its conversion on every call). Same output block and status."""
+    :func:`chain_command`): the whole step without Pinocchio, in four arguments (each
+    array argument costs its conversion on every call). Same outputs and status."""
     n = q.shape[0]
     rows, m = _rows_at(config, n)
-    if rows < 0 or out.shape[0] != 8 * n + 27:
+    if rows < 0 or out.shape[0] != 7 * n + 27 or q_next.shape[0] != n:
         return Q_SHAPE
     work = np.empty(m * n + m + n)
     Jm = work[: m * n].reshape((m, n))
     xd = work[m * n : m * n + m]
-    status = chain_command(config, q, out[2 * n + 5 :], Jm, xd)
+    status = chain_command(config, q, out[n + 5 :], Jm, xd)
     if status != OK:
         return status
-    return _resolve(Jm, xd, work[m * n + m :], q, config, out)
+    return _resolve(Jm, xd, work[m * n + m :], q, config, q_next, out)
 
 
 @kernel
-def _resolve(Jm, xd, scratch, q, config, out):  # type: ignore[no-untyped-def]
-    """The rest of :func:`clik_step` from the task rows ``Jm``, ``xd``: the rate step,
-    velocity scaling and integration into ``out[:2n]``, the diagnostics into
-    ``out[2n:2n+5]``; ``scratch`` (n) holds the cost's gradient. Returns a status."""
+def _resolve(Jm, xd, scratch, q, config, q_next, out):  # type: ignore[no-untyped-def]
+    """The rest of :func:`clik_step` from the task rows ``Jm``, ``xd``: the rate step and
+    velocity scaling into ``out[:n]``, the diagnostics into ``out[n:n+5]``, the
+    integration into ``q_next``; ``scratch`` (n) holds the cost's gradient. Returns a
+    status."""
     n = q.shape[0]
     has_grad = config[CFG_HAS_GRAD] != 0.0
     grad = scratch[:n] if has_grad else scratch[:0]
     if has_grad:
         for j in range(n):
             grad[j] = config[CFG_VECTORS + j] * (q[j] - config[CFG_VECTORS + n + j])
-    qd = out[n : 2 * n]
+    qd = out[:n]
     status, rank, smin, smax, used = _step(
         Jm, xd, grad, qd, xd[:0], config[CFG_K_NULL], NO_WEIGHTS, xd[:0], Jm[:0, :0],
         int(config[CFG_MODE]), config[CFG_DAMPING], config[CFG_MAX_DAMPING],
@@ -242,7 +244,7 @@ def _resolve(Jm, xd, scratch, q, config, out):  # type: ignore[no-untyped-def]
         if speed > 1.0:
             for j in range(n):
                 qd[j] /= speed
-    diag = out[2 * n : 2 * n + 5]
+    diag = out[n : n + 5]
     diag[0] = rank
     diag[1] = smin
     diag[2] = smax
@@ -252,7 +254,7 @@ def _resolve(Jm, xd, scratch, q, config, out):  # type: ignore[no-untyped-def]
         return status
     dt = config[CFG_DT]
     for j in range(n):
-        out[j] = q[j] + qd[j] * dt
+        q_next[j] = q[j] + qd[j] * dt
     return OK
 
 

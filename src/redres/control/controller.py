@@ -75,6 +75,8 @@ if TYPE_CHECKING:
 
 
 _F64 = np.float64
+_F64_TYPE = np.dtype(np.float64)  # the native float64 dtype: `is` tells it in one step
+_UNIT_STRIDE = (8,)  # the strides of a one-dimensional C-contiguous float64 array
 _ndarray = np.ndarray
 _empty = np.empty
 _contiguous = np.ascontiguousarray
@@ -164,8 +166,11 @@ class Controller:
             self._block = self._config[TARGET]  # the task's target, from the first step on
         self._pending = False
         self._bind()
-        # What the last step did.
-        self._out: FloatArray = _empty(0)  # the fused kernel's output block once stepped
+        # What the last step did. The fused kernel writes its output block into the spare
+        # of two, which becomes the last step's once the step succeeded: the block of a
+        # step that raised is never reported, and no step allocates one.
+        self._out: FloatArray = np.full(self._size, np.nan)  # the last step's block
+        self._spare: FloatArray = _empty(self._size)
         self._qd: FloatArray = self._out[:0]
         self._error: FloatArray = self._out[:0]
         self._pose: Any = None
@@ -241,6 +246,11 @@ class Controller:
             self._integrate = native("integrate")
         self._pending = self._path != "composed" and not ready()
 
+    def _stepped(self) -> bool:
+        """Whether the fused path has made a step: the damping slot of its block, NaN
+        until then, holds the damping (finite, ≥ 0) of every step that succeeded."""
+        return not math.isnan(self._out[self._n + 3])
+
     # -- the step -----------------------------------------------------------------------
 
     def step(self, q: Any) -> FloatArray:
@@ -255,12 +265,13 @@ class Controller:
             SimulationError: the scheme returned a non-finite joint velocity.
         """
         n = self._n
-        if type(q) is _ndarray and q.dtype == _F64 and q.flags.c_contiguous:
-            qa = q
+        if type(q) is _ndarray and q.dtype is _F64_TYPE and q.strides == _UNIT_STRIDE:
+            qa = q  # a one-dimensional C-contiguous float64 array: its length is checked
+            # where it matters, by the kernels (status Q_SHAPE) and before Pinocchio
         else:  # complex q is refused by name (real_array), never made real
             qa = _contiguous(real_array(q, "q", f"an array of {n}"))
-        if qa.shape != self._shape:
-            raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
+            if qa.shape != self._shape:
+                raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
         if self._pending and ready():
             self._bind()
         kernel = self._kernel
@@ -268,22 +279,28 @@ class Controller:
             return self._resolved_step(qa)
         if self._task._target is not self._block:  # type: ignore[attr-defined]
             self._adopt(qa)
-        out = _empty(self._size)
+        q_next, out = _empty(n), self._spare
         if self._chain is None:
+            if qa.shape != self._shape:
+                raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
             placement, J = self._robot.placement_jacobian(qa, self._fid)
-            status = kernel(J, placement.homogeneous, qa, self._config, out)
+            status = kernel(J, placement.homogeneous, qa, self._config, q_next, out)
         else:
-            status = kernel(self._config, qa, out)
+            status = kernel(self._config, qa, q_next, out)
         if status:
+            if qa.shape != self._shape:
+                raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
             raise_for_status(status, n)
-        self._out = out
-        return out[:n]
+        self._spare, self._out = self._out, out
+        return q_next
 
     def _adopt(self, q: FloatArray) -> None:
         """Make the kernel's settings hold the frame task's target (at the first step, or
         after another controller stepped the same task); without a target, the frame's
         pose at ``q`` becomes it (hold still), computed as the step computes it."""
         task: FrameTask = self._task  # type: ignore[assignment]
+        if q.shape != self._shape:
+            raise ShapeError(f"q must have shape ({self._n},); got {q.shape}")
         if not task._has_target:
             if not np.all(np.isfinite(q)):
                 raise NonFiniteError("q contains NaN or infinity")
@@ -377,8 +394,7 @@ class Controller:
         rad/s."""
         if self._kernel is None:
             return self._qd
-        n = self._n
-        return self._out[n : 2 * n]
+        return self._out[: self._n].copy() if self._stepped() else self._out[:0]
 
     @property
     def error(self) -> FloatArray:
@@ -387,17 +403,17 @@ class Controller:
         error ``(m,)``."""
         if self._kernel is None:
             return self._error
-        k = 2 * self._n + 5
-        return self._out[k : k + 6]
+        k = self._n + 5
+        return self._out[k : k + 6].copy() if self._stepped() else self._out[:0]
 
     @property
     def pose(self) -> FloatArray | None:
         """The frame task's frame pose at the last step (4x4, world), else None."""
         if self._kernel is not None:
-            if not self._out.shape[0]:
+            if not self._stepped():
                 return None
-            k = 2 * self._n + 11
-            return self._out[k : k + 16].reshape(4, 4)
+            k = self._n + 11
+            return self._out[k : k + 16].reshape(4, 4).copy()
         pose = self._pose
         if pose is None or isinstance(pose, _ndarray):
             return pose
@@ -411,10 +427,10 @@ class Controller:
             if self._speed is None:  # nothing was scaled: the applied velocity's ratio
                 self._speed = float(_max(_abs(self._qd) / self._robot.qd_max))
             return self._speed
-        if not self._out.shape[0]:
+        if not self._stepped():
             return 0.0
         if self._limit:
-            return float(self._out[2 * self._n + 4])
+            return float(self._out[self._n + 4])
         return float(_max(_abs(self.qd) / self._robot.qd_max))
 
     @property
@@ -422,7 +438,7 @@ class Controller:
         """Whether the last command was scaled down to the velocity limits."""
         if self._kernel is None:
             return self._scaled
-        return self._out.shape[0] > 0 and bool(self._out[2 * self._n + 4] > 1.0)
+        return self._stepped() and bool(self._out[self._n + 4] > 1.0)
 
     @property
     def info(self) -> InverseInfo:
@@ -431,13 +447,13 @@ class Controller:
             if self._result is None:
                 raise InvalidParameterError("the controller has not made a step yet")
             return self._result.info
-        if not self._out.shape[0]:
+        if not self._stepped():
             raise InvalidParameterError("the controller has not made a step yet")
         n, m = self._n, self._rows.shape[0]
-        rank, smin, smax, used = self._out[2 * n : 2 * n + 4].tolist()
+        rank, smin, smax, used = self._out[n : n + 4].tolist()
         rank = int(rank)
         if rank < 0:  # fixed damping skipped them: the singular values of the task rows
-            J = self._out[2 * n + 27 :].reshape(6, n)[self._rows]
+            J = self._out[n + 27 :].reshape(6, n)[self._rows]
             sigma = np.linalg.svd(J, compute_uv=False)
             smax = float(sigma[0])
             smin = float(sigma[-1]) if m <= n else 0.0

@@ -232,6 +232,9 @@ def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, 
     :func:`_step_into` with scratch allocated here (a loop over many steps passes its own).
     """
     m, n = J.shape
+    if wmode == NO_WEIGHTS and dmode == LAZY:  # the common case, in small scratch
+        if _lazy_step(J, xd, grad, out, null, k_null, lam, np.empty((m, m)), np.empty(2 * m + n)):
+            return OK, -1, math.nan, math.nan, lam
     scratch = _step_scratch(m, n, wmode)
     return _step_into(
         J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond, scratch
@@ -252,6 +255,12 @@ def _step_into(  # type: ignore[no-untyped-def]
     if has_grad and grad.shape[0] != n:
         return GRAD_SHAPE, 0, 0.0, 0.0, 0.0
     Js, mats, Lw, vec = scratch
+    if (
+        wmode == NO_WEIGHTS
+        and dmode == LAZY
+        and _lazy_step(J, xd, grad, out, null, k_null, lam, mats[0], vec)
+    ):
+        return OK, -1, math.nan, math.nan, lam
     C = mats[0]
     r = vec[:m]
     dvec = vec[m : 2 * m]
@@ -318,6 +327,65 @@ def _step_into(  # type: ignore[no-untyped-def]
     if want_null:
         _weight_down(null, wmode, Lw)
     return OK, rank, smin, smax, lam_used
+
+
+@kernel
+def _lazy_step(J, xd, grad, out, null, k_null, lam, C, vec):  # type: ignore[no-untyped-def]
+    """:func:`_step_into`'s common case in one pass, on ``J`` itself: no weights,
+    ``LAZY`` damping, finite inputs of safe size (no scaling), a shift the Cholesky path
+    takes at once (:data:`_LAZY_MIN_SHIFT`). The general path's floating-point operations
+    (its ``Js`` is a copy of J here, scaled by 1), hence its bits. Scratch: ``C`` (m x m,
+    the Gram matrix factored in place) and ``vec`` (at least ``2 m + n``). Returns False,
+    having written nothing but scratch, when a condition fails: then the general path
+    decides, and reports why."""
+    m, n = J.shape
+    has_grad = grad.shape[0] > 0
+    if xd.shape[0] != m or (has_grad and grad.shape[0] != n):
+        return False
+    bad = 0.0
+    big = 0.0
+    for i in range(m):
+        for j in range(n):
+            x = J[i, j]
+            bad += x * 0.0
+            big = max(big, abs(x))
+    rate = 0.0
+    for i in range(m):
+        bad += xd[i] * 0.0
+        rate = max(rate, abs(xd[i]))
+    if has_grad:
+        for j in range(n):
+            bad += grad[j] * 0.0
+    if bad != 0.0 or not (1e-100 <= big <= 1e100) or rate > MAX_TASK_RATE:
+        return False
+    _gram(J, m, C)
+    trace = 0.0
+    for i in range(m):
+        trace += C[i, i]
+    shift = lam * lam / 1.0  # the general path's lam^2 / scale^2 with scale 1
+    # In place: column j of the factor reads only the Gram matrix's column j below the
+    # diagonal, not yet overwritten, and the factor's earlier columns.
+    if not (shift >= _LAZY_MIN_SHIFT * trace and _cholesky(C, C, m, shift)):
+        return False
+    want_null = null.shape[0] == n
+    r = vec[:m]
+    rt = vec[m : 2 * m]
+    g = vec[2 * m : 2 * m + n]
+    for j in range(n):
+        g[j] = grad[j] if has_grad else 0.0
+    for i in range(m):
+        acc = 0.0
+        if has_grad:
+            for j in range(n):
+                acc += J[i, j] * g[j]
+        task = xd[i]
+        r[i] = task * 1.0 + k_null * acc
+        rt[i] = task * 1.0
+    _cholesky_solve(C, r, m)
+    if want_null:
+        _cholesky_solve(C, rt, m)
+    _back_project(J, m, r, rt, g, k_null, out, null)
+    return True
 
 
 @kernel
