@@ -71,9 +71,10 @@ BENCHES = [
           "Each library's call: `benchmarks/differential.py`.",
           quick=["--rounds", "2", "--calls", "50"], json=True),
     Bench("step", "step.py", "One CLIK step with a joint-limit null space (Panda)",
-          "`benchmarks/step.py`: the step of the redundancy-resolution issue through the "
-          "public API next to pink, mink and KDL (ratio here = peer ÷ redres, > 1: redres "
-          "is faster)."),
+          "`benchmarks/step.py`: one closed-loop inverse-kinematics step (pose error, damped "
+          "inverse, Liégeois' joint-limit gradient in its null space, integration) through "
+          "the public API next to pink, mink and KDL (ratio here = peer ÷ redres, > 1: "
+          "redres is faster)."),
     Bench("scaling", "scaling.py", "Scaling with the number of joints",
           "Planar chains of 3 to 50 joints (3 task rows) and a 14-joint chain (two S-R-S "
           "arms in series, 6 rows). The algebra predicts, for m fixed task rows: O(n) for "

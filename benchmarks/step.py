@@ -1,7 +1,7 @@
 """One control step on the Panda: redres next to pink, mink and KDL, in one run.
 
-The redres step is the full CLIK step of the redundancy-resolution issue, through the
-public API: forward kinematics and Jacobian of the TCP, the pose error (SO(3) log), the
+The redres step is a full closed-loop inverse-kinematics (CLIK) step through the public
+API: forward kinematics and Jacobian of the TCP, the pose error (SO(3) log), the
 damped inverse with Liégeois' joint-limit gradient projected into its null space,
 velocity scaling and the integration ``q + q̇ dt`` — by ``Controller.step`` (its fused
 path: one compiled kernel, the TCP's kinematics from the Panda's serial chain inside it),
@@ -14,7 +14,7 @@ equivalent step on the same Panda:
 * KDL: forward kinematics, pose error, ``ChainIkSolverVel_wdls`` (weighted damped least
   squares), integration.
 
-The hard-limit rows (issue 8) do the same frame task under hard position, velocity and
+The hard-limit rows do the same frame task under hard position, velocity and
 acceleration limits: ``QPScheme`` (a QP through DAQP) and ``SNSScheme`` (saturation in the
 null space, no QP) in a ``Controller`` (its frame path: the kernel's front end, then the
 scheme), and composed from ``FrameTask``
@@ -244,7 +244,7 @@ def main() -> int:
     for name, t in times.items():
         med, p99 = median(t), float(np.percentile(t, 99))
         ratio = "1" if med == base else f"{med / base:.1f}x"
-        rows.append([name, f"{med:.1f}", f"{p99:.1f}", ratio])
+        rows.append([name, f"{med:.2f}" if med < 10 else f"{med:.1f}", f"{p99:.1f}", ratio])
     print(table(["step", "median µs", "p99 µs", "time / redres"], rows))
     report(hard, times)
     robot, q, target = problem(0.02)
