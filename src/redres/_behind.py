@@ -2,9 +2,13 @@
 
 :func:`redres._jit.ready` calls :func:`compile_behind` for a kernel module whose cache
 is cold: it starts, once for every process that shares the cache (a lock file holding
-the compiler's process id), :func:`redres._warmup.behind` in a new interpreter (not
-through the ``redres`` command, whose parser imports the sweeps: 0.15 s more before the
-compilation starts), and notices when it has ended or failed. docs/architecture.md, "First use".
+the compiler's process id), :func:`run` in a new interpreter (not through the ``redres``
+command, whose parser imports the sweeps: 0.15 s more before the compilation starts), and
+notices when it has ended or failed. :func:`run` compiles the warm-up group of that
+module first (:data:`redres._warmup.GROUPS`), at normal priority and, when a core is idle,
+with a :func:`helper` process that compiles callees deep in the group's call tree
+(:data:`redres._warmup.HELPERS`); then the other groups, niced. docs/architecture.md,
+"First use".
 """
 
 from __future__ import annotations
@@ -13,12 +17,19 @@ import os
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 
 from . import _jit
 
 #: The background compiler's program (argument: the kernel module to compile first).
-_CHILD = "import sys; from redres._warmup import behind; behind(sys.argv[1])"
+_CHILD = "import sys; from redres._behind import run; run(sys.argv[1])"
+#: The helper process's program (argument: the warm-up group).
+_HELPER = "import sys; from redres._behind import helper; helper(sys.argv[1])"
+#: The helper starts when the machine has this much of a core idle (the caller's loop and
+#: the main compilation running), measured over ``_IDLE_WINDOW`` s from ``_IDLE_AFTER``
+#: s after the main compilation started (past the caller's own numba set-up).
+_IDLE_CORES, _IDLE_AFTER, _IDLE_WINDOW = 0.4, 0.6, 0.3
 
 
 def _lock_file() -> Path:
@@ -118,3 +129,92 @@ def _behind_failed(why: str) -> None:
         file=sys.stderr,
         flush=True,
     )
+
+
+# --------------------------------------------------------------------------- the child
+
+
+def run(first: str) -> None:
+    """The background process: the warm-up group caching module ``first``, then the rest
+    (:mod:`redres._warmup`)."""
+    from ._warmup import GROUPS, warmup
+
+    # The group of `first`, then the serial-chain kernels (the controller's and IK's
+    # readiness needs them; a short group), then the others.
+    order = sorted(GROUPS, key=lambda g: (first not in GROUPS[g][0], g != "chain"))
+    helpers: list[subprocess.Popen[bytes]] = []
+    starter = _start_helper(order[0], helpers)
+    try:
+        warmup(order[:1], quiet=True, jobs=1)  # a caller waits for this one
+        if hasattr(os, "nice"):
+            os.nice(10)  # the rest: the user's process comes first
+        warmup(order[1:], quiet=True, jobs=1)
+    finally:
+        release_lock()
+        if starter is not None:
+            starter.join()
+        for proc in helpers:
+            proc.wait()
+
+
+def helper(group: str) -> None:
+    """The helper process of :func:`run`: compile :data:`redres._warmup.HELPERS` of
+    ``group`` (the two processes share the work through the cache's per-kernel locks,
+    :mod:`redres._compile_lock`)."""
+    from ._warmup import HELPERS
+
+    _jit.compile_on_first_use()
+    _jit._state["quiet"] = True
+    for module, kernel, arguments in HELPERS.get(group, ()):
+        _jit.precompile(module, kernel, *arguments())
+    # Parts of modules only: the main process marks them when their groups are whole.
+    _jit._state.get("pending", set()).clear()
+
+
+def _start_helper(group: str, started: list[subprocess.Popen[bytes]]) -> threading.Thread | None:
+    """Start :func:`helper` for ``group`` (into ``started``) from a thread, once the
+    machine shows an idle core beside this compilation and the caller's loop. A caller
+    that spins on the reference path takes the other core: three processes on two cores
+    would only slow the group down."""
+    from ._warmup import GROUPS, HELPERS
+
+    if group not in HELPERS or _cores() < 2 or all(map(_jit.cached, GROUPS[group][0])):
+        return None
+
+    def start() -> None:
+        time.sleep(_IDLE_AFTER)
+        if idle_cores(_IDLE_WINDOW) < _IDLE_CORES:
+            return
+        try:
+            started.append(subprocess.Popen([sys.executable, "-c", _HELPER, group],
+                                            stdin=subprocess.DEVNULL, env=child_env()))  # fmt: skip
+        except OSError:  # the group compiles in this process alone
+            pass
+
+    thread = threading.Thread(target=start, name="redres-helper-start", daemon=True)
+    thread.start()
+    return thread
+
+
+def _cores() -> int:
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1  # pragma: no cover - not Linux
+
+
+def idle_cores(seconds: float) -> float:
+    """Idle cores of the machine over the next ``seconds`` (``/proc/stat``); the count of
+    usable cores where that cannot be read."""
+
+    def ticks() -> tuple[int, int]:
+        with open("/proc/stat") as f:
+            counts = [int(x) for x in f.readline().split()[1:]]
+        return counts[3] + counts[4], sum(counts)  # idle + iowait, all
+
+    try:
+        idle0, total0 = ticks()
+        time.sleep(seconds)
+        idle1, total1 = ticks()
+    except (OSError, ValueError, IndexError):  # pragma: no cover - no /proc/stat
+        return float(_cores())
+    return (os.cpu_count() or 1) * (idle1 - idle0) / max(total1 - total0, 1)

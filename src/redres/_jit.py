@@ -56,6 +56,7 @@ __all__ = [
     "load",
     "parallel_range",
     "pending",
+    "precompile",
     "ready",
     "threads",
     "warmup",
@@ -270,6 +271,11 @@ def kernel(
             dispatcher._cache = _cache_class()(dispatcher.py_func)
         except Exception:  # pragma: no cover - numba's caching internals changed
             pass  # compiled in memory: correct, only slower to start
+        from numba.core.compiler_lock import global_compiler_lock
+
+        from . import _compile_lock  # one process at a time
+
+        _compile_lock.guard(dispatcher, _cache_root() / "locks", global_compiler_lock)
     _state.setdefault("kernels", {}).setdefault(func.__module__, []).append(dispatcher)
     return dispatcher
 
@@ -357,14 +363,29 @@ def _import(name: str, compiled: bool) -> ModuleType:
         return _modules[(name, compiled)]
 
 
+def precompile(name: str, kernel: str, *args: Any) -> None:
+    """Compile kernel ``kernel`` of module ``name`` for the types of ``args`` (or load it
+    from the cache) without running it: a kernel that other kernels call, compiled ahead
+    of them (:mod:`redres._warmup`'s helper). A no-op when kernels are plain Python."""
+    module = _get(name, compiled=True) if _ENABLED else None
+    dispatcher = getattr(module, kernel, None)
+    if dispatcher is None or not hasattr(dispatcher, "compile"):
+        return
+    import numba
+
+    dispatcher.compile(tuple(numba.typeof(arg) for arg in args))  # type: ignore[no-untyped-call]
+
+
 def is_compiled(module: ModuleType) -> bool:
     """Whether ``module`` (from :func:`load`) is the compiled form of its kernel module."""
     return _modules.get((module.__name__, True)) is module
 
 
-def _marker(name: str) -> Path:
-    """File that says module ``name`` has been compiled into the cache at this stamp."""
-    return _cache_root() / name / f"compiled-{stamp()[:16]}"
+def _marker(name: str, part: str | None = None) -> Path:
+    """File that says module ``name`` (or its ``part``: an entry point and what it calls)
+    has been compiled into the cache at this stamp."""
+    suffix = "" if part is None else f"-{part}"
+    return _cache_root() / name / f"compiled-{stamp()[:16]}{suffix}"
 
 
 def _announce(name: str) -> None:
@@ -395,7 +416,7 @@ def _announce(name: str) -> None:
 #: kernel module in a second process while the caller answers through the reference
 #: path; ``foreground`` compiles it on the caller's path, on first use.
 _POLICY = os.environ.get("REDRES_COMPILE", "background").strip().lower() or "background"
-_POLL_SECONDS = 0.05  # how often a waiting caller looks for the compiled cache
+_POLL_SECONDS = 0.02  # how often a waiting caller looks for the compiled cache (a stat)
 if _POLICY == "foreground":
     _state["foreground"] = True
 
@@ -421,39 +442,47 @@ def compile_on_first_use() -> None:
     _state["foreground"] = True
 
 
-def mark_cached(names: Iterable[str], *, workload: bool = False) -> None:
+def mark_cached(names: Iterable[str], *, workload: bool = False, part: str | None = None) -> None:
     """Write the markers of the kernel modules ``names`` that this process has compiled
     something of, so that other processes see them cached (:func:`ready`). ``workload``:
     a warm-up group's workload has run through: mark them all (a module whose kernels are
     all compiled into their callers, or not on this workload's path, has no signature of
-    its own, yet nothing of it is left to compile for the group)."""
+    its own, yet nothing of it is left to compile for the group). ``part``: mark only
+    that part of them (:func:`ready` with ``part``), ahead of the rest of the group."""
     for name in names:
         if (workload and _ENABLED) or any(
             d.signatures for d in _state.get("kernels", {}).get(name, ())
         ):
             try:
                 _marker(name).parent.mkdir(parents=True, exist_ok=True)
-                _marker(name).touch()
+                _marker(name, part).touch()
             except OSError:  # pragma: no cover - the cache went read-only meanwhile
                 pass
 
 
-def ready(name: str, *, start: bool = True) -> bool:
+def ready(name: str, *, start: bool = True, part: str | None = None) -> bool:
     """Whether kernel module ``name`` can run compiled without compiling on the caller's
     path: it is loaded, or cached at this stamp, or compiling happens on first use anyway
     (``REDRES_COMPILE=foreground``, no writable cache, a failed background compile). Else
     starts (once; not with ``start=False``, for a caller with a NumPy path as fast) the
     background compilation and returns False until it has cached the module; callers
-    keep asking on each call and switch when it says True."""
-    found: set[str] = _state.setdefault("ready", set())
-    if not _ENABLED or name in found or _state.get("foreground") or cache_dir() is None:
+    keep asking on each call and switch when it says True. ``part``: the caller needs only
+    that part of the module (an entry point the background compiler marks as soon as it
+    is cached, :func:`mark_cached`)."""
+    found: set[tuple[str, str | None]] = _state.setdefault("ready", set())
+    key = (name, part)
+    if not _ENABLED or key in found or _state.get("foreground") or cache_dir() is None:
         return True
     now = time.monotonic()
-    if now < _state.setdefault("next_poll", {}).get(name, 0.0):
+    if now < _state.setdefault("next_poll", {}).get(key, 0.0):
         return False
-    _state["next_poll"][name] = now + _POLL_SECONDS
-    if (name, True) in _modules or _marker(name).exists():
-        found.add(name)
+    _state["next_poll"][key] = now + _POLL_SECONDS
+    if (
+        (name, True) in _modules
+        or _marker(name).exists()
+        or (part is not None and _marker(name, part).exists())
+    ):
+        found.add(key)
         return True
     if not start:
         return False

@@ -1,5 +1,5 @@
-"""Compile the kernels ahead of use: ``redres warmup``, :func:`warmup`, and the
-background compilation of :mod:`redres._jit`.
+"""Compile the kernels ahead of use: ``redres warmup``, :func:`warmup`, and what the
+background compiler (:mod:`redres._behind`) compiles.
 
 Each *group* is a short workload through the public API (so that it compiles exactly the
 argument types the library's own calls use) and the kernel modules it fills the cache of.
@@ -11,7 +11,6 @@ the compiled path group by group.
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import time
@@ -62,18 +61,29 @@ def _chain() -> None:
 
 
 def _controller() -> None:
-    from .control import Controller
+    from .control import Controller, _fused
     from .models import panda
     from .objectives import JointLimitObjective
     from .resolution import GradientProjectionScheme, PseudoInverseScheme
     from .tasks import FrameTask
 
+    # The fused step on a serial chain (the common first use) first, from its deepest
+    # callee up (the helper compiles its other branches meanwhile); a loop waiting for
+    # it switches as soon as it is cached; then the other entry points.
+    _jit.precompile(_fused._KERNELS, "_resolve", _f(2), *[_f(1)] * 6)
     robot = panda()
-    for scheme in (
-        GradientProjectionScheme([JointLimitObjective()], k_null=5.0, damping=0.01),
-        PseudoInverseScheme(),
-    ):
-        Controller(robot, FrameTask(), scheme, dt=1e-3).step(robot.neutral())
+    scheme = GradientProjectionScheme([JointLimitObjective()], k_null=5.0, damping=0.01)
+    Controller(robot, FrameTask(), scheme, dt=1e-3).step(robot.neutral())
+    _jit.mark_cached([_fused._KERNELS], part="chain_step")
+    for entry in ("integrate", "chain_command", "clik_step", "frame_command"):
+        _fused.native(entry)
+        _jit.mark_cached([_fused._KERNELS], part=entry)
+    Controller(robot, FrameTask(), PseudoInverseScheme(), dt=1e-3).step(robot.neutral())
+
+
+def _f(ndim: int, dtype: type = float) -> np.ndarray:
+    """An array of ``ndim`` dimensions: its type is what a precompiled kernel takes."""
+    return np.zeros((1,) * ndim, dtype=dtype)
 
 
 def _hard_limits() -> None:
@@ -134,6 +144,29 @@ GROUPS: dict[str, tuple[tuple[str, ...], Callable[[], None]]] = {
 }  # fmt: skip
 
 
+#: What a helper process compiles while the background compiler (:func:`redres._behind.run`)
+#: compiles a group, where a second
+#: core is free: callees deep in the group's call tree, on branches the group's workload
+#: reaches last (module, kernel, arguments of the types its callers pass; checked by
+#: ``tests/test_warmup_helper.py``). The two share the work through the cache and its
+#: per-kernel locks (:mod:`redres._compile_lock`): whichever comes to a kernel second
+#: waits for it and loads it.
+HELPERS: dict[str, list[tuple[str, str, Callable[[], tuple[object, ...]]]]] = {
+    "controller": [
+        ("redres.linalg._kernels", "_core",
+         lambda: (_f(2), 0.0, 0, 0.0, 0.0, 0.0, 0.0, _f(3), _f(1), _f(1))),
+        ("redres.control._kernels", "chain_command",
+         lambda: (_f(1), _f(1), _f(1), _f(2), _f(1))),
+    ],
+    "hard limits": [
+        ("redres.resolution.hard_limits._lp_kernels", "largest_scale",
+         lambda: (_f(2), _f(1), _f(1), _f(1), _f(1), False, 0.0)),
+        ("redres.resolution.hard_limits._kernels", "epilogue",
+         lambda: (_f(2), _f(1), _f(2), _f(3), _f(2), False, False)),
+    ],
+}  # fmt: skip
+
+
 def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: int = 2) -> float:
     """Compile the kernels now, on this process's path, and cache them for later
     processes; afterwards this process never answers through the reference path.
@@ -191,16 +224,3 @@ def _marking(name: str) -> Callable[[], None]:
         _jit.mark_cached(modules, workload=True)
 
     return call
-
-
-def behind(first: str) -> None:
-    """The background process: the group caching module ``first``, then the rest."""
-    if hasattr(os, "nice"):
-        os.nice(10)  # the user's process comes first
-    # The group of `first`, then the serial-chain kernels (the controller's and IK's
-    # readiness needs them; a short group), then the others.
-    order = sorted(GROUPS, key=lambda g: (first not in GROUPS[g][0], g != "chain"))
-    try:
-        warmup(order, quiet=True, jobs=1)
-    finally:
-        _behind.release_lock()

@@ -69,10 +69,10 @@ def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion 
     """The controller's path (:mod:`redres.control.controller` describes the three), with
     the fused settings on the fused path."""
     # A FrameTask computed by FrameTask's own compute (it or a row subclass): the compiled
-    # front end evaluates it exactly. Every entry point is made ready here, so that any
-    # controller of a frame task (the warm-up's) compiles and caches all four.
+    # front end evaluates it exactly. Nothing is compiled here: the controller compiles
+    # the one entry point its path takes (the warm-up compiles them all).
     plain = isinstance(task, FrameTask) and type(task).compute is FrameTask.compute
-    if not plain or any(native(name) is None for name in _FRONT):
+    if not plain or be.module(_KERNELS) is None:
         return "composed", None
     fused = fusion(robot, scheme)
     if fused is None:
@@ -80,7 +80,9 @@ def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion 
     return "fused", fused
 
 
-_FRONT = ("frame_command", "chain_command", "clik_step", "chain_step")
+#: The entry points a controller's path takes: (front end, fused step) by whether the
+#: frame's kinematics come from its serial chain.
+ENTRIES = {True: ("chain_command", "chain_step"), False: ("frame_command", "clik_step")}
 
 
 def serial_chain(robot: Robot, frame: str | None) -> SerialChain | None:
@@ -101,12 +103,13 @@ def block_size(n: int) -> int:
     return 7 * n + 27
 
 
-def ready() -> bool:
-    """Whether the fused kernels run compiled (:func:`redres._jit.ready`; False while they
-    compile behind). The chain kernels they call are compiled into them (numba links a
-    callee's code into its caller's, cached with it); the controller's own calls of a
-    :class:`~redres.robot.SerialChain` switch when the chain's module is ready."""
-    return _jit.ready(_KERNELS)
+def ready(entry: str) -> bool:
+    """Whether kernel ``entry`` (of :data:`ENTRIES`) runs compiled (:func:`redres._jit.ready`
+    of its part; False while it compiles behind). The chain kernels it calls are compiled
+    into it (numba links a callee's code into its caller's, cached with it); the
+    controller's own calls of a :class:`~redres.robot.SerialChain` switch when the chain's
+    module is ready."""
+    return _jit.ready(_KERNELS, part=entry)
 
 
 def fused_config(

@@ -56,6 +56,7 @@ from ..linalg._codes import CFG_MODE, CFG_RCOND, FIXED, LAZY
 from ..resolution import Scheme, StepResult
 from ..tasks import FrameTask, Task
 from ._fused import (
+    ENTRIES,
     TARGET,
     Path,
     block_size,
@@ -165,6 +166,7 @@ class Controller:
             )
             self._block = self._config[TARGET]  # the task's target, from the first step on
         self._pending = False
+        self._entry = ""  # the kernel whose readiness the compiled path waits for
         self._bind()
         # What the last step did. The fused kernel writes its output block into the spare
         # of two, which becomes the last step's once the step succeeded: the block of a
@@ -236,15 +238,14 @@ class Controller:
     def _bind(self) -> None:
         """The path's kernels: compiled, or their plain-Python twins while they compile
         behind (then bound again, compiled, at the first step after they are ready)."""
-        chain = self._chain is not None  # the kernels' two forms
+        front, step = ENTRIES[self._chain is not None]  # the kernels' two forms
         if self._path == "fused":
-            step = "chain_step" if chain else "clik_step"
             self._kernel = kernel_for(self._robot, self._fid, step)
         elif self._path == "frame":
-            front = "chain_command" if chain else "frame_command"
             self._front = kernel_for(self._robot, self._fid, front)
             self._integrate = native("integrate")
-        self._pending = self._path != "composed" and not ready()
+        self._entry = step if self._path == "fused" else front
+        self._pending = self._path != "composed" and not ready(self._entry)
 
     def _stepped(self) -> bool:
         """Whether the fused path has made a step: the damping slot of its block, NaN
@@ -272,7 +273,7 @@ class Controller:
             qa = _contiguous(real_array(q, "q", f"an array of {n}"))
             if qa.shape != self._shape:
                 raise ShapeError(f"q must have shape ({n},); got {qa.shape}")
-        if self._pending and ready():
+        if self._pending and ready(self._entry):
             self._bind()
         kernel = self._kernel
         if kernel is None:

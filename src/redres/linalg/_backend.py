@@ -83,13 +83,19 @@ def kernels() -> ModuleType | None:
     return loaded
 
 
-def entry(module: str, name: str, warm: tuple[Any, ...]) -> Callable[..., Any] | None:
-    """The native entry point of kernel ``module.name`` for the types of ``warm``
-    (:func:`redres._jit.entry_point`; plain Python while it compiles behind); None when
-    the kernels are off or unavailable."""
+def module(name: str) -> ModuleType | None:
+    """Kernel module ``name`` (:func:`redres._jit.load`: compiled, or plain Python while it
+    compiles behind), compiling nothing yet; None when the kernels are off or unavailable."""
     if not _state["enabled"] or _state.get("failed"):
         return None
-    kern = _jit.load(module)
+    return _jit.load(name)
+
+
+def entry(module_name: str, name: str, warm: tuple[Any, ...]) -> Callable[..., Any] | None:
+    """The native entry point of kernel ``module_name.name`` for the types of ``warm``
+    (:func:`redres._jit.entry_point`; plain Python while it compiles behind); None when
+    the kernels are off or unavailable."""
+    kern = module(module_name)
     return None if kern is None else _jit.entry_point(getattr(kern, name), warm)
 
 
