@@ -26,10 +26,10 @@ from . import _jit
 _CHILD = "import sys; from redres._behind import run; run(sys.argv[1])"
 #: The helper process's program (argument: the warm-up group).
 _HELPER = "import sys; from redres._behind import helper; helper(sys.argv[1])"
-#: The helper starts when the machine has this much of a core idle (the caller's loop and
-#: the main compilation running), measured over ``_IDLE_WINDOW`` s from ``_IDLE_AFTER``
-#: s after the main compilation started (past the caller's own numba set-up).
-_IDLE_CORES, _IDLE_AFTER, _IDLE_WINDOW = 0.4, 0.6, 0.3
+#: The helper starts once the machine shows this much of a core idle (the caller's loop
+#: and the main compilation running), measured over windows of ``_IDLE_WINDOW`` s; not
+#: after ``_IDLE_UNTIL`` s (by then the main compilation is past the helper's kernels).
+_IDLE_CORES, _IDLE_WINDOW, _IDLE_UNTIL = 0.5, 0.3, 6.0
 
 
 def _lock_file() -> Path:
@@ -182,9 +182,12 @@ def _start_helper(group: str, started: list[subprocess.Popen[bytes]]) -> threadi
         return None
 
     def start() -> None:
-        time.sleep(_IDLE_AFTER)
-        if idle_cores(_IDLE_WINDOW) < _IDLE_CORES:
-            return
+        deadline = time.monotonic() + _IDLE_UNTIL
+        # The caller sets up (imports, its own numba) for about a second: its loop shows
+        # what it leaves idle only then.
+        while idle_cores(_IDLE_WINDOW) < _IDLE_CORES:
+            if time.monotonic() > deadline:
+                return
         try:
             started.append(subprocess.Popen([sys.executable, "-c", _HELPER, group],
                                             stdin=subprocess.DEVNULL, env=child_env()))  # fmt: skip
