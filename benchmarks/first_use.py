@@ -17,7 +17,7 @@ every library) is left out. The peers' first solves run the same way:
   first ``ik_LM``, each including its own imports and model loading.
 
 Run from the repository root: ``python benchmarks/first_use.py`` (``--repeat N`` runs each
-case N times and reports the median).
+case N times and reports the median; ``--switch-repeat N``, 3 by default, each switch loop).
 """
 
 from __future__ import annotations
@@ -154,15 +154,26 @@ WARM_RUNS = 3
 
 _WRAP = """
 import time as _t
-_t0 = _t.perf_counter()
+_t0, _wall = _t.perf_counter(), _t.time()
 {body}
-print("FIRST_USE_SECONDS", _t.perf_counter() - _t0)
+print("FIRST_USE_SECONDS", _t.perf_counter() - _t0, _wall)
 """
 
 
-def time_case(body: str, cache: Path, policy: str = "background") -> float | None:
+def marker_lag(cache: Path, started: float, seconds: float) -> float | None:
+    """Seconds from the background compiler's last marker before a loop's switch (the
+    kernel it waited for, cached) to the switch, from the markers' file times."""
+    switched = started + seconds
+    times = [m.stat().st_mtime for m in cache.glob("*/compiled-*")]
+    before = [t for t in times if t <= switched + 0.005]
+    return switched - max(before) if before else None
+
+
+def time_case(
+    body: str, cache: Path, policy: str = "background", lags: list[float] | None = None
+) -> float | None:
     """Seconds from first import to first answer in a fresh process; None if it failed
-    (a peer not installed)."""
+    (a peer not installed). ``lags``: append the :func:`marker_lag` of the run."""
     env = dict(os.environ, REDRES_CACHE_DIR=str(cache), REDRES_COMPILE=policy)
     proc = subprocess.run(
         [sys.executable, "-c", _WRAP.format(body=body)],
@@ -173,7 +184,11 @@ def time_case(body: str, cache: Path, policy: str = "background") -> float | Non
     )
     for line in proc.stdout.splitlines():
         if line.startswith("FIRST_USE_SECONDS"):
-            return float(line.split()[1])
+            seconds, started = map(float, line.split()[1:3])
+            lag = marker_lag(cache, started, seconds) if lags is not None else None
+            if lag is not None and lags is not None:
+                lags.append(lag)
+            return seconds
     last = (proc.stderr.strip().splitlines() or ["no output"])[-1]
     print(f"  note: failed ({last})", file=sys.stderr)
     return None
@@ -205,6 +220,8 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=1, help="runs per case (median)")
     parser.add_argument("--json", type=Path, help="also write the figures here")
     parser.add_argument("--switch-only", action="store_true", help="only the switch loops")
+    parser.add_argument("--switch-repeat", type=int, default=3,
+                        help="runs per switch loop and policy, interleaved (median)")  # fmt: skip
     args = parser.parse_args()
     results: dict[str, dict[str, float | None]] = {}
     for name, body in {} if args.switch_only else CASES.items():
@@ -237,28 +254,34 @@ def main() -> None:
     switch: dict[str, dict[str, float | None]] = {}
     for name, body in SWITCH.items():
         runs: dict[str, list[float]] = {"background": [], "foreground": []}
-        for _ in range(args.repeat):  # the two policies interleaved: the same load for both
+        lags: list[float] = []
+        for _ in range(args.switch_repeat):  # the policies interleaved: the same load for both
             for policy, sink in runs.items():
                 with tempfile.TemporaryDirectory(prefix="redres-first-use-") as tmp:
-                    seconds = time_case(body, Path(tmp), policy)
+                    behind = lags if policy == "background" else None
+                    seconds = time_case(body, Path(tmp), policy, behind)
                     stop_background(Path(tmp))
                 if seconds is not None:
                     sink.append(seconds)
         row = {policy: statistics.median(v) if v else None for policy, v in runs.items()}
         lead = [f - b for b, f in zip(runs["background"], runs["foreground"])]
         row["lead"] = statistics.median(lead) if lead else None
+        row["lag"] = max(lags) if lags else None
         switch[name] = row
-        print(f"  {name}: {runs}", file=sys.stderr)
-    print(f"\nCold cache (median of {args.repeat}): seconds from the first import until the "
+        print(f"  {name}: {runs}, lags {lags}", file=sys.stderr)
+    print(f"\nCold cache (median of {args.switch_repeat}): seconds from the first import until the "
           "loop's step runs compiled code (compiling behind, answering through the reference "
           "path meanwhile), and until the first step returns when it compiles on the caller's "
           "path (`REDRES_COMPILE=foreground`); the lead is the second minus the first, run "
           "by run (positive: the compiled path came before a foreground compile would have "
-          "ended).\n")  # fmt: skip
-    rows = [[name, cell(r["background"]), cell(r["foreground"]), cell(r["lead"])]
+          "ended); the last column is the longest wait, over the runs, from the background "
+          "compiler's marker of the loop's kernel (its compilation done) to the switch."
+          "\n")  # fmt: skip
+    rows = [[name, cell(r["background"]), cell(r["foreground"]), cell(r["lead"]),
+             "—" if r["lag"] is None else f"{r['lag']:.3f}"]
             for name, r in switch.items()]  # fmt: skip
     print(table(["loop", "compiled path from, s (behind)", "first step, s (foreground)",
-                 "lead, s"], rows))  # fmt: skip
+                 "lead, s", "switch after its compilation ended, s"], rows))  # fmt: skip
     if args.json:
         args.json.write_text(json.dumps({**results, "switch": switch}, indent=2))
 

@@ -32,6 +32,7 @@ from .linalg._dense_kernels import (
     _back_project,
     _cholesky,
     _cholesky_solve,
+    _copy,
     _finite_2d,
     _gram,
 )
@@ -414,12 +415,12 @@ def _attempt(  # type: ignore[no-untyped-def]
         score = max(ep / tol_p, eo / tol_o)
         if score < state[BEST_SCORE]:
             state[BEST_SCORE], state[BEST_POSITION], state[BEST_ORIENTATION] = score, ep, eo
-            best_q[:] = q
+            _copy(best_q, q)
         if ep <= tol_p and eo <= tol_o:
             if not has_pref or (prefer and moved <= pref_tol):
                 return CONVERGED, it, False
             has_cand = True
-            cand[:] = q
+            _copy(cand, q)
             if not prefer:  # phase 2, with a budget of its own
                 prefer, moved, limit = True, math.inf, it + max_iterations
                 scale, has_last = 1.0, False
@@ -467,7 +468,7 @@ def _attempt(  # type: ignore[no-untyped-def]
                     break
                 recompute = True
             if prefer:
-                sticky[:] = blocked
+                _copy(sticky, blocked)
         if prefer:  # ReferenceSolver.preference_part
             _cap(pref, _PREFERENCE_STEP)
             dot = 0.0
@@ -478,7 +479,7 @@ def _attempt(  # type: ignore[no-untyped-def]
                 scale *= 0.5
                 for j in range(n):
                     pref[j] *= 0.5
-            last[:] = pref
+            _copy(last, pref)
             has_last = True
             for j in range(n):
                 task[j] += pref[j]
@@ -496,6 +497,6 @@ def _attempt(  # type: ignore[no-untyped-def]
             q[j] = x
         it += 1
     if has_cand:  # the preference had not settled: the last configuration on target
-        q[:] = cand
+        _copy(q, cand)
         return CONVERGED, it, True
     return BUDGET, it, False

@@ -59,10 +59,11 @@ def _rows_at(config, n):  # type: ignore[no-untyped-def]
     return start, m
 
 
-@kernel
+@kernel(inline=True)
 def _target_dot(config, H, i, j):  # type: ignore[no-untyped-def]
     """``(R_d Rᵀ)[i, j]``: row ``i`` of the target rotation (``config``, row-major) dotted
-    with row ``j`` of the frame's rotation ``H[:3, :3]``."""
+    with row ``j`` of the frame's rotation ``H[:3, :3]`` (inlined: called with nine
+    literal ``i, j``, it would compile nine specialisations)."""
     d = CFG_ROTATION + 3 * i
     return config[d] * H[j, 0] + config[d + 1] * H[j, 1] + config[d + 2] * H[j, 2]
 

@@ -78,6 +78,14 @@ def _back_project(J, rows, r, rt, g, k, out, null):  # type: ignore[no-untyped-d
             null[j] = acc - task
 
 
+@kernel(inline=True)
+def _copy(dst, src):  # type: ignore[no-untyped-def]
+    """``dst[:] = src`` for 1-D arrays of one length, as a loop: a slice copy also
+    compiles numba's shape-mismatch error path (some 2 s of string formatting, cold)."""
+    for k in range(src.shape[0]):
+        dst[k] = src[k]
+
+
 @kernel
 def _cholesky(A, L, size, shift):  # type: ignore[no-untyped-def]
     """Lower Cholesky factor of ``A + shift I`` (lower triangle of A read) into L.

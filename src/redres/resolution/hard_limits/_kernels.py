@@ -17,7 +17,7 @@ import numpy as np
 
 from ..._jit import kernel
 from ...linalg._codes import GRAD_NONFINITE, J_NONFINITE, OK, Q_NONFINITE, XD_NONFINITE
-from ...linalg._dense_kernels import _cholesky, _cholesky_solve, _finite_1d, _finite_2d
+from ...linalg._dense_kernels import _cholesky, _cholesky_solve, _copy, _finite_1d, _finite_2d
 from ._codes import (
     ACCELERATION,
     FAILED,
@@ -254,14 +254,14 @@ def _sns(J, xd, lo, hi, qd0, tol, qd, G, L, wm, wn, wb, factored):  # type: igno
         s_min, s_max, j_max = _scale_interval(a, b, lo, hi, free, tol)
         if s_min <= s_max and s_max >= 0.0 and s_min <= 1.0 and min(s_max, 1.0) > best:
             best = min(s_max, 1.0)
-            best_free[:] = free
-            best_qn[:] = qn
+            _copy(best_free, free)
+            _copy(best_qn, qn)
         j = j_max if (s_max < 1.0 and j_max >= 0) else j_worst
         free[j] = False
         qn[j] = hi[j] if qd[j] > hi[j] else lo[j]
     if best < 0.0:
         return FAILED, 0.0
-    free[:] = best_free
+    _copy(free, best_free)
     if not factor(J, free, G, L):
         _ridge(G, L, m)
     for i in range(m):
@@ -293,13 +293,14 @@ def _sns_step(J, xd, lo, hi, qd0, use_qd0, tol, qd, G, L, wm, wn, wb, full):  # 
     if factored:
         for k in range(n):
             factored = factored and wb[0, k]
-    if method != FEASIBLE and use_qd0:
-        method, s = _sns(J, xd, lo, hi, zero, tol, qd, G, L, wm, wn, wb, False)
+    if method != FEASIBLE and use_qd0:  # `factored` is False here: passed as a bool, not
+        # the literal False (a second compiled specialisation of _sns, 2 s cold)
+        method, s = _sns(J, xd, lo, hi, zero, tol, qd, G, L, wm, wn, wb, factored)
     if method != FEASIBLE:
-        keep[:] = qd
+        _copy(keep, qd)
         lp_method, lp_s = largest_scale(J, xd, lo, hi, qd, method == SCALED, s)
         if method == SCALED and (lp_method != LP_SCALED or lp_s <= s + 1e-12):
-            qd[:] = keep  # the greedy solution already has the largest scale
+            _copy(qd, keep)  # the greedy solution already has the largest scale
         elif lp_method != FAILED:
             method, s = lp_method, lp_s
         else:  # pragma: no cover - both failed (numerical breakdown): stay in the box
