@@ -88,20 +88,22 @@ CONSTANT_MODULES: tuple[str, ...] = (
 
 #: Cold compile time of each module's own kernels on a 2-core machine, s (for the
 #: messages), with the modules it imports already cached. Measured on an empty cache
-#: (2026-12, quiet 2-core machine): a first ``damped_pinv`` 16.6 s, a first ``rr.ik`` 57 s
-#: (compile on the caller's path); ``redres warmup --jobs 1`` per group: chain 4.5 s,
-#: controller 14.4, batch 53.2, hard limits 35.0 (172 s in all). What a first use waits
-#: for is the sum over what it :func:`needs`: :func:`cold_seconds`.
+#: (2026-12, quiet 2-core machine, compiling on the caller's path): a first
+#: ``damped_pinv`` 16.6 s, a first fused controller step 15-17 s, a first SNS step 16-18 s,
+#: a first ``rr.ik`` 31 s; ``redres warmup --jobs 1`` per group: chain 4.5 s, batch 53.2.
+#: What a first use waits for is the sum over what it :func:`needs`: :func:`cold_seconds`
+#: (a module's callees in another module compile only what it calls of them: the sum errs
+#: on the long side).
 _COLD_SECONDS: dict[str, float] = {
     "redres.linalg._dense_kernels": 0.0,  # compiled with the callers in linalg._kernels
     "redres.linalg._eigen_kernels": 0.0,
     "redres.linalg._kernels": 16.0,
     "redres.robot._kernels": 0.0,
     "redres.robot._chain_kernels": 4.5,
-    "redres.control._kernels": 14.0,
-    "redres._ik_kernels": 36.0,
+    "redres.control._kernels": 1.0,  # a first controller: 15-17 s in all, mostly its callees
+    "redres._ik_kernels": 10.0,  # a first rr.ik: 31 s in all with linalg and chain (12-06)
     "redres._batch_kernels": 53.0,
-    "redres.resolution.hard_limits._kernels": 31.0,  # with _lp_kernels (SNS's simplex)
+    "redres.resolution.hard_limits._kernels": 17.0,  # the SNS step, with _lp_kernels (12-06)
     "redres.resolution.hard_limits._lp_kernels": 0.0,
     "redres.resolution.hard_limits._qp_kernels": 4.0,
 }
