@@ -227,10 +227,11 @@ def page(benches: list[Bench], figures: dict[str, Any], header: list[str], quick
 
 
 WHY = {
-    "first_use": "*Why:* redres' kernels are compiled by numba on first use and cached on "
-    "disk; a cold cache (a fresh install, an edited kernel) pays the compilation before the "
-    "first answer, a warm one loads the cached code. pink and mink call Pinocchio, MuJoCo "
-    "and DAQP, which ship compiled.",
+    "first_use": "*Why:* redres' kernels are compiled by numba and cached on disk. On a cold "
+    "cache (a fresh install, an edited kernel) the first answers come from the reference path "
+    "while a background process compiles; on a warm one the first call loads numba and the "
+    "cached code (about 0.3 s), so warm is the slower of the two here. pink and mink call "
+    "Pinocchio, MuJoCo and DAQP, which ship compiled.",
     "compiled": "*Why:* KDL runs the whole step (Jacobian, SVD, null-space term) in one C++ "
     "call; a redres step makes several calls from Python — Pinocchio for the kinematics, a "
     "compiled kernel for the inverse, the objective's gradient, input validation — each "
