@@ -70,3 +70,22 @@ def test_the_helper_compiles_what_the_group_calls_once_across_processes(
         assert signature in used, (kernel, signature, list(used))
         # ... and it was compiled once across the two processes (the other loaded it)
         assert compiled + used[signature] == 1, (kernel, compiled, used[signature])
+
+
+def test_a_machine_with_every_core_busy_reads_as_not_idle() -> None:
+    """The helper starts only on an idle core: with a spinning process per core the
+    machine's idle share stays under the helper's threshold."""
+    import time
+
+    from redres import _behind
+
+    assert 0.0 <= _behind.idle_cores(0.1) <= (os.cpu_count() or 1) + 1e-9
+    spin = [sys.executable, "-c", "while True: pass"]
+    spinners = [subprocess.Popen(spin) for _ in range(os.cpu_count() or 1)]
+    try:
+        time.sleep(0.3)
+        assert _behind.idle_cores(0.3) < _behind._IDLE_CORES
+    finally:
+        for proc in spinners:
+            proc.kill()
+            proc.wait()
