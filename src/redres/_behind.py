@@ -163,12 +163,8 @@ def helper(group: str) -> None:
     :mod:`redres._compile_lock`)."""
     from ._warmup import HELPERS
 
-    _jit.compile_on_first_use()
-    _jit._state["quiet"] = True
     for module, kernel, arguments in HELPERS.get(group, ()):
         _jit.precompile(module, kernel, *arguments())
-    # Parts of modules only: the main process marks them when their groups are whole.
-    _jit._state.get("pending", set()).clear()
 
 
 def _start_helper(group: str, started: list[subprocess.Popen[bytes]]) -> threading.Thread | None:

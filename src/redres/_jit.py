@@ -325,14 +325,14 @@ def compiled(name: str) -> ModuleType | None:
     return _get(name, compiled=True) if ready(name) else None
 
 
-def _get(name: str, *, compiled: bool) -> ModuleType | None:
+def _get(name: str, *, compiled: bool, announce: bool = True) -> ModuleType | None:
     if name not in KERNEL_MODULES:
         raise ValueError(f"{name} is not a kernel module of redres._jit.KERNEL_MODULES")
     compiled = compiled and _ENABLED
     found = _modules.get((name, compiled))
     if found is not None:
         return found
-    if compiled and cache_dir() is not None and not _marker(name).exists():
+    if announce and compiled and cache_dir() is not None and not _marker(name).exists():
         _announce(name)
     try:
         return _import(name, compiled)
@@ -368,8 +368,9 @@ def _import(name: str, compiled: bool) -> ModuleType:
 def precompile(name: str, kernel: str, *args: Any) -> None:
     """Compile kernel ``kernel`` of module ``name`` for the types of ``args`` (or load it
     from the cache) without running it: a kernel that other kernels call, compiled ahead
-    of them (:mod:`redres._warmup`'s helper). A no-op when kernels are plain Python."""
-    module = _get(name, compiled=True) if _ENABLED else None
+    of them (:mod:`redres._warmup`'s helper). A no-op when kernels are plain Python. Says
+    nothing and marks nothing (a part of a module: its warm-up group marks it whole)."""
+    module = _get(name, compiled=True, announce=False) if _ENABLED else None
     dispatcher = getattr(module, kernel, None)
     if dispatcher is None or not hasattr(dispatcher, "compile"):
         return
