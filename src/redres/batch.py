@@ -53,6 +53,7 @@ from .linalg import _codes as codes
 from .linalg import _weights as wt
 from .linalg import rate_step as _single_rate_step
 from .linalg._info import RCOND, AdaptiveDamping, InverseInfo
+from .linalg._status import raise_status
 from .robot import Robot, SerialChain
 from .robot.chain import _output  # the check of SerialChain's output arrays
 from .robot.robot import Reference
@@ -391,7 +392,7 @@ def _check(status: Any, per_xd: bool = True, per_grad: bool = True) -> None:
         i = int(bad[0])
         names = {"q": f"q[{i}]", "xd": f"xd[{i}]" if per_xd else "xd",
                  "grad": f"grad[{i}]" if per_grad else "grad", "W": "weights"}  # fmt: skip
-        be.raise_status(int(status[i]), names)
+        raise_status(int(status[i]), names)
 
 
 def _loop(count: int, call: Callable[[int], object], *rows: tuple[FloatArray, int]) -> None:

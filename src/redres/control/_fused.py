@@ -22,6 +22,7 @@ from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import _backend as be
 from ..linalg import _codes as codes
+from ..linalg._status import raise_status
 from ..objectives import Objective
 from ..resolution import GradientProjectionScheme, Inverse, PseudoInverseScheme, Scheme
 from ..tasks import FrameTask, Task
@@ -240,4 +241,4 @@ def raise_for_status(status: int, n: int) -> None:
         raise ShapeError(f"q must have shape ({n},)")
     if status == codes.POSE_NONFINITE:
         raise NonFiniteError("the frame placement is not finite (is q astronomically large?)")
-    be.raise_status(status, {"J": "the frame Jacobian", "xd": "the task command"})
+    raise_status(status, {"J": "the frame Jacobian", "xd": "the task command"})

@@ -32,9 +32,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from .. import _jit
 from .._validate import as_matrix, as_scalar
-from ..errors import InvalidParameterError, NonFiniteError, NotPositiveDefiniteError, ShapeError
+from ..errors import InvalidParameterError, ShapeError
 from . import _codes as codes
 from ._info import AdaptiveDamping, InverseInfo
+from ._status import check_sigma, raise_status
 from ._weights import (
     EMPTY_1D,
     EMPTY_2D,
@@ -161,59 +162,6 @@ def method_label(mode: int, weighted: bool, exact_label: str) -> str:
         return "weighted" if weighted else exact_label
     base = {codes.FIXED: "damped", codes.ADAPTIVE: "adaptive", codes.SELECTIVE: "selective"}[mode]
     return f"weighted-{base}" if weighted else base
-
-
-_NONFINITE = {
-    codes.Q_NONFINITE: "q",
-    codes.J_NONFINITE: "J",
-    codes.XD_NONFINITE: "xd",
-    codes.GRAD_NONFINITE: "grad",
-    codes.W_NONFINITE: "W",
-}
-
-
-def raise_status(status: int, names: dict[str, str]) -> None:
-    """Raise the error a kernel status code stands for, naming the argument."""
-    if status in _NONFINITE:
-        key = _NONFINITE[status]
-        raise NonFiniteError(f"{names.get(key, key)} contains NaN or infinity")
-    if status == codes.XD_TOO_LARGE:
-        raise too_large(names.get("xd", "xd"))
-    w = names.get("W", "W")
-    if status == codes.W_NOT_SPD:
-        raise NotPositiveDefiniteError(
-            f"{w} must be positive definite: diagonal weights all > 0, or a full matrix "
-            "with a Cholesky factorisation (check for zero, negative or dependent rows)"
-        )
-    if status == codes.W_ASYMMETRIC:
-        raise NotPositiveDefiniteError(
-            f"{w} must be symmetric positive definite; it is not symmetric "
-            "(use (W + W.T) / 2 if the asymmetry is rounding)"
-        )
-    raise RuntimeError(f"unexpected kernel status {status}")  # pragma: no cover
-
-
-def too_large(name: str) -> InvalidParameterError:
-    """The error for a task velocity beyond ``±MAX_TASK_RATE``."""
-    return InvalidParameterError(
-        f"{name} must lie within ±{codes.MAX_TASK_RATE:g} (a task velocity, m/s or rad/s); "
-        "larger values overflow the joint velocity"
-    )
-
-
-def check_sigma(sigma_max: float) -> None:
-    """Refuse a matrix whose largest singular value overflows float64 (the kernels scale
-    the matrix, so its inverse is still finite, but its diagnostics would hold inf)."""
-    if sigma_max == math.inf:
-        raise InvalidParameterError(
-            "J's largest singular value overflows float64 (entries near 1.7e308); rescale J"
-        )
-
-
-def check_rate(xd: FloatArray, name: str = "xd") -> None:
-    """The kernels' bound on a (finite) task velocity, for the NumPy paths (same error)."""
-    if xd.size and np.abs(xd).max() > codes.MAX_TASK_RATE:
-        raise too_large(name)
 
 
 WithInfo = tuple[FloatArray, InverseInfo]

@@ -108,6 +108,6 @@ def times_lt(X: FloatArray, mode: int, factor: FloatArray) -> FloatArray:
 
 
 def _raise(status: int, names: dict[str, str]) -> None:
-    from ._backend import raise_status  # the one translation of status codes (it imports this)
+    from ._status import raise_status  # the one translation of status codes
 
     raise_status(status, names)

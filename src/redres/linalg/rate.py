@@ -26,6 +26,7 @@ from . import _backend as be
 from . import _weights as wt
 from ._backend import FloatArray
 from ._info import RCOND, AdaptiveDamping, InverseInfo
+from ._status import check_rate, check_sigma, raise_status
 
 __all__ = ["RateStep", "rate_step"]
 
@@ -182,8 +183,8 @@ def _general_step(
             J, xd, grad, qd, null, k, wmode, wdiag, wfull, mode, lam, lam_max, eps, rc
         )
         if status:
-            be.raise_status(status, _NAMES)
-        be.check_sigma(smax)
+            raise_status(status, _NAMES)
+        check_sigma(smax)
     else:
         qd, null, (rank, smin, smax, used) = _numpy_step(
             J, xd, grad, k, wmode, wdiag, wfull, (mode, lam, lam_max, eps, rc)
@@ -218,7 +219,7 @@ def _numpy_step(
     for arr, name in ((J, "J"), (xd, "xd"), (grad, "grad")):
         if not np.isfinite(arr).all():
             raise NonFiniteError(f"{name} contains NaN or infinity")
-    be.check_rate(xd)
+    check_rate(xd)
     mode, lam, lam_max, eps, rcond = spec
     factor = wt.weight_factor(wmode, wdiag, wfull, "weights")
     filt = be.Filtered(wt.weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)

@@ -15,6 +15,7 @@ from .._validate import FloatArray, as_scalar
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import RCOND, AdaptiveDamping, InverseInfo
 from ..linalg import _backend as be
+from ..linalg._status import check_rate, too_large
 
 if TYPE_CHECKING:
     from ..objectives import Objective
@@ -269,14 +270,14 @@ def step_arrays(q: Any, J: Any, xd: Any, n: int) -> tuple[FloatArray, FloatArray
     if lane:  # one compiled pass over the three
         bad = lane(q, J, xd)  # type: ignore[operator]
         if bad == 4:
-            raise be.too_large("xd")
+            raise too_large("xd")
         if bad:
             raise NonFiniteError(f"{('q', 'J', 'xd')[bad - 1]} contains NaN or infinity")
         return q, J, xd
     for arr, name in ((q, "q"), (J, "J"), (xd, "xd")):
         if not _isfinite(arr).all():
             raise NonFiniteError(f"{name} contains NaN or infinity")
-    be.check_rate(xd)
+    check_rate(xd)
     return q, J, xd
 
 

@@ -2,7 +2,7 @@
 
 Plain constants, importable without numba. Errors are not coded here: the kernels return
 the status codes of :mod:`redres.linalg._codes` (0 = OK), turned into exceptions by
-:func:`redres.linalg._backend.raise_status`.
+:func:`redres.linalg._status.raise_status`.
 """
 
 from __future__ import annotations

@@ -29,7 +29,7 @@ if TYPE_CHECKING:
     from ...registry import ScenarioParams
     from ...robot import Robot
 
-#: Argument names for :func:`~redres.linalg._backend.raise_status` other than its own.
+#: Argument names for :func:`~redres.linalg._status.raise_status` other than its own.
 STEP_NAMES = {"grad": "the secondary velocity (objective gradients)"}
 
 

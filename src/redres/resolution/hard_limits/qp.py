@@ -53,7 +53,7 @@ from numpy.typing import ArrayLike
 from ... import _jit
 from ..._validate import FloatArray, as_scalar, as_vector, checked_keywords
 from ...errors import InvalidParameterError, ShapeError
-from ...linalg._backend import raise_status
+from ...linalg._status import raise_status
 from ...tasks import Task, stack
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective

@@ -50,7 +50,7 @@ from numpy.typing import ArrayLike
 
 from ... import _jit
 from ..._validate import FloatArray, as_scalar, checked_keywords
-from ...linalg._backend import raise_status
+from ...linalg._status import raise_status
 from ..base import StepResult
 from ..gradient_projection import WeightedObjective
 from ._codes import FEASIBLE, LP_SCALED, METHODS, NEAREST, SCALED
