@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 
 import redres
+from redres import _compile_times as ct
 from redres import _jit
 
 PACKAGE = Path(redres.__file__).parent
@@ -259,7 +260,7 @@ print(json.dumps([before, objects, after, sorted(set(redres.__all__) - set(dir(r
 
 
 def test_a_first_use_waits_for_what_its_module_imports(monkeypatch: pytest.MonkeyPatch) -> None:
-    needed = _jit.needs("redres._ik_kernels")
+    needed = ct.needs("redres._ik_kernels")
     assert needed[0] == "redres._ik_kernels"
     assert {
         "redres.robot._chain_kernels",
@@ -268,13 +269,13 @@ def test_a_first_use_waits_for_what_its_module_imports(monkeypatch: pytest.Monke
         "redres.linalg._eigen_kernels",
     } <= set(needed)
     assert "redres.control._kernels" not in needed and set(needed) <= set(_jit.KERNEL_MODULES)
-    assert set(_jit._COLD_SECONDS) == set(_jit.KERNEL_MODULES)
+    assert set(ct.COLD_SECONDS) == set(_jit.KERNEL_MODULES)
     monkeypatch.setattr(_jit, "cached", lambda name: False)
-    cold = _jit.cold_seconds("redres._ik_kernels")
-    assert cold == sum(_jit._COLD_SECONDS[m] for m in needed) > _jit._COLD_SECONDS[needed[0]]
-    both = set(needed) | set(_jit.needs("redres._batch_kernels"))  # counted once each
-    assert _jit.cold_seconds("redres._ik_kernels", "redres._batch_kernels") == sum(
-        _jit._COLD_SECONDS[m] for m in both
+    cold = ct.cold_seconds("redres._ik_kernels")
+    assert cold == sum(ct.COLD_SECONDS[m] for m in needed) > ct.COLD_SECONDS[needed[0]]
+    both = set(needed) | set(ct.needs("redres._batch_kernels"))  # counted once each
+    assert ct.cold_seconds("redres._ik_kernels", "redres._batch_kernels") == sum(
+        ct.COLD_SECONDS[m] for m in both
     )
     monkeypatch.setattr(_jit, "cached", lambda name: name != "redres._ik_kernels")
-    assert _jit.cold_seconds("redres._ik_kernels") == _jit._COLD_SECONDS["redres._ik_kernels"]
+    assert ct.cold_seconds("redres._ik_kernels") == ct.COLD_SECONDS["redres._ik_kernels"]

@@ -63,7 +63,9 @@ def compile_behind(name: str) -> None:
     _jit._state["behind"] = proc
     # numba's import and CPU target (0.5 s) are needed at the switch: prepare them now.
     threading.Thread(target=_jit.prepare, name="redres-prepare-numba", daemon=True).start()
-    seconds = _jit.cold_seconds(*_jit.KERNEL_MODULES)  # the child compiles them all
+    from ._compile_times import cold_seconds
+
+    seconds = cold_seconds(*_jit.KERNEL_MODULES)  # the child compiles them all
     print(
         f"redres: compiling kernels in a background process (about {seconds:.0f} s on one "
         f"core, cached in {_jit.cache_dir()}); until then results come from the reference path "
