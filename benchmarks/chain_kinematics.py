@@ -100,7 +100,7 @@ def in_compiled_code(arm: str, calls: int = 200_000) -> tuple[float, float]:
     (best of 5 loops: the least disturbed by the rest of the machine)."""
     import numba
 
-    from redres import _jit
+    from redres import _compile as _jit
 
     kernels = _jit.load("redres.robot._chain_kernels")
     assert kernels is not None

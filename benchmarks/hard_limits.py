@@ -32,7 +32,7 @@ from redres.resolution import (
     run_violation,
     step_violation,
 )
-from redres.scenario import builtin
+from redres.scenarios.spec import builtin
 from redres.testing import random_limit_states
 
 DT = 1e-3

@@ -1,7 +1,7 @@
 """Quality on a joint-limit problem: the Panda circle that drives plain pseudo-inverse control
 into a joint limit, tracked by each library's best equivalent configuration.
 
-The scenario is ``redres.scenario.builtin("panda_joint_limit_circle")``: the TCP on a 10 cm
+The scenario is ``redres.scenarios.spec.builtin("panda_joint_limit_circle")``: the TCP on a 10 cm
 circle, 2.5 s per turn, four turns (10 s at 1 kHz, 10,000 steps), from the same start
 configuration. Every contender closes the same loop at dt = 1 ms and every figure below is
 computed here, with Pinocchio forward kinematics (robot.fk), from the configuration at the start of
@@ -62,7 +62,7 @@ from redres.resolution import (
     PseudoInverseScheme,
     WeightedLeastNormScheme,
 )
-from redres.scenario import builtin
+from redres.scenarios.spec import builtin
 
 DT, GAIN, K_NULL, SETTLE = 1e-3, 50.0, 5.0, 0.25
 POSTURE_COST, POSTURE_GAIN = 1e-3, 1e-2

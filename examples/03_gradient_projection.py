@@ -15,7 +15,7 @@ import os
 import redres as rr
 from redres.objectives import JointLimitObjective
 from redres.resolution import GradientProjectionScheme, PseudoInverseScheme, WeightedLeastNormScheme
-from redres.scenario import builtin
+from redres.scenarios.spec import builtin
 from redres.tasks import FrameTask
 
 

@@ -15,7 +15,7 @@ import numpy as np
 
 import redres as rr
 from redres.resolution import AugmentedJacobianScheme, PseudoInverseScheme
-from redres.scenario import builtin
+from redres.scenarios.spec import builtin
 from redres.tasks import ArmAngleTask, FrameTask
 
 

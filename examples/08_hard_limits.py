@@ -27,7 +27,7 @@ from redres.resolution import (
     SNSScheme,
     run_violation,
 )
-from redres.scenario import builtin
+from redres.scenarios.spec import builtin
 
 DT = 1e-3
 

@@ -31,7 +31,7 @@ import redres as rr
 from redres.control import Controller
 from redres.objectives import JointLimitObjective
 from redres.resolution import GradientProjectionScheme, QPScheme, Scheme, SNSScheme
-from redres.scenario import builtin
+from redres.scenarios.spec import builtin
 from redres.tasks import FrameTask
 
 DT = 1e-3

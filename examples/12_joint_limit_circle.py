@@ -22,7 +22,7 @@ import numpy as np
 import redres as rr
 from redres.objectives import JointLimitObjective
 from redres.resolution import GradientProjectionScheme, PseudoInverseScheme, WeightedLeastNormScheme
-from redres.scenario import builtin
+from redres.scenarios.spec import builtin
 
 STEPS = int(os.environ.get("REDRES_EXAMPLE_STEPS", "10000"))
 scenario = builtin("panda_joint_limit_circle")

@@ -1,7 +1,7 @@
 """Shared fixtures: seeded generators and the built-in robots (built once per session);
 under pytest-xdist (``make test`` runs the suite on every core), the tests that start fresh
 processes first. The workers share the compiled-code cache: one compilation of each kernel
-at a time across them is redres' own (:mod:`redres._compile_lock`)."""
+at a time across them is redres' own (:mod:`redres._compile._lock`)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import os
 from pathlib import Path
 
 # Compile on first use in the tests' own process (a cold cache must not route them to the
-# reference paths while a background process compiles); tests/test_first_use.py covers
+# reference paths while a background process compiles); tests/compile/test_first_use.py covers
 # compiling behind in processes of its own.
 os.environ.setdefault("REDRES_COMPILE", "foreground")
 

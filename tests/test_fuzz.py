@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 
 import redres as rr
 from redres.errors import RedresError
-from redres.scenario import load_scenario
+from redres.scenarios.spec import load_scenario
 
 FUZZ = settings(
     deadline=None, suppress_health_check=list(HealthCheck), derandomize=True, database=None

@@ -13,10 +13,10 @@ import pytest
 import redres as rr
 from redres.cli import main
 from redres.control import Circle, Line
-from redres.control.runwarnings import NOT_REACHED_M, SINGULAR_SIGMA
+from redres.control.log import NOT_REACHED_M, SINGULAR_SIGMA
 from redres.objectives import JointLimitObjective
 from redres.resolution import GradientProjectionScheme, PseudoInverseScheme
-from redres.runner import summarise
+from redres.scenarios.runner import summarise
 from redres.tasks import FrameTask
 
 

@@ -151,14 +151,15 @@ def test_rr_run_refuses_what_is_not_a_viewer_of_its_robot(viewer) -> None:  # ty
                PseudoInverseScheme(), duration=0.01, viewer=viewer)  # fmt: skip
 
 
-def test_rr_run_viewer_true_opens_one_with_the_finished_run() -> None:
+def test_a_run_shown_live_is_then_scrubbed() -> None:
     from redres.control import final_configuration
-    from redres.viewer import Viewer
 
-    log = _circle_run(rr.models.panda(), viewer=True, duration=0.2)
-    opened = log.extra["viewer"]
+    robot = rr.models.panda()
+    opened = rr.view(robot)
     try:
-        assert isinstance(opened, Viewer) and len(opened._runs) == 1 and opened._runs[0] is log
+        log = _circle_run(robot, viewer=opened, duration=0.2)
+        opened.show_runs([log])
+        assert len(opened._runs) == 1 and opened._runs[0] is log
         # the run pushed its last configuration, then show_runs put the slider at t = 0
         assert _wait(lambda: opened.shown is not None and np.array_equal(opened.shown, log.q[0]))
         assert not np.array_equal(log.q[0], final_configuration(log))

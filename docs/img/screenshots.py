@@ -20,8 +20,8 @@ from PIL import Image
 import redres as rr
 from redres.objectives import CapsuleObstacle
 from redres.report import write_report
-from redres.runner import run_scenario
-from redres.scenario import builtin
+from redres.scenarios.runner import run_scenario
+from redres.scenarios.spec import builtin
 
 HERE = Path(__file__).resolve().parent
 CHROMIUM = "/usr/bin/chromium"

@@ -16,7 +16,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-from .ik import IKResult, ik  # eager: the function `ik` must shadow the module `redres.ik`
+from .ik import IKResult, ik  # eager: the function `ik` must shadow the package `redres.ik`
 from .robot import DHLink, Robot
 
 if TYPE_CHECKING:
@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from .errors import RedresError
     from .viewer import Viewer, view
 
-__version__ = "0.1.0.dev0"
+from ._version import __version__
 
 #: Public names loaded on first use, name -> defining module: ``import redres`` pays only
 #: for what a program touches (the README example never loads the controller, the

@@ -127,6 +127,17 @@ def as_scalar(
     return x
 
 
+def as_gains(value: Any, name: str, size: int | None = None) -> float | FloatArray:
+    """A nonnegative scalar, or one nonnegative value per row or joint (``(size,)``; any
+    length when ``size`` is None): a gain or a weight. Errors name it ``name``."""
+    if isinstance(value, (int, float)) or np.ndim(value) == 0:
+        return as_scalar(value, name, minimum=0.0)
+    values = as_vector(value, name, size).copy()
+    if np.any(values < 0.0):
+        raise InvalidParameterError(f"{name} must be >= 0 on every entry; got {values}")
+    return values
+
+
 def as_seed(seed: Any, name: str = "seed") -> int | np.integer[Any] | np.random.Generator | None:
     """``seed`` checked to be a generator, a seed (an integer >= 0) or None, as given."""
     if (

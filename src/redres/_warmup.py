@@ -1,26 +1,37 @@
-"""Compile the kernels ahead of use: ``redres warmup``, :func:`warmup`, and what the
-background compiler (:mod:`redres._behind`) compiles.
+"""Compile the kernels ahead of use: ``redres warmup``, :func:`warmup`, and the background
+compiler's process (``python -m redres._warmup --behind MODULE``).
 
-Each *group* is a short workload through the public API (so that it compiles exactly the
-argument types the library's own calls use) and the kernel modules it fills the cache of.
-:func:`behind` is the background process :mod:`redres._jit` starts on a cold cache: it
-compiles the group of the module asked for first, then the others, and marks each module
-as cached as soon as its group is done, so that the process that started it switches to
-the compiled path group by group.
+Each warm-up *workload* is a short run through the public API, so that it compiles
+exactly the argument types the library's own calls use; it fills the cache of the kernel
+group of the same name (:class:`redres._compile.KernelGroup`, declared by its owner).
+This module sits at the top of the package: it imports the owners, while
+:mod:`redres._compile` imports none of them and starts this module as a process. The
+background process compiles the group of the module asked for first (at normal priority,
+and with a :func:`helper` process once the machine shows an idle core), then the
+serial-chain group, then the others, niced, and marks each group cached as its workload
+ends, so that the process that started it switches to the compiled path group by group.
 """
 
 from __future__ import annotations
 
+import argparse
+import os
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from . import _behind, _jit
+from . import _compile
 
-__all__ = ["GROUPS", "warmup"]
+__all__ = ["WORKLOADS", "warmup"]
+
+#: The helper starts once the machine shows this much of a core idle (the caller's loop
+#: and the main compilation running), measured over windows of ``_IDLE_WINDOW`` s; not
+#: after ``_IDLE_UNTIL`` s (by then the main compilation is past the helper's kernels).
+_IDLE_CORES, _IDLE_WINDOW, _IDLE_UNTIL = 0.5, 0.3, 6.0
 
 
 def _linalg() -> None:
@@ -43,8 +54,14 @@ def _linalg() -> None:
         linalg.rate_step(J, xd, g, damping=damping)
         linalg.rate_step(J, xd, g, damping=damping, return_null=True)
         linalg.rate_step(J, xd, damping=damping)
-    robot.jacobian_derivatives(q)
     PseudoInverseScheme().step(robot, q, J, xd)  # Scheme.step's input check
+
+
+def _derivatives() -> None:
+    from .models import panda
+
+    robot = panda()
+    robot.jacobian_derivatives(robot.neutral())
 
 
 def _chain() -> None:
@@ -70,14 +87,14 @@ def _controller() -> None:
     # The fused step on a serial chain (the common first use) first, from its deepest
     # callee up (the helper compiles its other branches meanwhile); a loop waiting for
     # it switches as soon as it is cached; then the other entry points.
-    _jit.precompile(_fused._KERNELS, "_resolve", _f(2), *[_f(1)] * 6)
+    _compile.precompile("redres.control._kernels", "_resolve", _f(2), *[_f(1)] * 6)
     robot = panda()
     scheme = GradientProjectionScheme([JointLimitObjective()], k_null=5.0, damping=0.01)
     Controller(robot, FrameTask(), scheme, dt=1e-3).step(robot.neutral())
-    _jit.mark_cached([_fused._KERNELS], part="chain_step")
+    groups()["controller"].mark(part="chain_step")
     for entry in ("integrate", "chain_command", "clik_step", "frame_command"):
         _fused.native(entry)
-        _jit.mark_cached([_fused._KERNELS], part=entry)
+        groups()["controller"].mark(part=entry)
     Controller(robot, FrameTask(), PseudoInverseScheme(), dt=1e-3).step(robot.neutral())
 
 
@@ -96,12 +113,12 @@ def _hard_limits() -> None:
     SNSScheme(dt=1e-3).step(robot, q, J, np.zeros(6))
     # An SNS loop needs no more: it switches now. QPScheme's epilogue (in the same module)
     # compiles next; a QP loop waits for its own module, marked after it (QPScheme._prepare).
-    _jit.mark_cached(["redres.resolution.hard_limits._kernels"])
+    groups()["hard limits"].mark(modules=["_kernels"])
     QPScheme(dt=1e-3).step(robot, q, J, np.zeros(6))
 
 
 def _ik() -> None:
-    from .ik import ik
+    from .ik.solve import ik
     from .models import panda
 
     robot = panda()
@@ -125,32 +142,37 @@ def _batch() -> None:
     batch.ik(robot, batch.fk(robot, q), max_restarts=1)
 
 
-#: Group name -> (kernel modules it caches, workload).
-GROUPS: dict[str, tuple[tuple[str, ...], Callable[[], None]]] = {
-    "linalg": (
-        ("redres.linalg._kernels", "redres.linalg._dense_kernels",
-         "redres.linalg._eigen_kernels", "redres.robot._kernels"),
-        _linalg,
-    ),
-    "chain": (("redres.robot._chain_kernels",), _chain),
-    "controller": (("redres.control._kernels",), _controller),
-    "hard limits": (
-        ("redres.resolution.hard_limits._kernels", "redres.resolution.hard_limits._lp_kernels",
-         "redres.resolution.hard_limits._qp_kernels"),
-        _hard_limits,
-    ),
-    "ik": (("redres._ik_kernels",), _ik),
-    "batch": (("redres._batch_kernels",), _batch),
-}  # fmt: skip
+#: Each kernel group's workload, by the group's name, in the order ``redres warmup`` runs
+#: them.
+WORKLOADS: dict[str, Callable[[], None]] = {
+    "linalg": _linalg,
+    "derivatives": _derivatives,
+    "chain": _chain,
+    "controller": _controller,
+    "hard limits": _hard_limits,
+    "ik": _ik,
+    "batch": _batch,
+}
 
 
-#: What a helper process compiles while the background compiler (:func:`redres._behind.run`)
-#: compiles a group, where a second
-#: core is free: callees deep in the group's call tree, on branches the group's workload
-#: reaches last (module, kernel, arguments of the types its callers pass; checked by
-#: ``tests/test_warmup_helper.py``). The two share the work through the cache and its
-#: per-kernel locks (:mod:`redres._compile_lock`): whichever comes to a kernel second
-#: waits for it and loads it.
+def groups() -> dict[str, _compile.KernelGroup]:
+    """Every kernel group, by name (importing their owners declares them)."""
+    from . import batch, control, ik, linalg  # noqa: F401
+    from .resolution import hard_limits  # noqa: F401
+    from .robot import chain, derivatives  # noqa: F401
+
+    declared = _compile.groups()
+    missing = set(WORKLOADS) ^ set(declared)
+    if missing:  # pragma: no cover - a group without a workload, or the reverse
+        raise RuntimeError(f"kernel groups and warm-up workloads differ: {sorted(missing)}")
+    return {name: declared[name] for name in WORKLOADS}
+
+
+#: What a helper process compiles while the background compiler compiles a group, where
+#: a second core is free: callees deep in the group's call tree, on branches the group's
+#: workload reaches last (module, kernel, arguments of the types its callers pass; checked
+#: by ``tests/compile/test_warmup_helper.py``). The two share the work through the cache
+#: and its per-kernel locks: whichever comes to a kernel second waits for it and loads it.
 HELPERS: dict[str, list[tuple[str, str, Callable[[], tuple[object, ...]]]]] = {
     "controller": [
         ("redres.linalg._kernels", "_core",
@@ -172,8 +194,8 @@ def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: in
     processes; afterwards this process never answers through the reference path.
 
     Args:
-        groups: names of :data:`GROUPS` (``"linalg"``, ``"chain"``, ``"controller"``,
-            ``"hard limits"``, ``"ik"``, ``"batch"``); default all.
+        groups: names of kernel groups (``"linalg"``, ``"derivatives"``, ``"chain"``,
+            ``"controller"``, ``"hard limits"``, ``"ik"``, ``"batch"``); default all.
         quiet: print nothing (else one line per group on standard error: what it
             compiled and how long it took).
         jobs: processes to compile in (``2``: the hard-limit group, the longest, in a
@@ -182,20 +204,20 @@ def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: in
     Returns:
         The wall-clock time, s (short when the cache was already warm).
     """
-    names = list(GROUPS) if groups is None else list(dict.fromkeys(groups))
-    unknown = [g for g in names if g not in GROUPS]
+    names = list(WORKLOADS) if groups is None else list(dict.fromkeys(groups))
+    unknown = [g for g in names if g not in WORKLOADS]
     if unknown:
         from .errors import InvalidParameterError
 
-        raise InvalidParameterError(f"unknown warm-up groups {unknown}; known: {list(GROUPS)}")
-    _jit.compile_on_first_use()
+        raise InvalidParameterError(f"unknown warm-up groups {unknown}; known: {list(WORKLOADS)}")
+    _compile.compile_on_first_use()
     start = time.perf_counter()
     side = _side_process(names) if jobs > 1 and len(names) > 1 else None
-    _jit._state["quiet"] = True  # one line per group below instead of one per module
+    _compile.quiet(True)  # one line per group below instead of one per module
     try:
-        _jit.warmup([(name, _marking(name)) for name in names], quiet=quiet)
+        timed([(name, _marking(name)) for name in names], quiet=quiet)
     finally:
-        _jit._state["quiet"] = False
+        _compile.quiet(False)
     if side is not None:
         if side.wait() != 0:
             raise RuntimeError(f"redres: the warm-up process failed (status {side.returncode})")
@@ -205,22 +227,115 @@ def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: in
     return time.perf_counter() - start
 
 
+def timed(tasks: Sequence[tuple[str, Callable[[], object]]], *, quiet: bool = False) -> float:
+    """Run warm-up calls (``(label, call)`` pairs that compile what they touch), printing
+    what each compiled and how long it took unless ``quiet``; returns the total, s."""
+    total = 0.0
+    for label, call in tasks:
+        begin = time.perf_counter()
+        call()
+        seconds = time.perf_counter() - begin
+        total += seconds
+        if not quiet:
+            print(f"redres: {label}: {seconds:.1f} s", file=sys.stderr, flush=True)
+    return total
+
+
 def _side_process(names: list[str]) -> subprocess.Popen[bytes] | None:
     """Start the hard-limit group in a second process (and drop it from ``names``)."""
-    if "hard limits" not in names or all(map(_jit.cached, GROUPS["hard limits"][0])):
+    if "hard limits" not in names or groups()["hard limits"].cached():
         return None
     names.remove("hard limits")
-    args = [sys.executable, "-m", "redres", "warmup", "--jobs", "1", "--quiet", "hard limits"]
-    return subprocess.Popen(args, stdin=subprocess.DEVNULL, env=_behind.child_env())
+    args = [sys.executable, "-m", "redres._warmup", "--jobs", "1", "--quiet", "hard limits"]
+    return subprocess.Popen(args, stdin=subprocess.DEVNULL, env=_compile.child_env())
 
 
 def _marking(name: str) -> Callable[[], None]:
-    modules, workload = GROUPS[name]
-
     def call() -> None:
-        if modules and all(map(_jit.cached, modules)):
+        group = groups()[name]
+        if group.cached():
             return  # loaded from the cache on first use
-        workload()
-        _jit.mark_cached(modules, workload=True)
+        WORKLOADS[name]()
+        group.mark(workload=True)
 
     return call
+
+
+# --------------------------------------------------------------------------- behind
+
+
+def behind(first: str) -> None:
+    """The background process: the group of kernel module ``first``, then the serial-chain
+    group (the controller's and IK's readiness needs it; a short one), then the others."""
+    declared = groups()
+    lead = next((n for n, g in declared.items() if first in g.modules), "linalg")
+    order = sorted(WORKLOADS, key=lambda g: (g != lead, g != "chain"))
+    helpers: list[subprocess.Popen[bytes]] = []
+    starter = _start_helper(order[0], helpers)
+    try:
+        warmup(order[:1], quiet=True, jobs=1)  # a caller waits for this one
+        if hasattr(os, "nice"):
+            os.nice(10)  # the rest: the user's process comes first
+        warmup(order[1:], quiet=True, jobs=1)
+    finally:
+        _compile.release_lock()
+        if starter is not None:
+            starter.join()
+        for proc in helpers:
+            proc.wait()
+
+
+def helper(group: str) -> None:
+    """The helper process of :func:`behind`: compile :data:`HELPERS` of ``group``."""
+    for module, kernel, arguments in HELPERS.get(group, ()):
+        _compile.precompile(module, kernel, *arguments())
+
+
+def _start_helper(group: str, started: list[subprocess.Popen[bytes]]) -> threading.Thread | None:
+    """Start :func:`helper` for ``group`` (into ``started``) from a thread, once the
+    machine shows an idle core beside this compilation and the caller's loop. A caller
+    that spins on the reference path takes the other core: three processes on two cores
+    would only slow the group down."""
+    if group not in HELPERS or _compile.cores() < 2 or groups()[group].cached():
+        return None
+
+    def start() -> None:
+        deadline = time.monotonic() + _IDLE_UNTIL
+        # The caller sets up (imports, its own numba) for about a second: its loop shows
+        # what it leaves idle only then.
+        while _compile.idle_cores(_IDLE_WINDOW) < _IDLE_CORES:
+            if time.monotonic() > deadline:
+                return
+        args = [sys.executable, "-m", "redres._warmup", "--helper", group]
+        try:
+            started.append(subprocess.Popen(args, stdin=subprocess.DEVNULL,
+                                            env=_compile.child_env()))  # fmt: skip
+        except OSError:  # the group compiles in this process alone
+            pass
+
+    thread = threading.Thread(target=start, name="redres-helper-start", daemon=True)
+    thread.start()
+    return thread
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m redres._warmup``: the background compiler (``--behind MODULE``), its
+    helper (``--helper GROUP``), or a warm-up of the groups named (all by default)."""
+    parser = argparse.ArgumentParser(prog="python -m redres._warmup")
+    parser.add_argument("groups", nargs="*")
+    parser.add_argument("--behind", metavar="MODULE")
+    parser.add_argument("--helper", metavar="GROUP")
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--quiet", action="store_true")
+    args = parser.parse_args(argv)
+    if args.behind:
+        behind(args.behind)
+    elif args.helper:
+        helper(args.helper)
+    else:
+        warmup(args.groups or None, quiet=args.quiet, jobs=args.jobs)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -311,7 +311,7 @@ def serve_scenario(
 ) -> int:
     """``redres view``: run every scheme of a scenario, then serve the runs (drop-down,
     time slider, play) until interrupted or for ``seconds``; returns the exit code."""
-    from .runner import run_scenario, summarise, warning_lines
+    from .scenarios.runner import run_scenario, summarise, warning_lines
 
     logs = run_scenario(spec, progress=False)
     for line in warning_lines([summarise(spec.robot, log) for log in logs]):

@@ -18,7 +18,7 @@ from redres.resolution import (
     StepResult,
     WeightedLeastNormScheme,
 )
-from redres.scenario import builtin
+from redres.scenarios.spec import builtin
 from redres.tasks import ArmAngleTask, FrameTask
 
 

@@ -16,7 +16,7 @@ import pinocchio as pin
 import pytest
 
 import redres as rr
-from redres import _jit
+from redres import _compile as _jit
 from redres.control import Controller
 from redres.errors import (
     InvalidParameterError,
@@ -37,7 +37,7 @@ from redres.resolution import (
     WeightedLeastNormScheme,
 )
 from redres.resolution.gradient_projection import total_gradient, weighted_objectives
-from redres.scenario import builtin
+from redres.scenarios.spec import builtin
 from redres.tasks import ArmAngleTask, FrameTask, PlanarTask, PositionTask, PostureTask
 
 INVERSES: list[Inverse] = [
@@ -74,7 +74,7 @@ def _kernels() -> Any:
     """The fused kernels' module (skips the test without compiled kernels)."""
     if _backend.kernels() is None:
         pytest.skip("compiled kernels unavailable")
-    return _jit.load("redres.control._kernels")
+    return _jit.groups()["controller"].module()
 
 
 def composed_step(

@@ -17,7 +17,7 @@ import pinocchio as pin
 import pytest
 
 import redres as rr
-from redres import _jit
+from redres import _compile as _jit
 from redres.control import Circle, Controller
 from redres.control import controller as controller_module
 from redres.linalg import AdaptiveDamping, _backend
@@ -207,7 +207,7 @@ def test_the_plain_python_twin_gives_the_compiled_step(rng: np.random.Generator)
     controller.task.set_target(robot.fk(robot.random_configuration(rng)))  # type: ignore[attr-defined]
     q_compiled = controller.step(q)
     compiled = controller._out
-    twin = _jit._get(_KERNELS, compiled=False)
+    twin = _jit.groups()["controller"].module(plain=True)
     assert not _jit.is_compiled(twin)
     q_next, out = np.empty_like(q), np.empty_like(compiled)
     assert twin.chain_step(controller._config, q, q_next, out) == 0

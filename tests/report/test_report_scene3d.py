@@ -19,7 +19,7 @@ from redres.report import animation_figure, arm_animation
 from redres.report.scene3d import capsule_mesh, obstacle_traces
 from redres.report.table import table_html
 from redres.resolution import PseudoInverseScheme
-from redres.runner import format_table, summarise
+from redres.scenarios.runner import format_table, summarise
 from redres.tasks import FrameTask
 
 

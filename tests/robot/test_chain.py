@@ -18,7 +18,7 @@ import pinocchio as pin
 import pytest
 
 import redres as rr
-from redres import _jit
+from redres import _compile as _jit
 from redres.errors import NonFiniteError, ShapeError
 from redres.robot.chain import NotSerialChainError, SerialChain, log3
 from redres.tasks import FrameTask

@@ -17,8 +17,8 @@ import pytest
 
 import redres as rr
 from redres import batch, sweeps
-from redres.sweeps.grid import reach_bound
-from redres.sweeps.orientations import directions, frames, nearest
+from redres.sweeps.kinds.grid import reach_bound
+from redres.sweeps.kinds.orientations import directions, frames, nearest
 
 from .helpers import write_spec
 

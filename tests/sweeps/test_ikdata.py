@@ -10,7 +10,7 @@ import pinocchio as pin
 
 import redres as rr
 from redres import sweeps
-from redres.sweeps.ikdata import distinct
+from redres.sweeps.kinds.ikdata import distinct
 
 SPEC = """
 kind = "ik_dataset"

@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 from redres import sweeps
-from redres.sweeps.placement import ranking
+from redres.sweeps.kinds.placement import ranking
 
 from .helpers import write_spec
 

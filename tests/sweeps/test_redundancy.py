@@ -12,9 +12,9 @@ import pytest
 
 import redres as rr
 from redres import sweeps
-from redres.sweeps.intervals import contains, from_arcs, merge, pieces
-from redres.sweeps.selfmotion import CLOSED, LIMIT, trace
-from redres.sweeps.srs import BRANCHES, NotSRSError, SRSArm
+from redres.ik.arcs import contains, from_arcs, merge, pieces
+from redres.ik.srs import BRANCHES, NotSRSError, SRSArm
+from redres.sweeps.kinds.selfmotion import CLOSED, LIMIT, trace
 from redres.tasks import ArmAngleTask
 
 from .helpers import tree_digest
@@ -312,7 +312,7 @@ def test_map_views(tmp_path: Path) -> None:
     import re
 
     from redres.cli import main
-    from redres.sweeps.mapview import map_figure
+    from redres.report.sweep_page import map_figure
 
     from .helpers import write_spec
 

@@ -10,7 +10,7 @@ import pinocchio as pin
 import pytest
 
 from redres import sweeps
-from redres.sweeps.reuleaux import export_reuleaux
+from redres.sweeps.kinds.reuleaux import export_reuleaux
 
 from .helpers import write_spec
 

@@ -12,8 +12,8 @@ import numpy as np
 
 import redres as rr
 from redres import sweeps
-from redres.scenario import load_scenario
-from redres.sweeps.schemes import _path, table
+from redres.scenarios.spec import load_scenario
+from redres.sweeps.kinds.schemes import _path, table
 
 SCENARIO = """
 name = "two"

@@ -81,12 +81,14 @@ def test_turning_the_elbow_about_the_line_adds_the_turn(rng: np.random.Generator
 def test_values_of_many_configurations_match_one_at_a_time(
     name: str, builtin_robots: dict, rng: np.random.Generator
 ) -> None:
-    """ArmAngleTask.values (batch kinematics) against value and the geometric
-    construction on Pinocchio's frame placements."""
+    """arm_angles of batch poses (the self-motion sweeps' path) against value and the
+    geometric construction on Pinocchio's frame placements."""
     robot = builtin_robots[name]
     q = np.array([robot.random_configuration(rng) for _ in range(12)])
     task = ArmAngleTask()
-    many = task.values(robot, q)
+    s, e, w = (rr.batch.fk(robot, q, f)[:, :3, 3] for f in ("shoulder", "elbow", "wrist"))
+    many = arm_angles(s, e, w, task.reference)
+    assert many == pytest.approx(task.values(robot, q), abs=1e-12)
     for qi, phi in zip(q, many):
         points = [robot.fk(qi, f)[:3, 3] for f in ("shoulder", "elbow", "wrist")]
         assert phi == pytest.approx(_geometric_arm_angle(*points, task.reference), abs=1e-10)

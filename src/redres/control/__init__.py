@@ -1,10 +1,9 @@
 """The controller, rate-control runs, trajectories and run logs."""
 
 from .analysis import analyse_run, progress_bar
-from .clik import LiveView, final_configuration, run
+from .closed_loop import LiveView, final_configuration, run
 from .controller import Controller
-from .runlog import RunLog
-from .runwarnings import RunWarning
+from .log import RunLog, RunWarning
 from .trajectories import (
     Chain,
     Circle,

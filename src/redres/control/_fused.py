@@ -17,9 +17,9 @@ from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import _jit
-from .._validate import FloatArray, as_scalar, as_vector
-from ..errors import InvalidParameterError, NonFiniteError, ShapeError
+from .. import _compile
+from .._validate import FloatArray, as_vector
+from ..errors import NonFiniteError, ShapeError
 from ..linalg import _backend as be
 from ..linalg import _codes as codes
 from ..linalg._status import raise_status
@@ -34,7 +34,9 @@ if TYPE_CHECKING:
 Path = Literal["fused", "frame", "composed"]
 
 _F64 = np.float64
-_KERNELS = "redres.control._kernels"
+#: The fused kernels (their callees in linalg and the serial-chain kernels are compiled
+#: into them). Cold: a first controller 15-17 s in all, mostly its callees.
+KERNELS = _compile.KernelGroup("controller", ("redres.control._kernels",), cold_seconds=1.0)
 #: The slots of the kernels' config vector holding the target: the rotation row-major,
 #: the position, the twist (CFG_ROTATION, CFG_POSITION, CFG_TWIST = 0, 9, 12), the layout in
 #: which a FrameTask keeps its target (FrameTask._share_target).
@@ -73,7 +75,7 @@ def choose_path(robot: Robot, task: Task, scheme: Scheme) -> tuple[Path, Fusion 
     # front end evaluates it exactly. Nothing is compiled here: the controller compiles
     # the one entry point its path takes (the warm-up compiles them all).
     plain = isinstance(task, FrameTask) and type(task).compute is FrameTask.compute
-    if not plain or be.module(_KERNELS) is None:
+    if not plain or not be.routed() or KERNELS.module() is None:
         return "composed", None
     fused = fusion(robot, scheme)
     if fused is None:
@@ -105,12 +107,12 @@ def block_size(n: int) -> int:
 
 
 def ready(entry: str) -> bool:
-    """Whether kernel ``entry`` (of :data:`ENTRIES`) runs compiled (:func:`redres._jit.ready`
+    """Whether kernel ``entry`` (of :data:`ENTRIES`) runs compiled (:func:`redres._compile.ready`
     of its part; False while it compiles behind). The chain kernels it calls are compiled
     into it (numba links a callee's code into its caller's, cached with it); the
     controller's own calls of a :class:`~redres.robot.SerialChain` switch when the chain's
     module is ready."""
-    return _jit.ready(_KERNELS, part=entry)
+    return KERNELS.ready(part=entry)
 
 
 def fused_config(
@@ -123,10 +125,11 @@ def fused_config(
     chain: SerialChain | None = None,
 ) -> FloatArray:
     """The kernels' ``config`` vector (layout: the ``CFG_*`` offsets) for a robot, the
-    task ``rows`` and their validated ``gain`` (1/s, from :func:`task_gains`; other rows
-    0), on the fused path the scheme's settings (the summed costs' ``a, r``) and, for the
-    chain kernels, the frame's serial ``chain`` (its arrays flattened: one argument for
-    the kernel instead of four); the target starts as the identity pose at rest."""
+    task ``rows`` and their validated ``gain`` (1/s, from
+    :func:`redres._validate.as_gains`; other rows 0), on the fused path the scheme's
+    settings (the summed costs' ``a, r``) and, for the chain kernels, the frame's serial
+    ``chain`` (its arrays flattened: one argument for the kernel instead of four); the
+    target starts as the identity pose at rest."""
     n = robot.n
     links, axes, kinds = chain.arrays if chain is not None else (np.zeros(0),) * 3
     v = codes.CFG_VECTORS
@@ -180,17 +183,6 @@ def quadratic_coefficients(
     return a, r
 
 
-def task_gains(gain: Any, m: int, name: str = "gain") -> float | FloatArray:
-    """A task gain as a float, or one value per task row ``(m,)``, each ≥ 0 (1/s or 1/s²);
-    errors name it ``name``."""
-    if isinstance(gain, (int, float)) or np.ndim(gain) == 0:
-        return as_scalar(gain, name, minimum=0.0)
-    values = as_vector(gain, name, m).copy()
-    if np.any(values < 0.0):
-        raise InvalidParameterError(f"{name} must be >= 0 on every row; got {values}")
-    return values
-
-
 def native(name: str) -> Callable[..., Any] | None:
     """The native entry point of kernel ``name`` (``clik_step``, ``chain_step``,
     ``frame_command``, ``chain_command`` or ``integrate`` of
@@ -215,7 +207,7 @@ def native(name: str) -> Callable[..., Any] | None:
         "chain_command": (chain, np.zeros(1), np.zeros(22 + 6), *task),
         "integrate": (np.zeros(1), np.zeros(1), 0.0, np.zeros(1)),
     }
-    return be.entry(_KERNELS, name, warm[name])
+    return be.entry(KERNELS, name, warm[name])
 
 
 def kernel_for(robot: Robot, frame_id: int, name: str) -> Any:
@@ -229,7 +221,7 @@ def kernel_for(robot: Robot, frame_id: int, name: str) -> Any:
     H = placement.homogeneous
     if all(x.dtype == _F64 and x.flags.c_contiguous for x in (J, H)):
         return entry
-    kernels = _jit.load(_KERNELS)  # pragma: no cover - a Pinocchio build with other layouts
+    kernels = KERNELS.module()  # pragma: no cover - a Pinocchio build with other layouts
     return None if kernels is None else getattr(kernels, name)  # pragma: no cover
 
 

@@ -2,7 +2,7 @@
 logarithm of :mod:`redres.robot._chain_kernels`), the rate step of
 :mod:`redres.linalg._kernels`, velocity scaling and integration in one call, for the
 controller's fast path. Compiled through
-:mod:`redres._jit`; the ``config`` vector's layout is the ``CFG_*`` offsets of
+:mod:`redres._compile`; the ``config`` vector's layout is the ``CFG_*`` offsets of
 :mod:`redres.linalg._codes`.
 
 Each kernel comes in two forms: fed the frame's pose and Jacobian by Pinocchio
@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from .._jit import kernel
+from .._compile import kernel
 from ..linalg._codes import (
     CFG_DAMPING,
     CFG_DT,

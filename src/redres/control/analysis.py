@@ -13,7 +13,7 @@ import numpy as np
 from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError, JointLimitError
 from ..objectives import Objective, ObstacleObjective
-from .runlog import RunLog
+from .log import RunLog
 
 if TYPE_CHECKING:
     from ..robot import Robot

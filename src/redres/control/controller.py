@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar, checked_keywords, real_array
+from .._validate import FloatArray, as_gains, as_scalar, checked_keywords, real_array
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError, SimulationError
 from ..linalg import InverseInfo
 from ..linalg import _backend as be
@@ -67,7 +67,6 @@ from ._fused import (
     raise_for_status,
     ready,
     serial_chain,
-    task_gains,
 )
 
 if TYPE_CHECKING:
@@ -146,7 +145,7 @@ class Controller:
         self._limit = bool(limit_velocity)
         frame = task if isinstance(task, FrameTask) else None
         rows = frame.rows if frame is not None else list(range(task.dim))
-        self._gain = task_gains(gain, len(rows))
+        self._gain = as_gains(gain, "gain", len(rows))
         path, fused = choose_path(robot, task, scheme)
         self._path: Path = path
         self._fid = robot.frame_id(frame.frame) if frame is not None else -1

@@ -15,8 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar, as_vector
-from ..control._fused import task_gains
+from .._validate import FloatArray, as_gains, as_scalar, as_vector
 from ..errors import InvalidParameterError, ShapeError
 from ..linalg import InverseInfo
 
@@ -157,6 +156,6 @@ class TaskGains:
             NonFiniteError: a NaN or infinite gain.
             ShapeError: a vector gain of the wrong length.
         """
-        kp_v = np.full(m, task_gains(kp, m, "kp"))
-        kd_v = 2.0 * np.sqrt(kp_v) if kd is None else np.full(m, task_gains(kd, m, "kd"))
+        kp_v = np.full(m, as_gains(kp, "kp", m))
+        kd_v = 2.0 * np.sqrt(kp_v) if kd is None else np.full(m, as_gains(kd, "kd", m))
         return cls(kp_v, kd_v)

@@ -58,7 +58,7 @@ from ._servo import ServoLaw, ServoState
 from .base import ControlStep
 
 if TYPE_CHECKING:
-    from ..registry import ScenarioParams
+    from .._toml import ScenarioParams
     from ..robot import Robot
 
 Projector = Literal["dynamic", "kinematic"]

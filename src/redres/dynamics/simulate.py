@@ -38,7 +38,7 @@ from ..control.analysis import (
     run_steps,
     start_configuration,
 )
-from ..control.runlog import RunLog
+from ..control.log import RunLog
 from ..errors import InvalidParameterError, ShapeError, SimulationError
 from .base import ControlStep, TorqueLaw
 from .payload import Payload, with_payload

@@ -1,21 +1,10 @@
-"""Routing between the compiled kernels and the NumPy reference path (internal).
+"""Routing of :mod:`redres.linalg` between its compiled kernels and NumPy (internal).
 
-Every inverse of :mod:`redres.linalg` is a *filtered SVD inverse* of the weighted Jacobian
-``Jw = J W^{-1/2}`` (``W = I`` when unweighted; with ``W = L L^T``, ``Jw = J L^-T``)::
-
-    Jw = U diag(sigma) V^T,   Jw# = V diag(f) U^T,   J# = L^-T Jw#,
-    N = I - J# J = L^-T (I - V diag(sigma f) V^T) L^T
-
-with one filter ``f`` per method (damped least squares of Nakamura & Hanafusa 1986 and
-Wampler 1986 for ``f = sigma / (sigma^2 + lambda^2)``):
-
-* exact: ``f = 1/sigma`` above ``rcond * sigma_max``, ``0`` below (truncated SVD);
-* damped: ``f = sigma / (sigma^2 + lambda^2)`` (equals ``J^T (J J^T + lambda^2 I)^-1``);
-* adaptive / selective: the same with ``lambda`` from :class:`AdaptiveDamping`.
-
-Within the sizes of :func:`use_fast_path` the compiled kernels of
-:mod:`redres.linalg._kernels` compute the same quantities; otherwise NumPy's SVD does
-(always with ``REDRES_DISABLE_JIT=1``, read by :mod:`redres._jit`).
+linalg's kernel group (:data:`KERNELS`), whether callers route to compiled code
+(:func:`routed`, :func:`set_jit_enabled`), which sizes take the kernels
+(:func:`use_fast_path`) and their entry points. The inverse engine that uses them is
+:mod:`._engine`. Other packages' compiled paths (the controller, batches, the scheme
+input check, the Jacobian derivatives) route through here too.
 """
 
 from __future__ import annotations
@@ -25,26 +14,15 @@ import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import ModuleType
-from typing import Any, NamedTuple, TypedDict
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from .. import _jit
-from .._validate import as_matrix, as_scalar
-from ..errors import InvalidParameterError, ShapeError
+from .. import _compile
+from .._validate import as_scalar
 from . import _codes as codes
-from ._info import AdaptiveDamping, InverseInfo
-from ._status import check_sigma, raise_status
-from ._weights import (
-    EMPTY_1D,
-    EMPTY_2D,
-    parse_weights,
-    times_lt,
-    unweigh_rows,
-    weigh,
-    weight_factor,
-)
+from ._info import AdaptiveDamping
 
 FloatArray = NDArray[np.float64]
 
@@ -53,9 +31,15 @@ FAST_MAX_SQUARE_ROWS = 12  # ... and wide or square Jacobians (m <= n) up to thi
 FAST_MAX_COLS = 50
 
 
-_state: dict[str, Any] = {"enabled": _jit.enabled()}
+_state: dict[str, Any] = {"enabled": _compile.enabled()}
 
-_LINALG = "redres.linalg._kernels"
+#: linalg's kernels (the first answers the library's calls; the other two hold the dense
+#: factorisations and eigenvalue kernels it calls). Cold: a first ``damped_pinv`` 16 s.
+KERNELS = _compile.KernelGroup(
+    "linalg",
+    ("redres.linalg._kernels", "redres.linalg._dense_kernels", "redres.linalg._eigen_kernels"),
+    cold_seconds=16.0,
+)
 loaded: ModuleType | None = None
 """The kernel module once imported and enabled."""
 
@@ -66,15 +50,15 @@ def kernels() -> ModuleType | None:
     global loaded
     if loaded is not None or not _state["enabled"] or _state.get("failed"):
         return loaded
-    loaded = _jit.compiled(_LINALG)
-    if loaded is None and not _jit.pending(_LINALG):
+    loaded = KERNELS.compiled()
+    if loaded is None and not KERNELS.pending():
         # it became ready between the two questions (a background compile that failed
         # at once: compiled on first use now); None again means numba is not there
-        loaded = _jit.compiled(_LINALG)
+        loaded = KERNELS.compiled()
     if loaded is not None:
         for hook in _on_switch:
             hook()
-    elif not _jit.pending(_LINALG):  # numba missing or broken: keep working on NumPy
+    elif not KERNELS.pending():  # numba missing or broken: keep working on NumPy
         _state["failed"] = True
         warnings.warn(
             "redres.linalg: compiled kernels unavailable (numba cannot be imported); using NumPy",
@@ -84,20 +68,20 @@ def kernels() -> ModuleType | None:
     return loaded
 
 
-def module(name: str) -> ModuleType | None:
-    """Kernel module ``name`` (:func:`redres._jit.load`: compiled, or plain Python while it
-    compiles behind), compiling nothing yet; None when the kernels are off or unavailable."""
-    if not _state["enabled"] or _state.get("failed"):
-        return None
-    return _jit.load(name)
+def routed() -> bool:
+    """Whether callers route to compiled kernels: linalg's switch
+    (:func:`set_jit_enabled`) is on and numba is there. The controller, the Jacobian
+    derivatives and the scheme input check follow it."""
+    return bool(_state["enabled"]) and not _state.get("failed")
 
 
-def entry(module_name: str, name: str, warm: tuple[Any, ...]) -> Callable[..., Any] | None:
-    """The native entry point of kernel ``module_name.name`` for the types of ``warm``
-    (:func:`redres._jit.entry_point`; plain Python while it compiles behind); None when
-    the kernels are off or unavailable."""
-    kern = module(module_name)
-    return None if kern is None else _jit.entry_point(getattr(kern, name), warm)
+def entry(
+    group: _compile.KernelGroup, name: str, warm: tuple[Any, ...]
+) -> Callable[..., Any] | None:
+    """The native entry point of kernel ``name`` of ``group``'s first module for the types
+    of ``warm`` (:meth:`~redres._compile.KernelGroup.entry`; plain Python while it
+    compiles behind); None when the kernels are off (:func:`routed`) or unavailable."""
+    return group.entry(name, warm) if routed() else None
 
 
 def fast_step() -> Callable[..., Any] | None:
@@ -106,7 +90,7 @@ def fast_step() -> Callable[..., Any] | None:
     if kernels() is None:
         return None
     warm = (np.zeros((1, 1)), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), 0.0, 0.0, 0.0)
-    return entry(_LINALG, "step", warm)
+    return entry(KERNELS, "step", warm)
 
 
 def set_jit_enabled(enabled: bool) -> bool:
@@ -114,7 +98,7 @@ def set_jit_enabled(enabled: bool) -> bool:
     comparisons; a no-op under ``REDRES_DISABLE_JIT=1``); returns the old value."""
     global loaded
     previous = bool(_state["enabled"])
-    _state["enabled"] = bool(enabled) and _jit.enabled()
+    _state["enabled"] = bool(enabled) and _compile.enabled()
     if not enabled:
         loaded = None
     for hook in _on_switch:
@@ -154,302 +138,3 @@ def parse_damping(damping: float | AdaptiveDamping) -> tuple[int, float, float, 
         return mode, 0.0, damping.max_damping, damping.threshold
     lam = as_scalar(damping, "damping", minimum=0.0)
     return (codes.FIXED if lam > 0.0 else codes.EXACT), lam, 0.0, 1.0
-
-
-def method_label(mode: int, weighted: bool, exact_label: str) -> str:
-    """The ``InverseInfo.method`` string for a damping mode."""
-    if mode == codes.EXACT:
-        return "weighted" if weighted else exact_label
-    base = {codes.FIXED: "damped", codes.ADAPTIVE: "adaptive", codes.SELECTIVE: "selective"}[mode]
-    return f"weighted-{base}" if weighted else base
-
-
-WithInfo = tuple[FloatArray, InverseInfo]
-"""What ``f(J, ..., return_info=True)`` returns: the matrix and its diagnostics."""
-
-
-class ExactOptions(TypedDict, total=False):
-    """Keyword options of the matrix functions, for their typed overloads."""
-
-    rcond: float
-
-
-class AdaptiveOptions(ExactOptions, total=False):
-    selective: bool
-
-
-class DampedOptions(ExactOptions, total=False):
-    damping: float | AdaptiveDamping
-
-
-class InverseOptions(DampedOptions, total=False):
-    weights: ArrayLike | None
-
-
-Result = FloatArray | WithInfo
-Parts = tuple[FloatArray, "Stats", str]
-"""``(matrix, stats, method)`` before packaging."""
-
-
-def finish(parts: Parts, shape: tuple[int, ...], return_info: bool) -> Result:
-    """The matrix of ``parts`` alone, or ``(matrix, InverseInfo)`` built from its statistics."""
-    X, stats, method = parts
-    if not return_info:
-        return X
-    rank, smin, smax, used = stats
-    return X, InverseInfo(rank, rank == min(shape), smin, smax, used, method)
-
-
-def as_jacobian(J: Any, *, check_finite: bool = True) -> FloatArray:
-    """``J`` as a finite, non-empty float64 matrix (C order), or a clear error.
-
-    ``check_finite=False`` skips the finiteness test for a float64 array passed on to
-    :func:`invert` or :func:`task_inertia`, which make it where they read ``J`` (once).
-    """
-    if check_finite or type(J) is not np.ndarray or J.dtype != np.float64 or J.ndim != 2:
-        arr = as_matrix(J, "J")
-    else:
-        arr = J
-    if arr.shape[0] == 0 or arr.shape[1] == 0:
-        raise ShapeError(f"J must have at least one row and one column; got {arr.shape}")
-    return np.ascontiguousarray(arr)
-
-
-def check_finite(J: FloatArray) -> None:
-    """The kernels' finiteness test of ``J`` for the NumPy paths (same error)."""
-    if not np.isfinite(J).all():
-        raise_status(codes.J_NONFINITE, {})
-
-
-def as_rcond(rcond: Any) -> float:
-    """Validated relative rank tolerance (finite, >= 0)."""
-    if type(rcond) is float and 0.0 <= rcond < math.inf:  # the common case, valid
-        return rcond
-    return as_scalar(rcond, "rcond", minimum=0.0)
-
-
-def filter_factors(
-    sigma: FloatArray, mode: int, lam: float, lam_max: float, eps: float, rcond: float
-) -> tuple[FloatArray, FloatArray, int, float]:
-    """Filter of one inverse for singular values ``sigma`` (descending, at least one).
-
-    Returns ``(f, lam2, rank, damping)``: the inverse is ``V diag(f) U^T`` and ``lam2`` the
-    squared damping applied to each singular value.
-    """
-    sigma_max = float(sigma[0])
-    sigma_min = float(sigma[-1])
-    significant = sigma > rcond * sigma_max
-    if sigma_max == 0.0:
-        significant[:] = False
-    lam2 = np.zeros_like(sigma)
-    if mode == codes.FIXED:
-        lam2[:] = lam * lam
-    elif mode in (codes.ADAPTIVE, codes.SELECTIVE):
-        ref = sigma if mode == codes.SELECTIVE else np.full_like(sigma, sigma_min)
-        below = ref < eps
-        ratio = ref[below] / eps
-        lam2[below] = lam_max * lam_max * (1.0 - ratio * ratio)
-    damping = math.sqrt(float(lam2.max()))
-    if sigma_max == 0.0 and mode != codes.EXACT:
-        damping = lam if mode == codes.FIXED else lam_max
-    f = np.zeros_like(sigma)
-    damped = lam2 > 0.0
-    lam_d = np.sqrt(lam2[damped])
-    s_d = sigma[damped]
-    top = np.maximum(s_d, lam_d)
-    # sigma / (sigma^2 + lambda^2), scaled so that neither square overflows
-    f[damped] = (s_d / top) / (top * ((s_d / top) ** 2 + (lam_d / top) ** 2))
-    exact = ~damped & significant
-    f[exact] = 1.0 / sigma[exact]
-    return f, lam2, int(significant.sum()), damping
-
-
-_FLOAT_MAX = float(np.finfo(np.float64).max)
-
-
-class Filtered:
-    """SVD of a (weighted) matrix and the filter of one inverse (NumPy reference path)."""
-
-    __slots__ = ("U", "Vt", "f", "p", "stats")
-
-    def __init__(
-        self, Jw: FloatArray, mode: int, lam: float, lam_max: float, eps: float, rcond: float
-    ) -> None:
-        # The kernels' scaling (_dense_kernels._scale): an SVD of entries near 1.7e308
-        # overflows (inf - inf), and a matrix of entries below TINY_SCALE counts as zero.
-        top = float(np.abs(Jw).max())
-        if top < codes.TINY_SCALE:
-            Jw, top = np.zeros_like(Jw), 1.0
-        elif 1e-100 <= top <= 1e100:
-            top = 1.0
-        self.U, sigma, self.Vt = np.linalg.svd(Jw / top if top != 1.0 else Jw, full_matrices=False)
-        if top != 1.0:
-            if sigma[0] > _FLOAT_MAX / top:
-                raise InvalidParameterError(
-                    f"J's largest singular value overflows float64 (largest entry {top:g}); "
-                    "rescale J"
-                )
-            sigma = sigma * top
-        self.f, _, rank, damping = filter_factors(sigma, mode, lam, lam_max, eps, rcond)
-        self.p = sigma * self.f  # weights of the row-space projector J# J in the V basis
-        self.stats = Stats(rank, float(sigma[-1]), float(sigma[0]), damping)
-
-    def pinv(self) -> FloatArray:
-        """``V diag(f) U^T`` (n x m)."""
-        return np.asarray((self.Vt.T * self.f) @ self.U.T)
-
-    def projector(self) -> FloatArray:
-        """``I - V diag(sigma f) V^T`` (n x n)."""
-        n = self.Vt.shape[1]
-        return np.asarray(np.eye(n) - (self.Vt.T * self.p) @ self.Vt)
-
-    def apply(self, xd: FloatArray) -> FloatArray:
-        """``J# xd``."""
-        return np.asarray(self.Vt.T @ (self.f * (self.U.T @ xd)))
-
-    def project(self, g: FloatArray) -> FloatArray:
-        """``N g``."""
-        return np.asarray(g - self.Vt.T @ (self.p * (self.Vt @ g)))
-
-
-class Stats(NamedTuple):
-    """What a factorisation says about the matrix it inverted."""
-
-    rank: int
-    sigma_min: float
-    sigma_max: float
-    damping: float
-
-
-class Factored(NamedTuple):
-    """Outputs of the shared engine: the matrices (0 x 0 when not wanted), the statistics
-    of the factorisation and the damping mode used."""
-
-    first: FloatArray  # J# (invert) or Lambda (task_inertia)
-    second: FloatArray  # N (invert) or J_bar (task_inertia)
-    stats: Stats
-    mode: int
-
-
-#: Below this, a damping (or a singular value) squared is subnormal or zero in float64:
-#: :func:`redres.linalg.damping.rescaled_inverse` takes over.
-SMALL_DAMPING = 1e-150
-
-
-def _rescaled(*args: Any) -> Factored | None:
-    """:func:`redres.linalg.damping.rescaled_inverse` (a rare case, imported on use: that
-    module imports this one)."""
-    from .damping import rescaled_inverse
-
-    return rescaled_inverse(*args)
-
-
-def invert(
-    J: FloatArray,
-    *,
-    weights: Any,
-    weights_name: str,
-    damping: float | AdaptiveDamping,
-    rcond: float,
-    want_pinv: bool,
-    want_projector: bool,
-    lazy: bool = False,
-) -> Factored:
-    """Shared engine of the matrix functions: ``Factored(J#, N, stats, mode)``.
-
-    ``J`` must be a float64 matrix from :func:`as_jacobian`. Outputs not wanted are 0 x 0.
-    ``lazy``: the statistics are not read (fixed damping may skip them: rank -1, NaN).
-    """
-    m, n = J.shape
-    mode, lam, lam_max, eps = parse_damping(damping)
-    rescale = (J, weights, weights_name, damping, rcond, want_pinv, want_projector)
-    if mode != codes.EXACT and (lam if mode == codes.FIXED else min(lam_max, eps)) < SMALL_DAMPING:
-        rescaled = _rescaled(*rescale)
-        if rescaled is not None:
-            return rescaled
-    kmode = codes.LAZY if lazy and mode == codes.FIXED else mode
-    wmode, wdiag, wfull = parse_weights(weights, n, weights_name)
-    kern = use_fast_path(m, n)
-    if kern is not None:
-        Jp = np.empty((n, m)) if want_pinv else EMPTY_2D
-        N = np.empty((n, n)) if want_projector else EMPTY_2D
-        status, rank, smin, smax, used = kern.inverse(
-            np.ascontiguousarray(J), wdiag, wfull, Jp, N, EMPTY_2D, wmode, kmode, lam, lam_max,
-            eps, rcond,
-        )  # fmt: skip
-        if status:
-            raise_status(status, {"J": "J", "W": weights_name})
-        check_sigma(smax)
-        if mode != codes.EXACT and smax < SMALL_DAMPING:
-            # the kernels square the scale of so tiny a J: subnormal, digits lost (below
-            # TINY_SCALE they count it as zero, smax = 0, while J^T / λ² need not be)
-            rescaled = _rescaled(*rescale)
-            if rescaled is not None:
-                return rescaled
-        return Factored(Jp, N, Stats(rank, smin, smax, used), mode)
-    check_finite(J)
-    factor = weight_factor(wmode, wdiag, wfull, weights_name)
-    filt = Filtered(weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
-    Jp = unweigh_rows(filt.pinv(), wmode, factor) if want_pinv else EMPTY_2D
-    N = EMPTY_2D
-    if want_projector:
-        N = times_lt(unweigh_rows(filt.projector(), wmode, factor), wmode, factor)
-    return Factored(Jp, N, filt.stats, mode)
-
-
-def task_inertia(
-    J: FloatArray,
-    M: FloatArray,
-    *,
-    damping: float | AdaptiveDamping,
-    rcond: float,
-    want_pinv: bool,
-) -> Factored | None:
-    """``Factored(Lambda, J_bar, stats, mode)`` from one compiled factorisation
-    of ``J L^-T`` (``J`` from :func:`as_jacobian`, ``M = L L^T`` a validated ``(n, n)``
-    matrix), or None when the kernels do not cover this size.
-
-    ``Lambda = (J M^-1 J^T + lambda^2 I)^-1`` and ``J_bar = M^-1 J^T Lambda`` (the inverse
-    weighted by ``M``); ``J_bar`` is 0 x 0 unless ``want_pinv``. Errors name ``M``.
-    """
-    m, n = J.shape
-    kern = use_fast_path(m, n)
-    if kern is None:
-        return None
-    mode, lam, lam_max, eps = parse_damping(damping)
-    Lam = np.empty((m, m))
-    Jp = np.empty((n, m)) if want_pinv else EMPTY_2D
-    status, rank, smin, smax, used = kern.inverse(
-        np.ascontiguousarray(J), EMPTY_1D, np.ascontiguousarray(M), Jp, EMPTY_2D, Lam,
-        codes.FULL, mode, lam, lam_max, eps, rcond,
-    )  # fmt: skip
-    if status:
-        raise_status(status, {"J": "J", "W": "M"})
-    check_sigma(smax)
-    return Factored(Lam, Jp, Stats(rank, smin, smax, used), mode)
-
-
-def matrix_inverse(
-    J: FloatArray,
-    *,
-    weights: Any = None,
-    weights_name: str = "W",
-    damping: float | AdaptiveDamping = 0.0,
-    rcond: float,
-    exact_label: str = "",
-    lazy: bool = False,
-) -> Parts:
-    """``(J#, stats, method)`` for the matrix functions (``rcond`` already validated;
-    ``lazy`` as for :func:`invert`: nobody reads the statistics, nor the method, left
-    ``""``). An exact unweighted inverse of a rank-deficient ``J`` is labelled ``"pinv"``
-    (the truncated SVD pseudo-inverse it falls back to) instead of ``exact_label``."""
-    Jp, _, stats, mode = invert(
-        J, weights=weights, weights_name=weights_name, damping=damping, rcond=rcond,
-        want_pinv=True, want_projector=False, lazy=lazy,
-    )  # fmt: skip
-    if lazy:
-        return Jp, stats, ""
-    method = method_label(mode, weights is not None, exact_label)
-    if weights is None and mode == codes.EXACT and stats.rank < min(J.shape):
-        method = "pinv"
-    return Jp, stats, method

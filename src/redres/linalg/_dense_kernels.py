@@ -1,13 +1,13 @@
 """Small dense kernels shared by the compiled linear algebra (internal): finiteness checks,
 Cholesky factorisation and solve, joint weights ``W^{-1/2}`` and the scaling that keeps
-``J Jᵀ`` from overflowing. Compiled through :mod:`redres._jit` (see there for the cache);
+``J Jᵀ`` from overflowing. Compiled through :mod:`redres._compile` (see there for the cache);
 the algorithms are textbook (Golub & Van Loan, Matrix Computations, 4th ed., §4.2)."""
 
 from __future__ import annotations
 
 import math
 
-from .._jit import kernel
+from .._compile import kernel
 from ._codes import (
     DIAGONAL,
     FULL,

@@ -1,14 +1,14 @@
 """Eigenvalue kernels for the compiled inverses (internal): the extreme eigenvalues of a
 symmetric matrix by Householder tridiagonalisation and Laguerre's method, eigenvalue counts
 by Sylvester inertia, and the one-sided Jacobi SVD (Hestenes 1958) used near singularities.
-Compiled through :mod:`redres._jit`; :mod:`redres.linalg._kernels` explains where each is
+Compiled through :mod:`redres._compile`; :mod:`redres.linalg._kernels` explains where each is
 used and how accurate it is."""
 
 from __future__ import annotations
 
 import math
 
-from .._jit import kernel
+from .._compile import kernel
 
 _EPS = 2.220446049250313e-16
 

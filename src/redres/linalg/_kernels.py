@@ -1,7 +1,7 @@
 """Compiled kernels for the small matrices of robotics (internal).
 
 The public functions of :mod:`redres.linalg` call these within the sizes of
-:func:`redres.linalg._backend.use_fast_path`. They are compiled through :mod:`redres._jit`
+:func:`redres.linalg._backend.use_fast_path`. They are compiled through :mod:`redres._compile`
 and imported lazily by :mod:`redres.linalg._backend`: ``import redres`` never pays for numba.
 
 Every kernel works on a *weighted* Jacobian ``Js = J W^{-1/2}`` (``J L^-T`` for a full
@@ -21,7 +21,7 @@ Status codes (returned first by each kernel, turned into errors by the caller) n
 offending argument; the kernels never raise. The small helpers live in
 :mod:`~redres.linalg._dense_kernels` (Cholesky, weights, scaling) and
 :mod:`~redres.linalg._eigen_kernels` (eigenvalues, Jacobi SVD); calls between them are safe
-for numba's disk cache because :mod:`redres._jit` stamps every kernel with all their
+for numba's disk cache because :mod:`redres._compile` stamps every kernel with all their
 sources.
 """
 
@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from .._jit import kernel
+from .._compile import kernel
 from ._codes import (
     ADAPTIVE,
     EXACT,

@@ -15,16 +15,13 @@ value so that the inverse is exact away from singularities.
 
 from __future__ import annotations
 
-import math
-from typing import TYPE_CHECKING, Any, Literal, overload
+from typing import TYPE_CHECKING, Literal, overload
 
-import numpy as np
 from numpy.typing import ArrayLike
 
-from .._validate import as_scalar
-from ..errors import InvalidParameterError
-from . import _backend as be
-from ._backend import AdaptiveOptions, ExactOptions, FloatArray, Result, WithInfo
+from . import _engine as eng
+from ._backend import FloatArray
+from ._engine import AdaptiveOptions, ExactOptions, Result, WithInfo
 from ._info import RCOND, AdaptiveDamping
 
 if TYPE_CHECKING:
@@ -75,12 +72,12 @@ def damped_pinv(
     Raises:
         InvalidParameterError: ``damping`` is negative.
     """
-    A = be.as_jacobian(J, check_finite=False)
-    rc = be.as_rcond(rcond)
-    parts = be.matrix_inverse(
+    A = eng.as_jacobian(J, check_finite=False)
+    rc = eng.as_rcond(rcond)
+    parts = eng.matrix_inverse(
         A, damping=damping, rcond=rc, exact_label="pinv", lazy=not return_info
     )
-    return be.finish(parts, A.shape, return_info)
+    return eng.finish(parts, A.shape, return_info)
 
 
 @overload
@@ -128,62 +125,6 @@ def adaptive_damped_pinv(
         ``J#``, shape ``(n, m)`` (and the info).
     """
     spec = AdaptiveDamping(max_damping, threshold, selective)
-    A = be.as_jacobian(J, check_finite=False)
-    parts = be.matrix_inverse(A, damping=spec, rcond=be.as_rcond(rcond))
-    return be.finish(parts, A.shape, return_info)
-
-
-def rescaled_inverse(
-    J: FloatArray, weights: Any, weights_name: str, damping: float | AdaptiveDamping,
-    rcond: float, want_pinv: bool, want_projector: bool,
-) -> be.Factored | None:  # fmt: skip
-    """The engine's inverse (:func:`~redres.linalg._backend.invert`) of ``c J`` with the
-    damping times ``c``, mapped back: ``J#(J, λ) = c J#(c J, c λ)``, the same projector,
-    singular values and damping divided by ``c``. ``c`` is the power of two that brings J's
-    largest entry into ``[0.5, 1)``, so the scaling itself is exact; it is used where
-    ``λ²`` or ``σ²`` would be subnormal unscaled (the damped inverse of Wampler 1986
-    depends on ``λ`` only through ``σ / λ``). None when there is nothing to rescale: J
-    already of that size or zero, J or the scaled damping not finite (the engine reports
-    it). A damped J below ``TINY_SCALE`` (1e-200, which the kernels count as zero) is
-    rescaled too: with ``λ`` as tiny its inverse is not zero (issue 18, item 10).
-
-    Raises:
-        InvalidParameterError: the inverse itself overflows float64.
-    """
-    if not np.isfinite(J).all():
-        return None
-    top = float(np.abs(J).max()) if J.size else 0.0
-    if top == 0.0:
-        return None
-    e = -math.frexp(top)[1]  # c = 2**e, applied by ldexp (2**1074 itself overflows)
-    if e == 0:
-        return None
-    try:  # overflowing once scaled: J is negligible beside the damping (engine's answer)
-        if isinstance(damping, AdaptiveDamping):
-            scaled: float | AdaptiveDamping = AdaptiveDamping(
-                math.ldexp(damping.max_damping, e), math.ldexp(damping.threshold, e),
-                damping.selective,
-            )  # fmt: skip
-        else:
-            scaled = math.ldexp(float(as_scalar(damping, "damping", minimum=0.0)), e)
-    except OverflowError:
-        return None
-    values = (
-        (scaled.max_damping, scaled.threshold) if isinstance(scaled, AdaptiveDamping) else (scaled,)
-    )
-    if not all(math.isfinite(v) for v in values):
-        return None
-    parts = be.invert(np.ldexp(J, e), weights=weights, weights_name=weights_name,
-                      damping=scaled, rcond=rcond, want_pinv=want_pinv,
-                      want_projector=want_projector)  # fmt: skip
-    with np.errstate(over="ignore"):
-        Jp = np.ldexp(parts.first, e) if want_pinv else parts.first
-    if want_pinv and not np.isfinite(Jp).all():
-        raise InvalidParameterError(
-            "the damped inverse of J overflows float64 (J's entries and the damping are "
-            "both tiny); rescale J and the damping together"
-        )
-    st = parts.stats
-    stats = be.Stats(st.rank, math.ldexp(st.sigma_min, -e), math.ldexp(st.sigma_max, -e),
-                     math.ldexp(st.damping, -e))  # fmt: skip
-    return be.Factored(Jp, parts.second, stats, parts.mode)
+    A = eng.as_jacobian(J, check_finite=False)
+    parts = eng.matrix_inverse(A, damping=spec, rcond=eng.as_rcond(rcond))
+    return eng.finish(parts, A.shape, return_info)

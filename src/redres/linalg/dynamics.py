@@ -29,8 +29,10 @@ from .._validate import as_matrix
 from ..errors import NotPositiveDefiniteError
 from . import _backend as be
 from . import _codes as codes
+from . import _engine as eng
 from . import _weights as wt
-from ._backend import DampedOptions, FloatArray, Result, WithInfo
+from ._backend import FloatArray
+from ._engine import DampedOptions, Result, WithInfo
 from ._info import RCOND, AdaptiveDamping
 
 if TYPE_CHECKING:
@@ -67,16 +69,16 @@ def _decompose(
     damping: float | AdaptiveDamping,
     rcond: float,
     want_pinv: bool = True,
-) -> tuple[FloatArray, FloatArray, FloatArray, be.Stats, str]:
+) -> tuple[FloatArray, FloatArray, FloatArray, eng.Stats, str]:
     """``(Lambda, J_bar, J, stats, method)``: from the compiled kernel (one factorisation
     of ``J L^-T``) within the kernels' sizes, else from :func:`_decompose_svd`.
     ``J_bar`` is 0 x 0 unless ``want_pinv``."""
-    A = be.as_jacobian(J, check_finite=False)
+    A = eng.as_jacobian(J, check_finite=False)
     n = A.shape[1]
     Mm = as_matrix(M, "M", (n, n))
-    rc = be.as_rcond(rcond)
+    rc = eng.as_rcond(rcond)
     try:
-        parts = be.task_inertia(A, Mm, damping=damping, rcond=rc, want_pinv=want_pinv)
+        parts = eng.task_inertia(A, Mm, damping=damping, rcond=rc, want_pinv=want_pinv)
     except NotPositiveDefiniteError as exc:
         raise _not_a_mass_matrix(exc) from exc
     if parts is None:
@@ -88,22 +90,22 @@ def _decompose(
 def _method(mode: int) -> str:
     """``InverseInfo.method`` of this module for a damping mode."""
     label = "dynamically-consistent"
-    return label if mode == codes.EXACT else f"{label}-{be.method_label(mode, False, '')}"
+    return label if mode == codes.EXACT else f"{label}-{eng.method_label(mode, False, '')}"
 
 
 def _decompose_svd(
     A: FloatArray, M: FloatArray, damping: float | AdaptiveDamping, rcond: float
-) -> tuple[FloatArray, FloatArray, FloatArray, be.Stats, str]:
+) -> tuple[FloatArray, FloatArray, FloatArray, eng.Stats, str]:
     """The reference path (any size; also the oracle of the kernel in the tests): one
     LAPACK SVD of ``J L^-T``."""
-    be.check_finite(A)
+    eng.check_finite(A)
     m, n = A.shape
     L = mass_matrix_factor(M, n)
     mode, lam, lam_max, eps = be.parse_damping(damping)
     Jw = wt.solve_lower(L, A.T).T  # J L^-T
     U, sigma, Vt = np.linalg.svd(Jw, full_matrices=True)
     k = min(m, n)
-    f, lam2, rank, used = be.filter_factors(sigma, mode, lam, lam_max, eps, rcond)
+    f, lam2, rank, used = eng.filter_factors(sigma, mode, lam, lam_max, eps, rcond)
     # Lambda = U diag(g) U^T with g = 1 / (sigma^2 + lambda^2) (exact: 1/sigma^2 or 0);
     # directions beyond min(m, n) have sigma = 0.
     g = np.zeros(m)
@@ -117,7 +119,7 @@ def _decompose_svd(
     Lam = (U * g) @ U.T
     Lam = 0.5 * (Lam + Lam.T)
     J_bar = wt.solve_lower(L, (Vt[:k].T * f) @ U[:, :k].T, trans="T")
-    stats = be.Stats(rank, float(sigma[-1]), float(sigma[0]), used)
+    stats = eng.Stats(rank, float(sigma[-1]), float(sigma[0]), used)
     return Lam, np.asarray(J_bar), A, stats, _method(mode)
 
 
@@ -151,7 +153,7 @@ def task_space_inertia(
         ``Lambda``, shape ``(m, m)``, symmetric (kg for translational rows).
     """
     Lam, _, A, stats, method = _decompose(J, M, damping, rcond, want_pinv=False)
-    return be.finish((Lam, stats, method), A.shape, return_info)
+    return eng.finish((Lam, stats, method), A.shape, return_info)
 
 
 @overload
@@ -187,7 +189,7 @@ def dynamically_consistent_pinv(
         ``J_bar``, shape ``(n, m)``.
     """
     _, J_bar, A, stats, method = _decompose(J, M, damping, rcond)
-    return be.finish((J_bar, stats, method), A.shape, return_info)
+    return eng.finish((J_bar, stats, method), A.shape, return_info)
 
 
 def dynamically_consistent_projector(

@@ -20,7 +20,9 @@ from numpy.typing import ArrayLike
 
 from ..errors import ShapeError
 from . import _backend as be
-from ._backend import DampedOptions, FloatArray, InverseOptions, Result, WithInfo
+from . import _engine as eng
+from ._backend import FloatArray
+from ._engine import DampedOptions, InverseOptions, Result, WithInfo
 from ._info import RCOND, AdaptiveDamping
 
 if TYPE_CHECKING:
@@ -36,10 +38,10 @@ __all__ = [
 ]
 
 
-def _left(J: FloatArray, rcond: float) -> be.Parts:
+def _left(J: FloatArray, rcond: float) -> eng.Parts:
     """Left pseudo-inverse as the transpose of the right one of ``J^T``."""
     J_t = np.ascontiguousarray(J.T)
-    Jp_t, stats, method = be.matrix_inverse(J_t, rcond=rcond, exact_label="left")
+    Jp_t, stats, method = eng.matrix_inverse(J_t, rcond=rcond, exact_label="left")
     return np.ascontiguousarray(Jp_t.T), stats, method
 
 
@@ -63,9 +65,9 @@ def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Re
     Returns:
         ``J^+``, shape ``(n, m)`` (and the info).
     """
-    A = be.as_jacobian(J)
-    filt = be.Filtered(A, 0, 0.0, 0.0, 1.0, be.as_rcond(rcond))
-    return be.finish((filt.pinv(), filt.stats, "pinv"), A.shape, return_info)
+    A = eng.as_jacobian(J)
+    filt = eng.Filtered(A, 0, 0.0, 0.0, 1.0, eng.as_rcond(rcond))
+    return eng.finish((filt.pinv(), filt.stats, "pinv"), A.shape, return_info)
 
 
 @overload
@@ -93,14 +95,14 @@ def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False)
     Raises:
         ShapeError: if ``m > n`` (use :func:`left_pinv` or :func:`pinv`).
     """
-    A = be.as_jacobian(J, check_finite=False)
+    A = eng.as_jacobian(J, check_finite=False)
     if A.shape[0] > A.shape[1]:
         raise ShapeError(
             f"right_pinv needs a wide J (m <= n); got shape {A.shape}. "
             "Use left_pinv for tall J, or pinv for any shape."
         )
-    parts = be.matrix_inverse(A, rcond=be.as_rcond(rcond), exact_label="right")
-    return be.finish(parts, A.shape, return_info)
+    parts = eng.matrix_inverse(A, rcond=eng.as_rcond(rcond), exact_label="right")
+    return eng.finish(parts, A.shape, return_info)
 
 
 @overload
@@ -127,13 +129,13 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
     Raises:
         ShapeError: if ``m < n`` (use :func:`right_pinv` or :func:`pinv`).
     """
-    A = be.as_jacobian(J, check_finite=False)
+    A = eng.as_jacobian(J, check_finite=False)
     if A.shape[0] < A.shape[1]:
         raise ShapeError(
             f"left_pinv needs a tall J (m >= n); got shape {A.shape}. "
             "Use right_pinv for wide J, or pinv for any shape."
         )
-    return be.finish(_left(A, be.as_rcond(rcond)), A.shape, return_info)
+    return eng.finish(_left(A, eng.as_rcond(rcond)), A.shape, return_info)
 
 
 @overload
@@ -157,11 +159,11 @@ def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = Fa
     Raises:
         ShapeError: if ``J`` is not square.
     """
-    A = be.as_jacobian(J, check_finite=False)
+    A = eng.as_jacobian(J, check_finite=False)
     if A.shape[0] != A.shape[1]:
         raise ShapeError(f"square_inverse needs a square J; got shape {A.shape}. Use pinv.")
-    parts = be.matrix_inverse(A, rcond=be.as_rcond(rcond), exact_label="square")
-    return be.finish(parts, A.shape, return_info)
+    parts = eng.matrix_inverse(A, rcond=eng.as_rcond(rcond), exact_label="square")
+    return eng.finish(parts, A.shape, return_info)
 
 
 @overload
@@ -207,9 +209,9 @@ def weighted_pinv(
         NotPositiveDefiniteError: ``W`` is not symmetric positive definite.
         NonFiniteError: ``J`` or ``W`` contains NaN or infinity.
     """
-    A = be.as_jacobian(J, check_finite=False)
-    parts = be.matrix_inverse(A, weights=W, damping=damping, rcond=be.as_rcond(rcond))
-    return be.finish(parts, A.shape, return_info)
+    A = eng.as_jacobian(J, check_finite=False)
+    parts = eng.matrix_inverse(A, weights=W, damping=damping, rcond=eng.as_rcond(rcond))
+    return eng.finish(parts, A.shape, return_info)
 
 
 @overload
@@ -247,15 +249,15 @@ def generalized_inverse(
     Returns:
         The inverse, shape ``(n, m)`` (and the info).
     """
-    A = be.as_jacobian(J, check_finite=False)
+    A = eng.as_jacobian(J, check_finite=False)
     m, n = A.shape
-    rc = be.as_rcond(rcond)
+    rc = eng.as_rcond(rcond)
     if weights is not None or be.parse_damping(damping)[0] != 0:
-        parts = be.matrix_inverse(
+        parts = eng.matrix_inverse(
             A, weights=weights, weights_name="weights", damping=damping, rcond=rc
         )
     elif m <= n:
-        parts = be.matrix_inverse(A, rcond=rc, exact_label="square" if m == n else "right")
+        parts = eng.matrix_inverse(A, rcond=rc, exact_label="square" if m == n else "right")
     else:
         parts = _left(A, rc)
-    return be.finish(parts, A.shape, return_info)
+    return eng.finish(parts, A.shape, return_info)

@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike
 
 from .._validate import real_array
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError
-from . import _backend as be
+from . import _engine as eng
 from ._backend import FloatArray
 from ._info import condition_from
 
@@ -42,7 +42,7 @@ def singular_values(J: ArrayLike) -> FloatArray:
         InvalidParameterError: the largest singular value overflows float64 (entries near
             1.7e308); the SVD runs on ``J`` scaled to unit size, so any smaller ``J`` works.
     """
-    A = be.as_jacobian(J)
+    A = eng.as_jacobian(J)
     top = float(np.abs(A).max())
     if top == 0.0 or 1e-100 <= top <= 1e100:
         return np.asarray(np.linalg.svd(A, compute_uv=False), dtype=np.float64)
@@ -96,7 +96,7 @@ def manipulability(J: ArrayLike) -> float:
         InvalidParameterError: ``w`` overflows float64 (``J``'s entries about
             ``1e308 ** (1 / m)`` or larger).
     """
-    A = be.as_jacobian(J)
+    A = eng.as_jacobian(J)
     if A.shape[0] > A.shape[1]:
         return 0.0
     sigma = singular_values(A)
@@ -131,7 +131,7 @@ def manipulability_gradient(J: ArrayLike, dJ_dq: ArrayLike) -> FloatArray:
     Returns:
         ``dw/dq``, shape ``(n,)``, units of ``w`` per rad. Zero for ``m > n``.
     """
-    A = be.as_jacobian(J)
+    A = eng.as_jacobian(J)
     m, n = A.shape
     D = real_array(dJ_dq, "dJ_dq")
     if D.shape != (n, m, n):

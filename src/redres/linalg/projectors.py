@@ -25,8 +25,9 @@ from numpy.typing import ArrayLike
 
 from .._validate import as_matrix
 from ..errors import InvalidParameterError
-from . import _backend as be
-from ._backend import FloatArray, InverseOptions, Result, WithInfo
+from . import _engine as eng
+from ._backend import FloatArray
+from ._engine import InverseOptions, Result, WithInfo
 from ._info import RCOND, AdaptiveDamping
 
 if TYPE_CHECKING:
@@ -82,7 +83,7 @@ def nullspace_projector(
     Returns:
         ``N``, shape ``(n, n)`` (and the info).
     """
-    A = be.as_jacobian(J, check_finite=False)
+    A = eng.as_jacobian(J, check_finite=False)
     m, n = A.shape
     if J_pinv is not None:
         if weights is not None or isinstance(damping, AdaptiveDamping) or damping != 0.0:
@@ -94,19 +95,19 @@ def nullspace_projector(
                 "return_info=True needs J_pinv=None: the diagnostics belong to the inverse "
                 "this function computes"
             )
-        be.check_finite(A)
+        eng.check_finite(A)
         return np.eye(n) - as_matrix(J_pinv, "J_pinv", (n, m)) @ A
-    _, N, stats, mode = be.invert(
+    _, N, stats, mode = eng.invert(
         A,
         weights=weights,
         weights_name="weights",
         damping=damping,
-        rcond=be.as_rcond(rcond),
+        rcond=eng.as_rcond(rcond),
         want_pinv=False,
         want_projector=True,
     )
-    method = be.method_label(mode, weights is not None, "pinv")
-    return be.finish((N, stats, method), A.shape, return_info)
+    method = eng.method_label(mode, weights is not None, "pinv")
+    return eng.finish((N, stats, method), A.shape, return_info)
 
 
 def nullspace_basis(J: ArrayLike, rcond: float = RCOND) -> FloatArray:
@@ -123,8 +124,8 @@ def nullspace_basis(J: ArrayLike, rcond: float = RCOND) -> FloatArray:
     Returns:
         ``Z``, shape ``(n, n - rank)`` (``(n, 0)`` when ``J`` has full column rank).
     """
-    A = be.as_jacobian(J)
-    tol = be.as_rcond(rcond)
+    A = eng.as_jacobian(J)
+    tol = eng.as_rcond(rcond)
     _, sigma, Vt = np.linalg.svd(A, full_matrices=True)
     rank = int((sigma > tol * sigma[0]).sum()) if sigma[0] > 0.0 else 0
     return np.ascontiguousarray(Vt[rank:].T)
@@ -162,7 +163,7 @@ def moore_penrose_residuals(J: ArrayLike, J_pinv: ArrayLike) -> MoorePenroseResi
     Returns:
         The four relative residuals (see :class:`MoorePenroseResiduals`).
     """
-    A = be.as_jacobian(J)
+    A = eng.as_jacobian(J)
     m, n = A.shape
     X = as_matrix(J_pinv, "J_pinv", (n, m))
     JX = A @ X

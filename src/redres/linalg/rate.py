@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike
 from .._validate import as_scalar, real_array
 from ..errors import NonFiniteError, ShapeError
 from . import _backend as be
+from . import _engine as eng
 from . import _weights as wt
 from ._backend import FloatArray
 from ._info import RCOND, AdaptiveDamping, InverseInfo
@@ -39,8 +40,8 @@ _new_tuple = tuple.__new__
 _NO_GRAD = wt.EMPTY_1D
 _NAMES = {"J": "J", "xd": "xd", "grad": "grad", "W": "weights"}
 # InverseInfo.method by damping mode (the codes EXACT, FIXED, ADAPTIVE, SELECTIVE are 0..3).
-_LABELS = tuple(be.method_label(mode, False, "pinv") for mode in range(4))
-_WEIGHTED_LABELS = tuple(be.method_label(mode, True, "") for mode in range(4))
+_LABELS = tuple(eng.method_label(mode, False, "pinv") for mode in range(4))
+_WEIGHTED_LABELS = tuple(eng.method_label(mode, True, "") for mode in range(4))
 
 # Native entry point of the compiled step for float64 arrays and float scalars; filled on
 # the first call (None until then, False when the kernels are unavailable).
@@ -172,7 +173,7 @@ def _general_step(
     m, n = J.shape
     if J.size == 0 or xd.shape != (m,) or (has_grad and grad.shape != (n,)):
         _raise_shape(J, xd, grad, has_grad)
-    k, rc = as_scalar(k_null, "k_null"), be.as_rcond(rcond)
+    k, rc = as_scalar(k_null, "k_null"), eng.as_rcond(rcond)
     mode, lam, lam_max, eps = be.parse_damping(damping)
     wmode, wdiag, wfull = wt.parse_weights(weights, n, "weights")
     labels = _LABELS if weights is None else _WEIGHTED_LABELS
@@ -213,7 +214,7 @@ def _numpy_step(
     wdiag: FloatArray,
     wfull: FloatArray,
     spec: tuple[int, float, float, float, float],
-) -> tuple[FloatArray, FloatArray, be.Stats]:
+) -> tuple[FloatArray, FloatArray, eng.Stats]:
     """Reference implementation of the step (any size), same conventions as the kernel:
     ``(qd, null_term, stats)``."""
     for arr, name in ((J, "J"), (xd, "xd"), (grad, "grad")):
@@ -222,7 +223,7 @@ def _numpy_step(
     check_rate(xd)
     mode, lam, lam_max, eps, rcond = spec
     factor = wt.weight_factor(wmode, wdiag, wfull, "weights")
-    filt = be.Filtered(wt.weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
+    filt = eng.Filtered(wt.weigh(J, wmode, factor), mode, lam, lam_max, eps, rcond)
     task = filt.apply(xd)
     null = np.zeros_like(task)
     if grad.size:

@@ -6,8 +6,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar, as_vector
-from ..errors import InvalidParameterError, ShapeError
+from .._validate import FloatArray, as_gains, as_vector
+from ..errors import ShapeError
 from .base import Objective
 
 if TYPE_CHECKING:
@@ -31,13 +31,7 @@ class PostureObjective(Objective):
     def __init__(self, q_ref: Any = None, weights: Any = 1.0) -> None:
         """The arguments are described in ``help(PostureObjective)``."""
         self.q_ref = None if q_ref is None else as_vector(q_ref, "q_ref")
-        self.weights: float | FloatArray
-        if np.ndim(weights) == 0:
-            self.weights = as_scalar(weights, "weights", minimum=0.0)
-        else:
-            self.weights = as_vector(weights, "weights")
-            if np.any(self.weights < 0):
-                raise InvalidParameterError(f"weights must be >= 0; got {self.weights}")
+        self.weights: float | FloatArray = as_gains(weights, "weights")
 
     def _q_ref(self, robot: Robot) -> FloatArray:
         q_ref = robot.neutral() if self.q_ref is None else self.q_ref

@@ -119,8 +119,8 @@ def _build(
     max_points: int,
 ) -> None:
     """Write every file of the report into ``staging``."""
-    from .. import __version__
-    from ..runner import summarise
+    from .._version import __version__
+    from ..scenarios.runner import summarise
 
     colours = plots.palette([plots.run_name(log) for _, log, _ in pairs])
     robot_plots = _write_plots(staging, pairs, colours, max_points)
@@ -258,7 +258,7 @@ def write_report(
         title: page title.
         description: plain-text introduction (blank lines separate paragraphs).
         table: summary rows for the comparison table (``RunLog.summary()`` dicts; default:
-            :func:`redres.runner.summarise` of each run).
+            :func:`redres.scenarios.runner.summarise` of each run).
         frames: animation frames per run in the 3D view (≥ 2).
         max_points: at most this many samples per plotted curve (≥ 4).
 

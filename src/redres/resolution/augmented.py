@@ -26,7 +26,7 @@ from .base import Inverse, Scheme, StepResult, make_inverse
 DEFAULT_MAX_DAMPING = 0.05
 
 if TYPE_CHECKING:
-    from ..registry import ScenarioParams
+    from .._toml import ScenarioParams
     from ..robot import Robot
 
 

@@ -10,7 +10,6 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
-from .. import _jit
 from .._validate import FloatArray, as_scalar
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import RCOND, AdaptiveDamping, InverseInfo
@@ -197,7 +196,7 @@ class Scheme(ABC):
     #: Tasks the scheme evaluates itself at ``q`` (empty: none); reset with the scheme.
     tasks: tuple[Task, ...] = ()
     #: The ``type`` names of the scheme in scenario files (empty: its :attr:`name`); the
-    #: class builds itself from a scenario table with ``from_scenario`` (redres.registry).
+    #: class builds itself from a scenario table with ``from_scenario`` (redres.scenarios.registry).
     scenario_types: tuple[str, ...] = ()
 
     def step(self, robot: Robot, q: Any, J: Any, xd: Any) -> StepResult:
@@ -262,10 +261,10 @@ def step_arrays(q: Any, J: Any, xd: Any, n: int) -> tuple[FloatArray, FloatArray
         )
     lane = _finite_lane[0]
     # (not the one to start compiling linalg behind: a hard-limit loop wants its own first)
-    if lane is None and _jit.ready(be._LINALG, start=False):
+    if lane is None and be.KERNELS.ready(start=False):
         warm = (np.zeros(1), np.zeros((1, 1)), np.zeros(1))
         lane = _finite_lane[0] = (
-            be.kernels() and be.entry(be._LINALG, "finite_inputs", warm)
+            be.kernels() and be.entry(be.KERNELS, "finite_inputs", warm)
         ) or False
     if lane:  # one compiled pass over the three
         bad = lane(q, J, xd)  # type: ignore[operator]

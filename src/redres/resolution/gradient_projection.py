@@ -20,7 +20,7 @@ from ..objectives import Objective
 from .base import Inverse, Scheme, StepResult, make_inverse
 
 if TYPE_CHECKING:
-    from ..registry import ScenarioParams
+    from .._toml import ScenarioParams
     from ..robot import Robot
 
 WeightedObjective = Objective | tuple[Objective, float]

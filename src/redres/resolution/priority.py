@@ -81,7 +81,7 @@ from ..tasks import Task, stack
 from .base import Inverse, Scheme, StepResult, make_inverse
 
 if TYPE_CHECKING:
-    from ..registry import ScenarioParams
+    from .._toml import ScenarioParams
     from ..robot import Robot
 
 PriorityMethod = Literal["exact", "robust", "damped"]

@@ -16,7 +16,7 @@ from ..linalg import AdaptiveDamping, rate_step
 from .base import Inverse, Scheme, StepResult, make_inverse
 
 if TYPE_CHECKING:
-    from ..registry import ScenarioParams
+    from .._toml import ScenarioParams
     from ..robot import Robot
 
 

@@ -30,7 +30,7 @@ from .base import Inverse, Scheme, StepResult, make_inverse
 from .gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 
 if TYPE_CHECKING:
-    from ..registry import ScenarioParams
+    from .._toml import ScenarioParams
     from ..robot import Robot
 
 _MAX_WEIGHT = 1e12

@@ -1,4 +1,4 @@
-"""Compiled kinematics of a serial chain (internal), through :mod:`redres._jit`.
+"""Compiled kinematics of a serial chain (internal), through :mod:`redres._compile`.
 
 The chain is the arrays :class:`redres.robot.chain.SerialChain` extracts once from a
 Pinocchio model, for ``k`` joints from the base to a frame:
@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 
-from .._jit import kernel
+from .._compile import kernel
 from ._chain_codes import PRISMATIC, REVOLUTE, REVOLUTE_X, REVOLUTE_Y, REVOLUTE_Z
 
 __all__ = ["PRISMATIC", "REVOLUTE", "REVOLUTE_X", "REVOLUTE_Y", "REVOLUTE_Z"]

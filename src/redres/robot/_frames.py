@@ -1,13 +1,18 @@
-"""Operational frames on a Pinocchio model (internal): the one place frames are added."""
+"""Frames (internal): the one place operational frames are added to a Pinocchio model,
+and the axes a Jacobian is expressed in (:data:`Reference`)."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import pinocchio as pin
 
 from .._validate import as_transform
 from ..errors import FrameNotFoundError, InvalidParameterError
+
+#: A Jacobian's axes: world-aligned (``"world"``, Pinocchio's LOCAL_WORLD_ALIGNED) or the
+#: frame's own (``"local"``).
+Reference = Literal["world", "local"]
 
 
 def add_frame(model: pin.Model, name: str, parent: str, T_parent_frame: Any) -> int:

@@ -9,14 +9,20 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 
 from .._validate import FloatArray, as_scalar
 
-if TYPE_CHECKING:
-    from .robot import Robot
+
+class Posed(Protocol):
+    """What the capsule builders read of a :class:`~redres.robot.Robot`: its neutral
+    configuration and frame poses (a protocol: the robot module imports this one)."""
+
+    def neutral(self) -> FloatArray: ...
+
+    def fk(self, q: Any, frame: str | None = None) -> FloatArray: ...
 
 
 @dataclass(frozen=True)
@@ -38,7 +44,7 @@ class Capsule:
 
 
 def capsule_between(
-    robot: Robot, frame: str, start: str, end: str, radius: float, *, name: str = ""
+    robot: Posed, frame: str, start: str, end: str, radius: float, *, name: str = ""
 ) -> Capsule:
     """A capsule fixed to ``frame`` from the origin of frame ``start`` to that of ``end``.
 
@@ -54,7 +60,7 @@ def capsule_between(
 
 
 def capsule_chain(
-    robot: Robot,
+    robot: Posed,
     points: Sequence[str],
     links: Sequence[str],
     radii: Sequence[float],

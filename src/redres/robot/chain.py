@@ -29,8 +29,9 @@ from typing import Any, Literal
 
 import numpy as np
 import pinocchio as pin
+from numpy.typing import NDArray
 
-from .. import _jit
+from .. import _compile
 from .._validate import FloatArray, as_transform, as_vector
 from ..errors import (
     InvalidParameterError,
@@ -40,11 +41,12 @@ from ..errors import (
     ShapeError,
 )
 from . import _chain_codes
-from .robot import Reference
+from ._frames import Reference
 
 __all__ = ["ChainPoseError", "NotSerialChainError", "SerialChain"]
 
-_MODULE = "redres.robot._chain_kernels"
+#: The serial-chain kernels (pose, Jacobians, pose error, log3). Cold: 4.5 s.
+KERNELS = _compile.KernelGroup("chain", ("redres.robot._chain_kernels",), cold_seconds=4.5)
 
 # Pinocchio joint kind -> name of its kind code in the kernel module
 _JOINT_KINDS: dict[str, str] = {
@@ -146,6 +148,11 @@ class SerialChain:
         kinds. The leading arguments of every kernel of
         :mod:`redres.robot._chain_kernels` (read-only, C-contiguous)."""
         return self._arrays
+
+    @property
+    def prismatic(self) -> NDArray[np.bool_]:
+        """``(k,)``: which joints of the chain are prismatic (the rest are revolute)."""
+        return self._arrays[2] == _chain_codes.PRISMATIC
 
     @staticmethod
     def kernel(name: Literal["fk", "jacobian", "pose_error", "log3"]) -> Any:
@@ -323,7 +330,7 @@ def _kind_codes() -> dict[str, int]:
 
 
 def _module() -> Any:
-    module = _jit.load(_MODULE)
+    module = KERNELS.module()
     if module is None:
         raise MissingDependencyError(
             "compiled chain kinematics need numba, which cannot be imported; install numba "
@@ -341,7 +348,7 @@ def _entry(name: str) -> Any:
     entry = _ENTRIES.get(name)
     if entry is None:
         module = _module()
-        if not _jit.is_compiled(module):  # its plain twin while it compiles behind: not
+        if not _compile.is_compiled(module):  # its plain twin while it compiles behind: not
             return getattr(module, name)  # kept, so the compiled kernel takes over when ready
         chain = (np.zeros((2, 3, 4)), np.eye(3)[2:], np.array([2], dtype=np.int64))
         for array in chain:  # the types of SerialChain.arrays, read-only
@@ -353,7 +360,7 @@ def _entry(name: str) -> Any:
             "pose_error": (*chain, q, np.eye(4), T, J, e),
             "log3": (np.eye(3), np.zeros(3)),
         }[name]
-        entry = _ENTRIES[name] = _jit.entry_point(getattr(module, name), warm)
+        entry = _ENTRIES[name] = _compile.entry_point(getattr(module, name), warm)
     return entry
 
 

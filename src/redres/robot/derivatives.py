@@ -6,7 +6,7 @@ Bruyninckx and De Schutter; also the form Pinocchio's kinematic Hessian takes)::
     ∂Jᵥ,ⱼ/∂qᵢ = zᵢ × Jᵥ,ⱼ  (i < j),    zⱼ × Jᵥ,ᵢ  (i ≥ j)
     ∂J_ω,ⱼ/∂qᵢ = zᵢ × zⱼ   (i < j),    0          (i ≥ j)
 
-One compiled kernel (:mod:`redres.robot._kernels`) computes them; the NumPy form below is
+One compiled kernel (:mod:`redres.robot._derivative_kernels`) computes them; the NumPy form below is
 the path without kernels and the tests' second opinion (``tests/robot`` checks both
 against finite differences of Pinocchio's Jacobian).
 """
@@ -17,10 +17,13 @@ from typing import Any
 
 import numpy as np
 
-from .. import _jit
+from .. import _compile
 from .._validate import FloatArray
 
-_MODULE = "redres.robot._kernels"
+#: The derivative kernel; routed with linalg's (:func:`redres.linalg._backend.routed`).
+KERNELS = _compile.KernelGroup(
+    "derivatives", ("redres.robot._derivative_kernels",), cold_seconds=1.0
+)
 _KERNEL: list[Any] = [None]
 
 
@@ -50,11 +53,11 @@ def _kernel() -> Any:
     """The compiled kernel's entry point, None without the kernels (or when switched off)."""
     from ..linalg import _backend
 
-    if _backend.kernels() is None or not _jit.ready(_MODULE):
+    if _backend.kernels() is None or not KERNELS.ready():
         return None
     if _KERNEL[0] is None:
         warm = (np.zeros((6, 1)), np.zeros((1, 6, 1)))
-        _KERNEL[0] = _backend.entry(_MODULE, "revolute_jacobian_derivatives", warm)
+        _KERNEL[0] = _backend.entry(KERNELS, "revolute_jacobian_derivatives", warm)
     return _KERNEL[0]
 
 

@@ -29,10 +29,9 @@ from .._validate import FloatArray, unknown_keyword
 from ..errors import InvalidParameterError, ShapeError
 
 if TYPE_CHECKING:
-    from typing import Unpack  # Python 3.11; only read by type checkers
+    from typing import Self, Unpack  # Python 3.11; only read by type checkers
 
     from .meshes import LinkMesh
-    from .robot import Robot
     from .urdf import LoadedModel
 
 from .urdf import ModelSource
@@ -120,21 +119,19 @@ class RobotFiles:
     @classmethod
     def _from_loaded(
         cls, loaded: LoadedModel, name: str | None, capsules: bool, where: _VisualSource
-    ) -> Robot:
+    ) -> Self:
         from . import fitting
 
         model = loaded.model
         home = file_neutral(model, loaded.reference)
-        robot: Robot = cls(model, tip=loaded.tip, name=name or str(model.name), home=home)  # type: ignore[call-arg, assignment]
+        robot: Any = cls(model, tip=loaded.tip, name=name or str(model.name), home=home)  # type: ignore[call-arg]
         if capsules and loaded.collision is not None:
             robot.capsules = fitting.link_capsules(model, loaded.collision)
         robot.__dict__["_visual_source"] = where
         return robot
 
     @classmethod
-    def _load(
-        cls, source: ModelSource, tip: str | None, options: LoadOptions, loader: str
-    ) -> Robot:
+    def _load(cls, source: ModelSource, tip: str | None, options: LoadOptions, loader: str) -> Self:
         from .urdf import load_model
 
         unknown = set(options) - set(LoadOptions.__annotations__)
@@ -158,7 +155,7 @@ class RobotFiles:
         path: str | Path,
         tip: str | None = None,
         **options: Unpack[LoadOptions],
-    ) -> Robot:
+    ) -> Self:
         """Load a robot from a URDF file, keeping only the base-to-``tip`` chain.
 
         Joints off that chain (gripper fingers, a second arm) are locked at the value given
@@ -191,7 +188,7 @@ class RobotFiles:
         *,
         mesh_dir: str | Path | None = None,
         **options: Unpack[LoadOptions],
-    ) -> Robot:
+    ) -> Self:
         """:meth:`from_urdf` on URDF text (e.g. the output of xacro or a ROS parameter).
 
         Args:
@@ -213,7 +210,7 @@ class RobotFiles:
         path: str | Path,
         tip: str | None = None,
         **options: Unpack[LoadOptions],
-    ) -> Robot:
+    ) -> Self:
         """Load a robot from an MJCF file (MuJoCo's format; the MuJoCo Menagerie's models)
         through Pinocchio's MJCF parser, with the tip and locking rules of
         :meth:`from_urdf`. A keyframe named ``home`` becomes :meth:`neutral`.
@@ -236,7 +233,7 @@ class RobotFiles:
         qdd_max: float | Sequence[float] | FloatArray | None = None,
         tau_max: float | Sequence[float] | FloatArray | None = None,
         name: str | None = None,
-    ) -> Robot:
+    ) -> Self:
         """The same robot under tighter limits: a new :class:`Robot` (this one is
         unchanged) whose ``qd_max``, ``qdd_max`` or ``tau_max`` are the given values
         (a number for every joint, or shape ``(n,)``; rad/s, rad/s², N·m). Every scheme,
@@ -248,7 +245,7 @@ class RobotFiles:
                 file).
             ShapeError: a vector of the wrong length.
         """
-        robot: Robot = self  # type: ignore[assignment]
+        robot: Any = self  # a Robot: this class is its mixin (robot.py imports this module)
         n = robot.n
         model = pin.Model(robot.model)
         if qd_max is not None:
@@ -260,7 +257,7 @@ class RobotFiles:
         acc = robot.qdd_max
         if qdd_max is not None:
             acc = _positive_limits(qdd_max, n, "qdd_max", acc)
-        out: Robot = type(robot)(model, tip=robot.tip, name=name or robot.name,
+        out: Any = type(robot)(model, tip=robot.tip, name=name or robot.name,
                                  home=robot.neutral(), qdd_max=acc)  # fmt: skip
         out.capsules = list(robot.capsules)
         for key in ("_visual_source", "_visuals"):  # the same meshes, read once

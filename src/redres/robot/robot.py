@@ -17,7 +17,7 @@ import pinocchio as pin
 
 from .._validate import FloatArray, as_rng, as_scalar, as_vector, real_array
 from ..errors import FrameNotFoundError, InvalidParameterError, JointLimitError, ShapeError
-from ._frames import add_frame
+from ._frames import Reference, add_frame
 from .derivatives import revolute_jacobian_derivatives
 from .files import RobotFiles
 
@@ -26,7 +26,6 @@ if TYPE_CHECKING:
     from .chain import SerialChain
     from .dh import DHLink
 
-Reference = Literal["world", "local"]
 
 _REFERENCE = {"world": pin.LOCAL_WORLD_ALIGNED, "local": pin.LOCAL}
 

@@ -16,13 +16,14 @@ the engine.
 
 from __future__ import annotations
 
-from .capability import CapabilityMap, load_map
 from .engine import SweepReport, run
 from .folder import SweepFolderError
+from .kind import SweepSpec, SweepSpecError
 from .kinds import KINDS  # noqa: F401 - importable, documented in redres.sweeps.kinds
-from .redundancy import RedundancyMap, load_redundancy_map
+from .kinds.capability import CapabilityMap, load_map
+from .kinds.redundancy import RedundancyMap, load_redundancy_map
 from .results import SweepData, load
-from .spec import SweepSpec, SweepSpecError, builtin_specs, load_spec, parse_spec
+from .spec import builtin_specs, load_spec, parse_spec
 
 __all__ = [
     "CapabilityMap",

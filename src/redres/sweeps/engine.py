@@ -52,8 +52,8 @@ from .folder import (
     versions,
     write_json,
 )
-from .kind import Plan, ShardJob
-from .spec import SweepSpec, load_spec
+from .kind import Plan, ShardJob, SweepSpec
+from .spec import load_spec
 from .store import Storage, Store, checksum, open_store, zarr_available
 
 __all__ = ["SweepReport", "execute", "run"]
@@ -339,13 +339,9 @@ def _one_thread(job: ShardJob) -> ShardJob:
 def _warm(groups: tuple[str, ...], quiet: bool | None = None) -> None:
     """Compile (or load) the kernels of the warm-up ``groups`` on this process's path,
     saying so on standard error when a group is not cached yet."""
-    from .. import _jit
-    from .._warmup import GROUPS, warmup
+    from .. import _compile
 
-    if not _jit.enabled():
-        return
-    cold = not all(_jit.cached(m) for g in groups for m in GROUPS[g][0])
-    warmup(list(groups), quiet=not cold if quiet is None else quiet, jobs=1)
+    _compile.warm(groups, quiet=quiet)
 
 
 @contextmanager

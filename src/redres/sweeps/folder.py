@@ -47,7 +47,7 @@ def versions() -> dict[str, str]:
     numpy (the generators' streams)."""
     from importlib.metadata import PackageNotFoundError, version
 
-    from .. import __version__
+    from .._version import __version__
 
     out = {"redres": __version__}
     for name in ("pin", "numba", "numpy"):

@@ -1,4 +1,5 @@
-"""What a sweep kind is: its parameters, its plan, and the work of one shard.
+"""What a sweep kind is: its parameters, its plan, and the work of one shard; and the
+validated spec a kind plans from (:class:`SweepSpec`, read by :mod:`redres.sweeps.spec`).
 
 A kind (:data:`redres.sweeps.kinds.KINDS`) turns a spec into a :class:`Plan` in the
 process that runs the sweep (deterministic: the same spec gives the same plan), and
@@ -13,6 +14,8 @@ dataset, a candidate base), each of ``queries_per_unit`` queries; a shard is
 
 from __future__ import annotations
 
+import hashlib
+import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,12 +23,63 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..errors import RedresError
+
 if TYPE_CHECKING:
+    from .._toml import Reader
     from ..robot import Robot
     from .source import RobotSource
-    from .spec import Reader, SweepSpec
 
-__all__ = ["Field", "Kind", "Plan", "ShardJob"]
+__all__ = ["Field", "Kind", "Plan", "ShardJob", "SweepSpec", "SweepSpecError"]
+
+
+class SweepSpecError(RedresError, ValueError):
+    """A sweep spec is unreadable or invalid (one line: the file, the key, the fix)."""
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """A validated sweep spec.
+
+    Attributes:
+        kind: the sweep kind (:data:`redres.sweeps.kinds.KINDS`).
+        name, description: for people.
+        seed: the seed of every shard's generator, ``default_rng([seed, k])``.
+        shard_size: queries per shard (a kind rounds it to whole units, e.g. voxels).
+        robot: the robot, as built-in name or URDF text.
+        solver: the IK settings (:data:`redres.sweeps.spec.SOLVER_KEYS`), passed to
+            :func:`redres.batch.ik`.
+        params: the kind's parameters (a frozen dataclass of the kind).
+        file: the spec's file name (for messages), ``base`` its folder.
+    """
+
+    kind: str
+    name: str
+    description: str
+    seed: int
+    shard_size: int
+    robot: RobotSource
+    solver: dict[str, float | int]
+    params: Any
+    file: str = "<spec>"
+    base: Path = field(default=Path(), compare=False)
+
+    def settings(self) -> dict[str, Any]:
+        """Everything that decides the results, as plain JSON values (the manifest's
+        ``settings``; a sweep resumes only under the same settings)."""
+        from dataclasses import asdict
+
+        params = self.params.settings() if hasattr(self.params, "settings") else asdict(self.params)
+        settings = {
+            "kind": self.kind, "seed": self.seed, "shard_size": self.shard_size,
+            "robot": self.robot.identity(), "solver": dict(self.solver), self.kind: params,
+        }  # fmt: skip
+        return json.loads(json.dumps(settings))  # tuples as lists, as the header reads back
+
+    def digest(self) -> str:
+        """SHA-256 of :meth:`settings` (canonical JSON)."""
+        text = json.dumps(self.settings(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
 
 
 @dataclass(frozen=True)

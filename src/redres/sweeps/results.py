@@ -2,7 +2,7 @@
 
 Works on a finished sweep and on one still running or interrupted (``done`` says which;
 the units of unfinished shards read as zeros), in either store. The kinds add typed
-views on top (:func:`redres.sweeps.capability.load_map`, ...).
+views on top (:func:`redres.sweeps.kinds.capability.load_map`, ...).
 """
 
 from __future__ import annotations

@@ -23,8 +23,8 @@ import numpy as np
 from ..errors import describe_os_error, shown_path
 
 if TYPE_CHECKING:
+    from .._toml import Reader
     from ..robot import Robot
-    from .spec import Reader
 
 __all__ = ["RobotSource", "model_digest"]
 

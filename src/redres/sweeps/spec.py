@@ -3,7 +3,7 @@
 A spec is read with :mod:`tomllib` only; nothing in it is executed (no code, no pickle,
 no paths run). Every problem is one :class:`SweepSpecError` line naming the file and the
 key (``panda.toml: [capability].resolution: must be > 0; got -0.05``), through the same
-typed reader as scenario files (:mod:`redres.scenario`).
+typed reader as scenario files (:mod:`redres.scenarios.spec`).
 
 Layout::
 
@@ -25,21 +25,14 @@ Layout::
 
 from __future__ import annotations
 
-import hashlib
-import json
-import sys
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import RedresError, describe_os_error, shown_path
-from ..scenario import ScenarioError, _Reader
+from .._toml import Reader, tomllib
+from ..errors import describe_os_error, shown_path
+from ..scenarios.spec import ScenarioError
+from .kind import SweepSpec, SweepSpecError
 from .source import RobotSource
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 __all__ = [
     "MIN_SHARD",
@@ -64,103 +57,6 @@ SOLVER_KEYS: dict[str, tuple[str, float]] = {
     "patience": ("count", 8),
     "max_restarts": ("integer", 2),
 }
-
-
-class SweepSpecError(RedresError, ValueError):
-    """A sweep spec is unreadable or invalid (one line: the file, the key, the fix)."""
-
-
-class Reader(_Reader):
-    """Typed access to one table of a spec (the scenario reader, plus integers and
-    booleans); its errors are :class:`~redres.scenario.ScenarioError`, turned into
-    :class:`SweepSpecError` by :func:`parse_spec`."""
-
-    def fail(self, key: str | None, message: str) -> ScenarioError:
-        if self.path or key is None:
-            return super().fail(key, message)
-        return ScenarioError(f"{self.file}: {key}: {message}")  # a top-level key
-
-    def integer(self, key: str, default: Any = ..., minimum: int | None = None) -> int:
-        value = self.number(key, default)
-        if not float(value).is_integer():
-            raise self.fail(key, f"expected an integer, got {self.table[key]!r}")
-        if minimum is not None and value < minimum:
-            raise self.fail(key, f"must be >= {minimum}; got {int(value)}")
-        return int(value)
-
-    def boolean(self, key: str, default: bool) -> bool:
-        self.used.add(key)
-        value = self.table.get(key, default)
-        if not isinstance(value, bool):
-            raise self.fail(key, f"expected true or false, got {value!r}")
-        return value
-
-    def sub(self, key: str) -> Reader:
-        """The reader of the sub-table ``[key]`` (empty when absent)."""
-        self.used.add(key)
-        return Reader(self.table.get(key, {}), f"[{key}]", self.file)
-
-    def bounds(self, key: str) -> list[list[float]] | None:
-        """``[[x_min, x_max], [y_min, y_max], [z_min, z_max]]`` (m), or None if absent."""
-        self.used.add(key)
-        value = self.table.get(key)
-        if value is None:
-            return None
-        ok = isinstance(value, list) and len(value) == 3 and all(
-            isinstance(v, list) and len(v) == 2
-            and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
-            for v in value
-        )  # fmt: skip
-        if not ok:
-            raise self.fail(key, "expected [[x_min, x_max], [y_min, y_max], [z_min, z_max]] (m)")
-        out = [[self._float(key, x) for x in v] for v in value]
-        if any(lo >= hi for lo, hi in out):
-            raise self.fail(key, "each range must have min < max")
-        return out
-
-
-@dataclass(frozen=True)
-class SweepSpec:
-    """A validated sweep spec.
-
-    Attributes:
-        kind: the sweep kind (:data:`redres.sweeps.kinds.KINDS`).
-        name, description: for people.
-        seed: the seed of every shard's generator, ``default_rng([seed, k])``.
-        shard_size: queries per shard (a kind rounds it to whole units, e.g. voxels).
-        robot: the robot, as built-in name or URDF text.
-        solver: the IK settings (:data:`SOLVER_KEYS`), passed to :func:`redres.batch.ik`.
-        params: the kind's parameters (a frozen dataclass of the kind).
-        file: the spec's file name (for messages), ``base`` its folder.
-    """
-
-    kind: str
-    name: str
-    description: str
-    seed: int
-    shard_size: int
-    robot: RobotSource
-    solver: dict[str, float | int]
-    params: Any
-    file: str = "<spec>"
-    base: Path = field(default=Path(), compare=False)
-
-    def settings(self) -> dict[str, Any]:
-        """Everything that decides the results, as plain JSON values (the manifest's
-        ``settings``; a sweep resumes only under the same settings)."""
-        from dataclasses import asdict
-
-        params = self.params.settings() if hasattr(self.params, "settings") else asdict(self.params)
-        settings = {
-            "kind": self.kind, "seed": self.seed, "shard_size": self.shard_size,
-            "robot": self.robot.identity(), "solver": dict(self.solver), self.kind: params,
-        }  # fmt: skip
-        return json.loads(json.dumps(settings))  # tuples as lists, as the header reads back
-
-    def digest(self) -> str:
-        """SHA-256 of :meth:`settings` (canonical JSON)."""
-        text = json.dumps(self.settings(), sort_keys=True, separators=(",", ":"))
-        return hashlib.sha256(text.encode()).hexdigest()
 
 
 def load_spec(path: str | Path) -> SweepSpec:
@@ -199,7 +95,7 @@ def parse_spec(data: dict[str, Any], file: str = "<spec>", base: Path = Path()) 
 def _parse(data: dict[str, Any], file: str, base: Path) -> SweepSpec:
     from .kinds import KINDS
 
-    top = Reader(data, "", file)
+    top = Reader(data, "", file, SweepSpecError)
     kind = top.string("kind")
     if kind not in KINDS:
         raise top.fail("kind", f"unknown sweep kind {kind!r}; kinds: {', '.join(KINDS)}")

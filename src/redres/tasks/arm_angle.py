@@ -16,7 +16,7 @@ points, so their gradients are exact and cheap, and
 ``J_φ = ∂φ/∂w (J_w − J_s) + ∂φ/∂e (J_e − J_s)``.
 
 :func:`arm_angles` is this formula on arrays, for many configurations at once (the
-sweeps' redundancy maps, through :meth:`ArmAngleTask.values`, and
+sweeps' redundancy maps, through :func:`arm_angles` of batch poses, and
 :meth:`ArmAngleTask.value` for one); :func:`arm_angle_from_points` evaluates it on one
 configuration's scalars with its gradients, for the control step, where NumPy's
 per-call overhead on 3-vectors would dominate.
@@ -227,18 +227,11 @@ class ArmAngleTask(Task):
         points = [robot.fk(q, f)[:3, 3] for f in (self.shoulder, self.elbow, self.wrist)]
         return float(arm_angles(points[0], points[1], points[2], self.reference))
 
-    def values(self, robot: Robot, q: FloatArray, *, threads: int | None = None) -> FloatArray:
-        """The arm angles of configurations ``q`` ``(N, n)`` (rad), ``(N,)``, rad: the
-        frames' origins by :func:`redres.batch.fk` (serial chains), then :func:`arm_angles`.
-
-        Args:
-            threads: threads of the batch kinematics (``None``: all).
-        """
-        from .. import batch
-
-        s, e, w = (batch.fk(robot, q, f, threads=threads)[:, :3, 3]
-                   for f in (self.shoulder, self.elbow, self.wrist))  # fmt: skip
-        return arm_angles(s, e, w, self.reference)
+    def values(self, robot: Robot, q: FloatArray) -> FloatArray:
+        """The arm angles of configurations ``q`` ``(N, n)`` (rad), ``(N,)``, rad:
+        :meth:`value` of each row. For many rows on all cores, give :func:`arm_angles`
+        the frames' origins from :func:`redres.batch.fk` (as the self-motion sweeps do)."""
+        return np.array([self.value(robot, qi) for qi in np.asarray(q, dtype=np.float64)])
 
     def compute(self, robot: Robot, q: FloatArray) -> TaskState:
         angle, row = self.evaluate(robot, q)

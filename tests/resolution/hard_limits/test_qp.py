@@ -24,7 +24,7 @@ from redres.resolution import (
     run_violation,
     step_violation,
 )
-from redres.scenario import builtin
+from redres.scenarios.spec import builtin
 from redres.tasks import PostureTask
 from redres.testing import random_limit_states, step_from_states
 

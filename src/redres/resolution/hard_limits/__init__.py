@@ -7,7 +7,7 @@
 * :mod:`.qp` — :class:`QPScheme`, a sequence of QPs (DAQP or any qpsolvers backend).
 
 Both schemes share :class:`~.base.BoxScheme` (period, limits, previous velocity) and run
-one compiled kernel per step (:mod:`._kernels`, through :mod:`redres._jit`).
+one compiled kernel per step (:mod:`._kernels`, through :mod:`redres._compile`).
 """
 
 from ._codes import BOUND_KINDS, RELAXED_ACCELERATION, RELAXED_POSITION

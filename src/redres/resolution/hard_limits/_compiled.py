@@ -1,25 +1,33 @@
-"""The hard-limit kernel modules, loaded through :mod:`redres._jit` on first use (internal)."""
+"""The hard-limit schemes' kernel group (internal): the step (:mod:`._kernels`), the linear
+program (:mod:`._lp_kernels`) and the QP's own kernels (:mod:`._qp_kernels`)."""
 
 from __future__ import annotations
 
 from types import ModuleType
 
-from ... import _jit
+from ... import _compile
 from ...errors import MissingDependencyError
 
-_PACKAGE = "redres.resolution.hard_limits."
+#: Cold: a first SNS step 16-18 s (with the linear program); the QP's own kernels 4 s more.
+KERNELS = _compile.KernelGroup(
+    "hard limits",
+    ("redres.resolution.hard_limits._kernels", "redres.resolution.hard_limits._lp_kernels",
+     "redres.resolution.hard_limits._qp_kernels"),
+    cold_seconds=17.0,
+    others={"redres.resolution.hard_limits._qp_kernels": 4.0},
+)  # fmt: skip
 
 
 def kernels(name: str = "_kernels", *, plain: bool = False) -> ModuleType:
-    """Kernel module ``name`` of this package (``_kernels``, ``_lp_kernels``, ``_qp_kernels``):
-    compiled, or its plain-Python twin while it compiles behind (:func:`redres._jit.load`);
-    ``plain``: the twin in any case (a scheme whose other module is still compiling).
+    """Kernel module ``name`` of the group (``_kernels``, ``_lp_kernels``, ``_qp_kernels``):
+    compiled, or its plain-Python twin while it compiles behind; ``plain``: the twin in
+    any case (a scheme whose other module is still compiling).
 
     Raises:
         MissingDependencyError: numba cannot be imported (the hard-limit schemes have no
             NumPy path; ``REDRES_DISABLE_JIT=1`` runs their kernels as plain Python).
     """
-    module = _jit.load(_PACKAGE + name, plain=plain)
+    module = KERNELS.module(name, plain=plain)
     if module is None:
         raise MissingDependencyError(
             "the hard-limit schemes need numba (a dependency of redres), which cannot be "
@@ -31,4 +39,6 @@ def kernels(name: str = "_kernels", *, plain: bool = False) -> ModuleType:
 def pending(*names: str) -> tuple[str, ...]:
     """Those of the kernel modules ``names`` that are still compiling behind: a scheme
     that prepared its entry points on their plain twins prepares again once none is."""
-    return tuple(_PACKAGE + n for n in names if not _jit.is_compiled(kernels(n)) and _jit.enabled())
+    if not _compile.enabled():
+        return ()
+    return tuple(n for n in names if not _compile.is_compiled(kernels(n)))

@@ -1,7 +1,7 @@
 """Compiled kernels of the hard-limit schemes (internal): the velocity box, saturation in
 the null space and the step's prologue and epilogue shared by SNS and the QP.
 
-Plain Python written for numba and compiled through :mod:`redres._jit` (load this module
+Plain Python written for numba and compiled through :mod:`redres._compile` (load this module
 with ``_jit.load``); the linear program is in :mod:`._lp_kernels`, the QP's own kernels in
 :mod:`._qp_kernels`. Formulas: :mod:`.box` (the box), :mod:`.sns` (Algorithm 1 and 2 of
 Flacco, De Luca, Khatib 2015). Status codes are :mod:`redres.linalg._codes` (0 = OK).
@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from ..._jit import kernel
+from ..._compile import kernel
 from ...linalg._codes import GRAD_NONFINITE, J_NONFINITE, OK, Q_NONFINITE, XD_NONFINITE
 from ...linalg._dense_kernels import _cholesky, _cholesky_solve, _copy, _finite_1d, _finite_2d
 from ._codes import (

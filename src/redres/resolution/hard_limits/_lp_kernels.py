@@ -1,6 +1,6 @@
 """Compiled linear program of the hard-limit schemes (internal): the largest task scale of
 :mod:`.lp` (formula and references there), in two phases or from a feasible vertex (the
-greedy SNS solution). Plain Python written for numba, compiled through :mod:`redres._jit`.
+greedy SNS solution). Plain Python written for numba, compiled through :mod:`redres._compile`.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from ..._jit import kernel
+from ..._compile import kernel
 from ._codes import FAILED, ITERATION_LIMIT, LP_SCALED, NEAREST, OPTIMAL, SINGULAR_BASIS
 
 _CAP = 1e6  # stands in for an infinite velocity bound inside the simplex, rad/s

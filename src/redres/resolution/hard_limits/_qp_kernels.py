@@ -1,7 +1,7 @@
 """Compiled kernels of the QP scheme (internal): its box prologue, the least-violating
 QP's normal equations and the Farkas test that skips an exact QP known to be infeasible.
 
-Plain Python written for numba, compiled through :mod:`redres._jit`; the box and the
+Plain Python written for numba, compiled through :mod:`redres._compile`; the box and the
 step's prologue and epilogue are those of :mod:`._kernels` (shared with SNS). Formulas:
 :mod:`.qp`. Status codes are :mod:`redres.linalg._codes` (0 = OK).
 """
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..._jit import kernel
+from ..._compile import kernel
 from ...linalg._codes import OK
 from ._kernels import epilogue, min_norm, prologue, solved
 

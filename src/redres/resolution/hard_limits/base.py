@@ -16,17 +16,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ... import _jit
 from ..._validate import FloatArray, as_scalar, real_array
 from ...linalg import RCOND, InverseInfo
-from ...linalg._backend import invert
+from ...linalg._engine import invert
 from ..base import Scheme, StepResult
 from ..gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 from ._codes import MET_ROUNDING, MET_TOLERANCE
+from ._compiled import KERNELS
 from .box import Binding, JointLimits, binding_bounds
 
 if TYPE_CHECKING:
-    from ...registry import ScenarioParams
+    from ..._toml import ScenarioParams
     from ...robot import Robot
 
 #: Argument names for :func:`~redres.linalg._status.raise_status` other than its own.
@@ -125,7 +125,7 @@ class BoxScheme(Scheme):
         self._robot: Any = None
         self._ws: Any = None
         #: Kernel modules the entry points were prepared on as plain Python (compiling
-        #: behind, :mod:`redres._jit`); prepared again, compiled, once they are ready.
+        #: behind, :mod:`redres._compile`); prepared again, compiled, once they are ready.
         self._pending: tuple[str, ...] = ()
 
     @classmethod
@@ -158,7 +158,7 @@ class BoxScheme(Scheme):
         if (
             robot is not self._robot
             or self._ws.key[1] != xd.shape[0]
-            or (self._pending and all(map(_jit.ready, self._pending)))
+            or (self._pending and all(map(KERNELS.ready, self._pending)))
         ):
             self._prepare(robot, q, J, xd)
         ws = self._ws

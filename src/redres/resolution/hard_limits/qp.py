@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ... import _jit
+from ... import _compile
 from ..._validate import FloatArray, as_scalar, as_vector, checked_keywords
 from ...errors import InvalidParameterError, ShapeError
 from ...linalg._status import raise_status
@@ -165,14 +165,14 @@ class QPScheme(BoxScheme):
         self._bu, self._bl, self._f = np.empty(n + m), np.empty(n + m), np.empty(n)
         self._P, self._c, self._w = np.empty((n, n)), np.empty(n), w
         kq, out = kernels("_qp_kernels"), ws.outputs()
-        k = kernels(plain=not _jit.is_compiled(kq))  # both compiled or both plain (no stall)
-        self._begin = _jit.entry_point(kq.qp_begin, (q, ws.zero, self.dt, ws.lim, J, xd,
+        k = kernels(plain=not _compile.is_compiled(kq))  # both compiled or both plain (no stall)
+        self._begin = _compile.entry_point(kq.qp_begin, (q, ws.zero, self.dt, ws.lim, J, xd,
                                                      ws.zero, *out, ws.M, ws.wm, self._bu,
                                                      self._bl, self._f, w, 1e-6, self._P,
                                                      self._c))  # fmt: skip
         # warm-up calls with full=False: they must not solve with a factor of this J
-        self._end = _jit.entry_point(kq.qp_end, (J, xd, ws.zero, out[0], ws.M, ws.wm, False))
-        self._finish = _jit.entry_point(k.epilogue, (J, xd, out[0], ws.M, ws.wm, False, False))
+        self._end = _compile.entry_point(kq.qp_end, (J, xd, ws.zero, out[0], ws.M, ws.wm, False))
+        self._finish = _compile.entry_point(k.epilogue, (J, xd, out[0], ws.M, ws.wm, False, False))
         if self._qp.daqp:
             flags, eye, daqp, options = sense(n, m), np.eye(n), self._qp.module, self._qp.options
             self._exact_qp = WarmQP(daqp, options, H=eye, f=self._f, A=J, bupper=self._bu,

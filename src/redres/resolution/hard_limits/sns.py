@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ... import _jit
+from ... import _compile
 from ..._validate import FloatArray, as_scalar, checked_keywords
 from ...linalg._status import raise_status
 from ..base import StepResult
@@ -129,8 +129,8 @@ class SNSScheme(BoxScheme):
         ws = Workspace(self.limits(robot), J.shape[0])
         args = (q, ws.zero, self.dt, ws.lim, J, xd, ws.zero, False, self.tolerance,
                 *ws.outputs(), ws.M, ws.wm, ws.wn, ws.wb)  # fmt: skip
-        self._kernel = _jit.entry_point(kernels().sns_step, args)
-        self._finish = _jit.entry_point(kernels().epilogue, (J, xd, ws.outputs()[0], ws.M,
+        self._kernel = _compile.entry_point(kernels().sns_step, args)
+        self._finish = _compile.entry_point(kernels().epilogue, (J, xd, ws.outputs()[0], ws.M,
                                                              ws.wm, False, False))  # fmt: skip
         self._ws, self._robot, self._pending = ws, robot, pending("_kernels")
 

@@ -1,0 +1,236 @@
+"""Files a user hands us, read as TOML (scenarios and sweep specs): :func:`load` and one
+typed table reader, :class:`Reader`; and what a scheme reads of its scenario table,
+:class:`ScenarioParams` (the contract between the scenario files and the schemes, which
+build themselves from it).
+
+Read with :mod:`tomllib` only: nothing in a file is executed.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any, Protocol, TypeVar
+
+import numpy as np
+
+from ._validate import short_repr
+from .errors import RedresError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = ["Reader", "ScenarioBuilder", "ScenarioParams", "tomllib"]
+
+_T = TypeVar("_T")
+
+
+class Reader:
+    """Typed access to one TOML table, remembering its path and the keys used: each read
+    checks the value's type and range, and :meth:`done` reports a key nobody read, with
+    the valid ones. Errors are ``error(message)``, the message naming the file and the
+    key path (``file: [run].dt: must be > 0; got 0``)."""
+
+    def __init__(
+        self, table: Any, path: str, file: str, error: type[RedresError] = RedresError
+    ) -> None:
+        if not isinstance(table, dict):
+            raise error(f"{file}: {path} must be a table; got {type(table).__name__}")
+        self.table, self.path, self.file, self.error = table, path, file, error
+        self.used: set[str] = set()
+
+    def fail(self, key: str | None, message: str) -> RedresError:
+        """The error at ``key`` of this table (``None``: the table itself)."""
+        where = self.path if key is None else f"{self.path}.{key}" if self.path else key
+        return self.error(f"{self.file}: {where}: {message}")
+
+    @contextmanager
+    def blame(self, key: str | None) -> Iterator[None]:
+        """Report a :class:`RedresError` raised inside (a constructor's check) at ``key``."""
+        try:
+            yield
+        except self.error:
+            raise
+        except RedresError as exc:
+            raise self.fail(key, str(exc)) from None
+
+    def get(self, key: str, kind: str, default: Any = ..., *, size: int | None = None) -> Any:
+        """The value at ``key`` of ``kind`` (``number``, ``string``, ``vector`` of ``size``
+        numbers, ``tables``); ``default`` when absent, else absent is an error."""
+        self.used.add(key)
+        if key not in self.table:
+            if default is ...:
+                raise self.fail(key, f"missing; add `{key} = <{kind}>`")
+            return default
+        value = self.table[key]
+        if kind == "number":
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise self.fail(key, f"expected a number, got {value!r} (write {key} = 1.0)")
+            return self._float(key, value)
+        if kind == "string":
+            if not isinstance(value, str):
+                raise self.fail(key, f'expected a string, got {value!r} (write {key} = "...")')
+            return value
+        if kind == "vector":
+            ok = isinstance(value, list) and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in value
+            )
+            if not ok or (size is not None and len(value) != size):
+                want = f"{size} numbers" if size else "a list of numbers"
+                raise self.fail(key, f"expected {want}, got {short_repr(value)}")
+            return np.array([self._float(key, v) for v in value])
+        if kind == "tables":
+            if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+                raise self.fail(key, f"expected a list of tables, got {value!r}")
+            return value
+        raise AssertionError(kind)
+
+    def _float(self, key: str, value: int | float) -> float:
+        """``value`` as a finite float (an integer of hundreds of digits is not one)."""
+        try:
+            x = float(value)
+        except OverflowError:
+            raise self.fail(key, f"{short_repr(value)} is too large for a number") from None
+        if not math.isfinite(x):
+            raise self.fail(key, f"must be finite; got {value!r}")
+        return x
+
+    def number(self, key: str, default: Any = ...) -> float:
+        return float(self.get(key, "number", default))
+
+    def positive(self, key: str, default: Any = ...) -> float:
+        value = self.number(key, default)
+        if value <= 0:
+            raise self.fail(key, f"must be > 0; got {value}")
+        return value
+
+    def nonnegative(self, key: str, default: Any = ...) -> float:
+        value = self.number(key, default)
+        if value < 0:
+            raise self.fail(key, f"must be >= 0; got {value}")
+        return value
+
+    def string(self, key: str, default: Any = ...) -> str:
+        return str(self.get(key, "string", default))
+
+    def at(self, key: str, index: int) -> str:
+        """The path of table ``index`` of the list at ``key``."""
+        return f"{self.path}.{key}[{index}]" if self.path else f"[{key}][{index}]"
+
+    def read(self, table: Any, path: str, parse: Callable[[Reader], _T]) -> _T:
+        """``parse`` the sub-table ``table`` at ``path``; its unknown keys are errors."""
+        reader = Reader(table, path, self.file, self.error)
+        value = parse(reader)
+        reader.done()
+        return value
+
+    def each(self, key: str, parse: Callable[[Reader], _T], default: Any = ...) -> list[_T]:
+        """``parse`` each table of the list at ``key`` (:meth:`read`)."""
+        tables = self.get(key, "tables", default)
+        return [self.read(table, self.at(key, i), parse) for i, table in enumerate(tables)]
+
+    def done(self) -> None:
+        unknown = sorted(set(self.table) - self.used)
+        if unknown:
+            raise self.fail(
+                unknown[0], f"unknown key; valid keys here: {', '.join(sorted(self.used))}"
+            )
+
+    def integer(self, key: str, default: Any = ..., minimum: int | None = None) -> int:
+        value = self.number(key, default)
+        if not float(value).is_integer():
+            raise self.fail(key, f"expected an integer, got {self.table[key]!r}")
+        if minimum is not None and value < minimum:
+            raise self.fail(key, f"must be >= {minimum}; got {int(value)}")
+        return int(value)
+
+    def boolean(self, key: str, default: bool) -> bool:
+        self.used.add(key)
+        value = self.table.get(key, default)
+        if not isinstance(value, bool):
+            raise self.fail(key, f"expected true or false, got {value!r}")
+        return value
+
+    def sub(self, key: str) -> Reader:
+        """The reader of the sub-table ``[key]`` (empty when absent)."""
+        self.used.add(key)
+        return Reader(self.table.get(key, {}), f"[{key}]", self.file, self.error)
+
+    def bounds(self, key: str) -> list[list[float]] | None:
+        """``[[x_min, x_max], [y_min, y_max], [z_min, z_max]]`` (m), or None if absent."""
+        self.used.add(key)
+        value = self.table.get(key)
+        if value is None:
+            return None
+        ok = isinstance(value, list) and len(value) == 3 and all(
+            isinstance(v, list) and len(v) == 2
+            and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+            for v in value
+        )  # fmt: skip
+        if not ok:
+            raise self.fail(key, "expected [[x_min, x_max], [y_min, y_max], [z_min, z_max]] (m)")
+        out = [[self._float(key, x) for x in v] for v in value]
+        if any(lo >= hi for lo, hi in out):
+            raise self.fail(key, "each range must have min < max")
+        return out
+
+
+class ScenarioParams(Protocol):
+    """Typed, validated access to one ``[[schemes]]`` table of a scenario file.
+
+    Every read marks the key as valid for this table; a key nobody reads is reported
+    as unknown, with the valid ones. Reading twice gives the same values, so a builder
+    may be called once per run.
+
+    Attributes:
+        type: the scheme type the table names (``"pinv"``, ``"dls"``, ...).
+        dt: the run's control period, s.
+    """
+
+    type: str
+    dt: float
+
+    def number(self, key: str, default: float) -> float:
+        """A finite number (``default`` when the key is absent)."""
+        ...
+
+    def nonnegative(self, key: str, default: float) -> float:
+        """A number ≥ 0, e.g. a gain."""
+        ...
+
+    def positive(self, key: str, default: float) -> float:
+        """A number > 0."""
+        ...
+
+    def string(self, key: str, default: str) -> str:
+        """A string."""
+        ...
+
+    # The three below return objects of higher layers (typed Any here: this module is at
+    # the bottom): redres.objectives.Objective, redres.tasks.Task, redres.resolution.Inverse.
+
+    def objectives(self) -> list[tuple[Any, float]]:
+        """The ``objectives = [...]`` list as ``(Objective, weight)`` pairs (may be empty)."""
+        ...
+
+    def levels(self) -> list[Any]:
+        """The ``levels = [...]`` list as fresh tasks, highest priority first (≥ 1)."""
+        ...
+
+    def inverse(self, default_damping: float | None = None) -> Any:
+        """The inverse from ``damping = λ``, or ``max_damping`` and ``threshold`` (the
+        adaptive law), or ``rcond``; ``None`` when none is given and there is no
+        ``default_damping`` (the scheme's own default applies)."""
+        ...
+
+    def fail(self, key: str, message: str) -> Exception:
+        """The error for ``key`` of this table, naming the file and key path."""
+        ...
+
+
+#: Builds one scheme (or torque law) from its table; called once per run.
+ScenarioBuilder = Callable[[ScenarioParams], Any]

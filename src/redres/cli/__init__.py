@@ -1,0 +1,272 @@
+"""The ``redres`` command: ``redres robots``, ``demo``, ``run``, ``warmup``, ``bench``, ``sweep``.
+
+Exit codes: 0 success, 2 bad usage, bad input or a file that cannot be read or written
+(one line on stderr: ``redres: error: ...`` naming the value or path and the fix).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .._version import __version__
+from ..errors import RedresError, describe_os_error
+
+if TYPE_CHECKING:
+    from .demo import Output
+
+
+def robots_table() -> tuple[str, list[dict[str, object]]]:
+    """Text table and records describing every built-in robot."""
+    from .. import models
+    from ..scenarios.runner import aligned_table
+
+    records: list[dict[str, object]] = []
+    rows = []
+    for name in models.names():
+        robot = models.load(name)
+        span = np.degrees(robot.q_max - robot.q_min)
+        records.append(
+            {
+                "name": name,
+                "dof": robot.n,
+                "tip": robot.tip,
+                "q_min": robot.q_min.tolist(),
+                "q_max": robot.q_max.tolist(),
+                "qd_max": [float(x) for x in robot.qd_max],
+                "tau_max": [float(x) for x in robot.tau_max],
+                "frames": robot.frames(),
+            }
+        )
+        qd = robot.qd_max
+        rows.append(
+            [
+                name,
+                str(robot.n),
+                robot.tip,
+                f"{span.min():.0f}-{span.max():.0f}",
+                "-" if np.isinf(qd).all() else f"{qd.min():.2f}-{qd.max():.2f}",
+                ", ".join(
+                    f for f in robot.frames(include_joint_frames=False) if not f.startswith("link")
+                ),
+            ]
+        )
+    headers = ["robot", "dof", "tip", "range deg", "qd_max rad/s", "named frames"]
+    return aligned_table(headers, rows), records
+
+
+def example_robots() -> list[str]:
+    """Names of the example-robot-data URDFs (``[]`` without the ``robots`` extra)."""
+    from ..errors import MissingDependencyError
+    from ..models import example_robot_names
+
+    try:
+        return example_robot_names()
+    except MissingDependencyError:
+        return []
+
+
+def _cmd_robots(args: argparse.Namespace) -> int:
+    text, records = robots_table()
+    examples = example_robots()
+    if args.json:
+        print(json.dumps({"builtin": records, "example_robots": examples} if args.all
+                         else records))  # fmt: skip
+        return 0
+    print(text)
+    if examples:
+        print(f"\nexample-robot-data ({len(examples)}; rr.models.example_robot(name, tip=...)):")
+        print("  " + ", ".join(examples))
+    else:
+        print("\nexample-robot-data URDFs: install the extra: pip install 'redres[robots]'")
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from .demo import run_demo
+
+    return run_demo(_output(args))
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from ..scenarios.spec import builtin_scenarios, load_scenario
+    from .demo import run_scenarios
+
+    builtin = builtin_scenarios()
+    if args.list:
+        listing = {name: load_scenario(path).description for name, path in sorted(builtin.items())}
+        if args.json:
+            print(json.dumps([{"name": k, "description": v} for k, v in listing.items()]))
+            return 0
+        for name, description in listing.items():
+            print(f"{name:28s} {description}")
+        return 0
+    if not args.scenario:
+        print("redres run: error: give a scenario file (or --list)", file=sys.stderr)
+        return 2
+    spec = load_scenario(_scenario_path(args.scenario, builtin))
+    if not args.view:
+        return run_scenarios([spec], _output(args), title=spec.name)
+    from ..viewer import Viewer, serve_runs
+
+    viewer = Viewer(spec.robot, obstacles=spec.obstacles, port=args.port)  # live while it runs
+    print(f"redres: {spec.name}: playing the runs at {viewer.url}", file=sys.stderr, flush=True)
+
+    def after(runs: list) -> None:  # type: ignore[type-arg]
+        serve_runs(spec, [log for _, log in runs], viewer=viewer, seconds=args.seconds)
+
+    try:
+        return run_scenarios([spec], _output(args), title=spec.name, after=after, viewer=viewer)
+    finally:
+        viewer.close()
+
+
+def _scenario_path(target: str, builtin: dict[str, Path]) -> Path:
+    """A scenario file, or the built-in scenario of that name when no such file exists."""
+    return builtin[target] if target in builtin and not Path(target).exists() else Path(target)
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+    from ..scenarios.spec import builtin_scenarios, load_scenario
+    from ..viewer import serve_scenario
+
+    spec = load_scenario(_scenario_path(args.scenario, builtin_scenarios()))
+    return serve_scenario(spec, port=args.port, seconds=args.seconds)
+
+
+def _cmd_warmup(args: argparse.Namespace) -> int:
+    from .._compile import cache_dir
+    from .._warmup import groups, warmup
+
+    if args.list:
+        for name, group in groups().items():
+            state = "cached" if group.cached() else "not cached"
+            modules = ", ".join(m.removeprefix("redres.") for m in group.modules)
+            print(f"{name:12s} {state:10s} {modules}")
+        return 0
+    seconds = warmup(args.groups or None, quiet=args.quiet, jobs=args.jobs)
+    if not args.quiet:
+        print(f"redres: warm-up done in {seconds:.1f} s; cached in {cache_dir()}",
+              file=sys.stderr)  # fmt: skip
+    return 0
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    import runpy
+
+    script = Path(__file__).resolve().parents[2] / "benchmarks" / "step.py"
+    if not script.is_file():
+        print(
+            "redres bench: error: benchmarks/step.py is part of the source checkout; "
+            "run it from a clone of the repository",
+            file=sys.stderr,
+        )
+        return 2
+    runpy.run_path(str(script), run_name="__main__")
+    return 0
+
+
+def _output(args: argparse.Namespace) -> Output:
+    """The :class:`~redres.cli.demo.Output` of the options :func:`_output_options` adds."""
+    from .demo import Output
+
+    return Output(Path(args.out), args.json, args.quiet, args.force, args.quick)
+
+
+def _output_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", default="redres-report", help="report folder")
+    parser.add_argument(
+        "--force", action="store_true",
+        help="write the report into a folder that holds other files (they are kept)",
+    )  # fmt: skip
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--quiet", action="store_true", help="print only the results")
+    parser.add_argument(
+        "--quick", action="store_true", help="run 5%% of each scenario's duration (smoke test)"
+    )
+
+
+def _viewer_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--port", type=int, default=8080, help="port of the viewer's page")
+    parser.add_argument("--seconds", type=float, default=None, help="stop the viewer after this")
+
+
+def _command(
+    sub: argparse._SubParsersAction[argparse.ArgumentParser],
+    name: str,
+    func: Callable[[argparse.Namespace], int],
+    help: str,
+) -> argparse.ArgumentParser:
+    """The subcommand ``name``, run by ``func(args)``."""
+    parser = sub.add_parser(name, help=help)
+    parser.set_defaults(func=func)
+    return parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="redres", description="Redundancy resolution for robot manipulators."
+    )
+    parser.add_argument("--version", action="version", version=f"redres {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+    robots = _command(sub, "robots", _cmd_robots, "list the built-in robot models")
+    robots.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    robots.add_argument(
+        "--all", action="store_true",
+        help="with --json: an object with the built-in and the example-robot-data robots",
+    )  # fmt: skip
+    _output_options(
+        _command(sub, "demo", _cmd_demo, "compare every scheme on the built-in scenarios")
+    )
+    run = _command(sub, "run", _cmd_run, "run a scenario file (TOML)")
+    run.add_argument("scenario", nargs="?", help="scenario file or built-in scenario name")
+    run.add_argument("--list", action="store_true", help="list the built-in scenarios")
+    run.add_argument("--view", action="store_true", help="then show the runs in the browser")
+    _viewer_options(run)
+    _output_options(run)
+    view = _command(
+        sub, "view", _cmd_view, "run a scenario and show its runs in the browser (viser)"
+    )
+    view.add_argument("scenario", help="scenario file or built-in scenario name")
+    _viewer_options(view)
+    warm = _command(
+        sub, "warmup", _cmd_warmup, "compile the kernels now (a first call is then fast)"
+    )
+    warm.add_argument("groups", nargs="*", help="what to compile (default all; see --list)")
+    warm.add_argument("--list", action="store_true", help="list the groups and what is cached")
+    warm.add_argument("--quiet", action="store_true", help="print nothing")
+    warm.add_argument("--jobs", type=int, default=2, help="processes to compile in (default 2)")
+    _command(sub, "bench", _cmd_bench, "run the control-step benchmark against peers")
+    from .sweep import register as register_sweep
+
+    register_sweep(sub)
+    return parser
+
+
+__all__ = ["main"]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``redres`` command."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except RedresError as exc:
+        print(f"redres: error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:  # e.g. `redres robots | head`
+        sys.stderr.close()
+        return 0
+    except OSError as exc:  # a report folder or file that cannot be written or read
+        print(f"redres: error: {describe_os_error(exc)}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,239 @@
+"""``redres demo`` and ``redres run``: run scenarios, print the comparison, write a report.
+
+The demo runs the built-in scenarios (``redres run --list``): the Panda circle that drives
+plain pseudo-inverse control into a joint limit, under every scheme, and the iiwa14 figure
+eight with its arm angle held by the augmented Jacobian. Textbook worked examples follow,
+then the same Panda circle in the compiled 1 kHz loop (:func:`compiled_loop`).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import linalg, models
+from .._warmup import warmup
+from ..control import LiveView, RunLog
+from ..errors import MissingDependencyError
+from ..objectives import JointLimitObjective
+from ..report.writer import check_out_dir, write_report
+from ..scenarios.runner import format_table, run_scenario, summarise, warning_lines
+from ..scenarios.spec import ScenarioSpec, builtin
+
+DEG = np.pi / 180
+DEMO_SCENARIOS = ("panda_joint_limit_circle", "iiwa_arm_angle_eight")
+
+
+def worked_examples() -> list[dict[str, object]]:
+    """Classic planar worked examples and one null-space step on the Panda, computed live."""
+    out: list[dict[str, object]] = []
+    rrr = models.planar([1.0, 1.0, 1.0])
+    J = rrr.jacobian(np.array([60.0, -30.0, 15.0]) * DEG)[:2]
+    J_printed = np.round(J, 2)  # the classic example uses its Jacobian rounded to 2 decimals
+    for weights in ([1.0, 2.0, 3.0], [3.0, 2.0, 1.0]):
+        W = np.diag(weights)
+        v = np.array([1.0, 1.0])
+        out.append(
+            {
+                "example": "weighted least norm (Whitney 1969): RRR at (60, -30, 15) deg, "
+                "v = (1, 1) m/s, "
+                f"W = diag{tuple(weights)}",
+                "qd_rad_s": np.round(linalg.weighted_pinv(J_printed, W) @ v, 2).tolist(),
+                "qd_exact_jacobian_rad_s": np.round(linalg.weighted_pinv(J, W) @ v, 4).tolist(),
+            }
+        )
+    rr_arm = models.planar([1.0, 1.0])
+    J = rr_arm.jacobian(np.array([30.0, 30.0]) * DEG)[[0, 1, 5]]
+    for v_list in ([1.0, 1.0, 1.0], [-2.0, 2.0, 2.0]):
+        qd = linalg.left_pinv(J) @ np.array(v_list)
+        out.append(
+            {
+                "example": f"left pseudo-inverse (Penrose 1955): RR at (30, 30) deg, "
+                f"v = {tuple(v_list)}",
+                "qd_rad_s": np.round(qd, 3).tolist(),
+                "achieved_x": np.round(J @ qd, 3).tolist(),
+            }
+        )
+    J = rr_arm.jacobian(np.array([30.0, 0.0]) * DEG)[:2]
+    qd = linalg.pinv(J) @ np.array([-1.0, np.sqrt(3.0)])
+    out.append(
+        {
+            "example": "SVD pseudo-inverse (Golub & Kahan 1965): singular RR at (30, 0) deg, "
+            "v = (-1, sqrt 3)",
+            "qd_rad_s": np.round(qd, 3).tolist(),
+        }
+    )
+    panda = models.panda()
+    q = panda.neutral()
+    J = panda.jacobian(q)
+    v = np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
+    grad = JointLimitObjective().gradient(panda, q)  # Liégeois' joint-limit cost D(q)
+    J_pinv = linalg.right_pinv(J)
+    N = linalg.nullspace_projector(J, J_pinv)
+    qd = J_pinv @ v - 1.0 * N @ grad
+    out.append(
+        {
+            "example": "gradient projection (Liégeois 1977): Panda at its ready pose, "
+            "v = 0.1 m/s along x, "
+            "joint-limit gradient projected into the null space (k = 1)",
+            "qd_rad_s": np.round(qd, 4).tolist(),
+            "task_residual": float(np.linalg.norm(J @ qd - v)),
+            "manipulability": float(linalg.manipulability(J)),
+        }
+    )
+    return out
+
+
+def compiled_loop(steps: int = 1500) -> list[dict[str, object]]:
+    """The Panda circle's first ``steps`` under a :class:`~redres.control.Controller`:
+    median µs per step (target update and step, timed inside the loop) and the largest
+    position error, for gradient projection (the fused kernel) and, when the ``qp`` extra
+    is there, the hard-limit schemes (the kernel's frame front end, then the scheme)."""
+    from ..control import Controller
+    from ..resolution import GradientProjectionScheme, QPScheme, Scheme, SNSScheme
+    from ..tasks import FrameTask
+
+    scenario = builtin("panda_joint_limit_circle")
+    robot, trajectory = scenario.robot, scenario.trajectory
+    schemes: dict[str, Callable[[], Scheme]] = {
+        "gradient projection (fused kernel)": lambda: GradientProjectionScheme(
+            [JointLimitObjective()], k_null=5.0
+        ),
+        "sns (hard limits)": lambda: SNSScheme(dt=1e-3),
+        "qp (hard limits)": lambda: QPScheme(dt=1e-3),
+    }
+    rows: list[dict[str, object]] = []
+    clock = time.perf_counter_ns
+    for label, make in schemes.items():
+        try:
+            task = FrameTask()
+            controller = Controller(robot, task, make())
+        except MissingDependencyError:
+            continue
+        q, times, worst = scenario.q0.copy(), np.empty(steps), 0.0
+        for k in range(steps):
+            sample = trajectory.sample(k * 1e-3)
+            t0 = clock()
+            task.set_target(sample.pose, sample.twist, validate=False)
+            q = controller.step(q)
+            times[k] = clock() - t0
+            worst = max(worst, float(np.linalg.norm(controller.error[:3])))
+        rows.append({"loop": label, "median_us": round(float(np.median(times)) / 1e3, 1),
+                     "max_error_mm": round(1e3 * worst, 4)})  # fmt: skip
+    return rows
+
+
+def _write_report(
+    out: Path, runs: list[tuple[ScenarioSpec, RunLog]], title: str, description: str, force: bool
+) -> Path | None:
+    pairs = [(spec.robot, log, spec.obstacles) for spec, log in runs]
+    try:
+        return Path(write_report(out, pairs, title=title, description=description, force=force))
+    except MissingDependencyError as exc:
+        print(f"redres: note: {exc}; no report written", file=sys.stderr)
+        return None
+
+
+def _warm_up(specs: Sequence[ScenarioSpec], loud: bool) -> None:
+    """Compile what the runs need before they are timed (on a cold cache they would
+    otherwise run, and be timed, on the reference path while it compiles behind)."""
+    groups = ["linalg", "chain", "controller"]
+    if any(s.kind in ("qp", "sns") for spec in specs for s in spec.schemes):
+        groups.append("hard limits")
+    warmup(groups, quiet=not loud)
+
+
+@dataclass(frozen=True)
+class Output:
+    """How a command reports (the command line's ``--out``, ``--force``, ``--json``,
+    ``--quiet`` and ``--quick``).
+
+    Attributes:
+        folder: the report folder, checked before anything runs (a user's files are never
+            replaced).
+        as_json: print one JSON object instead of the table.
+        quiet: print only the results.
+        force: write the report into a folder that holds other files.
+        quick: run 5 % of each scenario's duration (a smoke test of the whole pipeline).
+    """
+
+    folder: Path = Path("redres-report")
+    as_json: bool = False
+    quiet: bool = False
+    force: bool = False
+    quick: bool = False
+
+
+def run_scenarios(
+    specs: Sequence[ScenarioSpec],
+    output: Output,
+    *,
+    title: str,
+    examples: bool = False,
+    after: Callable[[list[tuple[ScenarioSpec, RunLog]]], None] | None = None,
+    viewer: LiveView | None = None,
+) -> int:
+    """Run ``specs`` (shown live in ``viewer``, if given), print the table (or JSON), write
+    the report, then hand the runs to ``after`` (``redres run --view`` serves them);
+    returns the exit code."""
+    as_json, quiet, quick = output.as_json, output.quiet, output.quick
+    check_out_dir(output.folder, force=output.force)  # before any run
+    started = time.perf_counter()
+    loud = not (quiet or as_json)
+    _warm_up(specs, loud)
+    runs: list[tuple[ScenarioSpec, RunLog]] = []
+    for spec in specs:
+        if quick:
+            spec.duration *= 0.05
+        if loud:
+            print(f"{spec.name}: {spec.description}", file=sys.stderr)
+        logs = run_scenario(spec, progress=None if loud else False, viewer=viewer)
+        runs += [(spec, log) for log in logs]
+    description = " ".join(f"{s.description}." for s in specs)
+    report = _write_report(output.folder, runs, title, description, output.force)
+    summaries = [summarise(spec.robot, log) for spec, log in runs]
+    steps = 100 if quick else 1500
+    if as_json:
+        payload: dict[str, Any] = {"report": str(report) if report else None, "runs": summaries}
+        if examples:
+            payload.update(examples=worked_examples(), compiled_loop=compiled_loop(steps))
+        print(json.dumps(payload))
+        if after is not None:
+            after(runs)
+        return 0
+    print(format_table(summaries))
+    for line in warning_lines(summaries):
+        print(line)
+    if report is not None:
+        print(f"\nreport: {report}")
+    if after is not None:
+        after(runs)
+    if quiet:
+        return 0
+    print(f"({len(runs)} runs in {time.perf_counter() - started:.1f} s)")
+    if examples:
+        print("\nTextbook worked examples, computed now:")
+        for ex in worked_examples():
+            print(f"- {ex['example']}")
+            for key, value in ex.items():
+                if key != "example":
+                    print(f"    {key}: {value}")
+        print(f"\nA 1 kHz loop (Controller, compiled paths), first {steps} steps of the "
+              "Panda circle; `redres bench` compares it with pink, mink and KDL:")  # fmt: skip
+        for row in compiled_loop(steps):
+            print(f"- {row['loop']}: {row['median_us']} µs per step, max position error "
+                  f"{row['max_error_mm']} mm")  # fmt: skip
+    return 0
+
+
+def run_demo(output: Output) -> int:
+    """The flagship demo: every scheme on the built-in scenarios."""
+    specs = [builtin(name) for name in DEMO_SCENARIOS]
+    return run_scenarios(specs, output, title="redres demo", examples=True)

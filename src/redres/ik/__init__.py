@@ -1,0 +1,15 @@
+"""Position inverse kinematics: :func:`ik` (CLIK with restarts, compiled on serial chains)
+and the closed form of S-R-S arms with the arm angle (:mod:`.srs`, :mod:`.arcs`).
+
+- :mod:`.solve`: :func:`ik`, the entry point; :mod:`.options`: :class:`IKResult` and the
+  solver's checked options; :mod:`.reference`: the same iteration on Pinocchio;
+  :mod:`._kernels`: the compiled iteration.
+- :mod:`.srs`: every configuration of a spherical-shoulder, spherical-wrist arm at a pose
+  and arm angle (Shimizu et al., IEEE T-RO 24(5), 2008); :mod:`.arcs`: sets of arm angles
+  as arcs of the circle.
+"""
+
+from .options import IKResult
+from .solve import ik
+
+__all__ = ["IKResult", "ik"]

@@ -1,0 +1,98 @@
+"""Run every scheme of a scenario, tell what went wrong, and tabulate the results.
+
+A run's summary, with its warnings, is :meth:`RunLog.summary` (the warnings themselves are
+:attr:`RunLog.warnings`, :class:`~redres.control.RunWarning`); :func:`summarise` is that
+summary for a run of a given robot, and :func:`warning_lines` prints the warnings one
+line each.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+from ..control import LiveView, RunLog, run
+from ..dynamics.simulate import simulate
+from ..objectives import ObstacleObjective
+from .spec import ScenarioSpec
+
+if TYPE_CHECKING:
+    from ..robot import Robot
+
+
+def summarise(robot: Robot, log: RunLog) -> dict[str, Any]:
+    """:meth:`RunLog.summary` of a run of ``robot`` (tables, ``--json``); a log that did not
+    record its joint limits (one built by hand) is measured against ``robot``'s."""
+    if log.q_min is None or log.q_max is None:
+        log = replace(log, joint_names=tuple(robot.joint_names), q_min=robot.q_min.copy(),
+                      q_max=robot.q_max.copy())  # fmt: skip
+    return log.summary()
+
+
+def warning_lines(summaries: Sequence[dict[str, Any]]) -> list[str]:
+    """One line per warning of the summaries: ``warning: ROBOT LABEL: MESSAGE``."""
+    return [
+        f"warning: {s.get('robot', '')} {s.get('label', '')}: {w['message']}"
+        for s in summaries
+        for w in s.get("warnings", ())
+    ]
+
+
+COLUMNS = (
+    ("robot", "robot", "{}"),
+    ("label", "scheme", "{}"),
+    ("max_position_error_m", "max err mm", "{:.4f}"),
+    ("rms_position_error_m", "rms err mm", "{:.4f}"),
+    ("min_joint_limit_margin_rad", "min margin rad", "{:+.3f}"),
+    ("min_sigma", "min sigma", "{:.3f}"),
+    ("min_obstacle_clearance_m", "clearance mm", "{:+.1f}"),
+    ("peak_speed_ratio", "peak qd/qd_max", "{:.2f}"),
+    ("path_length_rad", "path rad", "{:.2f}"),
+    ("step_time_us_median", "step us", "{:.1f}"),
+)
+_MM = {"max_position_error_m", "rms_position_error_m", "min_obstacle_clearance_m"}
+_OPTIONAL = {"min_obstacle_clearance_m"}  # shown when a run has it
+
+
+def run_scenario(
+    spec: ScenarioSpec, *, progress: bool | None = None, viewer: LiveView | None = None
+) -> list[RunLog]:
+    """Run each scheme of ``spec`` from the same start; returns the logs in order. A
+    ``viewer`` shows the rate-control runs live as they are computed (``rr.run``'s
+    ``viewer=``; torque-control runs are shown once finished)."""
+    extra = [ObstacleObjective(spec.obstacles)] if spec.obstacles else []
+    logs = []
+    for s in spec.schemes:
+        common: dict[str, Any] = {"dt": spec.dt, "duration": spec.duration, "q0": spec.q0,
+                                  "label": s.label, "progress": progress}  # fmt: skip
+        if s.kind == "osc":
+            logs.append(simulate(spec.robot, s.build(), spec.trajectory, **common))
+        else:
+            logs.append(run(spec.robot, spec.task(), spec.trajectory, s.build(), gain=spec.gain,
+                            log_objectives=extra, viewer=viewer, **common))  # fmt: skip
+    return logs
+
+
+def aligned_table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    """``rows`` of text under ``headers``, in left-aligned columns below a rule."""
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
+    lines = ["  ".join(h.ljust(w) for h, w in zip(headers, widths))]
+    lines.append("  ".join("-" * w for w in widths))
+    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
+    return "\n".join(line.rstrip() for line in lines)
+
+
+def format_table(summaries: Sequence[dict[str, Any]]) -> str:
+    """The comparison table as aligned text."""
+    columns = [c for c in COLUMNS if c[0] not in _OPTIONAL or any(c[0] in s for s in summaries)]
+    rows = []
+    for s in summaries:
+        row = []
+        for key, _, fmt in columns:
+            value = s.get(key, "")
+            if key in _MM and isinstance(value, float):
+                value = value * 1e3
+            row.append(fmt.format(value) if value != "" else "-")
+        rows.append(row)
+    return aligned_table([title for _, title, _ in columns], rows)

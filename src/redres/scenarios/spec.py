@@ -1,0 +1,343 @@
+"""Scenario files: a robot, a path, run settings, obstacles and the schemes to compare.
+
+Read with :mod:`tomllib` only; nothing in a scenario is executed. Every problem is
+reported as one :class:`ScenarioError` naming the file, the key path (``[schemes][2].k_null``)
+and the fix. See docs/scenarios.md for the format; built-in scenarios ship in
+``redres/scenarios/data`` (``redres run --list``).
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ScenarioError",
+    "ScenarioSpec",
+    "SchemeSpec",
+    "builtin",
+    "builtin_scenarios",
+    "load_scenario",
+    "parse_scenario",
+]
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import partial
+from importlib import resources
+from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
+import pinocchio as pin
+
+from .. import models
+from .._toml import Reader, tomllib
+from ..control.analysis import run_steps
+from ..control.trajectories import Circle, FigureEight, Hold, Line, MinimumJerk, Trajectory
+from ..errors import RedresError, describe_os_error, shown_path
+from ..linalg import AdaptiveDamping
+from ..objectives import (
+    CapsuleObstacle,
+    JointLimitObjective,
+    ManipulabilityObjective,
+    Objective,
+    Obstacle,
+    ObstacleObjective,
+    PostureObjective,
+    SphereObstacle,
+)
+from ..resolution import Inverse, make_inverse
+from ..robot import Robot
+from ..tasks import ArmAngleTask, FrameTask, LookAtTask, PostureTask, Task
+from .registry import scheme_types
+
+_T = TypeVar("_T")
+
+
+class ScenarioError(RedresError, ValueError):
+    """A scenario file is unreadable or invalid (the message names the key and the fix)."""
+
+
+@dataclass
+class SchemeSpec:
+    """A scheme to run: its stable identifier, a label, and a factory."""
+
+    kind: str
+    label: str
+    build: Callable[[], Any]  # a Scheme, or a torque law for "osc"
+
+
+@dataclass
+class ScenarioSpec:
+    """A validated scenario."""
+
+    name: str
+    description: str
+    robot: Robot
+    q0: np.ndarray
+    task: Callable[[], FrameTask]
+    trajectory: Trajectory
+    dt: float
+    duration: float
+    gain: float
+    obstacles: list[Obstacle]
+    schemes: list[SchemeSpec] = field(default_factory=list)
+    source: str = ""
+
+
+def _robot(r: Reader, base: Path) -> tuple[Robot, np.ndarray]:
+    """The robot and its start configuration ``q0``."""
+    sources = {key: r.get(key, "string", None) for key in ("model", "urdf", "mjcf")}
+    given = [key for key, value in sources.items() if value is not None]
+    tip = r.get("tip", "string", None)
+    if len(given) != 1:
+        raise r.fail(
+            given[1] if len(given) > 1 else "model",
+            'give exactly one of model = "<built-in name>", urdf = "<path>" or '
+            'mjcf = "<path>"' + (f"; got {' and '.join(given)}" if given else ""),
+        )
+    key = given[0]
+    model, file = sources["model"], sources[key]
+    with r.blame(key):
+        if key == "model":
+            robot = models.load(file)
+        else:  # a path relative to the scenario file
+            load = Robot.from_urdf if key == "urdf" else Robot.from_mjcf
+            robot = load(base / file, tip=tip)
+    if tip is not None and model is not None:
+        if tip not in robot.frames():
+            raise r.fail("tip", f"unknown frame {tip!r}; frames: {', '.join(robot.frames())}")
+        robot = Robot(
+            robot.model, tip=tip, name=robot.name, home=robot.neutral(), qdd_max=robot.qdd_max
+        )
+    q0 = r.get("q0", "vector", None, size=robot.n)
+    if q0 is None:
+        q0 = robot.neutral()
+    elif not robot.within_limits(q0):
+        raise r.fail("q0", "is outside the joint limits; see `redres robots` for them")
+    return robot, q0
+
+
+def _trajectory(r: Reader, start: np.ndarray) -> Trajectory:
+    """The path of ``[trajectory]`` from the tip's pose ``start`` (checks reported here)."""
+    with r.blame(None):
+        kind = r.string("type")
+        if kind == "circle":
+            return Circle(
+                start,
+                r.positive("radius"),
+                r.positive("period"),
+                normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
+                phase=r.number("phase", 0.0),
+                turns=r.positive("turns", 1.0),
+                ramp=r.number("ramp", 0.0),
+            )
+        if kind == "figure_eight":
+            return FigureEight(
+                start,
+                r.positive("width"),
+                r.positive("height"),
+                r.positive("period"),
+                normal=r.get("normal", "vector", (0.0, 0.0, 1.0), size=3),
+                turns=r.positive("turns", 1.0),
+                ramp=r.number("ramp", 0.0),
+            )
+        if kind == "line":
+            return Line(start, r.get("end", "vector", size=3), r.positive("duration"))
+        if kind == "minimum_jerk":
+            end = start.copy()
+            end[:3, 3] = r.get("end_position", "vector", start[:3, 3], size=3)
+            rotation = r.get("rotation", "vector", np.zeros(3), size=3)
+            end[:3, :3] = start[:3, :3] @ pin.exp3(rotation)
+            return MinimumJerk(start, end, r.positive("duration"))
+        if kind == "hold":
+            return Hold(start, r.positive("duration"))
+        raise r.fail(
+            "type",
+            f"unknown trajectory {kind!r}; use circle, figure_eight, line, minimum_jerk or hold",
+        )
+
+
+def _blamed(parse: Callable[..., _T]) -> Callable[..., _T]:
+    """``parse`` with a constructor's :class:`RedresError` reported at its table's path."""
+
+    def wrapper(r: Reader, **kwargs: Any) -> _T:
+        with r.blame(None):
+            return parse(r, **kwargs)
+
+    return wrapper
+
+
+@_blamed
+def _obstacle(r: Reader) -> Obstacle:
+    kind = r.string("type")
+    name, radius = r.string("name", kind), r.nonnegative("radius", 0.0)
+    if kind in ("sphere", "point"):
+        return SphereObstacle(r.get("center", "vector", size=3), radius, name)
+    if kind == "capsule":
+        return CapsuleObstacle(
+            r.get("a", "vector", size=3), r.get("b", "vector", size=3), radius, name
+        )
+    raise r.fail("type", f"unknown obstacle {kind!r}; use sphere, point or capsule")
+
+
+@_blamed
+def _objective(r: Reader, obstacles: list[Obstacle], n: int) -> tuple[Objective, float]:
+    kind, weight = r.string("type"), r.nonnegative("weight", 1.0)
+    if kind == "joint_limits":
+        return JointLimitObjective(), weight
+    if kind == "manipulability":
+        return ManipulabilityObjective(), weight
+    if kind == "posture":
+        q_ref = r.get("q_ref", "vector", None, size=n)
+        return PostureObjective(q_ref, r.get("weights", "vector", np.ones(n), size=n)), weight
+    if kind == "obstacles":
+        if not obstacles:
+            raise r.fail("type", "an obstacles objective needs [[obstacles]] in the scenario")
+        return ObstacleObjective(obstacles, r.positive("influence", 0.15)), weight
+    raise r.fail(
+        "type",
+        f"unknown objective {kind!r}; use joint_limits, manipulability, posture or obstacles",
+    )
+
+
+@_blamed
+def _level(r: Reader, n: int) -> Task:
+    """One priority level's task (fresh on every call: tasks keep targets)."""
+    kind = r.string("type")
+    if kind == "arm_angle":
+        target = r.get("target", "number", None)
+        reference = r.get("reference", "vector", (0.0, 0.0, 1.0), size=3)
+        return ArmAngleTask(reference=reference, target=target)
+    if kind == "posture":
+        return PostureTask(r.get("q_ref", "vector", None, size=n))
+    if kind == "look_at":
+        return LookAtTask(r.get("frame", "string", None), target=r.get("target", "vector", size=3))
+    raise r.fail("type", f"unknown level {kind!r}; use arm_angle, posture, look_at")
+
+
+class _SchemeReader(Reader):
+    """One ``[[schemes]]`` table as :class:`~redres.scenarios.registry.ScenarioParams`."""
+
+    def __init__(
+        self, table: Any, path: str, file: str, obstacles: list[Obstacle], n: int, dt: float
+    ) -> None:
+        super().__init__(table, path, file, ScenarioError)
+        self.obstacles, self.n, self.dt = obstacles, n, dt
+        self.type = self.string("type")
+
+    def objectives(self) -> list[tuple[Objective, float]]:
+        return self.each("objectives", partial(_objective, obstacles=self.obstacles, n=self.n), [])
+
+    def levels(self) -> list[Task]:
+        levels = self.each("levels", partial(_level, n=self.n))
+        if not levels:
+            example = 'levels = [{ type = "posture" }]'
+            raise self.fail("levels", f"list at least one level, e.g. {example}")
+        return levels
+
+    def inverse(self, default_damping: float | None = None) -> Inverse | None:
+        keys = ("damping", "max_damping", "threshold", "rcond")
+        given = {k: self.positive(k) for k in keys if k in self.table}
+        self.used.update(keys)
+        damping: float | AdaptiveDamping | None = given.get("damping")
+        if "max_damping" in given or "threshold" in given:
+            if damping is not None:
+                raise self.fail("damping", "give damping = λ, or max_damping and threshold")
+            damping = AdaptiveDamping(given.get("max_damping", 0.1), given.get("threshold", 0.05))
+        if damping is None and "rcond" not in given:
+            if default_damping is None:
+                return None
+            damping = default_damping
+        with self.blame("rcond" if "rcond" in given else "damping"):
+            return make_inverse(None, damping, given.get("rcond"))
+
+    def spec(self) -> SchemeSpec:
+        """The registered builder of the table's ``type``, run once now to validate."""
+        label, builders = self.string("label", self.type), scheme_types()
+        if self.type not in builders:
+            raise self.fail("type", f"unknown scheme {self.type!r}; use {', '.join(builders)}")
+        builder = builders[self.type]
+        with self.blame("type"):
+            builder(self)
+        self.done()
+        return SchemeSpec(self.type, label, lambda: builder(self))
+
+
+def load_scenario(path: str | Path) -> ScenarioSpec:
+    """Read and validate a scenario file; raises :class:`ScenarioError`."""
+    file = Path(path)
+    shown = shown_path(file)
+    try:
+        data = tomllib.loads(file.read_text(encoding="utf-8-sig"))  # a leading BOM is fine
+    except FileNotFoundError:
+        raise ScenarioError(f"{shown}: no such scenario file") from None
+    except OSError as exc:
+        raise ScenarioError(f"cannot read the scenario file: {describe_os_error(exc)}") from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{shown}: not UTF-8 text ({exc.reason}); save it as UTF-8") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{shown}: not valid TOML ({exc})") from None
+    except RecursionError:
+        raise ScenarioError(
+            f"{shown}: arrays or tables are nested too deeply to read; a scenario needs at "
+            "most a few levels"
+        ) from None
+    return parse_scenario(data, file.name, file.parent)
+
+
+def parse_scenario(
+    data: dict[str, Any], file: str = "<scenario>", base: Path = Path()
+) -> ScenarioSpec:
+    """Validate a parsed scenario (a dict as :mod:`tomllib` returns)."""
+    top = Reader(data, "", file, ScenarioError)
+    name, description = top.string("name", Path(file).stem), top.string("description", "")
+    top.used.update({"robot", "trajectory", "run", "obstacles", "schemes"})
+    if "robot" not in data:
+        raise ScenarioError(f'{file}: missing [robot] table; add [robot] with model = "panda"')
+    robot, q0 = top.read(data["robot"], "[robot]", partial(_robot, base=base))
+    if "trajectory" not in data:
+        raise ScenarioError(f'{file}: missing [trajectory] table; add type = "circle" etc.')
+    path = partial(_trajectory, start=robot.fk(q0))
+    trajectory = top.read(data["trajectory"], "[trajectory]", path)
+    run = Reader(data.get("run", {}), "[run]", file, ScenarioError)
+    dt, duration = run.positive("dt", 1e-3), run.positive("duration", trajectory.duration)
+    gain = run.nonnegative("gain", 50.0)
+    with run.blame(None):
+        run_steps(duration, dt)  # 1 to MAX_STEPS steps
+    run.done()
+    obstacles = top.each("obstacles", _obstacle, [])  # checks blamed on the table
+    tables = top.get("schemes", "tables")
+    if not tables:
+        raise ScenarioError(f'{file}: [[schemes]] is empty; add one with type = "pinv"')
+    schemes = [
+        _SchemeReader(t, top.at("schemes", i), file, obstacles, robot.n, dt).spec()
+        for i, t in enumerate(tables)
+    ]
+    top.done()
+    return ScenarioSpec(
+        name, description, robot, q0, FrameTask, trajectory, dt, duration, gain, obstacles,
+        schemes, file,
+    )  # fmt: skip
+
+
+def builtin_scenarios() -> dict[str, Path]:
+    """Name -> path of the scenario files shipped with redres (``redres run --list``)."""
+    folder = resources.files("redres") / "scenarios" / "data"
+    return {Path(str(p)).stem: Path(str(p)) for p in folder.iterdir() if str(p).endswith(".toml")}
+
+
+def builtin(name: str) -> ScenarioSpec:
+    """A built-in scenario, loaded from the TOML file redres ships (its one definition).
+
+    Args:
+        name: ``"panda_joint_limit_circle"``, ``"iiwa_arm_angle_eight"``, ... (see
+            :func:`builtin_scenarios`).
+
+    Raises:
+        ScenarioError: no built-in scenario has that name (the message lists them).
+    """
+    files = builtin_scenarios()
+    if name not in files:
+        raise ScenarioError(
+            f"no built-in scenario {name!r}; built-in scenarios: {', '.join(sorted(files))}"
+        )
+    return load_scenario(files[name])

@@ -1,0 +1,18 @@
+"""The sweep kinds, by the name a spec gives (``kind = "capability"``)."""
+
+from __future__ import annotations
+
+from ..kind import Kind
+from .capability import CAPABILITY
+from .ikdata import IK_DATASET
+from .placement import BASE_PLACEMENT
+from .redundancy import REDUNDANCY_MAP
+from .schemes import SCHEME_STATISTICS
+
+__all__ = ["KINDS"]
+
+#: Every sweep kind by name, in the order ``redres sweep --list`` shows them.
+KINDS: dict[str, Kind] = {
+    kind.name: kind
+    for kind in (CAPABILITY, REDUNDANCY_MAP, IK_DATASET, BASE_PLACEMENT, SCHEME_STATISTICS)
+}
