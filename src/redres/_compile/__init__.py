@@ -338,10 +338,7 @@ def _get(name: str, *, compiled: bool, announce: bool = True) -> ModuleType | No
         _announce(name)
     try:
         return _twins.get(name, compiled)
-    except ImportError:
-        import traceback
-
-        traceback.print_exc()  # DEBUG
+    except ImportError:  # numba cannot be imported: the owner says what it falls back to
         return None
 
 
