@@ -175,7 +175,7 @@ def groups() -> dict[str, _compile.KernelGroup]:
 #: and its per-kernel locks: whichever comes to a kernel second waits for it and loads it.
 HELPERS: dict[str, list[tuple[str, str, Callable[[], tuple[object, ...]]]]] = {
     "controller": [
-        ("redres.linalg._kernels", "_core",
+        ("redres.linalg._factor_kernels", "_core",
          lambda: (_f(2), 0.0, 0, 0.0, 0.0, 0.0, 0.0, _f(3), _f(1), _f(1))),
         ("redres.control._kernels", "chain_command",
          lambda: (_f(1), _f(1), _f(1), _f(2), _f(1))),

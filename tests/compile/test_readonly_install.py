@@ -9,9 +9,10 @@ the sources, made read-only, and imported by two processes of the user ``nobody`
 dispatcher statistics count the compilations (``cache_misses``) and the loads
 (``cache_hits``). Only the kernels of one call (``rr.linalg.damped_pinv``) compile.
 
-The interpreter may live where ``nobody`` cannot search (``/root/.pyenv``): the processes
-then keep ``CAP_DAC_READ_SEARCH`` only — reading and searching anywhere, writing nowhere
-that ``nobody`` may not (the read-only install among them).
+The interpreter and its environment may live where ``nobody`` cannot search
+(``/root/.pyenv``, a checkout under a private folder): the processes then keep
+``CAP_DAC_READ_SEARCH`` only — reading and searching anywhere, writing nowhere that
+``nobody`` may not (the read-only install among them).
 """
 
 from __future__ import annotations
@@ -48,8 +49,20 @@ print(json.dumps({
 """
 
 
+#: What the unprivileged process must find: this interpreter, with this environment's
+#: packages (the probe prints its prefix; numpy and numba must import).
+_PROBE = "import sys, numpy, numba; print(sys.prefix)"
+
+
 def _unprivileged_prefix() -> list[str]:
-    """The command prefix that runs a program as ``nobody``, or a skip saying why not."""
+    """The command prefix that runs this interpreter, with this environment's packages, as
+    ``nobody``; or a skip saying why that cannot be arranged.
+
+    Where ``nobody`` cannot reach the interpreter or its environment (a checkout under a
+    private folder such as root's home or a ``mktemp -d`` folder; issue 43), the process
+    keeps ``CAP_DAC_READ_SEARCH``: it reads and searches anywhere and writes nowhere that
+    ``nobody`` may not. A process that starts but finds another Python (the path of an
+    unreachable interpreter can resolve to the system's) is not taken for this one."""
     if os.name != "posix" or os.geteuid() != 0:
         pytest.skip("needs root to switch to an unprivileged user (run as root, e.g. in CI)")
     try:
@@ -59,14 +72,17 @@ def _unprivileged_prefix() -> list[str]:
     setpriv = shutil.which("setpriv")
     if setpriv is None:
         pytest.skip("setpriv (util-linux) is not installed")
-    prefix = [setpriv, "--reuid=nobody", "--regid=nogroup", "--clear-groups"]
-    probe = subprocess.run([*prefix, sys.executable, "-c", "pass"], capture_output=True)
-    if probe.returncode != 0:  # the interpreter is not searchable by nobody: read-only caps
-        prefix += ["--inh-caps=+dac_read_search", "--ambient-caps=+dac_read_search"]
-        probe = subprocess.run([*prefix, sys.executable, "-c", "pass"], capture_output=True)
-    if probe.returncode != 0:
-        pytest.skip(f"cannot run {sys.executable} as nobody: {probe.stderr.decode()[-200:]}")
-    return prefix
+    plain = [setpriv, "--reuid=nobody", "--regid=nogroup", "--clear-groups"]
+    caps = ["--inh-caps=+dac_read_search", "--ambient-caps=+dac_read_search"]
+    why = ""
+    for prefix in (plain, plain + caps):
+        probe = subprocess.run([*prefix, sys.executable, "-c", _PROBE], capture_output=True,
+                               text=True, timeout=120, cwd="/")  # fmt: skip
+        found = probe.stdout.strip()
+        if probe.returncode == 0 and found == sys.prefix:
+            return prefix
+        why = probe.stderr.strip().splitlines()[-1:] or [f"found the Python of {found}"]
+    pytest.skip(f"cannot run {sys.executable} with its packages as nobody: {why[0][-200:]}")
 
 
 def _tree(root: Path) -> set[str]:

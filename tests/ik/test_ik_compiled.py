@@ -83,7 +83,7 @@ def test_dual_step_equals_the_rate_step_with_zeroed_columns(
 ) -> None:
     """The dual form over the free columns = redres.linalg.rate_step on J with the
     blocked columns zeroed (its SVD path), task part and null-space part."""
-    module = _jit.groups()["ik"].compiled()
+    module = _jit.groups()["ik"].compiled("_step_kernels")
     robot = builtin_robots["panda"]
     rng = np.random.default_rng(len(blocked))
     for _ in range(10):
@@ -250,7 +250,7 @@ def test_primal_step_equals_the_rate_step(lam: float, smallest: float) -> None:
     """The Cholesky step = redres.linalg.rate_step (task part, null-space part), and its
     σ_min: ``threshold`` (0.05) when above it, the rate step's below; −1 (the caller takes
     the rate step) where that one takes its SVD (σ_min/σ_max < 1e-3)."""
-    module = _jit.groups()["ik"].compiled()
+    module = _jit.groups()["ik"].compiled("_step_kernels")
     rng = np.random.default_rng(int(1 / smallest))
     for _ in range(10):
         U, _r = np.linalg.qr(rng.normal(size=(6, 6)))

@@ -18,6 +18,7 @@ from redres.linalg import _backend
 from .strategies import PROPERTY, Jac, jacobians, orthogonal, positive_weights, spd_matrices
 
 kernels = pytest.importorskip("redres.linalg._kernels")
+eigen = pytest.importorskip("redres.linalg._eigen_kernels")
 
 SRC = os.path.join(os.path.dirname(__file__), "..", "..", "src")
 
@@ -40,8 +41,8 @@ def extremes(A: np.ndarray) -> tuple[float, float]:
     size = A.shape[0]
     d, e, v, p = (np.zeros(size) for _ in range(4))
     T = np.tril(A).copy()
-    kernels._tridiagonalize(T, size, d, e, v, p)
-    return kernels._extreme_eigenvalues(d, e, size, True)
+    eigen._tridiagonalize(T, size, d, e, v, p)
+    return eigen._extreme_eigenvalues(d, e, size, True)
 
 
 @pytest.mark.parametrize(

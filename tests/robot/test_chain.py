@@ -289,6 +289,19 @@ def test_log3_matches_pinocchio_near_0_and_pi(angle: float, rng: np.random.Gener
         assert abs(np.linalg.norm(got) - angle) <= 1e-13 + 1e-13 * angle
 
 
+def test_log3_of_a_stack_is_each_one_alone(rng: np.random.Generator) -> None:
+    """The stacked form (the self-motion sweeps' corrector) is the single form per row,
+    bit for bit, at 0 and π too."""
+    angles = [0.0, 1e-9, 0.3, 2.0, np.pi - 1e-9, np.pi]
+    stack = np.array([pin.exp3(a * _unit(rng)) for a in angles])
+    rows = log3(stack)
+    assert rows.shape == (len(angles), 3)
+    for R, row in zip(stack, rows, strict=True):
+        assert np.array_equal(row, log3(R))
+    with pytest.raises(ShapeError, match=r"\(3, 3\) or \(N, 3, 3\)"):
+        log3(np.eye(4))
+
+
 def test_log3_of_a_slightly_non_orthogonal_matrix_stays_finite() -> None:
     """Rounding can put the trace a hair outside [−1, 3]: no NaN."""
     for R in (np.diag([1.0, -1.0, -1.0]) * (1 + 1e-15), np.eye(3) * (1 + 1e-15)):

@@ -26,7 +26,8 @@ import math
 import numpy as np
 
 from .._compile import kernel, parallel_range
-from ..ik._kernels import (
+from ..ik._kernels import solve_packed
+from ..ik._layout import (
     BEST_ORIENTATION,
     BEST_POSITION,
     CONVERGED,
@@ -34,7 +35,6 @@ from ..ik._kernels import (
     ERR_POSITION,
     N_OPTIONS,
     N_STATE,
-    solve_packed,
 )
 from ..linalg._codes import OK, Q_NONFINITE
 from ..linalg._kernels import _step_into, _step_scratch
@@ -48,7 +48,7 @@ CHUNK = 64
 
 
 @kernel(parallel=True)
-def poses(links, axes, kinds, q, T, status):  # type: ignore[no-untyped-def]
+def poses(links, axes, kinds, q, T, status):
     """``T[i]`` (4x4) <- pose of the chain's frame at ``q[i]``, for every row of ``q``
     (N x n); ``status[i]`` <- ``OK`` or ``Q_NONFINITE``."""
     count = q.shape[0]
@@ -57,7 +57,7 @@ def poses(links, axes, kinds, q, T, status):  # type: ignore[no-untyped-def]
 
 
 @kernel(parallel=True)
-def jacobians(links, axes, kinds, q, local, T, J, status):  # type: ignore[no-untyped-def]
+def jacobians(links, axes, kinds, q, local, T, J, status):
     """``T[i]`` (4x4) and ``J[i]`` (6 x n) <- pose and Jacobian (world-aligned, or the
     frame's axes when ``local``) at ``q[i]``; ``status[i]`` as :func:`poses`."""
     count = q.shape[0]
@@ -67,7 +67,7 @@ def jacobians(links, axes, kinds, q, local, T, J, status):  # type: ignore[no-un
 
 
 @kernel(parallel=True)
-def rate_steps(links, axes, kinds, q, xd, grad, k_null, weights, spec, qd, rank, stats, status):  # type: ignore[no-untyped-def]
+def rate_steps(links, axes, kinds, q, xd, grad, k_null, weights, spec, qd, rank, stats, status):
     """``qd[i]`` <- ``J# xd - k_null (I - J# J) grad`` with ``J`` the world-aligned
     Jacobian at ``q[i]`` (N x n), as ``_kernels._step`` computes it (its body,
     ``_step_into``, in the chunk's scratch): ``xd`` (N x 6, or
@@ -105,7 +105,7 @@ def rate_steps(links, axes, kinds, q, xd, grad, k_null, weights, spec, qd, rank,
 
 
 @kernel(parallel=True)
-def ik_solves(  # type: ignore[no-untyped-def]
+def ik_solves(
     links,
     axes,
     kinds,
@@ -122,7 +122,7 @@ def ik_solves(  # type: ignore[no-untyped-def]
     status,
 ):
     """Position IK of every target: item ``i`` runs the attempts ``0 … attempts − 1`` of
-    ``_ik_kernels.solve_packed`` on ``targets[i]`` (N x 4 x 4) from ``q0[i]`` (``q0``
+    ``ik._kernels.solve_packed`` on ``targets[i]`` (N x 4 x 4) from ``q0[i]`` (``q0``
     N x n, or 1 x n for all) with the restart key ``keys[i]`` (int64), ``options`` and
     ``rows`` as ``solve_packed``'s (no preference). Every attempt that converges fills
     the next of the ``S = q.shape[1]`` slots: ``q[i, s]`` (N x S x n) and

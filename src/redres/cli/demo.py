@@ -141,7 +141,7 @@ def _write_report(
         return None
 
 
-def _warm_up(specs: Sequence[ScenarioSpec], loud: bool) -> None:
+def _compile_for(specs: Sequence[ScenarioSpec], loud: bool) -> None:
     """Compile what the runs need before they are timed (on a cold cache they would
     otherwise run, and be timed, on the reference path while it compiles behind)."""
     groups = ["linalg", "chain", "controller"]
@@ -187,7 +187,7 @@ def run_scenarios(
     check_out_dir(output.folder, force=output.force)  # before any run
     started = time.perf_counter()
     loud = not (quiet or as_json)
-    _warm_up(specs, loud)
+    _compile_for(specs, loud)
     runs: list[tuple[ScenarioSpec, RunLog]] = []
     for spec in specs:
         if quick:

@@ -47,7 +47,7 @@ from ..robot._chain_kernels import _rotation_log, jacobian
 
 
 @kernel
-def _rows_at(config, n):  # type: ignore[no-untyped-def]
+def _rows_at(config, n):
     """Offset of the task rows in ``config`` and their number ``m``; ``-1, 0`` when
     ``config`` is too short for them."""
     start = CFG_VECTORS + 3 * n
@@ -60,7 +60,7 @@ def _rows_at(config, n):  # type: ignore[no-untyped-def]
 
 
 @kernel(inline=True)
-def _target_dot(config, H, i, j):  # type: ignore[no-untyped-def]
+def _target_dot(config, H, i, j):
     """``(R_d Rᵀ)[i, j]``: row ``i`` of the target rotation (``config``, row-major) dotted
     with row ``j`` of the frame's rotation ``H[:3, :3]`` (inlined: called with nine
     literal ``i, j``, it would compile nine specialisations)."""
@@ -69,7 +69,7 @@ def _target_dot(config, H, i, j):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def frame_command(J, H, q, config, Jm, xd, e):  # type: ignore[no-untyped-def]
+def frame_command(J, H, q, config, Jm, xd, e):
     """The frame-task part of :func:`clik_step` (alone: for schemes with their own step):
     ``e = [p_d - p; log(R_d R^T)]`` into ``e`` (6), the task rows of ``J`` into ``Jm``
     (m x n) and ``xd = twist_d + gain * e`` into ``xd`` (m). Returns a status."""
@@ -85,7 +85,7 @@ def frame_command(J, H, q, config, Jm, xd, e):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _frame_rows(J, H, config, rows, m, Jm, xd, e):  # type: ignore[no-untyped-def]
+def _frame_rows(J, H, config, rows, m, Jm, xd, e):
     """:func:`frame_command` past its checks of the shapes and of ``q``."""
     n = J.shape[1]
     if not _finite_2d(H):
@@ -115,7 +115,7 @@ def _frame_rows(J, H, config, rows, m, Jm, xd, e):  # type: ignore[no-untyped-de
 
 
 @kernel
-def _chain_kinematics(config, q, T, J):  # type: ignore[no-untyped-def]
+def _chain_kinematics(config, q, T, J):
     """``T`` (4x4) and ``J`` (6 x n) <- the frame's pose and world-aligned Jacobian from
     its serial chain (:func:`redres.robot._chain_kernels.jacobian`), which ``config``
     holds after the task rows (``links, axes, kinds`` of
@@ -137,7 +137,7 @@ def _chain_kinematics(config, q, T, J):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def chain_command(config, q, block, Jm, xd):  # type: ignore[no-untyped-def]
+def chain_command(config, q, block, Jm, xd):
     """:func:`frame_command` with the frame's pose and Jacobian from its serial chain
     (:func:`_chain_kinematics`) instead of Pinocchio. ``block`` (``22 + 6 n``) receives
     ``[e (6) | T (4x4, row-major) | J (6 x n, row-major)]``. Returns a status."""
@@ -156,7 +156,7 @@ def chain_command(config, q, block, Jm, xd):  # type: ignore[no-untyped-def]
 
 
 @kernel(nogil=False)  # called from Python, about a microsecond
-def clik_step(J, H, q, config, q_next, out):  # type: ignore[no-untyped-def]
+def clik_step(J, H, q, config, q_next, out):
     """One fused CLIK step on a frame task: pose error, rate step, limits, integration.
 
     Inputs: ``J`` the frame's 6 x n world-aligned Jacobian, ``H`` its 4 x 4 placement,
@@ -202,7 +202,7 @@ def clik_step(J, H, q, config, q_next, out):  # type: ignore[no-untyped-def]
 
 
 @kernel(nogil=False)  # called from Python, about a microsecond
-def chain_step(config, q, q_next, out):  # type: ignore[no-untyped-def]
+def chain_step(config, q, q_next, out):
     """:func:`clik_step` with the frame's pose and Jacobian from its serial chain (as
     :func:`chain_command`): the whole step without Pinocchio, in four arguments (each
     array argument costs its conversion on every call). Same outputs and status."""
@@ -220,7 +220,7 @@ def chain_step(config, q, q_next, out):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _resolve(Jm, xd, scratch, q, config, q_next, out):  # type: ignore[no-untyped-def]
+def _resolve(Jm, xd, scratch, q, config, q_next, out):
     """The rest of :func:`clik_step` from the task rows ``Jm``, ``xd``: the rate step and
     velocity scaling into ``out[:n]``, the diagnostics into ``out[n:n+5]``, the
     integration into ``q_next``; ``scratch`` (n) holds the cost's gradient. Returns a
@@ -260,7 +260,7 @@ def _resolve(Jm, xd, scratch, q, config, q_next, out):  # type: ignore[no-untype
 
 
 @kernel
-def integrate(q, qd, dt, out):  # type: ignore[no-untyped-def]
+def integrate(q, qd, dt, out):
     """``out <- q + qd dt`` (one compiled call instead of two NumPy temporaries); returns
     whether every ``out[j]`` is finite."""
     finite = True

@@ -18,6 +18,7 @@ import pinocchio as pin
 
 from .._validate import FloatArray, as_scalar, as_transform, as_vector
 from ..errors import InvalidParameterError
+from ..robot.chain import log3
 
 #: Shortest period or duration accepted, s: shorter ones are not physical and overflow the
 #: rates they set (a 5e-324 s period).
@@ -222,7 +223,7 @@ class MinimumJerk(Trajectory):
         self.duration = _seconds(duration, "duration")
         R0 = self.start_pose[:3, :3]
         self._dp = self.end_pose[:3, 3] - self.start_pose[:3, 3]
-        self._r = pin.log3(R0.T @ self.end_pose[:3, :3])
+        self._r = log3(R0.T @ self.end_pose[:3, :3])
         self._r_world = R0 @ self._r
 
     def sample(self, t: float) -> Sample:

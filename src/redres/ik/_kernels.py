@@ -29,39 +29,45 @@ import numpy as np
 
 from .._compile import kernel
 from ..linalg._dense_kernels import (
-    _back_project,
-    _cholesky,
-    _cholesky_solve,
     _copy,
     _finite_2d,
-    _gram,
 )
-from ..linalg._eigen_kernels import _extreme_eigenvalues, _tridiagonalize
-from ..linalg._kernels import step as _rate_step
 from ..robot._chain_kernels import pose_error
+from ._layout import (
+    BEST_ORIENTATION,
+    BEST_POSITION,
+    BEST_SCORE,
+    BUDGET,
+    CONVERGED,
+    ERR_ORIENTATION,
+    ERR_POSITION,
+    ERROR_SCALE,
+    FLAT_GAIN,
+    FLAT_ITERATIONS,
+    K_LIMITS,
+    MAX_DAMPING,
+    MAX_ITERATIONS,
+    MAX_STEP,
+    N_OPTIONS,
+    N_STATE,
+    PATIENCE,
+    PREFERENCE_GAIN,
+    PREFERENCE_STEP,
+    PREFERENCE_TOL,
+    STALLED,
+    STICKY_ERROR,
+    THRESHOLD,
+    TOL_ORIENTATION,
+    TOL_POSITION,
+    UNSETTLED,
+)
+from ._step_kernels import _blocked_more, _cap, _direction
 
-#: Status of :func:`solve`: converged, the last attempt stalled, or it used its iterations.
-CONVERGED, STALLED, BUDGET = 0, 1, 2
-#: Layout of ``options``.
-TOL_POSITION, TOL_ORIENTATION, MAX_STEP, K_LIMITS, MAX_DAMPING, THRESHOLD = range(6)
-PREFERENCE_TOL, MAX_ITERATIONS, PATIENCE, N_OPTIONS = 6, 7, 8, 9
-#: Layout of ``state`` (kept between calls for one target).
-BEST_SCORE, BEST_POSITION, BEST_ORIENTATION, ERR_POSITION, ERR_ORIENTATION = range(5)
-UNSETTLED, N_STATE = 5, 6
-
-_ERROR_SCALE = 0.1  # m or rad: damping and the joint-limit term fade out below this error
-_PREFERENCE_GAIN = 0.5  # fraction of the distance to the preference covered per iteration
-_PREFERENCE_STEP = 0.1  # rad: largest joint motion per iteration toward the preference
-_STICKY_ERROR = 1e-3  # m + rad: above this error in phase 2, clamped joints are released
-_FLAT_ITERATIONS = 3  # an attempt whose error has not fallen by _FLAT_GAIN in this many
-_FLAT_GAIN = 0.01  # iterations has stalled (stuck at a local minimum, often at limits)
-_RCOND = 1e-10  # redres.linalg.RCOND: rank tolerance of the exact step
-_CHOLESKY_MIN_RATIO = 1e-3  # linalg._kernels: below this σ_min/σ_max it takes the SVD
 _MASK = 0xFFFFFFFF
 
 
 @kernel
-def _hash32(x):  # type: ignore[no-untyped-def]
+def _hash32(x):
     """``lowbias32`` of a value in ``[0, 2³²)`` (Wellons 2018)."""
     x ^= x >> 16
     x = (x * 0x7FEB352D) & _MASK
@@ -72,7 +78,7 @@ def _hash32(x):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def uniform(key, item, attempt, counter):  # type: ignore[no-untyped-def]
+def uniform(key, item, attempt, counter):
     """Uniform number in ``[0, 1)`` number ``counter`` of ``attempt`` of ``item`` under
     ``key`` (all non-negative integers below 2⁶³; module docstring)."""
     h = _hash32(0x5BD1E995 ^ (key & _MASK))
@@ -86,188 +92,14 @@ def uniform(key, item, attempt, counter):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _errors(e, rows):  # type: ignore[no-untyped-def]
+def _errors(e, rows):
     ep = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
     eo = 0.0 if rows == 3 else math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
     return ep, eo
 
 
 @kernel
-def _cap(dq, largest):  # type: ignore[no-untyped-def]
-    """``dq`` scaled down in place so that no entry exceeds ``largest`` in magnitude."""
-    peak = 0.0
-    for x in dq:
-        peak = max(peak, abs(x))
-    if peak > largest:
-        ratio = largest / peak
-        for j in range(dq.shape[0]):
-            dq[j] *= ratio
-
-
-@kernel
-def _direction(  # type: ignore[no-untyped-def]
-    J, Jb, e, rows, q, blocked, prefer, q_pref, mid, weight, k, lam, threshold, grad, task, pref,
-    mats, vecs,
-):  # fmt: skip
-    """``task`` (and, in phase 2, ``pref``) <- the two parts of the step with the
-    ``blocked`` joints' columns removed; returns ``σ_min`` of the (blocked) Jacobian, or
-    ``threshold`` when it is at least that (the damping law needs no more).
-    Phase 1: the joint-limit term is in ``task``; phase 2: ``pref`` is the null-space
-    step toward ``q_pref``. ``mats`` (3, 6, 6), ``vecs`` (6, 6): scratch."""
-    n = q.shape[0]
-    for j in range(n):
-        b = blocked[j]
-        for i in range(rows):
-            Jb[i, j] = 0.0 if b else J[i, j]
-        if b:
-            grad[j] = 0.0
-        elif prefer:
-            grad[j] = q[j] - q_pref[j]
-        else:
-            grad[j] = weight[j] * (q[j] - mid[j])
-    null = pref if prefer else pref[:0]
-    free = 0
-    for j in range(n):
-        if not blocked[j]:
-            free += 1
-    if free < rows and _dual_step(J, e, rows, blocked, free, grad, k, lam, task, null):
-        sigma = 0.0  # as the reference: σ_rows of J with blocked columns, rank < rows
-    else:
-        sigma = _primal_step(Jb, e, rows, grad, k, lam, threshold, task, null, mats, vecs)
-        if sigma < 0.0:  # near-singular: the rate step's SVD
-            sigma = _rate_step(Jb[:rows], e[:rows], grad, task, null, k, lam, _RCOND)[3]
-    if prefer:
-        for j in range(n):
-            task[j] -= pref[j]
-    return sigma
-
-
-@kernel
-def _primal_step(J, e, rows, grad, k, lam, threshold, out, null, mats, vecs):  # type: ignore[no-untyped-def]
-    """``out <- Jᵀ (J Jᵀ + λ² I)⁻¹ (e + k J grad) − k grad`` (``null`` <- its second
-    part, if of length n) by the Cholesky factorisation of ``J Jᵀ + λ² I``, the path
-    :func:`redres.linalg._kernels.step` takes where ``σ_min/σ_max >= 1e-3``, without
-    its general-purpose preamble. Returns ``σ_min(J)`` for the next damping law, or
-    ``threshold`` when it is at least that (the Cholesky factorisation of
-    ``J Jᵀ − threshold² I`` succeeds: the law gives 0, no eigenvalues needed); below,
-    ``σ_min`` as that step finds it (Householder tridiagonalisation, extreme
-    eigenvalues). Returns −1 where that step would take its SVD (``σ_min/σ_max <
-    1e-3``, fewer columns than rows). ``mats`` (3, 6, 6), ``vecs`` (6, 6): scratch
-    (2-D and 3-D arrays indexed by row: a reshape per call costs as much as a Cholesky
-    factorisation).
-    """
-    n = J.shape[1]
-    if not threshold > 0.0 or n < rows:
-        return -1.0
-    A, L = mats[0], mats[1]
-    r, rt = vecs[0], vecs[1]
-    _gram(J, rows, A)
-    sigma = threshold
-    if not _cholesky(A, L, rows, -threshold * threshold):
-        T = mats[2]
-        for a in range(rows):
-            for b in range(a + 1):
-                T[a, b] = A[a, b]
-        d, off, v, p = vecs[2], vecs[3], vecs[4], vecs[5]
-        _tridiagonalize(T, rows, d, off, v, p)
-        lowest, highest = _extreme_eigenvalues(d, off, rows, True)
-        sigma = math.sqrt(max(lowest, 0.0))
-        if not sigma >= _CHOLESKY_MIN_RATIO * math.sqrt(max(highest, 0.0)) or sigma == 0.0:
-            return -1.0
-    if not _cholesky(A, L, rows, lam * lam):  # pragma: no cover - A + λ² I ≻ 0 here
-        return -1.0
-    for a in range(rows):
-        acc = 0.0
-        for j in range(n):
-            acc += J[a, j] * grad[j]
-        r[a] = e[a] + k * acc
-        rt[a] = e[a]
-    _cholesky_solve(L, r, rows)
-    if null.shape[0] == n:
-        _cholesky_solve(L, rt, rows)
-    _back_project(J, rows, r, rt, grad, k, out, null)
-    return sigma
-
-
-@kernel
-def _dual_step(J, e, rows, blocked, free, grad, k, lam, out, null):  # type: ignore[no-untyped-def]
-    """``out <- J# e − k (I − J# J) grad`` (``null`` <- its second part, if of length n)
-    for a Jacobian whose ``free`` unblocked columns are fewer than its rows, in the dual
-    form ``J# = (JᵀJ + λ² I)⁻¹ Jᵀ`` over the free columns (Cholesky of the small
-    ``free x free`` Gram matrix). It equals the inverse of
-    :func:`redres.linalg._kernels.step` on the Jacobian with the blocked columns zeroed,
-    ``Jᵀ (J Jᵀ + λ² I)⁻¹`` (the push-through identity; blocked joints get
-    ``−k grad = 0``), which must take its Jacobi SVD there (``J Jᵀ`` is singular), 30
-    times slower. Returns False, leaving that path to the caller, when ``λ = 0`` and the
-    free columns are not well conditioned (``κ(JᵀJ) > 1e8``).
-    """
-    n = blocked.shape[0]
-    index = np.empty(free, dtype=np.int64)
-    f = 0
-    for j in range(n):
-        if not blocked[j]:
-            index[f] = j
-            f += 1
-    G = np.empty((free, free))
-    L = np.empty((free, free))
-    r = np.empty(free)
-    rt = np.empty(free)
-    largest = 0.0
-    for a in range(free):
-        for b in range(a + 1):
-            acc = 0.0
-            for i in range(rows):
-                acc += J[i, index[a]] * J[i, index[b]]
-            G[a, b] = acc
-            G[b, a] = acc
-        largest = max(largest, G[a, a])
-    if free > 0:
-        if not _cholesky(G, L, free, lam * lam):
-            return False
-        if lam == 0.0:
-            for a in range(free):
-                if L[a, a] * L[a, a] < 1e-8 * largest:
-                    return False
-    for a in range(free):
-        acc = 0.0
-        for i in range(rows):
-            acc += J[i, index[a]] * e[i]
-        rt[a] = acc
-        acc2 = 0.0
-        for b in range(free):
-            acc2 += G[a, b] * grad[index[b]]
-        r[a] = acc + k * acc2
-    _cholesky_solve(L, r, free)
-    _cholesky_solve(L, rt, free)
-    want_null = null.shape[0] == n
-    for j in range(n):
-        out[j] = -k * grad[j]
-        if want_null:
-            null[j] = out[j]
-    for a in range(free):
-        j = index[a]
-        out[j] += r[a]
-        if want_null:
-            null[j] = out[j] - rt[a]
-    return True
-
-
-@kernel
-def _blocked_more(q, lo, hi, task, pref, prefer, blocked):  # type: ignore[no-untyped-def]
-    """Block the joints at a limit that the step pushes outward; whether any was new."""
-    more = False
-    for j in range(q.shape[0]):
-        if blocked[j]:
-            continue
-        dq = task[j] + pref[j] if prefer else task[j]
-        if (q[j] <= lo[j] and dq < 0.0) or (q[j] >= hi[j] and dq > 0.0):
-            blocked[j] = True
-            more = True
-    return more
-
-
-@kernel
-def solve_packed(links, axes, kinds, limits, problem, io, rows, has_pref, key, first, stop, spend):  # type: ignore[no-untyped-def]
+def solve_packed(links, axes, kinds, limits, problem, io, rows, has_pref, key, first, stop, spend):
     """:func:`solve` for a call from Python, with few arrays to unbox (each costs about as
     much as an iteration): ``limits`` (6, n) stacks ``lo, hi, sample_lo, sample_hi, mid,
     weight``; ``problem`` is the target (16 values, row-major 4x4), the options
@@ -294,7 +126,7 @@ def solve_packed(links, axes, kinds, limits, problem, io, rows, has_pref, key, f
 
 
 @kernel
-def _is_pose(T):  # type: ignore[no-untyped-def]
+def _is_pose(T):
     """Finite, last row ``[0, 0, 0, 1]`` to 1e-9, ``R Rᵀ = I`` to 1e-6 and ``det R >= 0``."""
     if not _finite_2d(T):
         return False
@@ -314,7 +146,7 @@ def _is_pose(T):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def solve(  # type: ignore[no-untyped-def]
+def solve(
     links,
     axes,
     kinds,
@@ -380,7 +212,7 @@ def solve(  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _attempt(  # type: ignore[no-untyped-def]
+def _attempt(
     links, axes, kinds, limits, target, rows, q_pref, options, q, best_q, state, T, e, J, Jb,
     vectors, mats, vecs, flags,
 ):  # fmt: skip
@@ -427,9 +259,9 @@ def _attempt(  # type: ignore[no-untyped-def]
                 for j in range(n):
                     sticky[j] = False
         elif not has_cand:
-            if ep + eo < (1.0 - _FLAT_GAIN) * flat_error:
+            if ep + eo < (1.0 - FLAT_GAIN) * flat_error:
                 flat_error, flat_at = ep + eo, it
-            elif it - flat_at >= _FLAT_ITERATIONS:
+            elif it - flat_at >= FLAT_ITERATIONS:
                 return STALLED, it, False
             if it - check_at >= patience:
                 if ep + eo > 0.5 * check_error:
@@ -439,19 +271,19 @@ def _attempt(  # type: ignore[no-untyped-def]
                 check_error = ep + eo
         # ---- the step (ReferenceSolver.step)
         error = ep + eo
-        fade = min(1.0, error / _ERROR_SCALE)
+        fade = min(1.0, error / ERROR_SCALE)
         lam = 0.0
         if sigma < threshold:
             ratio = max(sigma, 0.0) / threshold
             lam = lam_max * math.sqrt(1.0 - ratio * ratio)
         lam *= fade
-        k = _PREFERENCE_GAIN if prefer else k_limits * fade
+        k = PREFERENCE_GAIN if prefer else k_limits * fade
         recompute = False
         for j in range(n):
             blocked[j] = False
         if at_limit and prefer:  # ReferenceSolver.clamp: sticky joints stay blocked
             for j in range(n):
-                if error > _STICKY_ERROR:
+                if error > STICKY_ERROR:
                     sticky[j] = False
                 blocked[j] = sticky[j]
                 recompute = recompute or sticky[j]
@@ -470,7 +302,7 @@ def _attempt(  # type: ignore[no-untyped-def]
             if prefer:
                 _copy(sticky, blocked)
         if prefer:  # ReferenceSolver.preference_part
-            _cap(pref, _PREFERENCE_STEP)
+            _cap(pref, PREFERENCE_STEP)
             dot = 0.0
             for j in range(n):
                 pref[j] *= scale

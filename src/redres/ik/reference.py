@@ -22,6 +22,15 @@ from numpy.typing import NDArray
 
 from .._validate import FloatArray
 from ..linalg import adaptive_damping, rate_step
+from ..robot.chain import log3
+from ._layout import (
+    ERROR_SCALE,
+    FLAT_GAIN,
+    FLAT_ITERATIONS,
+    PREFERENCE_GAIN,
+    PREFERENCE_STEP,
+    STICKY_ERROR,
+)
 from .options import IKResult, _Options, limit_arrays
 
 if TYPE_CHECKING:
@@ -29,13 +38,7 @@ if TYPE_CHECKING:
     from ..tasks import TaskState
 
 _WORLD = pin.LOCAL_WORLD_ALIGNED
-_ERROR_SCALE = 0.1  # m or rad: damping and the joint-limit term fade out below this error
-_PREFERENCE_GAIN = 0.5  # fraction of the distance to the preference covered per iteration
-_PREFERENCE_STEP = 0.1  # rad: largest joint motion per iteration toward the preference
-_STICKY_ERROR = 1e-3  # m + rad: above this error in phase 2, clamped joints are released
-# An attempt whose error has not fallen by _FLAT_GAIN in _FLAT_ITERATIONS iterations has
-# stalled (stuck at a local minimum, often at limits).
-_FLAT_ITERATIONS, _FLAT_GAIN = 3, 0.01
+
 
 _CONVERGED, _STALLED, _BUDGET, _TIMEOUT = range(4)
 #: ``(task part, preference part)`` of a step; :meth:`ReferenceSolver.direction` at one ``q``.
@@ -137,9 +140,9 @@ class ReferenceSolver:
                     self.sticky = np.zeros(q.size, dtype=bool)
                     self.preference_scale, self.last_preference = 1.0, None
             elif self.candidate is None:
-                if ep + eo < (1.0 - _FLAT_GAIN) * flat_error:
+                if ep + eo < (1.0 - FLAT_GAIN) * flat_error:
                     flat_error, flat_at = ep + eo, it
-                elif it - flat_at >= _FLAT_ITERATIONS:
+                elif it - flat_at >= FLAT_ITERATIONS:
                     return (*self.end(q, _STALLED), it)
                 if it - check_at >= o.patience:
                     if ep + eo > 0.5 * check_error:
@@ -175,7 +178,7 @@ class ReferenceSolver:
         J = pin.getFrameJacobian(model, data, self.fid, _WORLD)
         if self.R_d is None:
             return J[:3], ep, 0.0
-        e[3:] = pin.log3(self.R_d @ pose.rotation.T)
+        e[3:] = log3(self.R_d @ pose.rotation.T)
         eo = math.sqrt(e[3] * e[3] + e[4] * e[4] + e[5] * e[5])
         return J, ep, eo
 
@@ -191,7 +194,7 @@ class ReferenceSolver:
         """Next configuration: damped CLIK step plus null-space term, clamped (:meth:`clamp`),
         scaled and clipped."""
         o = self.o
-        fade = min(1.0, error / _ERROR_SCALE)
+        fade = min(1.0, error / ERROR_SCALE)
         damping = o.damping
         lam = adaptive_damping(self.sigma, damping.max_damping, damping.threshold) * fade
         arm = None
@@ -216,7 +219,7 @@ class ReferenceSolver:
         task, pref = parts
         blocked = np.zeros(q.size, dtype=bool)
         if self.prefer:
-            if error > _STICKY_ERROR:
+            if error > STICKY_ERROR:
                 self.sticky[:] = False
             blocked |= self.sticky
         recompute = bool(blocked.any())
@@ -250,7 +253,7 @@ class ReferenceSolver:
         if arm is not None:
             return self.arm_angle_step(J, arm, lam, blocked)
         if self.prefer and self.q_pref is not None:
-            grad, k = q - self.q_pref, _PREFERENCE_GAIN
+            grad, k = q - self.q_pref, PREFERENCE_GAIN
         else:
             grad, k = self.limit_weight * (q - self.mid), self.o.k_limits * fade
         if blocked is not None:
@@ -275,7 +278,7 @@ class ReferenceSolver:
             J_arm = np.where(blocked, 0.0, J_arm)
         levels = prioritized_velocity(
             [J, J_arm],
-            [self.e, _PREFERENCE_GAIN * arm.error],
+            [self.e, PREFERENCE_GAIN * arm.error],
             method="damped",
             damping=[lam, self.o.damping],
         ).levels
@@ -283,10 +286,10 @@ class ReferenceSolver:
         return levels[0].contribution, levels[1].contribution
 
     def preference_part(self, pref: FloatArray) -> FloatArray:
-        """The preference step, capped to ``_PREFERENCE_STEP`` and halved for good each
+        """The preference step, capped to ``PREFERENCE_STEP`` and halved for good each
         time it reverses direction (an overshoot on the curved self-motion manifold,
         where the linearised step ignores the curvature)."""
-        step = _cap(pref, _PREFERENCE_STEP) * self.preference_scale
+        step = _cap(pref, PREFERENCE_STEP) * self.preference_scale
         if self.last_preference is not None and float(step @ self.last_preference) < 0.0:
             self.preference_scale *= 0.5
             step *= 0.5

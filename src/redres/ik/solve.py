@@ -89,6 +89,7 @@ from .. import _compile
 from .._validate import FloatArray, as_scalar, as_seed, as_vector
 from ..errors import InvalidParameterError
 from ..linalg import AdaptiveDamping, rate_step
+from . import _layout as layout
 from .options import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target, limit_arrays
 from .reference import ReferenceSolver
 
@@ -98,7 +99,9 @@ if TYPE_CHECKING:
 __all__ = ["IKResult", "ik"]
 
 #: The compiled iteration. Cold: a first ``rr.ik`` 31 s in all with linalg and the chain.
-KERNELS = _compile.KernelGroup("ik", ("redres.ik._kernels",), cold_seconds=10.0)
+KERNELS = _compile.KernelGroup(
+    "ik", ("redres.ik._kernels", "redres.ik._step_kernels"), cold_seconds=10.0
+)
 
 
 def ik(
@@ -166,7 +169,7 @@ def ik(
         FrameNotFoundError: unknown ``frame``.
         InvalidParameterError: a tolerance, budget or gain out of range.
     """
-    _warm_up(arm_angle is not None)
+    _load_before_the_budget(arm_angle is not None)
     start = time.perf_counter()
     options, packed, timeout = _options_of(
         tol_position, tol_orientation, max_iterations, max_restarts, timeout_s,
@@ -259,7 +262,7 @@ def _arm_angle_solve(
 _WARM: set[str] = set()
 
 
-def _warm_up(priority: bool) -> None:
+def _load_before_the_budget(priority: bool) -> None:
     """Load the compiled kernels once per process, outside the time budget (the first call
     of a numba kernel loads or compiles it, which takes far longer than a solve)."""
     if not _ENTRY:
@@ -282,7 +285,7 @@ def _warm_up(priority: bool) -> None:
 _OPTIONS: dict[tuple[Any, ...], tuple[_Options, FloatArray]] = {}
 #: Per robot and frame: the kernel's leading arguments, or None (not a serial chain).
 _CHAINS: WeakKeyDictionary[Robot, dict[int, tuple[Any, ...] | None]] = WeakKeyDictionary()
-_ENTRY: list[Any] = []  # the native entry point of _ik_kernels.solve, once loaded
+_ENTRY: list[Any] = []  # the native entry point of ik._kernels.solve_packed, once loaded
 
 
 def _options_of(*values: Any) -> tuple[_Options, FloatArray, float]:
@@ -299,10 +302,8 @@ def _options_of(*values: Any) -> tuple[_Options, FloatArray, float]:
     if found is None:
         o = _options(*key[:4], None, *key[4:])
         d = o.damping
-        packed = np.array([
-            o.tol_position, o.tol_orientation, o.max_step, o.k_limits, d.max_damping,
-            d.threshold, o.preference_tol, o.max_iterations, o.patience,
-        ])  # fmt: skip
+        settings = {**vars(o), "max_damping": d.max_damping, "threshold": d.threshold}
+        packed = np.array([settings[name] for name in layout.OPTION_NAMES], dtype=np.float64)
         found = (o, packed)
         if len(_OPTIONS) < 64:
             _OPTIONS[key] = found
@@ -421,9 +422,10 @@ def _solve_compiled(
     transform)."""
     entry, arguments = compiled
     n = q.shape[0]
-    io = np.empty(2 * n + 6)
+    io = np.empty(2 * n + layout.N_STATE)
     io[:n] = q
-    io[2 * n : 2 * n + 3] = math.inf  # the best score and its errors, none yet
+    state = io[2 * n :]
+    state[[layout.BEST_SCORE, layout.BEST_POSITION, layout.BEST_ORIENTATION]] = math.inf
     clock = time.perf_counter
     # Attempt 0 draws nothing: the key is made only when a restart is needed.
     key, made, iterations, stop, spend = 0, 0, 0, 1, options.max_iterations
@@ -432,10 +434,11 @@ def _solve_compiled(
                                        stop, spend)  # fmt: skip
         made += attempts
         iterations += used
-        if status == 0:  # _ik_kernels.CONVERGED
-            note = _UNSETTLED if io[2 * n + 5] else ""
-            return _result(io[:n].copy(), True, iterations, made - 1, float(io[2 * n + 3]),
-                           float(io[2 * n + 4]), clock() - start, "converged" + note)  # fmt: skip
+        if status == layout.CONVERGED:
+            note = _UNSETTLED if state[layout.UNSETTLED] else ""
+            return _result(io[:n].copy(), True, iterations, made - 1,
+                           float(state[layout.ERR_POSITION]), float(state[layout.ERR_ORIENTATION]),
+                           clock() - start, "converged" + note)  # fmt: skip
         if status < 0:
             return None
         timeout = clock() > deadline
@@ -445,8 +448,8 @@ def _solve_compiled(
             key, stop = _restart_key(seed), options.max_restarts + 1
     why = "time budget" if timeout else "iteration and restart budget"
     return _result(
-        io[n : 2 * n].copy(), False, iterations, made - 1, float(io[2 * n + 1]),
-        float(io[2 * n + 2]), clock() - start,
+        io[n : 2 * n].copy(), False, iterations, made - 1,
+        float(state[layout.BEST_POSITION]), float(state[layout.BEST_ORIENTATION]), clock() - start,
         f"not converged: {why} exhausted; returning the best configuration found",
     )  # fmt: skip
 

@@ -37,7 +37,12 @@ _state: dict[str, Any] = {"enabled": _compile.enabled()}
 #: factorisations and eigenvalue kernels it calls). Cold: a first ``damped_pinv`` 16 s.
 KERNELS = _compile.KernelGroup(
     "linalg",
-    ("redres.linalg._kernels", "redres.linalg._dense_kernels", "redres.linalg._eigen_kernels"),
+    (
+        "redres.linalg._kernels",
+        "redres.linalg._factor_kernels",
+        "redres.linalg._dense_kernels",
+        "redres.linalg._eigen_kernels",
+    ),
     cold_seconds=16.0,
 )
 loaded: ModuleType | None = None

@@ -6,6 +6,10 @@ importing numba.
 
 from __future__ import annotations
 
+#: Default relative rank tolerance: singular values ``<= RCOND * sigma_max`` count as zero
+#: (:data:`redres.linalg.RCOND`; kernels compile it in).
+RCOND = 1e-10
+
 # Status codes returned by the kernels (0 = success); each names one argument.
 OK = 0
 J_NONFINITE = 1

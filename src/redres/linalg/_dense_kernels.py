@@ -24,7 +24,7 @@ _SYMMETRY_RTOL = 1e-9
 
 
 @kernel
-def _finite_1d(a):  # type: ignore[no-untyped-def]
+def _finite_1d(a):
     for i in range(a.shape[0]):
         if not math.isfinite(a[i]):
             return False
@@ -32,7 +32,7 @@ def _finite_1d(a):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _bounded_1d(a, bound):  # type: ignore[no-untyped-def]
+def _bounded_1d(a, bound):
     """Whether every entry of the (finite) vector ``a`` lies within ``±bound``."""
     for i in range(a.shape[0]):
         if abs(a[i]) > bound:
@@ -41,7 +41,7 @@ def _bounded_1d(a, bound):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _finite_2d(a):  # type: ignore[no-untyped-def]
+def _finite_2d(a):
     for i in range(a.shape[0]):
         for j in range(a.shape[1]):
             if not math.isfinite(a[i, j]):
@@ -50,7 +50,7 @@ def _finite_2d(a):  # type: ignore[no-untyped-def]
 
 
 @kernel(inline=True)
-def _gram(J, rows, A):  # type: ignore[no-untyped-def]
+def _gram(J, rows, A):
     """Lower triangle of ``A <- J Jᵀ`` over the first ``rows`` rows of J."""
     n = J.shape[1]
     for a in range(rows):
@@ -62,7 +62,7 @@ def _gram(J, rows, A):  # type: ignore[no-untyped-def]
 
 
 @kernel(inline=True)
-def _back_project(J, rows, r, rt, g, k, out, null):  # type: ignore[no-untyped-def]
+def _back_project(J, rows, r, rt, g, k, out, null):
     """``out <- Jᵀ r − k g`` over the first ``rows`` rows of J, and, when ``null`` has
     length n, ``null <- out − Jᵀ rt`` (the two halves of a rate step after its solve)."""
     n = J.shape[1]
@@ -79,7 +79,7 @@ def _back_project(J, rows, r, rt, g, k, out, null):  # type: ignore[no-untyped-d
 
 
 @kernel(inline=True)
-def _copy(dst, src):  # type: ignore[no-untyped-def]
+def _copy(dst, src):
     """``dst[:] = src`` for 1-D arrays of one length, as a loop: a slice copy also
     compiles numba's shape-mismatch error path (some 2 s of string formatting, cold)."""
     for k in range(src.shape[0]):
@@ -87,7 +87,7 @@ def _copy(dst, src):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _cholesky(A, L, size, shift):  # type: ignore[no-untyped-def]
+def _cholesky(A, L, size, shift):
     """Lower Cholesky factor of ``A + shift I`` (lower triangle of A read) into L.
 
     Returns False if a pivot is not positive (the matrix is not positive definite).
@@ -111,7 +111,7 @@ def _cholesky(A, L, size, shift):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _cholesky_solve(L, b, size):  # type: ignore[no-untyped-def]
+def _cholesky_solve(L, b, size):
     """Solve ``L L^T x = b`` in place of ``b``."""
     for i in range(size):
         acc = b[i]
@@ -122,7 +122,7 @@ def _cholesky_solve(L, b, size):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _solve_lower_transposed(L, b, size):  # type: ignore[no-untyped-def]
+def _solve_lower_transposed(L, b, size):
     """Solve ``L^T x = b`` in place of ``b`` (back substitution, L lower triangular)."""
     for i in range(size - 1, -1, -1):
         acc = b[i]
@@ -132,7 +132,7 @@ def _solve_lower_transposed(L, b, size):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _copy_finite_2d(src, dst):  # type: ignore[no-untyped-def]
+def _copy_finite_2d(src, dst):
     """dst <- src; False if src has a NaN or an infinity (x * 0 is NaN exactly then)."""
     bad = 0.0
     for i in range(src.shape[0]):
@@ -144,7 +144,7 @@ def _copy_finite_2d(src, dst):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _weigh(Js, wmode, wdiag, W, Lw):  # type: ignore[no-untyped-def]
+def _weigh(Js, wmode, wdiag, W, Lw):
     """Js <- Js W^{-1/2} (diagonal) or Js L^-T (full, W = L L^T into Lw), in place; status."""
     m, n = Js.shape
     if wmode == NO_WEIGHTS:
@@ -186,7 +186,7 @@ def _weigh(Js, wmode, wdiag, W, Lw):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _scale(Js):  # type: ignore[no-untyped-def]
+def _scale(Js):
     """Largest absolute entry s of Js; Js is divided by s unless s is in [1e-100, 1e100].
 
     Returns the factor applied (1.0 when the entries are already safe to square and sum,
@@ -210,7 +210,7 @@ def _scale(Js):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _weight_up(v, wmode, Lw):  # type: ignore[no-untyped-def]
+def _weight_up(v, wmode, Lw):
     """v <- W^{1/2}-side map L^T v (diagonal: sqrt(w) v), in place."""
     n = v.shape[0]
     if wmode == DIAGONAL:
@@ -225,7 +225,7 @@ def _weight_up(v, wmode, Lw):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _weight_down(v, wmode, Lw):  # type: ignore[no-untyped-def]
+def _weight_down(v, wmode, Lw):
     """v <- L^-T v (diagonal: v / sqrt(w)), in place."""
     n = v.shape[0]
     if wmode == DIAGONAL:
@@ -236,7 +236,7 @@ def _weight_down(v, wmode, Lw):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _weight_up_row(N, a, wmode, Lw):  # type: ignore[no-untyped-def]
+def _weight_up_row(N, a, wmode, Lw):
     """Row a of N <- row a of (N L^T)."""
     n = N.shape[1]
     if wmode == DIAGONAL:
@@ -252,7 +252,7 @@ def _weight_up_row(N, a, wmode, Lw):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _factor_size(n, wmode):  # type: ignore[no-untyped-def]
+def _factor_size(n, wmode):
     """Floats needed for the weight factor: n x n (full), n (diagonal) or 0."""
     if wmode == FULL:
         return n * n
@@ -262,7 +262,7 @@ def _factor_size(n, wmode):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _factor_view(buffer, n, wmode):  # type: ignore[no-untyped-def]
+def _factor_view(buffer, n, wmode):
     """The weight factor's storage carved from ``buffer``: (n, n), (n, 1) or (0, 0)."""
     if wmode == FULL:
         return buffer[: n * n].reshape((n, n))

@@ -14,7 +14,7 @@ _EPS = 2.220446049250313e-16
 
 
 @kernel
-def _tridiagonalize(A, size, d, e, v, p):  # type: ignore[no-untyped-def]
+def _tridiagonalize(A, size, d, e, v, p):
     """Householder reduction of the symmetric A (lower triangle, destroyed) to (d, e).
 
     ``d[i]`` is the diagonal and ``e[i]`` the entry (i+1, i) of ``Q^T A Q`` (Golub &
@@ -63,7 +63,7 @@ def _tridiagonalize(A, size, d, e, v, p):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _charpoly(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
+def _charpoly(d, e, lo, hi, x):
     """``p(x), p'(x), p''(x)`` for ``p = det(T - x I)`` of the block ``lo..hi`` of (d, e).
 
     Three-term recurrence of the leading principal minors (the Sturm sequence).
@@ -86,7 +86,7 @@ def _charpoly(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _laguerre_step(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
+def _laguerre_step(d, e, lo, hi, x):
     """One Laguerre step ``x -> x - step`` on ``det(T - x I)`` of the block; 0 at a root."""
     degree = hi - lo + 1
     p, dp, ddp = _charpoly(d, e, lo, hi, x)
@@ -104,7 +104,7 @@ def _laguerre_step(d, e, lo, hi, x):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _laguerre_pair(d, e, lo, hi, below, above):  # type: ignore[no-untyped-def]
+def _laguerre_pair(d, e, lo, hi, below, above):
     """Smallest and largest eigenvalue of an unreduced tridiagonal block (Laguerre).
 
     Started outside the spectrum (``below`` under it, ``above`` over it), Laguerre's
@@ -143,7 +143,7 @@ def _laguerre_pair(d, e, lo, hi, below, above):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _converged(step, previous, x):  # type: ignore[no-untyped-def]
+def _converged(step, previous, x):
     """True once a cubically converging iteration's next step is below rounding.
 
     A step under ``1e-6 |x|`` that is also under ``1e-3`` of the previous one shows the
@@ -156,7 +156,7 @@ def _converged(step, previous, x):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _extreme_eigenvalues(d, e, size, nonnegative):  # type: ignore[no-untyped-def]
+def _extreme_eigenvalues(d, e, size, nonnegative):
     """Smallest and largest eigenvalue of the symmetric tridiagonal (d, e).
 
     The matrix is split where an off-diagonal entry is negligible; each unreduced block is
@@ -202,7 +202,7 @@ def _extreme_eigenvalues(d, e, size, nonnegative):  # type: ignore[no-untyped-de
 
 
 @kernel
-def _count_below(d, e, size, tau):  # type: ignore[no-untyped-def]
+def _count_below(d, e, size, tau):
     """Number of eigenvalues of the tridiagonal (d, e) below ``tau`` (Sylvester inertia)."""
     count = 0
     q = 1.0
@@ -217,7 +217,7 @@ def _count_below(d, e, size, tau):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _jacobi_rows(R, m, n):  # type: ignore[no-untyped-def]
+def _jacobi_rows(R, m, n):
     """One-sided Jacobi (Hestenes): rotate the rows of R until R[:, :n] has orthogonal rows.
 
     Every column of R is rotated, so extra columns carry the accumulated rotation G.

@@ -18,13 +18,11 @@ from typing import NamedTuple
 
 from .._validate import as_scalar
 from ..errors import InvalidParameterError
+from ._codes import RCOND
 
 __all__ = ["RCOND", "AdaptiveDamping", "InverseInfo", "adaptive_damping"]
 
 _EPS = 2.220446049250313e-16
-
-RCOND = 1e-10
-"""Default relative rank tolerance: singular values ``<= RCOND * sigma_max`` count as zero."""
 
 
 class InverseInfo(NamedTuple):

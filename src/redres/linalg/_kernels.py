@@ -33,7 +33,6 @@ import numpy as np
 
 from .._compile import kernel
 from ._codes import (
-    ADAPTIVE,
     EXACT,
     FIXED,
     GRAD_NONFINITE,
@@ -45,7 +44,6 @@ from ._codes import (
     NO_WEIGHTS,
     OK,
     SCALAR_INVALID,
-    SELECTIVE,
     XD_NONFINITE,
     XD_SHAPE,
     XD_TOO_LARGE,
@@ -67,151 +65,11 @@ from ._dense_kernels import (
     _weight_up,
     _weight_up_row,
 )
-from ._eigen_kernels import _EPS, _count_below, _extreme_eigenvalues, _jacobi_rows, _tridiagonalize
-
-# Below this ratio sigma_min / sigma_max, J J^T (kappa > 1e6) is too ill-conditioned for a
-# Cholesky solve accurate to 2e-10 and its eigenvalues give sigma_min to less than that:
-# switch to the Jacobi SVD of J itself.
-_CHOLESKY_MIN_RATIO = 1e-3
-# With a damping lambda^2 >= this times trace(J J^T) >= sigma_max^2, kappa(J J^T + lambda^2
-# I) <= 1 + 1e6 without any eigenvalue: the same accuracy bound, straight to Cholesky.
-_LAZY_MIN_SHIFT = 1e-6
+from ._factor_kernels import _LAZY_MIN_SHIFT, _core
 
 
 @kernel
-def _damping_squared(sigma, dmode, lam, lam_max, eps):  # type: ignore[no-untyped-def]
-    """Damping lambda^2 for a singular value ``sigma`` (unscaled units): FIXED lam^2,
-    ADAPTIVE / SELECTIVE the law of :class:`~redres.linalg.AdaptiveDamping`."""
-    if dmode == FIXED:
-        return lam * lam
-    if dmode == ADAPTIVE or dmode == SELECTIVE:
-        if sigma >= eps:
-            return 0.0
-        ratio = sigma / eps
-        return lam_max * lam_max * (1.0 - ratio * ratio)
-    return 0.0
-
-
-@kernel
-def _core(Js, scale, dmode, lam, lam_max, eps, rcond, mats, dvec, work):  # type: ignore[no-untyped-def]
-    """Factor the inverse of the scaled matrix Js (m x n).
-
-    Returns ``(use_cholesky, rank, sigma_min, sigma_max, damping)``:
-
-    * ``use_cholesky``: C holds the lower Cholesky factor of ``Js Js^T + lam'^2 I`` and
-      ``J# = Js^T C^-T C^-1 / s``;
-    * otherwise Js is overwritten with ``B = G Js`` (orthogonal rows ``sigma_i v_i^T``), C
-      with the rotation ``G`` and ``dvec`` with the filter ``d``: ``J# = B^T diag(d) G / s``
-      and ``J# J = B^T diag(d) B``, ``d_i = 1 / (sigma_i^2 + lam_i^2)``, or, undamped,
-      ``1 / sigma_i^2`` above the rank tolerance and 0 below. Using B itself, not ``G Js``,
-      keeps the tiny rows of the near-singular directions accurate to their own size.
-
-    ``C`` is ``mats[0]``; ``mats`` (3, m, m) and ``work`` (at least ``4 m`` floats) are
-    scratch space (rows of a 3-D array rather than reshaped slices of one vector: a
-    reshape costs more than a 6 x 6 Cholesky factorisation); ``dvec`` has length m.
-    Singular values and damping are in the units of the unscaled matrix. ``LAZY``
-    damping is ``FIXED`` that may skip the eigenvalues: rank -1 and NaN singular values
-    when it does (:data:`_LAZY_MIN_SHIFT`).
-    """
-    m, n = Js.shape
-    kmin = min(m, n)
-    C = mats[0]
-    A = mats[1]
-    T = mats[2]
-    mu = work[:m]
-    off = work[m : 2 * m]
-    v = work[2 * m : 3 * m]
-    p = work[3 * m : 4 * m]
-    _gram(Js, m, A)
-    trace = 0.0
-    for i in range(m):
-        trace += A[i, i]
-    if dmode == LAZY:  # fixed damping, no singular values wanted
-        shift = lam * lam / (scale * scale)
-        if shift >= _LAZY_MIN_SHIFT * trace and _cholesky(A, C, m, shift):
-            return True, -1, math.nan, math.nan, lam
-        dmode = FIXED
-    for i in range(m):
-        for j in range(i + 1):
-            T[i, j] = A[i, j]
-    _tridiagonalize(T, m, mu, off, v, p)
-    lowest, highest = _extreme_eigenvalues(mu, off, m, True)
-    smax_s = math.sqrt(max(highest, 0.0))
-    smin_s = math.sqrt(max(lowest, 0.0)) if kmin == m else 0.0
-    lam2 = _damping_squared(smin_s * scale, dmode, lam, lam_max, eps)
-    exact = lam2 == 0.0
-    use_cholesky = (
-        kmin == m
-        and smin_s >= _CHOLESKY_MIN_RATIO * smax_s
-        and not (exact and smin_s <= rcond * smax_s)
-        and not (dmode == SELECTIVE and not exact)
-    )
-    if use_cholesky:
-        shift = lam2 / (scale * scale)
-        if _cholesky(A, C, m, shift):
-            rank = m
-            if smin_s <= rcond * smax_s:  # only for rcond >= 1e-3: count like the SVD does
-                tau = (rcond * smax_s) ** 2
-                rank = m - _count_below(mu, off, m, tau * (1.0 + 4.0 * _EPS))
-            return True, rank, smin_s * scale, smax_s * scale, math.sqrt(lam2)
-    return _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec)
-
-
-@kernel
-def _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec):  # type: ignore[no-untyped-def]
-    """Near-singular branch of :func:`_core`: one-sided Jacobi SVD of ``[Js | I]``."""
-    m, n = Js.shape
-    kmin = min(m, n)
-    R = np.zeros((m, n + m))
-    for i in range(m):
-        for j in range(n):
-            R[i, j] = Js[i, j]
-        R[i, n + i] = 1.0
-    _jacobi_rows(R, m, n)
-    sig = np.empty(m)
-    order = np.empty(m, dtype=np.int64)
-    for i in range(m):
-        acc = 0.0
-        for j in range(n):
-            Js[i, j] = R[i, j]
-            acc += R[i, j] * R[i, j]
-        for j in range(m):
-            C[i, j] = R[i, n + j]
-        sig[i] = math.sqrt(acc)
-        order[i] = i
-    for i in range(1, m):  # indices sorted by descending singular value
-        key = order[i]
-        j = i - 1
-        while j >= 0 and sig[order[j]] < sig[key]:
-            order[j + 1] = order[j]
-            j -= 1
-        order[j + 1] = key
-    smax_s = sig[order[0]]
-    smin_s = sig[order[kmin - 1]]
-    used = 0.0
-    rank = 0
-    for pos in range(m):
-        i = order[pos]
-        if dmode == SELECTIVE:
-            li2 = _damping_squared(sig[i] * scale, dmode, lam, lam_max, eps)
-        else:
-            li2 = _damping_squared(smin_s * scale, dmode, lam, lam_max, eps)
-        used = max(used, li2)
-        li2_s = li2 / (scale * scale)
-        significant = pos < kmin and sig[i] > rcond * smax_s
-        if significant:
-            rank += 1
-        denom = sig[i] * sig[i] + li2_s
-        dvec[i] = 0.0
-        if li2 > 0.0 and denom > 0.0:
-            dvec[i] = 1.0 / denom
-        elif significant:
-            dvec[i] = 1.0 / (sig[i] * sig[i])
-    return False, rank, smin_s * scale, smax_s * scale, math.sqrt(used)
-
-
-@kernel
-def _step_scratch(m, n, wmode):  # type: ignore[no-untyped-def]
+def _step_scratch(m, n, wmode):
     """Scratch of :func:`_step_into` for an ``m x n`` Jacobian and the weight mode
     ``wmode``: ``(Js (m, n), mats (3, m, m), Lw, vec (7 m + n))`` (the scaled Jacobian,
     the factors, the weight factor (:func:`_factor_view`), the vectors). Separate arrays
@@ -222,7 +80,7 @@ def _step_scratch(m, n, wmode):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
+def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond):
     """``out <- J# xd - k_null (I - J# J) grad``; ``(status, rank, smin, smax, damping)``.
 
     Any weights (``wmode`` selects ``wdiag`` (n,) or ``W`` (n, n); the other may be empty)
@@ -242,7 +100,7 @@ def _step(J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, 
 
 
 @kernel
-def _step_into(  # type: ignore[no-untyped-def]
+def _step_into(
     J, xd, grad, out, null, k_null, wmode, wdiag, W, dmode, lam, lam_max, eps, rcond, scratch
 ):
     """:func:`_step` in ``scratch``, the arrays of ``_step_scratch(m, n, wmode)`` (their
@@ -330,7 +188,7 @@ def _step_into(  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _lazy_step(J, xd, grad, out, null, k_null, lam, C, vec):  # type: ignore[no-untyped-def]
+def _lazy_step(J, xd, grad, out, null, k_null, lam, C, vec):
     """:func:`_step_into`'s common case in one pass, on ``J`` itself: no weights,
     ``LAZY`` damping, finite inputs of safe size (no scaling), a shift the Cholesky path
     takes at once (:data:`_LAZY_MIN_SHIFT`). The general path's floating-point operations
@@ -389,7 +247,7 @@ def _lazy_step(J, xd, grad, out, null, k_null, lam, C, vec):  # type: ignore[no-
 
 
 @kernel
-def finite_inputs(q, J, xd):  # type: ignore[no-untyped-def]
+def finite_inputs(q, J, xd):
     """Which of ``q``, ``J``, ``xd`` is the first to hold a NaN or an infinity (1, 2, 3),
     else 4 if ``xd`` has an entry beyond ``±MAX_TASK_RATE``, else 0:
     :meth:`redres.resolution.Scheme.step`'s check in one call."""
@@ -405,7 +263,7 @@ def finite_inputs(q, J, xd):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def step(J, xd, grad, out, null, k_null, damping, rcond):  # type: ignore[no-untyped-def]
+def step(J, xd, grad, out, null, k_null, damping, rcond):
     """Unweighted rate step with fixed damping (0: exact) into ``out`` (the fast lane).
 
     ``qd = J# xd - k_null (I - J# J) grad``; ``grad`` of length 0 means no secondary
@@ -429,7 +287,7 @@ def step(J, xd, grad, out, null, k_null, damping, rcond):  # type: ignore[no-unt
 
 
 @kernel
-def inverse(J, wdiag, W, Jp, N, Lam, wmode, dmode, lam, lam_max, eps, rcond):  # type: ignore[no-untyped-def]
+def inverse(J, wdiag, W, Jp, N, Lam, wmode, dmode, lam, lam_max, eps, rcond):
     """Fill ``Jp`` (n x m) with J#, ``N`` (n x n) with I - J# J and ``Lam`` (m x m) with
     ``(J W^-1 J^T + lam^2 I)^-1`` (the task-space inertia for ``W = M``; its filtered
     pseudo-inverse when J W^-1/2 is rank-deficient and undamped); any may be 0 x 0.
@@ -513,7 +371,7 @@ def inverse(J, wdiag, W, Jp, N, Lam, wmode, dmode, lam, lam_max, eps, rcond):  #
 
 
 @kernel
-def _inertia(C, dvec, use_chol, scale, Lam):  # type: ignore[no-untyped-def]
+def _inertia(C, dvec, use_chol, scale, Lam):
     """``Lam <- (Js Js^T + lam^2)^-1 / s^2`` from :func:`_core`'s factors: ``C^-T C^-1``
     with C the Cholesky factor, or ``G^T diag(d) G`` with G the rotation of the SVD path
     (``Js Js^T = G^T diag(sigma^2) G``)."""

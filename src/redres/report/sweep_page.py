@@ -2,8 +2,8 @@
 
 The page is the run report's (:mod:`redres.report.page`: its styles, plotly.js inlined,
 no network). A capability or redundancy map is a 3D view with horizontal slices; a
-base placement its best bases and a floor plot (:mod:`.placementview`); scheme
-statistics their table and plots (:mod:`.statsview`).
+base placement its best bases and a floor plot (:mod:`.sweep_placement`); scheme
+statistics their table and plots (:mod:`.sweep_statistics`).
 
 A capability map is drawn as its tested voxels' centres coloured by the reachability
 index (Zacharias et al. 2007, percent); a redundancy map as its poses' positions

@@ -45,7 +45,7 @@ __all__ = ["PRISMATIC", "REVOLUTE", "REVOLUTE_X", "REVOLUTE_Y", "REVOLUTE_Z"]
 
 
 @kernel
-def _rotation_log(m00, m01, m02, m10, m11, m12, m20, m21, m22):  # type: ignore[no-untyped-def]
+def _rotation_log(m00, m01, m02, m10, m11, m12, m20, m21, m22):
     """The rotation vector ``θ u = log(M)`` of a rotation matrix ``M`` (entries ``mij``).
 
     Sola, Deray, Atchuthan, "A micro Lie theory for state estimation in robotics", 2018,
@@ -91,7 +91,7 @@ def _rotation_log(m00, m01, m02, m10, m11, m12, m20, m21, m22):  # type: ignore[
 
 
 @kernel
-def log3(R, out):  # type: ignore[no-untyped-def]
+def log3(R, out):
     """``out[:3] <- log(R)``, the rotation vector of the 3x3 rotation matrix ``R``."""
     x, y, z = _rotation_log(
         R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2]
@@ -102,7 +102,7 @@ def log3(R, out):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _chain_pass(links, axes, kinds, q, T, J, columns):  # type: ignore[no-untyped-def]
+def _chain_pass(links, axes, kinds, q, T, J, columns):
     """``T`` (4x4) <- the frame's pose; when ``columns``, ``J[:, j]`` <- ``[p_j; z_j]``
     for a revolute and ``[z_j; 0]`` for a prismatic joint ``j`` (module docstring).
     Returns whether every entry of ``q`` is finite (``x · 0`` is 0 but for NaN and ±inf).
@@ -173,7 +173,7 @@ def _chain_pass(links, axes, kinds, q, T, J, columns):  # type: ignore[no-untype
 
 
 @kernel
-def fk(links, axes, kinds, q, T):  # type: ignore[no-untyped-def]
+def fk(links, axes, kinds, q, T):
     """``T`` (4x4) <- pose of the frame in the world at configuration ``q`` (module
     docstring); ``q`` holds at least ``k`` values, one per joint in chain order. Returns
     False when ``q`` holds NaN or ±inf (then ``T`` is meaningless)."""
@@ -181,7 +181,7 @@ def fk(links, axes, kinds, q, T):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def jacobian(links, axes, kinds, q, local, T, J):  # type: ignore[no-untyped-def]
+def jacobian(links, axes, kinds, q, local, T, J):
     """``T`` (4x4) <- the frame's pose and ``J`` (6 x n, n >= k) <- its geometric
     Jacobian, rows ``[v; ω]``: world-aligned, or in the frame's own axes when ``local``
     (module docstring). Columns past the chain's ``k`` joints are zero. Returns False
@@ -209,7 +209,7 @@ def jacobian(links, axes, kinds, q, local, T, J):  # type: ignore[no-untyped-def
 
 
 @kernel
-def pose_error(links, axes, kinds, q, target, T, J, e):  # type: ignore[no-untyped-def]
+def pose_error(links, axes, kinds, q, target, T, J, e):
     """:func:`jacobian` (world-aligned) and ``e`` (6) <- the frame task's error
     ``[p_d − p; log(R_d Rᵀ)]`` against the pose ``target`` (4x4, or its 3x4 block).
     Returns False when ``q`` holds NaN or ±inf."""
@@ -235,6 +235,6 @@ def pose_error(links, axes, kinds, q, target, T, J, e):  # type: ignore[no-untyp
 
 
 @kernel
-def _row_dot(A, B, i, j):  # type: ignore[no-untyped-def]
+def _row_dot(A, B, i, j):
     """Row ``i`` of ``A[:3, :3]`` dotted with row ``j`` of ``B[:3, :3]``: ``(A Bᵀ)[i, j]``."""
     return A[i, 0] * B[j, 0] + A[i, 1] * B[j, 1] + A[i, 2] * B[j, 2]

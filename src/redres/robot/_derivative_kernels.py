@@ -6,7 +6,7 @@ from .._compile import kernel
 
 
 @kernel
-def revolute_jacobian_derivatives(J, out):  # type: ignore[no-untyped-def]
+def revolute_jacobian_derivatives(J, out):
     """``out[i] = ∂J/∂qᵢ`` (n x 6 x n) of a serial chain of revolute joints from its
     world-aligned Jacobian ``J = [Jᵥ; J_ω]`` (6 x n): column j of ``∂J/∂qᵢ`` is
     ``[zᵢ × Jᵥ,ⱼ; zᵢ × zⱼ]`` for ``i < j`` and ``[zⱼ × Jᵥ,ᵢ; 0]`` for ``i ≥ j``

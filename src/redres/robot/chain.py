@@ -43,7 +43,7 @@ from ..errors import (
 from . import _chain_codes
 from ._frames import Reference
 
-__all__ = ["ChainPoseError", "NotSerialChainError", "SerialChain"]
+__all__ = ["ChainPoseError", "NotSerialChainError", "SerialChain", "log3"]
 
 #: The serial-chain kernels (pose, Jacobians, pose error, log3). Cold: 4.5 s.
 KERNELS = _compile.KernelGroup("chain", ("redres.robot._chain_kernels",), cold_seconds=4.5)
@@ -253,13 +253,20 @@ def _nonfinite(q: FloatArray) -> None:
 
 
 def log3(R: Any) -> FloatArray:
-    """The SO(3) logarithm ``θ u`` of a 3x3 rotation matrix, ``(3,)``, rad (the compiled
-    kernel; accurate near 0 and π, see :mod:`redres.robot._chain_kernels`)."""
+    """The SO(3) logarithm ``θ u`` of a rotation matrix ``(3, 3)``, ``(3,)``, rad, or of
+    each of a stack ``(N, 3, 3)``, ``(N, 3)``: the one logarithm of redres, for Python
+    code and kernels alike (the chain kernels' ``_rotation_log``: accurate at every angle,
+    0 and π included; Sola et al. 2018, see :mod:`redres.robot._chain_kernels`)."""
     M = np.ascontiguousarray(R, dtype=np.float64)
-    if M.shape != (3, 3):
-        raise ShapeError(f"R must have shape (3, 3); got shape {M.shape}")
-    out = np.empty(3)
-    _entry("log3")(M, out)
+    if M.ndim not in (2, 3) or M.shape[-2:] != (3, 3):
+        raise ShapeError(f"R must have shape (3, 3) or (N, 3, 3); got shape {M.shape}")
+    kernel = _entry("log3")
+    out = np.empty(M.shape[:-1])
+    if M.ndim == 2:
+        kernel(M, out)
+    else:
+        for rotation, row in zip(M, out, strict=True):
+            kernel(rotation, row)
     return out
 
 

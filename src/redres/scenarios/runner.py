@@ -21,6 +21,9 @@ if TYPE_CHECKING:
     from ..robot import Robot
 
 
+__all__ = ["aligned_table", "format_table", "run_scenario", "summarise", "warning_lines"]
+
+
 def summarise(robot: Robot, log: RunLog) -> dict[str, Any]:
     """:meth:`RunLog.summary` of a run of ``robot`` (tables, ``--json``); a log that did not
     record its joint limits (one built by hand) is measured against ``robot``'s."""

@@ -16,6 +16,7 @@ import pinocchio as pin
 
 from .._validate import FloatArray, as_transform, as_vector
 from ..errors import InvalidParameterError
+from ..robot.chain import log3
 from .base import Task, TaskState
 
 if TYPE_CHECKING:
@@ -135,7 +136,7 @@ class FrameTask(Task):
     def _error(self, R: FloatArray, p: FloatArray) -> FloatArray:
         e = np.empty(6)
         e[:3] = self._p_target - p
-        e[3:] = pin.log3(self._R_target @ R.T)
+        e[3:] = log3(self._R_target @ R.T)
         return e
 
     def compute(self, robot: Robot, q: FloatArray) -> TaskState:

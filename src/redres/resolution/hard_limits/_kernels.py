@@ -2,7 +2,7 @@
 the null space and the step's prologue and epilogue shared by SNS and the QP.
 
 Plain Python written for numba and compiled through :mod:`redres._compile` (load this module
-with ``_jit.load``); the linear program is in :mod:`._lp_kernels`, the QP's own kernels in
+with ``KERNELS.module``); the linear program is in :mod:`._lp_kernels`, the QP's own kernels in
 :mod:`._qp_kernels`. Formulas: :mod:`.box` (the box), :mod:`.sns` (Algorithm 1 and 2 of
 Flacco, De Luca, Khatib 2015). Status codes are :mod:`redres.linalg._codes` (0 = OK).
 
@@ -48,7 +48,7 @@ _ILL_TOL = 1e-8
 
 
 @kernel
-def braking(distance, dt, qdd_max):  # type: ignore[no-untyped-def]
+def braking(distance, dt, qdd_max):
     """Largest velocity toward a limit ``distance`` away that can still stop before it."""
     x = distance / dt
     if not x > 0.0 or x == _INF:
@@ -70,7 +70,7 @@ def braking(distance, dt, qdd_max):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def bounds(q, qd_prev, dt, q_min, q_max, qd_max, qdd_max, lo, hi, kind_lo, kind_hi, relaxed):  # type: ignore[no-untyped-def]
+def bounds(q, qd_prev, dt, q_min, q_max, qd_max, qdd_max, lo, hi, kind_lo, kind_hi, relaxed):
     """Fill ``lo``, ``hi`` (and the codes) with the velocity box; returns #relaxed joints."""
     count = 0
     for i in range(q.shape[0]):
@@ -122,7 +122,7 @@ def bounds(q, qd_prev, dt, q_min, q_max, qd_max, qdd_max, lo, hi, kind_lo, kind_
 
 
 @kernel
-def factor(J, free, G, L):  # type: ignore[no-untyped-def]
+def factor(J, free, G, L):
     """``G = J W Jᵀ`` (free columns) and ``L Lᵀ = G``; False when ``J W`` is rank-deficient
     (a pivot ``≤ 1e-12`` times the largest diagonal of ``G``)."""
     m, n = J.shape
@@ -145,7 +145,7 @@ def factor(J, free, G, L):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _ridge(G, L, m):  # type: ignore[no-untyped-def]
+def _ridge(G, L, m):
     """``L Lᵀ = G + δ I`` with ``δ = 1e-12 ×`` the largest diagonal of ``G``, for a
     rank-deficient ``J W`` (an exactly singular ``J``); False when ``G = 0``. With it
     :func:`min_norm`'s refinement converges to the least-squares solution of ``J W``
@@ -158,7 +158,7 @@ def _ridge(G, L, m):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def min_norm(J, free, L, r, y, res, out):  # type: ignore[no-untyped-def]
+def min_norm(J, free, L, r, y, res, out):
     """``out = (J W)⁺ r = W Jᵀ (J W Jᵀ)⁻¹ r``, refined once against the residual."""
     m, n = J.shape
     for k in range(n):
@@ -183,7 +183,7 @@ def min_norm(J, free, L, r, y, res, out):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def solved(r, res):  # type: ignore[no-untyped-def]
+def solved(r, res):
     """Whether the residual ``res`` of a solve for ``r`` is at rounding level."""
     size, err = 1.0, 0.0
     for i in range(r.shape[0]):
@@ -193,7 +193,7 @@ def solved(r, res):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _scale_interval(a, b, lo, hi, free, tol):  # type: ignore[no-untyped-def]
+def _scale_interval(a, b, lo, hi, free, tol):
     """``(s_min, s_max, j)``: free joints of ``s a + b`` stay in the box for ``s`` in
     ``[s_min, s_max]``; ``j`` limits ``s_max`` (-1: none). Algorithm 2 of Flacco et al."""
     s_min, s_max, j_max = -math.inf, math.inf, -1
@@ -215,7 +215,7 @@ def _scale_interval(a, b, lo, hi, free, tol):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _sns(J, xd, lo, hi, qd0, tol, qd, G, L, wm, wn, wb, factored):  # type: ignore[no-untyped-def]
+def _sns(J, xd, lo, hi, qd0, tol, qd, G, L, wm, wn, wb, factored):
     """Algorithm 1 of Flacco et al. (2015): ``(method, scale)``, method FEASIBLE, SCALED or
     FAILED (no feasible scale found by the greedy saturation). ``factored``: ``L`` already
     holds the factor of the full ``J Jᵀ`` (skips the first factorisation)."""
@@ -281,7 +281,7 @@ def _sns(J, xd, lo, hi, qd0, tol, qd, G, L, wm, wn, wb, factored):  # type: igno
 
 
 @kernel
-def _sns_step(J, xd, lo, hi, qd0, use_qd0, tol, qd, G, L, wm, wn, wb, full):  # type: ignore[no-untyped-def]
+def _sns_step(J, xd, lo, hi, qd0, use_qd0, tol, qd, G, L, wm, wn, wb, full):
     """One SNS step in a given box (:mod:`.sns`): ``(method, scale, factored)``;
     ``factored``: ``L`` still holds the Cholesky factor of the full ``J Jᵀ``."""
     n = J.shape[1]
@@ -314,7 +314,7 @@ def _sns_step(J, xd, lo, hi, qd0, use_qd0, tol, qd, G, L, wm, wn, wb, full):  # 
 
 
 @kernel
-def prologue(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M):  # type: ignore[no-untyped-def]
+def prologue(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M):
     """Input check, box (``out[2]``, ``out[3]``, ``codes[0:3]``), ``G = J Jᵀ`` and its
     factor (``M[0]``, ``M[1]``), a copy of ``J`` in ``Jc`` (for the step's diagnostics,
     computed only when asked). Returns ``(status, #relaxed, full_rank)``; status
@@ -340,7 +340,7 @@ def prologue(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M):  # type: ignore[n
 
 
 @kernel
-def epilogue(J, xd, out, M, wm, full, factored):  # type: ignore[no-untyped-def]
+def epilogue(J, xd, out, M, wm, full, factored):
     """Clip ``q̇ = out[0]`` into the box, its null-space component (``out[1]``). Returns
     ``(#joints on a bound within 1e-9, ‖J q̇ − ẋ‖)``."""
     m, n = J.shape
@@ -369,7 +369,7 @@ def epilogue(J, xd, out, M, wm, full, factored):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def sns_step(q, prev, dt, lim, J, xd, qd0, use_qd0, tol, out, codes, Jc, M, wm, wn, wb):  # type: ignore[no-untyped-def]
+def sns_step(q, prev, dt, lim, J, xd, qd0, use_qd0, tol, out, codes, Jc, M, wm, wn, wb):
     """Box and SNS step in one call. ``out`` rows: q̇, null term, lower, upper; ``codes``
     rows: lower kind, upper kind, relaxed; ``Jc``: a copy of ``J``. Returns
     ``(status, method, scale, #relaxed, #active, met, ill, full)``: ``met``, the task is met
@@ -391,7 +391,7 @@ def sns_step(q, prev, dt, lim, J, xd, qd0, use_qd0, tol, out, codes, Jc, M, wm, 
 
 
 @kernel
-def _task_met(J, xd, qd, residual):  # type: ignore[no-untyped-def]
+def _task_met(J, xd, qd, residual):
     """``‖J q̇ − ẋ‖ ≤ MET_TOLERANCE ‖ẋ‖ + MET_ROUNDING ‖J‖_F ‖q̇‖`` (``residual`` given)."""
     m, n = J.shape
     x2, j2, q2 = 0.0, 0.0, 0.0
@@ -405,7 +405,7 @@ def _task_met(J, xd, qd, residual):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _well_conditioned(G, L, m):  # type: ignore[no-untyped-def]
+def _well_conditioned(G, L, m):
     """Every Cholesky pivot of ``G = J Jᵀ = L Lᵀ`` above ``_ILL_TOL`` times ``G``'s largest
     diagonal. A screen for ``σ_min < 1e-6 σ_max``, not a bound: a pivot is never below
     ``σ_min²``, and the last one is about ``m σ_min²`` when the near-null direction is

@@ -16,7 +16,7 @@ _CAP = 1e6  # stands in for an infinite velocity bound inside the simplex, rad/s
 
 
 @kernel
-def _solve(B, rhs, out, transpose, W):  # type: ignore[no-untyped-def]
+def _solve(B, rhs, out, transpose, W):
     """``B out = rhs`` (or ``Bᵀ out = rhs``) by Gaussian elimination with partial pivoting
     on the workspace ``W`` (m, m+1); False when ``B`` is singular."""
     m = rhs.shape[0]
@@ -48,7 +48,7 @@ def _solve(B, rhs, out, transpose, W):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _simplex(A, low, up, cost, x, basis, at_upper, is_basic):  # type: ignore[no-untyped-def]
+def _simplex(A, low, up, cost, x, basis, at_upper, is_basic):
     """Bounded-variable primal simplex with Bland's rule: minimise ``cost·x`` subject to
     ``A x = 0``, ``low ≤ x ≤ up``, from the basic feasible solution ``(x, basis)``.
     Returns OPTIMAL, ITERATION_LIMIT or SINGULAR_BASIS; ``x`` is updated."""
@@ -119,7 +119,7 @@ def _simplex(A, low, up, cost, x, basis, at_upper, is_basic):  # type: ignore[no
 
 
 @kernel
-def _warm_start(J, xd, A, low, up, x, cost, basis, at_upper, is_basic, qd, s):  # type: ignore[no-untyped-def]
+def _warm_start(J, xd, A, low, up, x, cost, basis, at_upper, is_basic, qd, s):
     """Phase 2 from a feasible point ``(qd, s)`` that is a vertex (the greedy SNS result):
     its variables strictly inside their bounds form the basis. True when the simplex then
     reaches the optimum; False (nothing usable) otherwise."""
@@ -146,7 +146,7 @@ def _warm_start(J, xd, A, low, up, x, cost, basis, at_upper, is_basic, qd, s):  
 
 
 @kernel
-def largest_scale(J, xd, lo, hi, qd, warm, s_warm):  # type: ignore[no-untyped-def]
+def largest_scale(J, xd, lo, hi, qd, warm, s_warm):
     """Exact ``max s`` s.t. ``J q̇ = s ẋ``, ``lo ≤ q̇ ≤ hi``, ``0 ≤ s ≤ 1`` (simplex; from the
     feasible vertex ``(qd, s_warm)`` when ``warm``, else in two phases).
 

@@ -16,7 +16,7 @@ from ._kernels import epilogue, min_norm, prologue, solved
 
 
 @kernel
-def qp_begin(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M, wm, bu, bl, f, w, lam2, P, c):  # type: ignore[no-untyped-def]
+def qp_begin(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M, wm, bu, bl, f, w, lam2, P, c):
     """Box, ``G = J Jᵀ``, the copy ``Jc`` of ``J`` and the unconstrained optimum of the exact QP,
     ``q̇ = q̇_0 + J⁺(ẋ − J q̇_0)`` in ``out[0]``; fills DAQP's ``bu``, ``bl`` (box, then
     ``ẋ``) and ``f = −q̇_0``, and, when that optimum is not in the box, the least-violating
@@ -50,7 +50,7 @@ def qp_begin(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M, wm, bu, bl, f, w, 
 
 
 @kernel
-def _qp_farkas(J, xd, lo, hi, x):  # type: ignore[no-untyped-def]
+def _qp_farkas(J, xd, lo, hi, x):
     """Whether ``y = ẋ − J x`` proves ``{J q̇ = ẋ, lo ≤ q̇ ≤ hi}`` empty (Farkas' lemma):
     ``yᵀẋ > max_{lo ≤ q̇ ≤ hi} yᵀ J q̇ = Σ_k max(c_k lo_k, c_k hi_k)``, ``c = Jᵀ y``."""
     m, n = J.shape
@@ -75,7 +75,7 @@ def _qp_farkas(J, xd, lo, hi, x):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def qp_end(J, xd, x, out, M, wm, full):  # type: ignore[no-untyped-def]
+def qp_end(J, xd, x, out, M, wm, full):
     """If ``x`` (the least-violating QP's answer) proves the task infeasible
     (:func:`_qp_farkas`), take it as ``q̇`` and finish the step (:func:`_epilogue`).
     Returns ``(proved, #active, ‖J q̇ − ẋ‖)``."""
@@ -88,7 +88,7 @@ def qp_end(J, xd, x, out, M, wm, full):  # type: ignore[no-untyped-def]
 
 
 @kernel
-def _qp_normal(J, xd, w, lam2, qd0, P, c):  # type: ignore[no-untyped-def]
+def _qp_normal(J, xd, w, lam2, qd0, P, c):
     """The least-violating QP: ``P = Jᵀ W J + λ² I``, ``c = −Jᵀ W ẋ − λ² q̇_0``."""
     m, n = J.shape
     for a in range(n):

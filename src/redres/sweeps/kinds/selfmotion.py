@@ -32,6 +32,7 @@ import numpy as np
 
 from ... import batch
 from ...ik.arcs import TWO_PI, Arc
+from ...robot.chain import log3
 from ...tasks.arm_angle import ArmAngleTask, arm_angles
 
 if TYPE_CHECKING:
@@ -78,17 +79,6 @@ class Trace:
         return (lo - shift, hi - shift)
 
 
-def _log3(R: np.ndarray) -> np.ndarray:
-    """Rotation vectors of ``R`` ``(N, 3, 3)`` (small and moderate angles)."""
-    cos = np.clip((np.trace(R, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
-    angle = np.arccos(cos)
-    vee = 0.5 * np.stack((R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0],
-                          R[:, 1, 0] - R[:, 0, 1]), axis=1)  # fmt: skip
-    sin = np.sin(angle)
-    scale = np.where(sin > 1e-8, angle / np.maximum(sin, 1e-300), 1.0 + angle**2 / 6.0)
-    return np.asarray(vee * scale[:, None])
-
-
 class _Chain:
     """The kinematics a trace needs, on the items given."""
 
@@ -113,7 +103,7 @@ class _Chain:
         J = np.zeros((len(q), 6, q.shape[1]))
         for _ in range(iterations):
             J, T = self.jacobian(q)
-            rotation = _log3(target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], 1, 2))
+            rotation = log3(target[:, :3, :3] @ np.swapaxes(T[:, :3, :3], 1, 2))
             e = np.concatenate((target[:, :3, 3] - T[:, :3, 3], rotation), axis=1)
             error = np.linalg.norm(e, axis=1)
             busy = error > _CORRECTED
