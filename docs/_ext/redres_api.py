@@ -48,13 +48,22 @@ def _public(name: str) -> bool:
     return not any(part.startswith("_") for part in name.split("."))
 
 
+def _shadowed(name: str) -> bool:
+    """Whether subpackage ``name`` is hidden by another object of that name in its parent:
+    ``redres.ik`` is the function :func:`redres.ik` (the package's face exports it), so
+    the package gets no page of its own."""
+    parent, _, last = name.rpartition(".")
+    found = getattr(importlib.import_module(parent), last, None)
+    return found is not None and not inspect.ismodule(found)
+
+
 def public_modules(package: str = PACKAGE) -> list[str]:
     """The package, the modules its ``__all__`` lists (recursively) and its public
     subpackages, shortest path first."""
     root = importlib.import_module(package)
     found = [package]
     for info in pkgutil.walk_packages(root.__path__, prefix=f"{package}."):
-        if info.ispkg and _public(info.name):
+        if info.ispkg and _public(info.name) and not _shadowed(info.name):
             found.append(info.name)
     queue = list(found)
     while queue:
