@@ -15,6 +15,7 @@ ends, so that the process that started it switches to the compiled path group by
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import subprocess
 import sys
@@ -91,10 +92,10 @@ def _controller() -> None:
     robot = panda()
     scheme = GradientProjectionScheme([JointLimitObjective()], k_null=5.0, damping=0.01)
     Controller(robot, FrameTask(), scheme, dt=1e-3).step(robot.neutral())
-    groups()["controller"].mark(part="chain_step")
+    _compile.groups()["controller"].mark(part="chain_step")
     for entry in ("integrate", "chain_command", "clik_step", "frame_command"):
         _fused.native(entry)
-        groups()["controller"].mark(part=entry)
+        _compile.groups()["controller"].mark(part=entry)
     Controller(robot, FrameTask(), PseudoInverseScheme(), dt=1e-3).step(robot.neutral())
 
 
@@ -113,7 +114,7 @@ def _hard_limits() -> None:
     SNSScheme(dt=1e-3).step(robot, q, J, np.zeros(6))
     # An SNS loop needs no more: it switches now. QPScheme's epilogue (in the same module)
     # compiles next; a QP loop waits for its own module, marked after it (QPScheme._prepare).
-    groups()["hard limits"].mark(modules=["_kernels"])
+    _compile.groups()["hard limits"].mark(modules=["_kernels"])
     QPScheme(dt=1e-3).step(robot, q, J, np.zeros(6))
 
 
@@ -166,6 +167,15 @@ def groups() -> dict[str, _compile.KernelGroup]:
     if missing:  # pragma: no cover - a group without a workload, or the reverse
         raise RuntimeError(f"kernel groups and warm-up workloads differ: {sorted(missing)}")
     return {name: declared[name] for name in WORKLOADS}
+
+
+def _declared(name: str) -> bool:
+    """Whether group ``name`` is declared and cached. The background process asks before
+    it has imported the other groups' owners (a second of imports before the compilation
+    a caller waits for), so an undeclared group counts as not cached: its workload runs
+    (loading from the cache, if cached, as fast as the check)."""
+    group = _compile.groups().get(name)
+    return group is not None and group.cached()
 
 
 #: What a helper process compiles while the background compiler compiles a group, where
@@ -243,7 +253,7 @@ def timed(tasks: Sequence[tuple[str, Callable[[], object]]], *, quiet: bool = Fa
 
 def _side_process(names: list[str]) -> subprocess.Popen[bytes] | None:
     """Start the hard-limit group in a second process (and drop it from ``names``)."""
-    if "hard limits" not in names or groups()["hard limits"].cached():
+    if "hard limits" not in names or _declared("hard limits"):
         return None
     names.remove("hard limits")
     args = [sys.executable, "-m", "redres._warmup", "--jobs", "1", "--quiet", "hard limits"]
@@ -252,11 +262,10 @@ def _side_process(names: list[str]) -> subprocess.Popen[bytes] | None:
 
 def _marking(name: str) -> Callable[[], None]:
     def call() -> None:
-        group = groups()[name]
-        if group.cached():
+        if _declared(name):
             return  # loaded from the cache on first use
-        WORKLOADS[name]()
-        group.mark(workload=True)
+        WORKLOADS[name]()  # imports the group's owner, which declares it
+        _compile.groups()[name].mark(workload=True)
 
     return call
 
@@ -267,7 +276,8 @@ def _marking(name: str) -> Callable[[], None]:
 def behind(first: str) -> None:
     """The background process: the group of kernel module ``first``, then the serial-chain
     group (the controller's and IK's readiness needs it; a short one), then the others."""
-    declared = groups()
+    importlib.import_module(first.rsplit(".", 1)[0])  # its package declares its group
+    declared = _compile.groups()
     lead = next((n for n, g in declared.items() if first in g.modules), "linalg")
     order = sorted(WORKLOADS, key=lambda g: (g != lead, g != "chain"))
     helpers: list[subprocess.Popen[bytes]] = []
@@ -296,7 +306,7 @@ def _start_helper(group: str, started: list[subprocess.Popen[bytes]]) -> threadi
     machine shows an idle core beside this compilation and the caller's loop. A caller
     that spins on the reference path takes the other core: three processes on two cores
     would only slow the group down."""
-    if group not in HELPERS or _compile.cores() < 2 or groups()[group].cached():
+    if group not in HELPERS or _compile.cores() < 2 or _declared(group):
         return None
 
     def start() -> None:

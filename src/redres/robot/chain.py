@@ -75,6 +75,7 @@ _WHY: dict[str, str] = {
     **{f"JointModel{axis}": "a helical joint (a screw)" for axis in ("HX", "HY", "HZ")},
     "JointModelHelicalUnaligned": "a helical joint (a screw)",
 }
+_F64 = np.dtype(np.float64)
 _KIND_CODES: dict[str, int] = {}  # from redres.robot._chain_codes on first use
 
 
@@ -257,16 +258,17 @@ def log3(R: Any) -> FloatArray:
     each of a stack ``(N, 3, 3)``, ``(N, 3)``: the one logarithm of redres, for Python
     code and kernels alike (the chain kernels' ``_rotation_log``: accurate at every angle,
     0 and π included; Sola et al. 2018, see :mod:`redres.robot._chain_kernels`)."""
+    kernel = _ENTRIES.get("log3") or _entry("log3")
+    if type(R) is np.ndarray and R.shape == (3, 3) and R.dtype == _F64 and R.flags.c_contiguous:
+        out = np.empty(3)  # the common case, checked in one line (a third of the call)
+        kernel(R, out)
+        return out
     M = np.ascontiguousarray(R, dtype=np.float64)
     if M.ndim not in (2, 3) or M.shape[-2:] != (3, 3):
         raise ShapeError(f"R must have shape (3, 3) or (N, 3, 3); got shape {M.shape}")
-    kernel = _entry("log3")
     out = np.empty(M.shape[:-1])
-    if M.ndim == 2:
-        kernel(M, out)
-    else:
-        for rotation, row in zip(M, out, strict=True):
-            kernel(rotation, row)
+    for rotation, row in zip(M.reshape(-1, 3, 3), out.reshape(-1, 3), strict=True):
+        kernel(rotation, row)
     return out
 
 
