@@ -144,7 +144,7 @@ def _write_report(
 def _compile_for(specs: Sequence[ScenarioSpec], loud: bool) -> None:
     """Compile what the runs need before they are timed (on a cold cache they would
     otherwise run, and be timed, on the reference path while it compiles behind)."""
-    groups = ["linalg", "chain", "controller"]
+    groups = ["linalg", "derivatives", "chain", "controller"]
     if any(s.kind in ("qp", "sns") for spec in specs for s in spec.schemes):
         groups.append("hard limits")
     warmup(groups, quiet=not loud)

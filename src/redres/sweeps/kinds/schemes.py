@@ -239,5 +239,5 @@ SCHEME_STATISTICS = Kind(
     _parse,
     _plan,
     _run,
-    warmup=("linalg", "controller", "hard limits"),
+    warmup=("linalg", "derivatives", "controller", "hard limits"),
 )
