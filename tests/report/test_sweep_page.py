@@ -17,8 +17,8 @@ import pinocchio as pin
 import pytest
 from _chromium import CHROMIUM, console_problems, dump_dom
 from sweeps.helpers import write_spec
-from sweeps.test_schemes import SCENARIO
-from sweeps.test_schemes import SPEC as STATS_SPEC
+from sweeps.kinds.test_schemes import SCENARIO
+from sweeps.kinds.test_schemes import SPEC as STATS_SPEC
 
 from redres import sweeps
 from redres.errors import RedresError
@@ -174,7 +174,7 @@ def test_a_folder_that_is_no_sweep_is_refused(tmp_path: Path) -> None:
 
 
 def test_an_ik_dataset_has_no_page(tmp_path: Path) -> None:
-    from sweeps.test_ikdata import SPEC as DATASET
+    from sweeps.kinds.test_ikdata import SPEC as DATASET
 
     (tmp_path / "ik.toml").write_text(DATASET.replace("poses = 50", "poses = 4"))
     sweeps.run(tmp_path / "ik.toml", tmp_path / "ik", workers=1, progress=False)

@@ -17,7 +17,7 @@ from redres.ik.srs import BRANCHES, NotSRSError, SRSArm
 from redres.sweeps.kinds.selfmotion import CLOSED, LIMIT, trace
 from redres.tasks import ArmAngleTask
 
-from .helpers import tree_digest
+from ..helpers import tree_digest
 
 EPS = 1e-6  # rad: "just inside" / "just outside" an endpoint
 AGREE = 1e-3  # rad: the trace's endpoints against the closed form's
@@ -314,7 +314,7 @@ def test_map_views(tmp_path: Path) -> None:
     from redres.cli import main
     from redres.report.sweep_page import map_figure
 
-    from .helpers import write_spec
+    from ..helpers import write_spec
 
     (tmp_path / "r.toml").write_text(SPEC.format(model="iiwa14", poses=30, method="auto"))
     page = tmp_path / "r.html"

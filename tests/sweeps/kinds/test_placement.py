@@ -16,7 +16,7 @@ import pinocchio as pin
 from redres import sweeps
 from redres.sweeps.kinds.placement import ranking
 
-from .helpers import write_spec
+from ..helpers import write_spec
 
 BEST = (0.4, -0.3, 2 * math.pi * 3 / 8)  # x, y, yaw of B*
 

@@ -20,7 +20,7 @@ from redres import batch, sweeps
 from redres.sweeps.kinds.grid import reach_bound
 from redres.sweeps.kinds.orientations import directions, frames, nearest
 
-from .helpers import write_spec
+from ..helpers import write_spec
 
 #: A finer map of a 20 cm cube in front of the Panda: 5 cm voxels, 50 directions x 4
 #: rolls (the roll of a pose binned to within 45°).

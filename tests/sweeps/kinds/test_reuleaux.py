@@ -12,7 +12,7 @@ import pytest
 from redres import sweeps
 from redres.sweeps.kinds.reuleaux import export_reuleaux
 
-from .helpers import write_spec
+from ..helpers import write_spec
 
 h5py = pytest.importorskip("h5py")
 
