@@ -107,8 +107,8 @@ def block_size(n: int) -> int:
 
 
 def ready(entry: str) -> bool:
-    """Whether kernel ``entry`` (of :data:`ENTRIES`) runs compiled (:func:`redres._compile.ready`
-    of its part; False while it compiles behind). The chain kernels it calls are compiled
+    """Whether kernel ``entry`` (of :data:`ENTRIES`) runs compiled (``KERNELS.ready`` of its
+    part; False while it compiles behind). The chain kernels it calls are compiled
     into it (numba links a callee's code into its caller's, cached with it); the
     controller's own calls of a :class:`~redres.robot.SerialChain` switch when the chain's
     module is ready."""

@@ -330,7 +330,8 @@ def _compiled(robot: Robot, fid: int) -> tuple[Any, ...] | None:
 
 
 def _load_entry() -> bool:
-    """Load the compiled solve if it is ready (:func:`redres._compile.compiled`)."""
+    """Load the compiled solve if it is ready (:meth:`KERNELS.compiled
+    <redres._compile.KernelGroup.compiled>`)."""
     module = KERNELS.compiled() if _compile.enabled() else None
     if module is None:
         return False
