@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import redres as rr
-from redres._validate import as_matrix, as_scalar, as_vector
-from redres.errors import InvalidParameterError, RedresError, ShapeError
+from redres._validate import as_gains, as_matrix, as_scalar, as_vector
+from redres.errors import InvalidParameterError, NonFiniteError, RedresError, ShapeError
 from redres.objectives import JointLimitObjective
 
 
@@ -292,6 +292,26 @@ def test_huge_integers_and_ragged_lists_are_shape_errors() -> None:
         as_matrix([[1.0, 2.0], [3.0]], "J")
     with pytest.raises(InvalidParameterError, match=r"gain must be a number; got 1000"):
         as_scalar(10**400, "gain")
+
+
+def test_gains_are_a_nonnegative_scalar_or_one_per_entry() -> None:
+    """The one scalar-or-per-row check (controller gains, servo gains, posture weights)."""
+    assert as_gains(2, "gain") == 2.0 and isinstance(as_gains(2, "gain"), float)
+    assert as_gains(np.float64(0.0), "gain") == 0.0
+    given = np.array([1.0, 0.0, 3.0])
+    out = as_gains(given, "kp", 3)
+    assert np.array_equal(out, given) and out is not given  # a copy: the caller keeps its own
+    assert np.array_equal(as_gains([1, 2], "weights"), [1.0, 2.0])  # any length without size
+    with pytest.raises(InvalidParameterError, match=r"gain must be >= 0.0; got -1.0"):
+        as_gains(-1.0, "gain")
+    with pytest.raises(InvalidParameterError, match=r"kp must be >= 0 on every entry; got"):
+        as_gains([1.0, -2.0, 3.0], "kp", 3)
+    with pytest.raises(ShapeError, match=r"kd"):
+        as_gains([1.0, 2.0], "kd", 3)
+    with pytest.raises(NonFiniteError, match=r"gain"):
+        as_gains(float("nan"), "gain")
+    with pytest.raises(NonFiniteError, match=r"kp"):
+        as_gains([1.0, np.inf, 0.0], "kp", 3)
 
 
 def test_objectives_check_the_configuration_they_are_given() -> None:

@@ -169,7 +169,7 @@ def groups() -> dict[str, _compile.KernelGroup]:
     return {name: declared[name] for name in WORKLOADS}
 
 
-def _declared(name: str) -> bool:
+def _cached(name: str) -> bool:
     """Whether group ``name`` is declared and cached. The background process asks before
     it has imported the other groups' owners (a second of imports before the compilation
     a caller waits for), so an undeclared group counts as not cached: its workload runs
@@ -253,7 +253,7 @@ def timed(tasks: Sequence[tuple[str, Callable[[], object]]], *, quiet: bool = Fa
 
 def _side_process(names: list[str]) -> subprocess.Popen[bytes] | None:
     """Start the hard-limit group in a second process (and drop it from ``names``)."""
-    if "hard limits" not in names or _declared("hard limits"):
+    if "hard limits" not in names or _cached("hard limits"):
         return None
     names.remove("hard limits")
     args = [sys.executable, "-m", "redres._warmup", "--jobs", "1", "--quiet", "hard limits"]
@@ -262,7 +262,7 @@ def _side_process(names: list[str]) -> subprocess.Popen[bytes] | None:
 
 def _marking(name: str) -> Callable[[], None]:
     def call() -> None:
-        if _declared(name):
+        if _cached(name):
             return  # loaded from the cache on first use
         WORKLOADS[name]()  # imports the group's owner, which declares it
         _compile.groups()[name].mark(workload=True)
@@ -306,7 +306,7 @@ def _start_helper(group: str, started: list[subprocess.Popen[bytes]]) -> threadi
     machine shows an idle core beside this compilation and the caller's loop. A caller
     that spins on the reference path takes the other core: three processes on two cores
     would only slow the group down."""
-    if group not in HELPERS or _compile.cores() < 2 or _declared(group):
+    if group not in HELPERS or _compile.cores() < 2 or _cached(group):
         return None
 
     def start() -> None:

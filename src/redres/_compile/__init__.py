@@ -49,6 +49,7 @@ __all__ = [
     "kernel",
     "parallel_range",
     "precompile",
+    "quiet",
     "release_lock",
     "threads",
     "warm",
@@ -269,10 +270,6 @@ class KernelGroup:
         names = self.modules if modules is None else tuple(map(self._name, modules))
         mark_cached(names, workload=workload, part=part)
 
-    def cold_seconds(self) -> float:
-        """Roughly how long a first use of the group compiles now, s."""
-        return _estimates.cold_seconds(_FIGURES, self.modules, cached)
-
 
 def warm(names: Iterable[str], *, quiet: bool | None = None) -> None:
     """Make the kernel groups ``names`` compiled into the cache, then compile on this
@@ -329,12 +326,12 @@ def mark_cached(names: Iterable[str], *, workload: bool = False, part: str | Non
                 pass
 
 
-def _get(name: str, *, compiled: bool, announce: bool = True) -> ModuleType | None:
+def _get(name: str, *, compiled: bool) -> ModuleType | None:
     compiled = compiled and _ENABLED
     found = _twins.modules.get((name, compiled))
     if found is not None:
         return found
-    if announce and compiled and cache_dir() is not None and not _cache.marker(name).exists():
+    if compiled and cache_dir() is not None and not _cache.marker(name).exists():
         _announce(name)
     try:
         return _twins.get(name, compiled)

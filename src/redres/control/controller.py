@@ -108,8 +108,9 @@ class Controller:
     On the compiled paths the controller keeps a frame task's target in its kernel's
     settings (``task.set_target`` writes there), and the task's ``last_pose`` and
     ``last_error`` are not updated: read :attr:`pose` and :attr:`error`. At an orientation
-    error of exactly 180° both rotation axes are valid logarithms; the kernel and
-    Pinocchio's ``log3`` may pick opposite ones. Anywhere else the paths agree to rounding.
+    error of exactly 180° both rotation axes are valid logarithms; the kernel and the
+    composed path (:func:`redres.robot.chain.log3`, the same formula on a product rounded
+    differently) may pick opposite ones. Anywhere else the paths agree to rounding.
 
     Raises:
         InvalidParameterError: a bad gain or period, a task or scheme of the wrong type,

@@ -33,8 +33,9 @@ FAST_MAX_COLS = 50
 
 _state: dict[str, Any] = {"enabled": _compile.enabled()}
 
-#: linalg's kernels (the first answers the library's calls; the other two hold the dense
-#: factorisations and eigenvalue kernels it calls). Cold: a first ``damped_pinv`` 16 s.
+#: linalg's kernels (the first answers the library's calls; the others hold the one
+#: factorisation, the dense helpers and the eigenvalue kernels it calls). Cold: a first
+#: ``damped_pinv`` 16 s.
 KERNELS = _compile.KernelGroup(
     "linalg",
     (

@@ -258,7 +258,7 @@ def log3(R: Any) -> FloatArray:
     each of a stack ``(N, 3, 3)``, ``(N, 3)``: the one logarithm of redres, for Python
     code and kernels alike (the chain kernels' ``_rotation_log``: accurate at every angle,
     0 and π included; Sola et al. 2018, see :mod:`redres.robot._chain_kernels`)."""
-    kernel = _ENTRIES.get("log3") or _entry("log3")
+    kernel = _entry("log3")
     if type(R) is np.ndarray and R.shape == (3, 3) and R.dtype == _F64 and R.flags.c_contiguous:
         out = np.empty(3)  # the common case, checked in one line (a third of the call)
         kernel(R, out)
