@@ -300,6 +300,13 @@ def test_log3_of_a_stack_is_each_one_alone(rng: np.random.Generator) -> None:
         assert np.array_equal(row, log3(R))
     with pytest.raises(ShapeError, match=r"\(3, 3\) or \(N, 3, 3\)"):
         log3(np.eye(4))
+    for bad in (np.nan, np.inf):  # by name, never a NaN logarithm
+        R = np.eye(3)
+        R[1, 2] = bad
+        with pytest.raises(NonFiniteError, match="R contains NaN or infinity"):
+            log3(R)
+        with pytest.raises(NonFiniteError, match="R contains NaN or infinity"):
+            log3(np.stack([np.eye(3), R]))
 
 
 def test_log3_of_a_slightly_non_orthogonal_matrix_stays_finite() -> None:

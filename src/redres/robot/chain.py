@@ -24,6 +24,7 @@ The public methods validate their input; hot loops call the kernels themselves w
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -257,15 +258,24 @@ def log3(R: Any) -> FloatArray:
     """The SO(3) logarithm ``θ u`` of a rotation matrix ``(3, 3)``, ``(3,)``, rad, or of
     each of a stack ``(N, 3, 3)``, ``(N, 3)``: the one logarithm of redres, for Python
     code and kernels alike (the chain kernels' ``_rotation_log``: accurate at every angle,
-    0 and π included; Sola et al. 2018, see :mod:`redres.robot._chain_kernels`)."""
+    0 and π included; Sola et al. 2018, see :mod:`redres.robot._chain_kernels`).
+
+    Raises:
+        ShapeError: ``R`` is not ``(3, 3)`` or ``(N, 3, 3)``.
+        NonFiniteError: ``R`` holds NaN or infinity (its logarithm would).
+    """
     kernel = _entry("log3")
     if type(R) is np.ndarray and R.shape == (3, 3) and R.dtype == _F64 and R.flags.c_contiguous:
         out = np.empty(3)  # the common case, checked in one line (a third of the call)
         kernel(R, out)
+        if not math.isfinite(out[0] + out[1] + out[2]):  # NaN in R gives NaN in all three
+            raise NonFiniteError("R contains NaN or infinity")
         return out
     M = np.ascontiguousarray(R, dtype=np.float64)
     if M.ndim not in (2, 3) or M.shape[-2:] != (3, 3):
         raise ShapeError(f"R must have shape (3, 3) or (N, 3, 3); got shape {M.shape}")
+    if not np.isfinite(M).all():
+        raise NonFiniteError("R contains NaN or infinity")
     out = np.empty(M.shape[:-1])
     for rotation, row in zip(M.reshape(-1, 3, 3), out.reshape(-1, 3), strict=True):
         kernel(rotation, row)
