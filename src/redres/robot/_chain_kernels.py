@@ -92,13 +92,15 @@ def _rotation_log(m00, m01, m02, m10, m11, m12, m20, m21, m22):
 
 @kernel
 def log3(R, out):
-    """``out[:3] <- log(R)``, the rotation vector of the 3x3 rotation matrix ``R``."""
+    """``out[:3] <- log(R)``, the rotation vector of the 3x3 rotation matrix ``R``; returns
+    whether it is finite (False when ``R`` holds NaN or ±inf: all three entries are NaN)."""
     x, y, z = _rotation_log(
         R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2]
     )
     out[0] = x
     out[1] = y
     out[2] = z
+    return math.isfinite(x + y + z)
 
 
 @kernel

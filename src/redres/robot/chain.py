@@ -24,7 +24,6 @@ The public methods validate their input; hot loops call the kernels themselves w
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -169,7 +168,8 @@ class SerialChain:
 
         with ``q (n,)``, ``T (4, 4)``, ``J (6, n)``, ``target (4, 4)``, ``e (6,)``,
         ``R (3, 3)``, ``out (3,)``. The first three return False when ``q`` holds NaN or
-        ±inf (the one check they make); shapes and types are not checked.
+        ±inf (the one check they make), ``log3`` when ``R`` does; shapes and types are
+        not checked.
         """
         return _entry(name)
 
@@ -267,8 +267,7 @@ def log3(R: Any) -> FloatArray:
     kernel = _entry("log3")
     if type(R) is np.ndarray and R.shape == (3, 3) and R.dtype == _F64 and R.flags.c_contiguous:
         out = np.empty(3)  # the common case, checked in one line (a third of the call)
-        kernel(R, out)
-        if not math.isfinite(out[0] + out[1] + out[2]):  # NaN in R gives NaN in all three
+        if not kernel(R, out):
             raise NonFiniteError("R contains NaN or infinity")
         return out
     M = np.ascontiguousarray(R, dtype=np.float64)
