@@ -43,7 +43,7 @@ from ..linalg._codes import (
 )
 from ..linalg._dense_kernels import _finite_1d, _finite_2d
 from ..linalg._kernels import _step
-from ..robot._chain_kernels import _rotation_log, jacobian
+from ..robot._chain_kernels import jacobian, rotation_error
 
 
 @kernel
@@ -57,15 +57,6 @@ def _rows_at(config, n):
     if m < 0 or config.shape[0] < start + m:
         return -1, 0
     return start, m
-
-
-@kernel(inline=True)
-def _target_dot(config, H, i, j):
-    """``(R_d Rᵀ)[i, j]``: row ``i`` of the target rotation (``config``, row-major) dotted
-    with row ``j`` of the frame's rotation ``H[:3, :3]`` (inlined: called with nine
-    literal ``i, j``, it would compile nine specialisations)."""
-    d = CFG_ROTATION + 3 * i
-    return config[d] * H[j, 0] + config[d + 1] * H[j, 1] + config[d + 2] * H[j, 2]
 
 
 @kernel
@@ -92,20 +83,7 @@ def _frame_rows(J, H, config, rows, m, Jm, xd, e):
         return POSE_NONFINITE
     for i in range(3):
         e[i] = config[CFG_POSITION + i] - H[i, 3]
-    x, y, z = _rotation_log(
-        _target_dot(config, H, 0, 0),
-        _target_dot(config, H, 0, 1),
-        _target_dot(config, H, 0, 2),
-        _target_dot(config, H, 1, 0),
-        _target_dot(config, H, 1, 1),
-        _target_dot(config, H, 1, 2),
-        _target_dot(config, H, 2, 0),
-        _target_dot(config, H, 2, 1),
-        _target_dot(config, H, 2, 2),
-    )
-    e[3] = x
-    e[4] = y
-    e[5] = z
+    rotation_error(config[CFG_ROTATION : CFG_ROTATION + 9].reshape((3, 3)), H, e)
     for i in range(m):
         r = int(config[rows + i])
         xd[i] = config[CFG_TWIST + r] + config[CFG_GAIN + r] * e[r]

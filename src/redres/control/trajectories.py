@@ -76,18 +76,6 @@ class Trajectory(ABC):
         ``Line(T0, p1, 1.0).then(lambda T: Circle(T, 0.05, 2.0))``."""
         return Chain([self]).then(following)
 
-    def _planar(self, origin: FloatArray, coefficients: Any, basis: FloatArray) -> Sample:
-        """A sample of a path in a plane with orientation held: ``coefficients`` (3 x 2)
-        are the position offset, velocity and acceleration in the plane's ``basis``
-        (2 x 3, rows e₁, e₂); one matrix product gives all three (the per-step cost of a
-        run)."""
-        pva = np.array(coefficients) @ basis
-        T = self.start_pose.copy()  # type: ignore[attr-defined]
-        T[:3, 3] = origin + pva[0]
-        twist, acc = np.zeros(6), np.zeros(6)
-        twist[:3], acc[:3] = pva[1], pva[2]
-        return Sample(T, twist, acc)
-
 
 def _plane_axes(normal: Any) -> tuple[FloatArray, FloatArray]:
     """Two orthonormal axes spanning the plane normal to ``normal`` (3 finite numbers, not
@@ -104,7 +92,33 @@ def _plane_axes(normal: Any) -> tuple[FloatArray, FloatArray]:
     return u, np.cross(nrm, u)
 
 
-class Circle(Trajectory):
+class _PlanarPath(Trajectory):
+    """A periodic path in a plane through the start position, orientation held: the
+    arguments :class:`Circle` and :class:`FigureEight` share, and their sampling."""
+
+    def __init__(
+        self, start_pose: Any, period: float, normal: Any, turns: float, ramp: float
+    ) -> None:
+        self.start_pose = as_transform(start_pose, "start_pose")
+        self.period = _seconds(period, "period")
+        self.ramp = as_scalar(ramp, "ramp", minimum=0.0)
+        turns = as_scalar(turns, "turns", minimum=0.0, strict=True)
+        self.duration = float(turns) * self.period + self.ramp / 2.0
+        self._axes = _plane_axes(normal)
+
+    def _planar(self, origin: FloatArray, coefficients: Any, basis: FloatArray) -> Sample:
+        """A sample with ``coefficients`` (3 x 2) the position offset, velocity and
+        acceleration in the plane's ``basis`` (2 x 3, rows e₁, e₂) from ``origin``; one
+        matrix product gives all three (the per-step cost of a run)."""
+        pva = np.array(coefficients) @ basis
+        T = self.start_pose.copy()
+        T[:3, 3] = origin + pva[0]
+        twist, acc = np.zeros(6), np.zeros(6)
+        twist[:3], acc[:3] = pva[1], pva[2]
+        return Sample(T, twist, acc)
+
+
+class Circle(_PlanarPath):
     """A circle through the start position at constant speed, orientation held.
 
     Args:
@@ -131,19 +145,15 @@ class Circle(Trajectory):
         ramp: float = 0.0,
     ) -> None:
         """A circle of ``radius`` (m) through ``start_pose``, one turn per ``period`` (s)."""
-        self.start_pose = as_transform(start_pose, "start_pose")
+        super().__init__(start_pose, period, normal, turns, ramp)
         self.radius = as_scalar(radius, "radius", minimum=0.0, strict=True)
-        self.period = _seconds(period, "period")
-        self.ramp = as_scalar(ramp, "ramp", minimum=0.0)
         phase = as_scalar(phase, "phase")
-        turns = as_scalar(turns, "turns", minimum=0.0, strict=True)
-        u, v = _plane_axes(normal)
+        u, v = self._axes
         to_center = np.cos(phase) * u + np.sin(phase) * v
         self.center = self.start_pose[:3, 3] + self.radius * to_center
         e1 = -to_center  # centre -> start
         self._basis = np.vstack([e1, np.cross(np.cross(u, v), e1)])  # u × v: the unit normal
         self.omega = 2.0 * np.pi / self.period
-        self.duration = float(turns) * self.period + self.ramp / 2.0
 
     def sample(self, t: float) -> Sample:
         a, da, dda = ramped_angle(t, self.omega, self.ramp)
@@ -160,7 +170,7 @@ class Circle(Trajectory):
         )
 
 
-class FigureEight(Trajectory):
+class FigureEight(_PlanarPath):
     """A figure eight (Gerono lemniscate) through the start position, orientation held:
     ``p = p₀ + a sin θ e₁ + (b/2) sin 2θ e₂``, ``θ = 2π t / period``.
 
@@ -185,15 +195,11 @@ class FigureEight(Trajectory):
         ramp: float = 0.0,
     ) -> None:
         """The arguments are described in ``help(FigureEight)``."""
-        self.start_pose = as_transform(start_pose, "start_pose")
+        super().__init__(start_pose, period, normal, turns, ramp)
         self.width = as_scalar(width, "width", minimum=0.0)
         self.height = as_scalar(height, "height", minimum=0.0)
-        self.period = _seconds(period, "period")
-        turns = as_scalar(turns, "turns", minimum=0.0, strict=True)
-        self.ramp = as_scalar(ramp, "ramp", minimum=0.0)
-        self._basis = np.vstack(_plane_axes(normal))
+        self._basis = np.vstack(self._axes)
         self._origin = self.start_pose[:3, 3].copy()
-        self.duration = float(turns) * self.period + self.ramp / 2.0
 
     def sample(self, t: float) -> Sample:
         # θ(t), θ' and θ'' (a ramped rate as for Circle); p = (a sin θ, b sin 2θ), so

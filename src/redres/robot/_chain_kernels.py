@@ -218,25 +218,33 @@ def pose_error(links, axes, kinds, q, target, T, J, e):
     finite = jacobian(links, axes, kinds, q, False, T, J)
     for i in range(3):
         e[i] = target[i, 3] - T[i, 3]
-    # M = R_d Rᵀ, entry (i, j) = row i of R_d · row j of R.
-    x, y, z = _rotation_log(
-        _row_dot(target, T, 0, 0),
-        _row_dot(target, T, 0, 1),
-        _row_dot(target, T, 0, 2),
-        _row_dot(target, T, 1, 0),
-        _row_dot(target, T, 1, 1),
-        _row_dot(target, T, 1, 2),
-        _row_dot(target, T, 2, 0),
-        _row_dot(target, T, 2, 1),
-        _row_dot(target, T, 2, 2),
-    )
-    e[3] = x
-    e[4] = y
-    e[5] = z
+    rotation_error(target, T, e)
     return finite
 
 
 @kernel
+def rotation_error(Rd, R, e):
+    """``e[3:6] <- log(R_d Rᵀ)``, the orientation error of a frame task, from the 3x3
+    blocks of ``Rd`` and ``R`` (each 3x3 or 4x4)."""
+    # M = R_d Rᵀ, entry (i, j) = row i of R_d · row j of R.
+    x, y, z = _rotation_log(
+        _row_dot(Rd, R, 0, 0),
+        _row_dot(Rd, R, 0, 1),
+        _row_dot(Rd, R, 0, 2),
+        _row_dot(Rd, R, 1, 0),
+        _row_dot(Rd, R, 1, 1),
+        _row_dot(Rd, R, 1, 2),
+        _row_dot(Rd, R, 2, 0),
+        _row_dot(Rd, R, 2, 1),
+        _row_dot(Rd, R, 2, 2),
+    )
+    e[3] = x
+    e[4] = y
+    e[5] = z
+
+
+@kernel(inline=True)
 def _row_dot(A, B, i, j):
-    """Row ``i`` of ``A[:3, :3]`` dotted with row ``j`` of ``B[:3, :3]``: ``(A Bᵀ)[i, j]``."""
+    """Row ``i`` of ``A[:3, :3]`` dotted with row ``j`` of ``B[:3, :3]``: ``(A Bᵀ)[i, j]``
+    (inlined: called with nine literal ``i, j``, it would compile nine specialisations)."""
     return A[i, 0] * B[j, 0] + A[i, 1] * B[j, 1] + A[i, 2] * B[j, 2]
