@@ -12,21 +12,45 @@ import math
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
 from ._validate import short_repr
-from .errors import RedresError
+from .errors import RedresError, describe_os_error, shown_path
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["Reader", "ScenarioBuilder", "ScenarioParams", "tomllib"]
+__all__ = ["Reader", "ScenarioBuilder", "ScenarioParams", "load", "tomllib"]
 
 _T = TypeVar("_T")
+
+
+def load(path: str | Path, what: str, error: type[RedresError]) -> dict[str, Any]:
+    """The TOML file ``path`` as a dict (a leading BOM is fine); a file that cannot be read
+    or parsed raises ``error``, one line naming the file and the fix (``what`` names the
+    kind of file: ``"scenario"``, ``"sweep spec"``)."""
+    file = Path(path)
+    shown = shown_path(file)
+    try:
+        return tomllib.loads(file.read_text(encoding="utf-8-sig"))
+    except FileNotFoundError:
+        raise error(f"{shown}: no such {what} file") from None
+    except OSError as exc:
+        raise error(f"cannot read the {what} file: {describe_os_error(exc)}") from None
+    except UnicodeDecodeError as exc:
+        raise error(f"{shown}: not UTF-8 text ({exc.reason}); save it as UTF-8") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{shown}: not valid TOML ({exc})") from None
+    except RecursionError:
+        raise error(
+            f"{shown}: arrays or tables are nested too deeply to read; a {what} needs at "
+            "most a few levels"
+        ) from None
 
 
 class Reader:

@@ -223,22 +223,20 @@ class Viewer:
         self._links: dict[str, Any] = {}
         for frame in self._frames():
             self._links[frame] = scene.add_frame(f"/robot/{frame}", show_axes=False)
+
+        def add_mesh(name: str, vertices: Any, faces: Any, colour: str, **style: Any) -> None:
+            vertices, faces = vertices.astype(np.float32), faces.astype(np.uint32)
+            scene.add_mesh_simple(name, vertices=vertices, faces=faces, color=_rgb(colour), **style)
+
         if self.geometry == "meshes":
             for i, mesh in enumerate(self.robot.visuals):
                 parent = f"/robot/{mesh.frame}" if mesh.frame is not None else "/base"
-                scene.add_mesh_simple(
-                    f"{parent}/mesh{i}",
-                    vertices=mesh.vertices.astype(np.float32),
-                    faces=mesh.triangles.astype(np.uint32),
-                    color=_rgb(mesh.colour),
-                )
+                add_mesh(f"{parent}/mesh{i}", mesh.vertices, mesh.triangles, mesh.colour)
         elif self.geometry == "capsules":
             for i, cap in enumerate(self.robot.capsules):
                 vertices, faces = capsule_mesh(cap.a, cap.b, cap.radius)
-                scene.add_mesh_simple(f"/robot/{cap.frame}/capsule{i}",
-                                      vertices=vertices.astype(np.float32),
-                                      faces=faces.astype(np.uint32), color=_rgb(CAPSULE_COLOUR),
-                                      opacity=0.8)  # fmt: skip
+                name = f"/robot/{cap.frame}/capsule{i}"
+                add_mesh(name, vertices, faces, CAPSULE_COLOUR, opacity=0.8)
         self._arm = None
         if self.geometry == "lines":
             self._arm = scene.add_line_segments("/robot/arm", points=np.zeros((1, 2, 3)),
@@ -246,13 +244,7 @@ class Viewer:
         for i, obs in enumerate(obstacles):
             a, b = (obs.center, obs.center) if isinstance(obs, SphereObstacle) else (obs.a, obs.b)
             vertices, faces = capsule_mesh(a, b, max(obs.radius, 0.005))
-            scene.add_mesh_simple(
-                f"/obstacles/{i}_{obs.name}",
-                vertices=vertices.astype(np.float32),
-                faces=faces.astype(np.uint32),
-                color=_rgb(OBSTACLE_COLOUR),
-                opacity=0.6,
-            )
+            add_mesh(f"/obstacles/{i}_{obs.name}", vertices, faces, OBSTACLE_COLOUR, opacity=0.6)
         self._tool = scene.add_frame("/tool", axes_length=0.08, axes_radius=0.004)
         self._goal = scene.add_icosphere("/target", radius=0.012, color=(214, 39, 40),
                                          visible=False)  # fmt: skip
@@ -279,13 +271,10 @@ class Viewer:
         model, data = robot.model, robot.data
         pin.framesForwardKinematics(model, data, q)
         with self.server.atomic():
-            for frame, handle in self._links.items():
+            for frame, handle in [*self._links.items(), (None, self._tool)]:
                 T = data.oMf[robot.frame_id(frame)]
                 handle.position = tuple(float(x) for x in T.translation)
                 handle.wxyz = _wxyz(T.rotation)
-            tip = data.oMf[robot.frame_id(None)]
-            self._tool.position = tuple(float(x) for x in tip.translation)
-            self._tool.wxyz = _wxyz(tip.rotation)
             if self._arm is not None:
                 from .report.view3d import arm_points
 

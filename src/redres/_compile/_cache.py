@@ -19,6 +19,7 @@ switch from the reference path to the compiled one.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import tempfile
@@ -29,7 +30,6 @@ from .._version import __version__
 
 #: The package directory (kernel modules are found below it, by file name).
 PACKAGE = Path(__file__).resolve().parent.parent
-_state: dict[str, Any] = {}
 
 
 def is_kernel_file(path: Path) -> bool:
@@ -43,18 +43,16 @@ def is_constant_file(path: Path) -> bool:
     return path.name.startswith("_") and path.name.endswith(("_codes.py", "_layout.py"))
 
 
+@functools.cache
 def kernel_modules() -> tuple[str, ...]:
     """Every kernel module of the package (dotted names, sorted), found by file name."""
-    if "kernels" not in _state:
-        _state["kernels"] = _scan(is_kernel_file)
-    return _state["kernels"]  # type: ignore[no-any-return]
+    return _scan(is_kernel_file)
 
 
+@functools.cache
 def constant_modules() -> tuple[str, ...]:
     """Every constants module of the package (dotted names, sorted), found by file name."""
-    if "constants" not in _state:
-        _state["constants"] = _scan(is_constant_file)
-    return _state["constants"]  # type: ignore[no-any-return]
+    return _scan(is_constant_file)
 
 
 def _scan(keep: Any) -> tuple[str, ...]:
@@ -72,12 +70,10 @@ def module_file(name: str) -> Path:
     return PACKAGE.joinpath(*parts[:-1], parts[-1] + ".py")
 
 
+@functools.cache
 def cache_dir() -> Path | None:
     """The directory compiled kernels are cached in (module docstring), or None when no
     candidate is writable (then they are compiled in memory, every process)."""
-    if "cache_dir" in _state:
-        found: Path | None = _state["cache_dir"]
-        return found
     candidates = []
     if os.environ.get("REDRES_CACHE_DIR"):
         candidates.append(Path(os.environ["REDRES_CACHE_DIR"]))
@@ -85,8 +81,7 @@ def cache_dir() -> Path | None:
         candidates.append(PACKAGE / "__pycache__" / "numba")
         base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
         candidates.append(Path(base) / "redres" / "numba")
-    _state["cache_dir"] = next((p for p in candidates if _writable(p)), None)
-    return _state["cache_dir"]  # type: ignore[no-any-return]
+    return next((p for p in candidates if _writable(p)), None)
 
 
 def root() -> Path:
@@ -105,16 +100,15 @@ def _writable(path: Path) -> bool:
     return True
 
 
+@functools.cache
 def stamp() -> str:
     """The freshness stamp of every cached kernel: a digest of the redres version and the
     sources of every kernel and constant module."""
-    if "stamp" not in _state:
-        digest = hashlib.sha256(__version__.encode())
-        for name in (*kernel_modules(), *constant_modules()):
-            digest.update(name.encode())
-            digest.update(module_file(name).read_bytes())
-        _state["stamp"] = digest.hexdigest()
-    return _state["stamp"]  # type: ignore[no-any-return]
+    digest = hashlib.sha256(__version__.encode())
+    for name in (*kernel_modules(), *constant_modules()):
+        digest.update(name.encode())
+        digest.update(module_file(name).read_bytes())
+    return digest.hexdigest()
 
 
 def marker(name: str, part: str | None = None) -> Path:
@@ -124,10 +118,9 @@ def marker(name: str, part: str | None = None) -> Path:
     return root() / name / f"compiled-{stamp()[:16]}{suffix}"
 
 
+@functools.cache
 def cache_class() -> Any:
     """numba's per-function cache with this module's locator (built on first use)."""
-    if "cache_class" in _state:
-        return _state["cache_class"]
     from numba.core import caching
 
     class Locator(caching._CacheLocator):  # type: ignore[misc]
@@ -157,5 +150,4 @@ def cache_class() -> Any:
     class Cache(caching.FunctionCache):  # type: ignore[misc]
         _impl_class = Impl
 
-    _state["cache_class"] = Cache
     return Cache

@@ -205,17 +205,15 @@ def run_scenarios(
         if examples:
             payload.update(examples=worked_examples(), compiled_loop=compiled_loop(steps))
         print(json.dumps(payload))
-        if after is not None:
-            after(runs)
-        return 0
-    print(format_table(summaries))
-    for line in warning_lines(summaries):
-        print(line)
-    if report is not None:
-        print(f"\nreport: {report}")
+    else:
+        print(format_table(summaries))
+        for line in warning_lines(summaries):
+            print(line)
+        if report is not None:
+            print(f"\nreport: {report}")
     if after is not None:
         after(runs)
-    if quiet:
+    if quiet or as_json:
         return 0
     print(f"({len(runs)} runs in {time.perf_counter() - started:.1f} s)")
     if examples:

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._validate import FloatArray
+from ..robot.meshes import ring_faces
 
 if TYPE_CHECKING:
     from ..objectives import Obstacle, Proximity
@@ -68,18 +69,13 @@ def capsule_mesh(
         # the equator twice: the lower hemisphere's at a, the upper one's at b
         for centre in (a,) if i < half else (b,) if i > half else (a, b):
             rings.append(centre + radius * (np.cos(lat) * ring + np.sin(lat) * u))
-    vertices = np.concatenate(rings)
-    faces = []
-    L = longitudes
-    for r in range(len(rings) - 1):
-        for k in range(L):
-            p, q = r * L + k, r * L + (k + 1) % L
-            faces += [(p, q, q + L), (p, q + L, p + L)]
-    return vertices, np.array(faces, dtype=np.int64)
+    return np.concatenate(rings), ring_faces(len(rings), longitudes)
 
 
-def _round(values: FloatArray, decimals: int) -> list[float]:
-    return np.round(np.asarray(values, dtype=float), decimals).tolist()  # type: ignore[no-any-return]
+def xyz(points: FloatArray, decimals: int) -> dict[str, list[float]]:
+    """The columns of ``points`` ``(k, 3)``, rounded to ``decimals``: plotly's ``x, y, z``."""
+    p = np.round(np.asarray(points, dtype=float), decimals)
+    return {"x": p[:, 0].tolist(), "y": p[:, 1].tolist(), "z": p[:, 2].tolist()}
 
 
 def mesh_trace(
@@ -97,9 +93,7 @@ def mesh_trace(
     trace: dict[str, Any] = {
         "type": "mesh3d",
         "name": name,
-        "x": _round(vertices[:, 0], decimals),
-        "y": _round(vertices[:, 1], decimals),
-        "z": _round(vertices[:, 2], decimals),
+        **xyz(vertices, decimals),
         "i": triangles[:, 0].tolist(),
         "j": triangles[:, 1].tolist(),
         "k": triangles[:, 2].tolist(),
@@ -226,9 +220,7 @@ def rigid_spec(bodies: RigidBodies, trace: int, decimals: int) -> dict[str, Any]
     """What the page needs to move ``bodies`` (trace index ``trace``) frame by frame."""
     return {
         "trace": trace,
-        "x": _round(bodies.local[:, 0], decimals),
-        "y": _round(bodies.local[:, 1], decimals),
-        "z": _round(bodies.local[:, 2], decimals),
+        **xyz(bodies.local, decimals),
         "parts": [list(p) for p in bodies.parts],
         "poses": np.round(bodies.poses.reshape(len(bodies.poses), -1, 12), 6).tolist(),
         "decimals": decimals,

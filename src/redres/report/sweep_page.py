@@ -24,6 +24,7 @@ import numpy as np
 from ..sweeps.folder import SweepFolderError
 from ..sweeps.results import load
 from .page import Section, figure_html, render_document, write_page
+from .scene3d import xyz
 
 __all__ = ["KINDS", "map_figure", "write_html"]
 
@@ -106,9 +107,7 @@ def map_figure(out: str | Path) -> dict[str, Any]:
     def trace(rows: np.ndarray, name: str, visible: bool) -> dict[str, Any]:
         return {
             "type": "scatter3d", "mode": "markers", "name": name, "visible": visible,
-            "x": np.round(positions[rows, 0], 5).tolist(),
-            "y": np.round(positions[rows, 1], 5).tolist(),
-            "z": np.round(positions[rows, 2], 5).tolist(),
+            **xyz(positions[rows], 5),
             "marker": {"size": 3, "color": np.round(values[rows], 4).tolist(),
                        "colorscale": "Viridis", "cmin": 0.0, "cmax": top,
                        "colorbar": {"title": {"text": bar}}},

@@ -141,9 +141,8 @@ def arm_animation(
     )  # fmt: skip
 
 
-def _xyz(points: FloatArray, decimals: int = DECIMALS) -> dict[str, list[float]]:
-    p = np.round(np.asarray(points, dtype=float), decimals)
-    return {"x": p[:, 0].tolist(), "y": p[:, 1].tolist(), "z": p[:, 2].tolist()}
+def _xyz(points: FloatArray) -> dict[str, list[float]]:
+    return scene3d.xyz(points, DECIMALS)
 
 
 def _scene(anim: ArmAnimation) -> dict[str, Any]:

@@ -47,16 +47,15 @@ def _lat_long(radius: float, half: float, rings: int = 8, sides: int = 16) -> tu
     lats = np.pi / 2 * np.arange(-rings // 2, rings // 2 + 1) / (rings // 2)
     lon = 2 * np.pi * np.arange(sides) / sides
     pts = []
-    for i, lat in enumerate(lats):
+    for lat in lats:
         for z0 in (-half,) if lat < 0 else (half,) if lat > 0 else (-half, half):
             ring = np.column_stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon),
                                     np.full(sides, np.sin(lat))])  # fmt: skip
             pts.append(radius * ring + [0.0, 0.0, z0])
-        del i
-    return np.concatenate(pts), _bands(len(pts), sides)
+    return np.concatenate(pts), ring_faces(len(pts), sides)
 
 
-def _bands(count: int, sides: int) -> np.ndarray:
+def ring_faces(count: int, sides: int) -> np.ndarray:
     """Triangles joining ``count`` consecutive rings of ``sides`` vertices."""
     faces = []
     for r in range(count - 1):
@@ -71,7 +70,7 @@ def _cylinder(radius: float, half: float, sides: int = 20) -> tuple[Any, Any]:
     ring = np.column_stack([radius * np.cos(lon), radius * np.sin(lon), np.zeros(sides)])
     rings = [np.zeros((sides, 3)) - [0, 0, half], ring - [0, 0, half],
              ring + [0, 0, half], np.zeros((sides, 3)) + [0, 0, half]]  # fmt: skip
-    return np.concatenate(rings), _bands(4, sides)
+    return np.concatenate(rings), ring_faces(4, sides)
 
 
 def _box(half: Any) -> tuple[Any, Any]:
@@ -157,17 +156,3 @@ def link_meshes(model: pin.Model, visual: Any) -> tuple[LinkMesh, ...]:
         frame = None if geom.parentJoint == 0 else _joint_frame(model, int(geom.parentJoint))
         out.append(LinkMesh(frame, world, tris, str(geom.name), _colour(geom.meshColor)))
     return tuple(out)
-
-
-def mesh_vertices(robot: Any, q: FloatArray, meshes: tuple[LinkMesh, ...]) -> list[FloatArray]:
-    """World vertices of each mesh at ``q``."""
-    model, data = robot.model, robot.data
-    pin.framesForwardKinematics(model, data, q)
-    out = []
-    for mesh in meshes:
-        if mesh.frame is None:
-            out.append(mesh.vertices)
-            continue
-        T = data.oMf[robot.frame_id(mesh.frame)]
-        out.append(mesh.vertices @ T.rotation.T + T.translation)
-    return out

@@ -68,11 +68,6 @@ class LoadedModel:
     reference: np.ndarray | None = None  # a configuration the file names (MJCF keyframe)
 
 
-def short_text(text: str) -> str:
-    """The start of ``text``, quoted, for messages."""
-    return short_repr(text, 60)
-
-
 def urdf_source(path: str | Path) -> ModelSource:
     """A URDF file, checked to exist."""
     return _file_source(path, "urdf")
@@ -87,7 +82,7 @@ def _file_source(path: str | Path, kind: Format) -> ModelSource:
     name = kind.upper()
     if isinstance(path, str) and path.lstrip().startswith("<"):
         hint = "Robot.from_urdf_string(xml)" if kind == "urdf" else "a file name"
-        raise URDFError(f"{short_text(path)} is {name} text, not a file name; use {hint}")
+        raise URDFError(f"{short_repr(path, 60)} is {name} text, not a file name; use {hint}")
     file = Path(path)
     try:
         found = file.is_file()
@@ -149,17 +144,6 @@ def _geometry(model: pin.Model, source: ModelSource, kind: Any) -> Any:
         return pin.buildGeomFromUrdfString(model, source.text, kind, package_dirs=dirs)
     except (RuntimeError, ValueError, OSError):  # a mesh that cannot be found or read
         return None
-
-
-def build_urdf_model(
-    path: str | Path,
-    tip: str | None,
-    locked: Mapping[str, float] | None,
-    continuous_limits: tuple[float, float],
-) -> tuple[pin.Model, str]:
-    """Parse ``path`` and reduce it to the chain ending at ``tip``; returns (model, tip)."""
-    loaded = load_model(urdf_source(path), tip, locked, continuous_limits, geometry=())
-    return loaded.model, loaded.tip
 
 
 def load_model(
@@ -236,10 +220,7 @@ def reduce_to_chain(
 def _reference(model: pin.Model) -> np.ndarray | None:
     """The configuration an MJCF keyframe named ``home`` gives, if any."""
     refs = model.referenceConfigurations
-    for key in ("home",):
-        if key in refs:
-            return np.array(refs[key], dtype=float)
-    return None
+    return np.array(refs["home"], dtype=float) if "home" in refs else None
 
 
 #: The numeric attributes of a URDF's elements, and how many numbers each holds.

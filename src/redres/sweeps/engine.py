@@ -35,12 +35,13 @@ import time
 from collections.abc import Callable, Iterator
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .. import _compile
 from ..errors import InvalidParameterError, MissingDependencyError, RedresError
 from .folder import (
     FORMAT,
@@ -143,7 +144,7 @@ def run(
     kind = KINDS[spec.kind]
     robot = spec.robot.build()
     if kind.warmup:  # before the plan, which may use batch kernels itself (FK sampling)
-        _warm(kind.warmup)
+        _compile.warm(kind.warmup)
     plan = kind.plan(spec, robot)
     shard_units = plan.shard_units(spec.shard_size)
     count = -(-plan.units // shard_units)
@@ -178,7 +179,7 @@ def execute(job: ShardJob) -> dict[str, np.ndarray]:
     from .kinds import KINDS
 
     kind = KINDS[job.kind]
-    _warm(kind.warmup, quiet=True)
+    _compile.warm(kind.warmup, quiet=True)
     return kind.run(job, job.robot.build())
 
 
@@ -312,7 +313,7 @@ def _gather(
     tick: Callable[[int], None],
 ) -> None:
     """Submit every job (one compiled thread each) and store the results as they come."""
-    pending = {executor.submit(execute, _one_thread(job)): job for job in jobs}
+    pending = {executor.submit(execute, replace(job, threads=1)): job for job in jobs}
     try:
         for future in cf.as_completed(pending):
             job = pending[future]
@@ -328,20 +329,6 @@ def _gather(
     finally:
         for future in pending:
             future.cancel()
-
-
-def _one_thread(job: ShardJob) -> ShardJob:
-    from dataclasses import replace
-
-    return replace(job, threads=1)
-
-
-def _warm(groups: tuple[str, ...], quiet: bool | None = None) -> None:
-    """Compile (or load) the kernels of the warm-up ``groups`` on this process's path,
-    saying so on standard error when a group is not cached yet."""
-    from .. import _compile
-
-    _compile.warm(groups, quiet=quiet)
 
 
 @contextmanager

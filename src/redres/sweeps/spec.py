@@ -28,8 +28,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .._toml import Reader, tomllib
-from ..errors import describe_os_error, shown_path
+from .._toml import Reader, load
 from ..scenarios.spec import ScenarioError
 from .kind import SweepSpec, SweepSpecError
 from .source import RobotSource
@@ -62,25 +61,7 @@ SOLVER_KEYS: dict[str, tuple[str, float]] = {
 def load_spec(path: str | Path) -> SweepSpec:
     """Read and validate a sweep spec file; raises :class:`SweepSpecError`."""
     file = Path(path)
-    try:
-        data = tomllib.loads(file.read_text(encoding="utf-8-sig"))  # a leading BOM is fine
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, RecursionError) as exc:
-        raise SweepSpecError(_unreadable(file, exc)) from None
-    return parse_spec(data, file.name, file.parent)
-
-
-def _unreadable(file: Path, exc: Exception) -> str:
-    """The one line saying why ``file`` could not be read as TOML."""
-    shown = shown_path(file)
-    if isinstance(exc, FileNotFoundError):
-        return f"{shown}: no such sweep spec file"
-    if isinstance(exc, OSError):
-        return f"cannot read the sweep spec: {describe_os_error(exc)}"
-    if isinstance(exc, UnicodeDecodeError):
-        return f"{shown}: not UTF-8 text ({exc.reason}); save it as UTF-8"
-    if isinstance(exc, RecursionError):
-        return f"{shown}: tables are nested too deeply to read"
-    return f"{shown}: not valid TOML ({exc})"
+    return parse_spec(load(file, "sweep spec", SweepSpecError), file.name, file.parent)
 
 
 def parse_spec(data: dict[str, Any], file: str = "<spec>", base: Path = Path()) -> SweepSpec:

@@ -42,7 +42,7 @@ import numpy as np
 
 from ... import batch
 from ..kind import Field, Kind, Plan, ShardJob
-from .grid import occupancy, reach_bound, read_grid_source
+from .grid import grid_bounds, occupancy, read_grid_source, voxel_poses
 from .orientations import directions, frames, nearest
 
 if TYPE_CHECKING:
@@ -109,18 +109,11 @@ def _parse(r: Reader, base: Path) -> CapabilityParams:
     return params
 
 
-def _bounds(p: CapabilityParams, robot: Robot, frame: str | None) -> np.ndarray:
-    if p.bounds is not None:
-        return np.array(p.bounds, dtype=np.float64)
-    origin, rho = reach_bound(robot, frame)
-    return np.column_stack((origin - rho, origin + rho))
-
-
 def _plan(spec: SweepSpec, robot: Robot) -> Plan:
     p: CapabilityParams = spec.params
     frame = spec.robot.frame
     rng = np.random.default_rng([spec.seed, PLAN_STREAM])
-    occ = occupancy(robot, frame, p.resolution, _bounds(p, robot, frame), p.fk_samples,
+    occ = occupancy(robot, frame, p.resolution, grid_bounds(p.bounds, robot, frame), p.fk_samples,
                     p.dilation, p.seeds_per_voxel, rng)  # fmt: skip
     axes = directions(p.directions)
     rotations = frames(axes, p.rolls)
@@ -150,10 +143,7 @@ def _run(job: ShardJob, robot: Robot) -> dict[str, np.ndarray]:
     centres, seeds = job.inputs["centres"], job.inputs["seeds"]
     rotations = job.constants["rotations"]
     voxels, count = len(centres), len(rotations)
-    T = np.zeros((voxels, count, 4, 4))
-    T[:, :, :3, :3] = rotations
-    T[:, :, :3, 3] = centres[:, None, :]
-    T[:, :, 3, 3] = 1.0
+    T = voxel_poses(centres, rotations)
     q0 = _starts(robot, frame, seeds, rotations, job.constants["neutral"], job.threads)
     queries = voxels * count
     keys = job.rng().integers(0, 2**62, queries)

@@ -38,7 +38,14 @@ from ...robot import Robot
 if TYPE_CHECKING:
     from ..._toml import Reader
 
-__all__ = ["Occupancy", "occupancy", "reach_bound", "read_grid_source"]
+__all__ = [
+    "Occupancy",
+    "grid_bounds",
+    "occupancy",
+    "reach_bound",
+    "read_grid_source",
+    "voxel_poses",
+]
 
 _CHUNK = 100_000  # configurations per batch.fk call (bounded memory)
 
@@ -139,17 +146,27 @@ def occupancy(
 
 def _dilate(mask: np.ndarray, radius: int) -> np.ndarray:
     """``mask`` grown by ``radius`` voxels in the Chebyshev metric (a cube)."""
-    out = mask.copy()
-    for axis in range(3):
-        grown = out.copy()
-        for step in range(1, radius + 1):
-            grown[(slice(None),) * axis + (slice(step, None),)] |= out[
-                (slice(None),) * axis + (slice(None, -step),)
-            ]
-            grown[(slice(None),) * axis + (slice(None, -step),)] |= out[
-                (slice(None),) * axis + (slice(step, None),)]  # fmt: skip
-        out = grown
-    return out
+    from scipy.ndimage import maximum_filter
+
+    return np.asarray(maximum_filter(mask, size=2 * radius + 1, mode="constant", cval=0))
+
+
+def grid_bounds(bounds: Any, robot: Robot, frame: str | None) -> np.ndarray:
+    """The voxel centres' bounds ``(3, 2)``, m: ``bounds`` as given, else (None) a cube of
+    half-width the reach bound around the first joint (module docstring)."""
+    if bounds is not None:
+        return np.array(bounds, dtype=np.float64)
+    origin, rho = reach_bound(robot, frame)
+    return np.column_stack((origin - rho, origin + rho))
+
+
+def voxel_poses(centres: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+    """Every orientation of ``rotations`` (O, 3, 3) at every centre (V, 3), ``(V, O, 4, 4)``."""
+    T = np.zeros((len(centres), len(rotations), 4, 4))
+    T[:, :, :3, :3] = rotations
+    T[:, :, :3, 3] = centres[:, None, :]
+    T[:, :, 3, 3] = 1.0
+    return T
 
 
 def read_grid_source(r: Reader, params: Any) -> dict[str, Any]:

@@ -45,7 +45,7 @@ from ... import batch
 from ...ik.arcs import Arc, merge, pack, pieces, width
 from ...ik.srs import BRANCHES, NotSRSError, SRSArm
 from ..kind import Field, Kind, Plan, ShardJob
-from .grid import occupancy, reach_bound, read_grid_source
+from .grid import grid_bounds, occupancy, read_grid_source, voxel_poses
 from .ikdata import distinct
 from .orientations import directions, frames
 from .selfmotion import trace
@@ -179,19 +179,11 @@ def _plan(spec: SweepSpec, robot: Robot) -> Plan:
 
 def _grid_poses(p: RedundancyParams, robot: Robot, frame: str | None, seed: int) -> np.ndarray:
     """Every tested voxel centre at every orientation, ``(V·O, 4, 4)``, voxel-major."""
-    if p.bounds is None:
-        origin, rho = reach_bound(robot, frame)
-        bounds = np.column_stack((origin - rho, origin + rho))
-    else:
-        bounds = np.array(p.bounds)
     rng = np.random.default_rng([seed, _PLAN_STREAM])
+    bounds = grid_bounds(p.bounds, robot, frame)
     occ = occupancy(robot, frame, p.resolution, bounds, p.fk_samples, p.dilation, 0, rng)
     rotations = frames(directions(p.directions), p.rolls)
-    T = np.zeros((len(occ.index), len(rotations), 4, 4))
-    T[:, :, :3, :3] = rotations
-    T[:, :, :3, 3] = ((occ.index + 0.5) * p.resolution)[:, None, :]
-    T[:, :, 3, 3] = 1.0
-    return T.reshape(-1, 4, 4)
+    return voxel_poses((occ.index + 0.5) * p.resolution, rotations).reshape(-1, 4, 4)
 
 
 def _run(job: ShardJob, robot: Robot) -> dict[str, np.ndarray]:

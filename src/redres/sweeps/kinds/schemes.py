@@ -24,13 +24,13 @@ from __future__ import annotations
 
 import hashlib
 import math
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..._toml import tomllib
 from ..kind import Field, Kind, Plan, ShardJob
 
 if TYPE_CHECKING:
@@ -39,12 +39,11 @@ if TYPE_CHECKING:
     from ...scenarios.spec import ScenarioSpec
     from ..kind import SweepSpec
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
-
 __all__ = ["SCHEME_STATISTICS", "SchemeStatsParams", "summary", "table"]
+
+#: The fields stored per path and scheme, and their dtypes.
+_PER_SCHEME = {"success": "bool", "violations": "int64", "max_error": "float64",
+               "rms_error": "float64", "singular": "int64", "step_us": "float64"}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -127,9 +126,7 @@ def _plan(spec: SweepSpec, robot: Robot) -> Plan:
                              f"{p.scenario_name} ({scenario.robot.name})")  # fmt: skip
     count = len(scenario.schemes)
     steps = max(1, round(p.duration / scenario.dt))
-    per = {"success": "bool", "violations": "int64", "max_error": "float64",
-           "rms_error": "float64", "singular": "int64", "step_us": "float64"}  # fmt: skip
-    fields = {name: Field(dtype, (count,)) for name, dtype in per.items()}
+    fields = {name: Field(dtype, (count,)) for name, dtype in _PER_SCHEME.items()}
     fields["q0"] = Field("float64", (scenario.robot.n,), "start configuration, rad")
     fields["shape"] = Field("int64", (), "0: circle, 1: line")
     fields["size"] = Field("float64", (), "radius or length, m")
@@ -161,10 +158,8 @@ def _run(job: ShardJob, robot: Robot) -> dict[str, np.ndarray]:
     robot = scenario.robot
     rng = job.rng()
     count, schemes = job.stop - job.start, scenario.schemes
-    kinds = {"success": bool, "violations": np.int64, "max_error": np.float64,
-             "rms_error": np.float64, "singular": np.int64, "step_us": np.float64}  # fmt: skip
     out: dict[str, np.ndarray] = {
-        name: np.zeros((count, len(schemes)), dtype=dtype) for name, dtype in kinds.items()
+        name: np.zeros((count, len(schemes)), dtype=dtype) for name, dtype in _PER_SCHEME.items()
     }
     out.update(q0=np.zeros((count, robot.n)), shape=np.zeros(count, dtype=np.int64),
                size=np.zeros(count))  # fmt: skip
