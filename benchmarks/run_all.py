@@ -75,6 +75,11 @@ BENCHES = [
           "inverse, Liégeois' joint-limit gradient in its null space, integration) through "
           "the public API next to pink, mink and KDL (ratio here = peer ÷ redres, > 1: "
           "redres is faster)."),
+    Bench("shaping", "shaping.py", "Command shaping to the Panda's limits",
+          "`benchmarks/shaping.py`: redres' `CommandShaper` next to Ruckig on one stream of "
+          "random wanted velocities (time per cycle, commands a robot would refuse), then "
+          "the random Panda runs of the shaping test with and without shaping: refused "
+          "runs and the tracking error shaping costs.", quick=["--quick"]),
     Bench("scaling", "scaling.py", "Scaling with the number of joints",
           "Planar chains of 3 to 50 joints (3 task rows) and a 14-joint chain (two S-R-S "
           "arms in series, 6 rows). The algebra predicts, for m fixed task rows: O(n) for "

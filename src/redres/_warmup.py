@@ -99,6 +99,12 @@ def _controller() -> None:
     Controller(robot, FrameTask(), PseudoInverseScheme(), dt=1e-3).step(robot.neutral())
 
 
+def _shaping() -> None:
+    from .control.shaping import CommandShaper
+
+    CommandShaper(1.0, 10.0, 5000.0, n=2)(np.ones(2))
+
+
 def _f(ndim: int, dtype: type = float) -> np.ndarray:
     """An array of ``ndim`` dimensions: its type is what a precompiled kernel takes."""
     return np.zeros((1,) * ndim, dtype=dtype)
@@ -150,6 +156,7 @@ WORKLOADS: dict[str, Callable[[], None]] = {
     "derivatives": _derivatives,
     "chain": _chain,
     "controller": _controller,
+    "shaping": _shaping,
     "hard limits": _hard_limits,
     "ik": _ik,
     "batch": _batch,

@@ -1,4 +1,4 @@
-"""Finite-difference oracles for checking Jacobians and gradients.
+"""Finite-difference oracles for checking Jacobians, gradients and command streams.
 
 The one shared helper of the test suite, public so that users can check their own tasks
 and objectives the same way. Central differences of order h²; configurations are perturbed
@@ -8,7 +8,7 @@ with ``pinocchio.integrate`` so that the helpers stay right for any joint type.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -19,7 +19,9 @@ if TYPE_CHECKING:
     from .robot import Reference, Robot
 
 __all__ = [
+    "CommandViolation",
     "assert_jacobian_close",
+    "command_violations",
     "frame_jacobian_fd",
     "jacobian_dot_fd",
     "numerical_gradient",
@@ -162,3 +164,44 @@ def step_from_states(
         scheme.qd_prev = prev
         results.append(scheme.step(robot, q, J, xd))
     return results
+
+
+class CommandViolation(NamedTuple):
+    """A command over a limit: ``cycle`` (0: the first command), ``quantity``
+    (``"velocity"``, ``"acceleration"`` or ``"jerk"``), ``joint``, and ``ratio`` of the
+    value to the limit (> 1)."""
+
+    cycle: int
+    quantity: str
+    joint: int
+    ratio: float
+
+
+def command_violations(
+    qd: Any,
+    dt: float,
+    limits: tuple[Any, Any, Any],
+    qd0: Any = None,
+    qdd0: Any = None,
+) -> list[CommandViolation]:
+    """Every joint-velocity command of a stream that a robot checking finite differences
+    would refuse, in order: ``|q̇ₖ|``, ``|q̇ₖ − q̇ₖ₋₁|/dt`` and the difference of those over
+    ``dt`` against ``limits`` (velocity, acceleration, jerk; each a number or ``(n,)``),
+    the first command differenced against the measured ``qd0`` and ``qdd0`` (default: at
+    rest), as the Franka arms check each 1 kHz cycle.
+
+    ``qd``: the stream, ``(cycles, n)``, rad/s (a joint-position stream's differences over
+    ``dt``, with its measured start prepended, are one).
+    """
+    v = np.atleast_2d(np.asarray(qd, dtype=float))
+    n = v.shape[1]
+    v_start = np.zeros(n) if qd0 is None else np.asarray(qd0, dtype=float)
+    a_start = np.zeros(n) if qdd0 is None else np.asarray(qdd0, dtype=float)
+    a = np.diff(np.vstack([v_start, v]), axis=0) / dt
+    j = np.diff(np.vstack([a_start, a]), axis=0) / dt
+    found = []
+    for name, values, limit in zip(("velocity", "acceleration", "jerk"), (v, a, j), limits):
+        ratio = np.abs(values) / np.asarray(limit, dtype=float)
+        for k, i in zip(*np.nonzero(ratio > 1.0)):
+            found.append(CommandViolation(int(k), name, int(i), float(ratio[k, i])))
+    return sorted(found)

@@ -56,3 +56,36 @@ def test_the_compiled_loop_honours_the_halved_velocity_limits(robots: tuple) -> 
         worst = max(worst, float(np.max(np.abs(q_next - q) / 1e-3 / slow.qd_max)))
         q = q_next
     assert 0.99 < worst <= 1.0 + 1e-9
+
+
+def test_jerk_limits_are_data_on_the_robot() -> None:
+    """``qddd_max`` beside ``qdd_max``: the Panda carries Franka's published values
+    (Franka, "Limits for Panda"; libfranka's ``kMaxJointJerk`` plus its 1e-3 margin);
+    ``with_limits`` tightens them and refuses looser ones; every derived robot (payload,
+    another tip) keeps them; a DH record takes them; bad values are refused by name."""
+    from redres.dynamics import Payload, with_payload
+    from redres.models.franka import FR3, PANDA
+
+    panda = rr.models.panda()
+    np.testing.assert_array_equal(panda.qddd_max, [7500, 3750, 5000, 6250, 7500, 10000, 10000])
+    np.testing.assert_array_equal(panda.qdd_max, PANDA.qdd_max)
+    assert FR3.qddd_max == (5000.0,) * 7 and FR3.qdd_max == (10.0,) * 7
+    gentle = panda.with_limits(qddd_max=1000.0)
+    np.testing.assert_array_equal(gentle.qddd_max, np.full(7, 1000.0))
+    np.testing.assert_array_equal(gentle.qdd_max, panda.qdd_max)  # the others unchanged
+    assert len(gentle.capsules) == len(panda.capsules)
+    with pytest.raises(rr.errors.InvalidParameterError, match="qddd_max"):
+        panda.with_limits(qddd_max=1e5)  # looser than the robot's own
+    loaded = with_payload(gentle, Payload(1.0, frame="tcp"))
+    np.testing.assert_array_equal(loaded.qddd_max, gentle.qddd_max)
+    np.testing.assert_array_equal(gentle.derived(tip="flange").qddd_max, gentle.qddd_max)
+    assert gentle.derived(tip="flange").tip == "flange"
+    assert np.all(np.isinf(rr.models.planar().qddd_max))  # unknown: inf
+    arm = rr.Robot.from_dh([{"a": 1.0, "alpha": 0.0, "d": 0.0, "qddd_max": 50.0}] * 2)
+    np.testing.assert_array_equal(arm.qddd_max, [50.0, 50.0])
+    with pytest.raises(rr.errors.DHParameterError, match="qddd_max must be > 0"):
+        rr.Robot.from_dh([{"a": 1.0, "alpha": 0.0, "d": 0.0, "qddd_max": -1.0}])
+    with pytest.raises(rr.errors.InvalidParameterError, match="qddd_max must be positive"):
+        rr.Robot(panda.model, tip="tcp", qddd_max=np.zeros(7))
+    with pytest.raises(rr.errors.ShapeError, match=r"qddd_max must have shape \(7,\)"):
+        rr.Robot(panda.model, tip="tcp", qddd_max=np.ones(6))

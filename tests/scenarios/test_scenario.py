@@ -137,6 +137,7 @@ def test_a_good_scenario_runs(tmp_path: Path, capsys: pytest.CaptureFixture[str]
             r"needs \[\[obstacles\]\]",
         ),
         (("period = 1.0", "period = 1.0\n\n[oops"), r"not valid TOML"),
+        (("duration = 0.02", "duration = 0.02\nshaping = 1"), r"\[run\]\.shaping: expected"),
     ],
 )
 def test_bad_scenarios_name_the_key(
@@ -152,6 +153,24 @@ def test_bad_scenarios_name_the_key(
     err = capsys.readouterr().err
     assert "scenario.toml" in err and err.count("\n") == 1  # one message, one line
     assert not out_dir.exists()  # no partial report
+
+
+def test_a_scenario_asks_for_command_shaping(tmp_path: Path) -> None:
+    """``shaping = true`` in ``[run]``: the rate-control runs end in command shaping (their
+    logs keep the controller's own command beside the shaped one); a robot without
+    acceleration or jerk limits is refused by name."""
+    from redres.scenarios.runner import run_scenario
+
+    spec = load_scenario(write(tmp_path, GOOD.replace("duration = 0.02", "shaping = true")))
+    assert spec.shaping
+    (log,) = run_scenario(spec, progress=False)
+    assert "qd_wanted" in log.extra and log.qd.shape == log.extra["qd_wanted"].shape
+    assert not load_scenario(write(tmp_path, GOOD)).shaping
+    planar = GOOD.replace('model = "panda"', 'model = "planar3"').replace(
+        "duration = 0.02", "shaping = true"
+    )
+    with pytest.raises(ScenarioError, match=r"\[run\]\.shaping: the robot 'planar3' has no"):
+        load_scenario(write(tmp_path, planar))
 
 
 def test_missing_file_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

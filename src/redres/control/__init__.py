@@ -1,9 +1,10 @@
-"""The controller, rate-control runs, trajectories and run logs."""
+"""The controller, command shaping, rate-control runs, trajectories and run logs."""
 
 from .analysis import analyse_run, progress_bar
 from .closed_loop import LiveView, final_configuration, run
 from .controller import Controller
 from .log import RunLog, RunWarning
+from .shaping import CommandShaper
 from .trajectories import (
     Chain,
     Circle,
@@ -19,6 +20,7 @@ from .trajectories import (
 __all__ = [
     "Chain",
     "Circle",
+    "CommandShaper",
     "Controller",
     "FigureEight",
     "Hold",

@@ -234,3 +234,29 @@ def raise_for_status(status: int, n: int) -> None:
     if status == codes.POSE_NONFINITE:
         raise NonFiniteError("the frame placement is not finite (is q astronomically large?)")
     raise_status(status, {"J": "the frame Jacobian", "xd": "the task command"})
+
+
+def adopt_target(
+    task: Task,
+    block: FloatArray,
+    q: FloatArray,
+    robot: Robot,
+    fid: int,
+    chain: SerialChain | None,
+) -> None:
+    """Make a compiled path's settings ``block`` hold the frame task's target (at the
+    first step, or after another controller stepped the same task); without a target, the
+    pose of frame ``fid`` at ``q`` becomes it (hold still), computed as the step does."""
+    assert isinstance(task, FrameTask)  # the compiled paths are a frame task's
+    n = robot.n
+    if q.shape != (n,):
+        raise ShapeError(f"q must have shape ({n},); got {q.shape}")
+    if not task._has_target:
+        if not np.all(np.isfinite(q)):
+            raise NonFiniteError("q contains NaN or infinity")
+        if chain is None:
+            H = robot.placement_jacobian(q, fid)[0].homogeneous
+        else:
+            H = chain.fk(q)
+        task.set_target(H, validate=False)
+    task._share_target(block)  # set_target writes the kernel's slots from now on

@@ -32,6 +32,7 @@ from ..tasks import FrameTask, Task
 from .analysis import analyse_run, progress_bar, run_duration, run_steps, start_configuration
 from .controller import Controller
 from .log import RunLog
+from .shaping import CommandShaper
 from .trajectories import Trajectory
 
 if TYPE_CHECKING:
@@ -58,6 +59,7 @@ def run(
     q0: Any = None,
     gain: float = 50.0,
     limit_velocity: bool = True,
+    shaping: bool | CommandShaper = False,
     log_objectives: Sequence[Objective] = (),
     label: str = "",
     progress: bool | None = None,
@@ -71,7 +73,10 @@ def run(
             the trajectory sets its target each step.
         trajectory: reference for the task frame (``None``: hold the task's target).
         scheme: the redundancy-resolution scheme.
-        dt, gain, limit_velocity: as for :class:`~redres.control.Controller`.
+        dt, gain, limit_velocity, shaping: as for :class:`~redres.control.Controller`;
+            with ``shaping`` the log's ``qd`` is the shaped command (within the robot's
+            velocity, acceleration and jerk limits) and ``log.extra["qd_wanted"]`` the
+            controller's before shaping.
         duration: s (default: the trajectory's duration).
         q0: start configuration, inside the limits (default ``robot.neutral()``).
         log_objectives: extra costs to record each step (the scheme's own are recorded
@@ -93,7 +98,9 @@ def run(
         JointLimitError: ``q0`` outside the joint limits.
         SimulationError: a non-finite joint velocity (names the step).
     """
-    controller = Controller(robot, task, scheme, gain=gain, dt=dt, limit_velocity=limit_velocity)
+    controller = Controller(
+        robot, task, scheme, gain=gain, dt=dt, limit_velocity=limit_velocity, shaping=shaping
+    )
     controller._eager_info()  # the log records the singular values of every step
     dt = controller.dt
     if trajectory is not None and not isinstance(trajectory, Trajectory):
@@ -115,6 +122,7 @@ def run(
     damping, rank, ratio, scaled = log.damping, log.rank, log.speed_ratio, log.scaled
     step_ns = log.step_time_ns
     algorithmic = np.zeros(steps, dtype=bool)
+    wanted = np.zeros((steps, n)) if controller.shaper is not None else None
 
     frame_task = task if isinstance(task, FrameTask) else None
     follow = trajectory is not None and frame_task is not None
@@ -137,6 +145,8 @@ def run(
                 live.push(q, frame_task.target if frame_task is not None else None)
                 push_due = t0 + push_period
             qd_log[k] = controller.qd
+            if wanted is not None:
+                wanted[k] = controller.qd_wanted
             speed = controller.speed_ratio
             ratio[k] = min(speed, 1.0) if limit_velocity else speed
             scaled[k] = controller.scaled
@@ -165,6 +175,8 @@ def run(
     log.extra.update(
         inverse_sigma_min=inv_sigma.copy(), algorithmic_singularity=algorithmic, final_q=q
     )
+    if wanted is not None:
+        log.extra["qd_wanted"] = wanted
     if live is not None and steps:
         live.push(q, frame_task.target if frame_task is not None else None)  # the last one
     frame, rows = (frame_task.frame, frame_task.rows) if frame_task else (None, list(range(6)))

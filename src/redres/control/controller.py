@@ -59,6 +59,7 @@ from ._fused import (
     ENTRIES,
     TARGET,
     Path,
+    adopt_target,
     block_size,
     choose_path,
     fused_config,
@@ -68,6 +69,7 @@ from ._fused import (
     ready,
     serial_chain,
 )
+from .shaping import CommandShaper, as_shaper
 
 if TYPE_CHECKING:
     from ..robot import Robot
@@ -100,6 +102,12 @@ class Controller:
             (``scheme.dt``, the hard-limit schemes) must have this one.
         limit_velocity: scale each command uniformly down to the joint velocity limits
             (never for ``scheme.hard_limits``: those schemes keep every limit already).
+        shaping: end each step in command shaping (:mod:`redres.control.shaping`): the
+            applied velocity keeps the robot's ``qd_max``, ``qdd_max`` and ``qddd_max`` as
+            a robot checks them, from the first cycle. ``True``: a
+            :class:`~redres.control.shaping.CommandShaper` of the robot's limits at
+            rest; or a shaper of your own (:attr:`shaper`; ``shaper.reset(qd, qdd)`` with
+            the measured state before the first step).
 
     ``q = controller.step(q)`` each period; then :attr:`qd`, :attr:`error`, :attr:`info`,
     :attr:`speed_ratio`, :attr:`scaled`, :attr:`pose` and :attr:`result` report the step.
@@ -128,6 +136,7 @@ class Controller:
         gain: float | Any = 50.0,
         dt: float = 1e-3,
         limit_velocity: bool = True,
+        shaping: bool | CommandShaper = False,
     ) -> None:
         """A CLIK step of ``task`` on ``robot`` resolved by ``scheme``, gain in 1/s, period in s."""
         if not isinstance(task, Task):
@@ -179,6 +188,8 @@ class Controller:
         self._result: StepResult | None = None
         self._speed: float | None = 0.0
         self._scaled = False
+        self._shaper = as_shaper(shaping, robot, self._dt)
+        self._shaped: FloatArray = self._out[:0]
 
     # -- settings (fixed at construction) ---------------------------------------------
 
@@ -206,6 +217,11 @@ class Controller:
     def dt(self) -> float:
         """Control period, s."""
         return self._dt
+
+    @property
+    def shaper(self) -> CommandShaper | None:
+        """The command shaper each step ends in (``shaping``), or None."""
+        return self._shaper
 
     @property
     def limit_velocity(self) -> bool:
@@ -255,7 +271,8 @@ class Controller:
     # -- the step -----------------------------------------------------------------------
 
     def step(self, q: Any) -> FloatArray:
-        """The next configuration ``q + q̇ dt``, shape ``(n,)``, rad.
+        """The next configuration ``q + q̇ dt``, shape ``(n,)``, rad (``q̇`` shaped, with
+        :attr:`shaper`).
 
         Args:
             q: joint positions, shape ``(n,)``, rad.
@@ -265,6 +282,14 @@ class Controller:
             NonFiniteError: ``q`` contains NaN or infinity.
             SimulationError: the scheme returned a non-finite joint velocity.
         """
+        q_next = self._step(q)
+        shaper = self._shaper
+        if shaper is None:
+            return q_next
+        self._shaped = qd = shaper(self.qd_wanted)
+        return np.asarray(q, dtype=_F64) + qd * self._dt  # q: checked by _step
+
+    def _step(self, q: Any) -> FloatArray:
         n = self._n
         if type(q) is _ndarray and q.dtype is _F64_TYPE and q.strides == _UNIT_STRIDE:
             qa = q  # a one-dimensional C-contiguous float64 array: its length is checked
@@ -279,7 +304,7 @@ class Controller:
         if kernel is None:
             return self._resolved_step(qa)
         if self._task._target is not self._block:  # type: ignore[attr-defined]
-            self._adopt(qa)
+            adopt_target(self._task, self._block, qa, self._robot, self._fid, self._chain)
         q_next, out = _empty(n), self._spare
         if self._chain is None:
             if qa.shape != self._shape:
@@ -295,30 +320,13 @@ class Controller:
         self._spare, self._out = self._out, out
         return q_next
 
-    def _adopt(self, q: FloatArray) -> None:
-        """Make the kernel's settings hold the frame task's target (at the first step, or
-        after another controller stepped the same task); without a target, the frame's
-        pose at ``q`` becomes it (hold still), computed as the step computes it."""
-        task: FrameTask = self._task  # type: ignore[assignment]
-        if q.shape != self._shape:
-            raise ShapeError(f"q must have shape ({self._n},); got {q.shape}")
-        if not task._has_target:
-            if not np.all(np.isfinite(q)):
-                raise NonFiniteError("q contains NaN or infinity")
-            if self._chain is None:
-                H = self._robot.placement_jacobian(q, self._fid)[0].homogeneous
-            else:
-                H = self._chain.fk(q)
-            task.set_target(H, validate=False)
-        task._share_target(self._block)  # set_target writes the kernel's slots from now on
-
     def _resolved_step(self, q: FloatArray) -> FloatArray:
         """The ``"frame"`` and ``"composed"`` paths: task rows, the scheme, then scaling."""
         robot, scheme, n = self._robot, self._scheme, self._n
         front = self._front
         if front is not None:
             if self._task._target is not self._block:  # type: ignore[attr-defined]
-                self._adopt(q)
+                adopt_target(self._task, self._block, q, self._robot, self._fid, self._chain)
             m = self._rows.shape[0]
             Jm, xd = _empty((m, n)), _empty(m)
             if self._chain is None:
@@ -391,8 +399,16 @@ class Controller:
 
     @property
     def qd(self) -> FloatArray:
-        """Joint velocity applied at the last step (after velocity scaling), ``(n,)``,
-        rad/s."""
+        """Joint velocity applied at the last step (after velocity scaling and shaping),
+        ``(n,)``, rad/s."""
+        if self._shaper is not None:
+            return self._shaped.copy()
+        return self.qd_wanted
+
+    @property
+    def qd_wanted(self) -> FloatArray:
+        """The joint velocity of the last step before shaping (:attr:`qd` without a
+        :attr:`shaper`), ``(n,)``, rad/s."""
         if self._kernel is None:
             return self._qd
         return self._out[: self._n].copy() if self._stepped() else self._out[:0]
@@ -432,7 +448,7 @@ class Controller:
             return 0.0
         if self._limit:
             return float(self._out[self._n + 4])
-        return float(_max(_abs(self.qd) / self._robot.qd_max))
+        return float(_max(_abs(self.qd_wanted) / self._robot.qd_max))
 
     @property
     def scaled(self) -> bool:

@@ -78,14 +78,6 @@ class Payload:
         return np.array(self.pinocchio_inertia().matrix())
 
 
-def _copy(robot: Robot, model: pin.Model, name: str) -> Robot:
-    from ..robot import Robot
-
-    out = Robot(model, tip=robot.tip, name=name, home=robot.neutral(), qdd_max=robot.qdd_max)
-    out.capsules = list(robot.capsules)
-    return out
-
-
 def with_payload(robot: Robot, payload: Payload, *, name: str | None = None) -> Robot:
     """A copy of ``robot`` carrying ``payload`` (the argument is left untouched).
 
@@ -102,7 +94,7 @@ def with_payload(robot: Robot, payload: Payload, *, name: str | None = None) -> 
     model = pin.Model(robot.model)
     frame = model.frames[fid]
     model.appendBodyToJoint(frame.parentJoint, payload.pinocchio_inertia(), frame.placement)
-    return _copy(robot, model, name or f"{robot.name}+{payload.mass:g}kg")
+    return robot.derived(model, name=name or f"{robot.name}+{payload.mass:g}kg")
 
 
 def with_gravity(
@@ -113,7 +105,7 @@ def with_gravity(
     g = as_vector(gravity, "gravity", 3)
     model = pin.Model(robot.model)
     model.gravity = pin.Motion(g, np.zeros(3))
-    return _copy(robot, model, name or robot.name)
+    return robot.derived(model, name=name or robot.name)
 
 
 def payload_spatial_inertia(

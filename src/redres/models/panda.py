@@ -20,13 +20,10 @@ import numpy as np
 import pinocchio as pin
 
 from ..robot import DHLink, Robot, capsule_chain
+from .franka import PANDA
 
-#: Joint limits (Franka "Limits for Panda").
-Q_MIN = (-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973)
-Q_MAX = (2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973)
-QD_MAX = (2.1750, 2.1750, 2.1750, 2.1750, 2.6100, 2.6100, 2.6100)
-QDD_MAX = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
-TAU_MAX = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
+#: Joint limits (Franka "Limits for Panda", :data:`redres.models.franka.PANDA`).
+Q_MIN, Q_MAX, QD_MAX, QDD_MAX, QDDD_MAX, TAU_MAX = PANDA[:6]
 
 #: Modified DH (a_{i-1} m, d_i m, α_{i-1} rad) per joint.
 DH = (
@@ -119,6 +116,7 @@ def panda_links(*, hand: bool = True) -> list[DHLink]:
                 q_max=Q_MAX[i],
                 qd_max=QD_MAX[i],
                 qdd_max=QDD_MAX[i],
+                qddd_max=QDDD_MAX[i],
                 tau_max=TAU_MAX[i],
                 mass=m,
                 com=tuple(c),

@@ -51,6 +51,7 @@ class DHLink:
             unbounded, for prismatic ones; ``±inf`` may be given for either).
         qd_max: velocity limit, rad/s or m/s (default: unknown, ``inf``).
         qdd_max: acceleration limit, rad/s² or m/s² (default ``inf``).
+        qddd_max: jerk limit, rad/s³ or m/s³ (default ``inf``).
         tau_max: torque or force limit, N·m or N (default ``inf``).
         mass: link mass, kg (default 0: a massless link).
         com: centre of mass in the link's DH frame, m, 3 values.
@@ -68,6 +69,7 @@ class DHLink:
     q_max: float | None = None
     qd_max: float | None = None
     qdd_max: float | None = None
+    qddd_max: float | None = None
     tau_max: float | None = None
     mass: float = 0.0
     com: tuple[float, float, float] | Sequence[float] | None = None
@@ -108,14 +110,14 @@ class DHLink:
                 raise DHParameterError(
                     f"DH record {index}: |{key}| must be <= {bound:g} (SI units); got {rec[key]}"
                 )
-        for key in ("q_min", "q_max", "qd_max", "qdd_max", "tau_max"):
+        for key in ("q_min", "q_max", "qd_max", "qdd_max", "qddd_max", "tau_max"):
             if rec.get(key) is not None:
                 rec[key] = _number(rec[key], index, key)
         if rec.get("name") is not None and not isinstance(rec["name"], str):
             raise DHParameterError(f"DH record {index}: name must be a string; got {rec['name']!r}")
         if rec.get("mass", 0.0) < 0.0 or rec.get("armature", 0.0) < 0.0:
             raise DHParameterError(f"DH record {index}: mass and armature must be >= 0")
-        for key in ("qd_max", "qdd_max", "tau_max"):
+        for key in ("qd_max", "qdd_max", "qddd_max", "tau_max"):
             if rec.get(key) is not None and not rec[key] > 0.0:
                 raise DHParameterError(
                     f"DH record {index}: {key} must be > 0 (leave it out, or inf, for no "
@@ -203,7 +205,8 @@ def build_dh_model(
     name: str,
     tool_name: str = "tool",
 ) -> tuple[pin.Model, FloatArray]:
-    """Pinocchio model and acceleration limits for a DH chain (see module docstring)."""
+    """Pinocchio model and the acceleration and jerk limits, ``(2, n)``, of a DH chain (see
+    module docstring)."""
     if convention not in ("standard", "modified"):
         raise DHParameterError(f"convention must be 'standard' or 'modified'; got {convention!r}")
     if isinstance(links, (str, bytes)) or not isinstance(links, Sequence) or len(links) == 0:
@@ -258,5 +261,5 @@ def build_dh_model(
     model.addFrame(
         pin.Frame(tool_name, parent_joint, last_frame, placement * T_tool, pin.FrameType.OP_FRAME)
     )
-    qdd_max = np.array([np.inf if r.qdd_max is None else r.qdd_max for r in records])
-    return model, qdd_max
+    rates = [[np.inf if x is None else x for x in (r.qdd_max, r.qddd_max)] for r in records]
+    return model, np.array(rates).T

@@ -32,7 +32,6 @@ if TYPE_CHECKING:
     from typing import Self, Unpack  # Python 3.11; only read by type checkers
 
     from .meshes import LinkMesh
-    from .urdf import LoadedModel
 
 from .urdf import ModelSource
 
@@ -117,21 +116,8 @@ class RobotFiles:
         self.__dict__["_visuals"] = tuple(value)
 
     @classmethod
-    def _from_loaded(
-        cls, loaded: LoadedModel, name: str | None, capsules: bool, where: _VisualSource
-    ) -> Self:
-        from . import fitting
-
-        model = loaded.model
-        home = file_neutral(model, loaded.reference)
-        robot: Any = cls(model, tip=loaded.tip, name=name or str(model.name), home=home)  # type: ignore[call-arg]
-        if capsules and loaded.collision is not None:
-            robot.capsules = fitting.link_capsules(model, loaded.collision)
-        robot.__dict__["_visual_source"] = where
-        return robot
-
-    @classmethod
     def _load(cls, source: ModelSource, tip: str | None, options: LoadOptions, loader: str) -> Self:
+        from . import fitting
         from .urdf import load_model
 
         unknown = set(options) - set(LoadOptions.__annotations__)
@@ -146,8 +132,15 @@ class RobotFiles:
         capsules = options.get("capsules", True)
         geometry = ("collision",) if capsules else ()
         loaded = load_model(source, tip, locked, continuous_limits, geometry=geometry)
-        where = _VisualSource(source, loaded.tip, locked, continuous_limits)
-        return cls._from_loaded(loaded, name, capsules, where)
+        model = loaded.model
+        home = file_neutral(model, loaded.reference)
+        robot: Any = cls(model, tip=loaded.tip, name=name or str(model.name), home=home)  # type: ignore[call-arg]
+        if capsules and loaded.collision is not None:
+            robot.capsules = fitting.link_capsules(model, loaded.collision)
+        robot.__dict__["_visual_source"] = _VisualSource(
+            source, loaded.tip, locked, continuous_limits
+        )
+        return robot
 
     @classmethod
     def from_urdf(
@@ -231,13 +224,15 @@ class RobotFiles:
         *,
         qd_max: float | Sequence[float] | FloatArray | None = None,
         qdd_max: float | Sequence[float] | FloatArray | None = None,
+        qddd_max: float | Sequence[float] | FloatArray | None = None,
         tau_max: float | Sequence[float] | FloatArray | None = None,
         name: str | None = None,
     ) -> Self:
         """The same robot under tighter limits: a new :class:`Robot` (this one is
-        unchanged) whose ``qd_max``, ``qdd_max`` or ``tau_max`` are the given values
-        (a number for every joint, or shape ``(n,)``; rad/s, rad/s², N·m). Every scheme,
-        :class:`~redres.control.Controller` path and :func:`~redres.run` reads them.
+        unchanged) whose ``qd_max``, ``qdd_max``, ``qddd_max`` or ``tau_max`` are the
+        given values (a number for every joint, or shape ``(n,)``; rad/s, rad/s², rad/s³,
+        N·m). Every scheme, :class:`~redres.control.Controller` path, command shaper and
+        :func:`~redres.run` reads them.
 
         Raises:
             InvalidParameterError: a value that is not positive, or above the robot's own
@@ -254,16 +249,25 @@ class RobotFiles:
         if tau_max is not None:
             tau = _positive_limits(tau_max, n, "tau_max", robot.tau_max)
             model.upperEffortLimit, model.lowerEffortLimit = tau, -tau
-        acc = robot.qdd_max
-        if qdd_max is not None:
-            acc = _positive_limits(qdd_max, n, "qdd_max", acc)
-        out: Any = type(robot)(model, tip=robot.tip, name=name or robot.name,
-                                 home=robot.neutral(), qdd_max=acc)  # fmt: skip
+        rates = {"qdd_max": qdd_max, "qddd_max": qddd_max}
+        changed = {k: _positive_limits(v, n, k, getattr(robot, k)) for k, v in rates.items()
+                   if v is not None}  # fmt: skip
+        return self.derived(model, name=name or robot.name, **changed)
+
+    def derived(self, model: Any = None, **changes: Any) -> Self:
+        """This robot built again (``model``: a changed copy of its Pinocchio model, same
+        joints), with ``changes`` to the constructor's keywords (``tip``, ``name``,
+        ``home``, ``qdd_max``, ``qddd_max``); its capsules and meshes are kept. What
+        :meth:`with_limits` and :func:`redres.dynamics.with_payload` build on."""
+        robot: Any = self
+        keep = {"tip": robot.tip, "name": robot.name, "home": robot.neutral(),
+                "qdd_max": robot.qdd_max, "qddd_max": robot.qddd_max}  # fmt: skip
+        out: Any = type(robot)(robot.model if model is None else model, **(keep | changes))
         out.capsules = list(robot.capsules)
         for key in ("_visual_source", "_visuals"):  # the same meshes, read once
             if key in robot.__dict__:
                 out.__dict__[key] = robot.__dict__[key]
-        return out
+        return out  # type: ignore[no-any-return]
 
 
 def _read_visuals(where: _VisualSource) -> tuple[LinkMesh, ...]:

@@ -45,6 +45,7 @@ class Robot(RobotFiles):
         home: what :meth:`neutral` returns, shape ``(n,)``; default: zero clipped to the limits.
         qdd_max: joint acceleration limits, shape ``(n,)``, rad/s² or m/s²; ``inf`` where
             unknown.
+        qddd_max: joint jerk limits, shape ``(n,)``, rad/s³ or m/s³; ``inf`` where unknown.
 
     Attributes:
         model: the Pinocchio model (read it, do not resize it).
@@ -61,6 +62,7 @@ class Robot(RobotFiles):
         name: str = "robot",
         home: Sequence[float] | FloatArray | None = None,
         qdd_max: Sequence[float] | FloatArray | None = None,
+        qddd_max: Sequence[float] | FloatArray | None = None,
     ) -> None:
         """Wrap a Pinocchio ``model`` of one-DOF joints; ``help(Robot)`` lists the arguments."""
         if model.nq != model.nv:
@@ -87,7 +89,8 @@ class Robot(RobotFiles):
         self._q_max = q_max
         self._qd_max = np.abs(np.array(model.upperVelocityLimit, dtype=float))
         self._tau_max = np.abs(np.array(model.upperEffortLimit, dtype=float))
-        self._qdd_max = np.full(n, np.inf) if qdd_max is None else _limit_vector(qdd_max, n)
+        self._qdd_max = _limit_vector(qdd_max, n, "qdd_max")
+        self._qddd_max = _limit_vector(qddd_max, n, "qddd_max")
         self._frame_ids: dict[str, int] = {}
         self._chains: dict[int, SerialChain] = {}
         self._refresh_frames()
@@ -144,7 +147,7 @@ class Robot(RobotFiles):
             links: one record per joint (:class:`DHLink` or a dict with the same keys:
                 ``a``, ``alpha``, ``d``, ``theta`` (offset), ``joint`` ("revolute" or
                 "prismatic"), optional ``q_min``, ``q_max``, ``qd_max``, ``qdd_max``,
-                ``tau_max``, ``mass``, ``com``, ``inertia``, ``armature``, ``name``).
+                ``qddd_max``, ``tau_max``, ``mass``, ``com``, ``inertia``, ``armature``, ``name``).
             convention: ``"standard"`` (distal: ``Rz(θ) Tz(d) Tx(a) Rx(α)``, joint ``i``
                 moves about ``z_{i-1}``) or ``"modified"`` (Craig's proximal convention:
                 ``Rx(α_{i-1}) Tx(a_{i-1}) Rz(θ_i) Tz(d_i)``, the record of joint ``i``
@@ -165,10 +168,11 @@ class Robot(RobotFiles):
         """
         from .dh import build_dh_model
 
-        model, qdd_max = build_dh_model(links, convention, base, tool, name, tool_name)
+        model, (qdd_max, qddd_max) = build_dh_model(links, convention, base, tool, name,
+                                                     tool_name)  # fmt: skip
         for frame_name, (parent, T) in (frames or {}).items():
             add_frame(model, frame_name, parent, T)
-        return cls(model, tip=tip, name=name, home=home, qdd_max=qdd_max)
+        return cls(model, tip=tip, name=name, home=home, qdd_max=qdd_max, qddd_max=qddd_max)
 
     # ------------------------------------------------------------------ description
     @property
@@ -195,6 +199,11 @@ class Robot(RobotFiles):
     def qdd_max(self) -> FloatArray:
         """Acceleration limits (symmetric), shape ``(n,)``, rad/s²; ``inf`` if unknown."""
         return self._qdd_max.copy()
+
+    @property
+    def qddd_max(self) -> FloatArray:
+        """Jerk limits (symmetric), shape ``(n,)``, rad/s³; ``inf`` if unknown."""
+        return self._qddd_max.copy()
 
     @property
     def tau_max(self) -> FloatArray:
@@ -457,11 +466,14 @@ class Robot(RobotFiles):
             )
 
 
-def _limit_vector(value: Any, n: int) -> FloatArray:
-    """Acceleration limits: positive numbers, ``inf`` allowed (unknown)."""
-    arr = np.array(real_array(value, "qdd_max"), dtype=float)
+def _limit_vector(value: Any, n: int, name: str) -> FloatArray:
+    """Acceleration or jerk limits ``name``: positive numbers, ``inf`` (unknown) allowed and
+    the default."""
+    if value is None:
+        return np.full(n, np.inf)
+    arr = np.array(real_array(value, name), dtype=float)
     if arr.shape != (n,):
-        raise ShapeError(f"qdd_max must have shape ({n},); got shape {arr.shape}")
+        raise ShapeError(f"{name} must have shape ({n},); got shape {arr.shape}")
     if np.isnan(arr).any() or np.any(arr <= 0):
-        raise InvalidParameterError(f"qdd_max must be positive (inf: unknown); got {arr}")
+        raise InvalidParameterError(f"{name} must be positive (inf: unknown); got {arr}")
     return arr

@@ -73,7 +73,8 @@ def run_scenario(
             logs.append(simulate(spec.robot, s.build(), spec.trajectory, **common))
         else:
             logs.append(run(spec.robot, spec.task(), spec.trajectory, s.build(), gain=spec.gain,
-                            log_objectives=extra, viewer=viewer, **common))  # fmt: skip
+                            shaping=spec.shaping, log_objectives=extra, viewer=viewer,
+                            **common))  # fmt: skip
     return logs
 
 

@@ -29,10 +29,10 @@ import numpy as np
 import pinocchio as pin
 
 from .. import models
-from .._toml import Reader, tomllib
+from .._toml import Reader, load
 from ..control.analysis import run_steps
 from ..control.trajectories import Circle, FigureEight, Hold, Line, MinimumJerk, Trajectory
-from ..errors import RedresError, describe_os_error, shown_path
+from ..errors import RedresError
 from ..linalg import AdaptiveDamping
 from ..objectives import (
     CapsuleObstacle,
@@ -81,6 +81,8 @@ class ScenarioSpec:
     obstacles: list[Obstacle]
     schemes: list[SchemeSpec] = field(default_factory=list)
     source: str = ""
+    #: End each rate-control step in command shaping (``shaping = true`` in ``[run]``).
+    shaping: bool = False
 
 
 def _robot(r: Reader, base: Path) -> tuple[Robot, np.ndarray]:
@@ -105,9 +107,7 @@ def _robot(r: Reader, base: Path) -> tuple[Robot, np.ndarray]:
     if tip is not None and model is not None:
         if tip not in robot.frames():
             raise r.fail("tip", f"unknown frame {tip!r}; frames: {', '.join(robot.frames())}")
-        robot = Robot(
-            robot.model, tip=tip, name=robot.name, home=robot.neutral(), qdd_max=robot.qdd_max
-        )
+        robot = robot.derived(tip=tip)
     q0 = r.get("q0", "vector", None, size=robot.n)
     if q0 is None:
         q0 = robot.neutral()
@@ -265,22 +265,7 @@ class _SchemeReader(Reader):
 def load_scenario(path: str | Path) -> ScenarioSpec:
     """Read and validate a scenario file; raises :class:`ScenarioError`."""
     file = Path(path)
-    shown = shown_path(file)
-    try:
-        data = tomllib.loads(file.read_text(encoding="utf-8-sig"))  # a leading BOM is fine
-    except FileNotFoundError:
-        raise ScenarioError(f"{shown}: no such scenario file") from None
-    except OSError as exc:
-        raise ScenarioError(f"cannot read the scenario file: {describe_os_error(exc)}") from None
-    except UnicodeDecodeError as exc:
-        raise ScenarioError(f"{shown}: not UTF-8 text ({exc.reason}); save it as UTF-8") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{shown}: not valid TOML ({exc})") from None
-    except RecursionError:
-        raise ScenarioError(
-            f"{shown}: arrays or tables are nested too deeply to read; a scenario needs at "
-            "most a few levels"
-        ) from None
+    data = load(file, "scenario", ScenarioError)
     return parse_scenario(data, file.name, file.parent)
 
 
@@ -301,6 +286,11 @@ def parse_scenario(
     run = Reader(data.get("run", {}), "[run]", file, ScenarioError)
     dt, duration = run.positive("dt", 1e-3), run.positive("duration", trajectory.duration)
     gain = run.nonnegative("gain", 50.0)
+    shaping = run.boolean("shaping", False)
+    if shaping and np.all(np.isinf(robot.qdd_max)) and np.all(np.isinf(robot.qddd_max)):
+        raise run.fail("shaping", f"the robot {robot.name!r} has no acceleration or jerk "
+                       "limits to shape to; give them (qdd_max, qddd_max) in its DH records "
+                       "or use a model that has them")  # fmt: skip
     with run.blame(None):
         run_steps(duration, dt)  # 1 to MAX_STEPS steps
     run.done()
@@ -315,7 +305,7 @@ def parse_scenario(
     top.done()
     return ScenarioSpec(
         name, description, robot, q0, FrameTask, trajectory, dt, duration, gain, obstacles,
-        schemes, file,
+        schemes, file, shaping,
     )  # fmt: skip
 
 
