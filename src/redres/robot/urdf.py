@@ -22,6 +22,7 @@ import pinocchio as pin
 from .._validate import MAX_LENGTH, MAX_MASS, short_repr
 from ..errors import ModelFileNotFoundError, URDFError, describe_os_error, shown_path
 from .dh import MAX_JOINTS
+from .mjcf import keep_root_placements
 
 # Pinocchio's unbounded revolute joints (nq = 2: cos, sin) and their bounded twins.
 _BOUNDED = {
@@ -111,10 +112,13 @@ def _root(source: ModelSource) -> ET.Element:
     return root
 
 
-def _full_model(source: ModelSource, geometry: tuple[str, ...]) -> tuple[pin.Model, Any, Any]:
-    """Pinocchio's model of the whole file and the geometry models named in ``geometry``
-    (``"collision"``, ``"visual"``; ``None`` where one cannot be built, e.g. a missing
-    mesh)."""
+def _full_model(
+    source: ModelSource, geometry: tuple[str, ...], root: ET.Element
+) -> tuple[pin.Model, Any, Any]:
+    """Pinocchio's model of the whole file (``root``, its XML) and the geometry models
+    named in ``geometry`` (``"collision"``, ``"visual"``; ``None`` where one cannot be
+    built, e.g. a missing mesh). An MJCF's root bodies keep their placement
+    (:func:`.mjcf.keep_root_placements`)."""
     label = source.label
     try:
         if source.kind == "mjcf":
@@ -125,6 +129,8 @@ def _full_model(source: ModelSource, geometry: tuple[str, ...]) -> tuple[pin.Mod
             full = pin.buildModelFromXML(source.text)
     except (RuntimeError, ValueError) as exc:
         raise URDFError(f"{label}: Pinocchio cannot build a model: {exc}") from None
+    if source.kind == "mjcf":
+        keep_root_placements(full, root, label)
     kinds = {"collision": pin.COLLISION, "visual": pin.VISUAL}
     geoms = [_geometry(full, source, kinds[k]) if k in geometry else None for k in kinds]
     return full, geoms[0], geoms[1]
@@ -164,7 +170,7 @@ def load_model(
         _check_physical(root, label)
     elif root.find("worldbody") is None:
         raise URDFError(f"{label}: the MJCF has no <worldbody> element")
-    full, collision, visual = _full_model(source, geometry)
+    full, collision, visual = _full_model(source, geometry, root)
     if full.nv == 0:
         raise URDFError(f"{label}: the {source.kind.upper()} has no movable joint")
     return reduce_to_chain(full, tip, locked, continuous_limits, label, collision, visual)
