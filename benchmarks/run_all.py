@@ -80,6 +80,11 @@ BENCHES = [
           "random wanted velocities (time per cycle, commands a robot would refuse), then "
           "the random Panda runs of the shaping test with and without shaping: refused "
           "runs and the tracking error shaping costs.", quick=["--quick"]),
+    Bench("mujoco_plant", "mujoco_plant.py", "The same circle on MuJoCo's Panda: redres and mink",
+          "`benchmarks/mujoco_plant.py`: the Menagerie Panda simulated by MuJoCo follows a "
+          "5 cm circle through its position servos, commanded by redres' `Controller` and by "
+          "mink's `solve_ik` on the same plant (and with mink's own habit, `ctrl = q` on the "
+          "bare servos): time per control step and the tracking error MuJoCo measures."),
     Bench("scaling", "scaling.py", "Scaling with the number of joints",
           "Planar chains of 3 to 50 joints (3 task rows) and a 14-joint chain (two S-R-S "
           "arms in series, 6 rows). The algebra predicts, for m fixed task rows: O(n) for "

@@ -36,7 +36,7 @@ _LAZY: dict[str, str] = dict.fromkeys(("Controller", "run"), ".control") | {
 }  # fmt: skip
 _SUBMODULES = frozenset(
     {"batch", "control", "dynamics", "errors", "linalg", "models", "objectives", "resolution",
-     "tasks"}
+     "sim", "tasks"}
 )  # fmt: skip
 
 
@@ -72,6 +72,7 @@ __all__ = [
     "objectives",
     "resolution",
     "run",
+    "sim",
     "tasks",
     "view",
     "warmup",

@@ -138,6 +138,12 @@ def test_a_good_scenario_runs(tmp_path: Path, capsys: pytest.CaptureFixture[str]
         ),
         (("period = 1.0", "period = 1.0\n\n[oops"), r"not valid TOML"),
         (("duration = 0.02", "duration = 0.02\nshaping = 1"), r"\[run\]\.shaping: expected"),
+        (("duration = 0.02", 'duration = 0.02\nplant = "gazebo"'), r"use 'redres' or 'mujoco'"),
+        (
+            ("duration = 0.02", 'duration = 0.02\nplant = "mujoco"'),
+            r"\[run\]\.plant: MuJoCo simulates an MJCF robot",
+        ),
+        (('model = "panda"', 'menagerie = "ur5e"'), r"\[robot\]\.menagerie: unknown Menagerie"),
     ],
 )
 def test_bad_scenarios_name_the_key(
@@ -171,6 +177,22 @@ def test_a_scenario_asks_for_command_shaping(tmp_path: Path) -> None:
     )
     with pytest.raises(ScenarioError, match=r"\[run\]\.shaping: the robot 'planar3' has no"):
         load_scenario(write(tmp_path, planar))
+
+
+def test_a_scenario_runs_on_mujoco() -> None:
+    """``plant = "mujoco"`` with a Menagerie robot: each scheme runs on MuJoCo's
+    simulation, the torque law through joint torques, the others through the position
+    servos; the logs say so."""
+    pytest.importorskip("mujoco", reason="the mujoco extra is not installed")
+    from redres.scenarios.runner import run_scenario
+
+    spec = builtin("panda_mujoco_circle")
+    assert spec.plant == "mujoco" and spec.mjcf is not None and spec.mjcf.is_file()
+    spec.duration = 0.05
+    logs = run_scenario(spec, progress=False)
+    assert [log.extra["plant"] for log in logs] == ["mujoco:panda_nohand"] * 3
+    assert "q_command" in logs[0].extra and "tau" in logs[2].extra
+    assert all(log.position_error.max() < 1e-3 for log in logs)
 
 
 def test_missing_file_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -82,7 +82,7 @@ def test_redres_runs_an_mjcf_scenario(
             r"\[robot\]\.mjcf: give exactly one of .*urdf and mjcf",
         ),
         ('model = "panda"\nmjcf = "a.xml"', r"\[robot\]\.mjcf: give exactly one of"),
-        ("", r"\[robot\]\.model: give exactly one of model .* or mjcf"),
+        ("", r"\[robot\]\.model: give exactly one of model .* or menagerie"),
         ('mjcf = "missing.xml"', r"\[robot\]\.mjcf: .*missing\.xml"),
         ("mjcf = 3", r"\[robot\]\.mjcf: expected a string"),
     ],

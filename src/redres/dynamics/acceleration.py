@@ -137,6 +137,6 @@ class AccelerationController(ServoLaw):
         J_hash, info = _inverse(s.jacobian, M, self.inverse, self.damping, self.rcond)
         qdd_task = J_hash @ s.command
         qdd_null = qdd0 - J_hash @ (s.jacobian @ qdd0)
-        tau = robot.inverse_dynamics(q, qd, qdd_task + qdd_null)
+        tau = robot.inverse_dynamics(q, qd, qdd_task + qdd_null) + robot.joint_damping * qd
         extra = {"qdd": qdd_task + qdd_null}
         return ControlStep(tau, info, s.error, s.pose, self.task.target, M @ qdd_null, extra)

@@ -17,7 +17,9 @@ Why this form:
   the task form leaves ``(I − Jᵀ J̄ᵀ) b`` uncompensated: gravity and Coriolis torques then
   act on the self-motion and the posture sags. Adding ``b`` whole costs the same (one
   RNEA) and makes the closed loop ``M q̈ = Jᵀ Λ (ẍ* − J̇ q̇) + (I − Jᵀ J̄ᵀ) τ₀``, whence
-  ``ẍ = J q̈ + J̇ q̇ = ẍ*`` exactly: every task row obeys ``ë + K_d ė + K_p e = 0``.
+  ``ẍ = J q̈ + J̇ q̇ = ẍ*`` exactly: every task row obeys ``ë + K_d ė + K_p e = 0``. The
+  controller's ``b`` includes the viscous joint damping ``d ∘ q̇`` its model's file gives
+  (:attr:`redres.Robot.joint_damping`), which the plant dissipates otherwise.
 * **``Jᵀ Λ = M J̄``** (from ``J̄ = M⁻¹ Jᵀ Λ``), so the task torque needs only ``J̄`` — one
   factorisation per step, no separate ``Λ``.
 * **Null-space torque from an acceleration**: ``τ₀ = M q̈₀`` gives, with the dynamic
@@ -286,7 +288,7 @@ class OperationalSpaceController(ServoLaw):
         out = _torque(
             s.jacobian,
             M,
-            robot.bias(q, qd),
+            robot.bias(q, qd) + robot.joint_damping * qd,  # the file's damping as well
             s.command,
             tau0,
             self.projector,

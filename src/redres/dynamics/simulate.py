@@ -7,7 +7,9 @@ Each control step ``k`` (period ``h = substeps · dt``, time ``t = k h``):
    payload);
 2. ``τ`` is clipped to ``±tau_max`` (the step is flagged when it saturates);
 3. the plant — the robot, with the payload if any — is integrated ``substeps`` times by
-   semi-implicit (symplectic) Euler with ``q̈ = ABA(q, q̇, τ)`` (Pinocchio)::
+   semi-implicit (symplectic) Euler with ``q̈ = ABA(q, q̇, τ − d ∘ q̇)`` (Pinocchio; the
+   model's armature is in its mass matrix, ``d`` its joint damping, and its joints' dry
+   friction, as an MJCF file gives them: :class:`RigidBodyPlant`)::
 
        q̇ ← q̇ + dt q̈;   q ← q + dt q̇
 
@@ -25,7 +27,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import numpy as np
 import pinocchio as pin
@@ -46,6 +48,67 @@ from .payload import Payload, with_payload
 if TYPE_CHECKING:
     from ..control import Trajectory
     from ..robot import Robot
+
+
+class Plant(Protocol):
+    """What :func:`simulate` integrates: a robot's state under joint torques.
+
+    :class:`RigidBodyPlant` is redres' own; :class:`redres.sim.MujocoPlant` is MuJoCo's.
+    """
+
+    name: str
+
+    def reset(self, q: FloatArray, qd: FloatArray) -> None:
+        """Start from ``q`` (rad) and ``qd`` (rad/s), at rest otherwise."""
+
+    def advance(self, tau: FloatArray, dt: float, substeps: int) -> tuple[FloatArray, FloatArray]:
+        """Apply the joint torques ``tau`` (N·m) for ``substeps`` steps of ``dt`` s;
+        returns the new ``(q, qd)``."""
+
+
+class RigidBodyPlant:
+    """redres' plant: ``q̈ = ABA(q, q̇, τ − d ∘ q̇)`` of ``robot`` (Pinocchio; its armature
+    in the mass matrix, ``d`` its joint damping, N·m·s/rad) integrated by semi-implicit
+    Euler (module docstring), with the dry friction ``f`` of its joints (N·m; an MJCF's
+    ``frictionloss``): after each velocity update, joint torques ``|λᵢ| ≤ fᵢ`` that stop
+    a joint when they can and oppose its motion at ``fᵢ`` when they cannot, found by
+    projected Gauss–Seidel on the velocity-level complementarity problem with
+    ``A = dt M⁻¹`` (Stewart and Trinkle's time stepping, IJNME 39, 1996)."""
+
+    #: Gauss–Seidel sweeps of the friction problem per step.
+    SWEEPS = 20
+
+    def __init__(self, robot: Robot) -> None:
+        self.robot, self.name = robot, robot.name
+        self.damping = np.array(robot.model.damping, dtype=float)
+        self.friction = np.array(robot.model.friction, dtype=float)
+        self.q, self.qd = robot.neutral(), np.zeros(robot.n)
+
+    def reset(self, q: FloatArray, qd: FloatArray) -> None:
+        self.q, self.qd = q.copy(), qd.copy()
+
+    def advance(self, tau: FloatArray, dt: float, substeps: int) -> tuple[FloatArray, FloatArray]:
+        q, qd = self.q, self.qd
+        dry = bool(np.any(self.friction > 0.0))
+        for _ in range(substeps):
+            qdd = self.robot.forward_dynamics(q, qd, tau - self.damping * qd)
+            qd = qd + dt * qdd
+            if dry:
+                qd = self._dry_friction(q, qd, dt)
+            q = q + dt * qd
+        self.q, self.qd = q, qd
+        return q, qd
+
+    def _dry_friction(self, q: FloatArray, v: FloatArray, dt: float) -> FloatArray:
+        """``v + A λ`` with ``λ`` the friction torques of the step (class docstring)."""
+        A = dt * np.linalg.inv(self.robot.mass_matrix(q))
+        f = self.friction
+        lam = np.zeros_like(v)
+        for _ in range(self.SWEEPS):
+            for i in np.flatnonzero(f > 0.0):
+                r = v[i] + A[i] @ lam  # joint i's velocity with the torques so far
+                lam[i] = min(max(lam[i] - r / A[i, i], -f[i]), f[i])
+        return v + A @ lam
 
 
 class _Recorder:
@@ -98,6 +161,7 @@ def simulate(
     controller_robot: Robot | None = None,
     limit_torque: bool = True,
     substeps: int = 1,
+    plant: Plant | None = None,
     label: str = "",
     progress: bool | None = None,
 ) -> RunLog:
@@ -114,6 +178,9 @@ def simulate(
         controller_robot: the model the law computes with (default: ``robot``).
         limit_torque: clip torques to ``±robot.tau_max``.
         substeps: integration steps per control step (control period ``substeps·dt``).
+        plant: what integrates the state (default: :class:`RigidBodyPlant` of ``robot``
+            with the ``payload``); e.g. :class:`redres.sim.MujocoPlant`, MuJoCo's model of
+            the same arm (which then carries the payload itself).
         label: name of the run in tables.
         progress: show a progress bar (default: long runs on a terminal).
 
@@ -133,7 +200,8 @@ def simulate(
     if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
         raise InvalidParameterError(f"substeps must be an integer >= 1; got {substeps!r}")
     duration = run_duration(trajectory, duration)
-    plant = robot if payload is None else with_payload(robot, payload)
+    model = robot if payload is None else with_payload(robot, payload)
+    engine = RigidBodyPlant(model) if plant is None else plant
     ctrl = robot if controller_robot is None else controller_robot
     if ctrl.n != robot.n:
         raise ShapeError(
@@ -144,9 +212,10 @@ def simulate(
     qd = np.zeros(robot.n) if qd0 is None else as_vector(qd0, "qd0", robot.n).copy()
     h = dt * substeps
     steps = run_steps(max(duration, h / 2), h)  # at least one step
-    tau_max = plant.tau_max if limit_torque else np.full(robot.n, np.inf)
+    tau_max = model.tau_max if limit_torque else np.full(robot.n, np.inf)
     rec = _Recorder(steps, robot.n, tau_max)
     law.reset()
+    engine.reset(q, qd)
     bar = progress_bar(steps, progress, f"{robot.name} {label or law.name}")
     clock = time.perf_counter_ns
     try:
@@ -159,16 +228,13 @@ def simulate(
                 tau = _checked_torque(out, robot.n, k, k * h, law.name)
                 tau = np.clip(tau, -tau_max, tau_max)
                 rec.record(k, q, qd, out, tau)
-                for _ in range(substeps):
-                    qdd = plant.forward_dynamics(q, qd, tau)
-                    qd = qd + dt * qdd
-                    q = q + dt * qd
-                    if not math.isfinite(float(q.sum() + qd.sum())):
-                        raise SimulationError(
-                            f"step {k} (t = {k * h:.4f} s): the state became non-finite "
-                            f"(max |tau| = {np.abs(tau).max():.3g} N m); lower the gains "
-                            "or dt, or limit the torques"
-                        )
+                q, qd = engine.advance(tau, dt, substeps)
+                if not math.isfinite(float(q.sum() + qd.sum())):
+                    raise SimulationError(
+                        f"step {k} (t = {k * h:.4f} s): the state became non-finite "
+                        f"(max |tau| = {np.abs(tau).max():.3g} N m); lower the gains "
+                        "or dt, or limit the torques"
+                    )
                 if bar is not None:
                     bar.update(1)
     finally:
@@ -176,9 +242,9 @@ def simulate(
             bar.close()
     log = _make_log(robot, law, rec, h, label)
     log.extra.update(
-        final_q=q, final_qd=qd, sim_dt=dt, substeps=substeps, payload=payload, plant=plant.name
+        final_q=q, final_qd=qd, sim_dt=dt, substeps=substeps, payload=payload, plant=engine.name
     )
-    _analyse(plant, law, log, q, qd)
+    _analyse(model, law, log, q, qd)
     return log
 
 

@@ -16,6 +16,7 @@ from ..errors import RobotNotFoundError
 from ..robot import Robot
 from .example_robots import example_robot, example_robot_names
 from .iiwa import iiwa14
+from .mujoco_menagerie import menagerie, menagerie_path
 from .panda import panda
 from .planar import planar
 from .srs import srs7
@@ -52,6 +53,8 @@ __all__ = [
     "example_robot_names",
     "iiwa14",
     "load",
+    "menagerie",
+    "menagerie_path",
     "names",
     "panda",
     "planar",

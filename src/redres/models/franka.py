@@ -16,7 +16,17 @@ velocity limits near the ends of joint travel (a function of ``q`` in the same d
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, TypedDict
+
+
+class Rates(TypedDict):
+    """The keywords of :meth:`redres.Robot.with_limits` that :meth:`JointLimits.rates`
+    gives."""
+
+    qd_max: tuple[float, ...]
+    qdd_max: tuple[float, ...]
+    qddd_max: tuple[float, ...]
+    tau_max: tuple[float, ...]
 
 
 class JointLimits(NamedTuple):
@@ -30,15 +40,12 @@ class JointLimits(NamedTuple):
     tau_max: tuple[float, ...]
     taud_max: tuple[float, ...]
 
-    def rates(self) -> dict[str, tuple[float, ...]]:
+    def rates(self) -> Rates:
         """The velocity, acceleration, jerk and torque limits as keywords of
         :meth:`redres.Robot.with_limits`: ``robot.with_limits(**FR3.rates())``."""
-        return {
-            "qd_max": self.qd_max,
-            "qdd_max": self.qdd_max,
-            "qddd_max": self.qddd_max,
-            "tau_max": self.tau_max,
-        }
+        return Rates(
+            qd_max=self.qd_max, qdd_max=self.qdd_max, qddd_max=self.qddd_max, tau_max=self.tau_max
+        )
 
 
 #: Franka Emika Panda (FER), "Limits for Panda".

@@ -206,6 +206,12 @@ class Robot(RobotFiles):
         return self._qddd_max.copy()
 
     @property
+    def joint_damping(self) -> FloatArray:
+        """Viscous joint damping ``d`` (torque ``−d q̇``), shape ``(n,)``, N·m·s/rad; zero
+        unless the model's file gives it (an MJCF's ``damping``)."""
+        return np.array(self.model.damping, dtype=float)
+
+    @property
     def tau_max(self) -> FloatArray:
         """Torque (force) limits (symmetric), shape ``(n,)``, N·m or N; ``inf`` if unknown."""
         return self._tau_max.copy()

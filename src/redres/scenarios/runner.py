@@ -69,13 +69,28 @@ def run_scenario(
     for s in spec.schemes:
         common: dict[str, Any] = {"dt": spec.dt, "duration": spec.duration, "q0": spec.q0,
                                   "label": s.label, "progress": progress}  # fmt: skip
-        if s.kind == "osc":
+        if spec.plant == "mujoco":
+            logs.append(_on_mujoco(spec, s.build(), s.kind == "osc", common))
+        elif s.kind == "osc":
             logs.append(simulate(spec.robot, s.build(), spec.trajectory, **common))
         else:
             logs.append(run(spec.robot, spec.task(), spec.trajectory, s.build(), gain=spec.gain,
                             shaping=spec.shaping, log_objectives=extra, viewer=viewer,
                             **common))  # fmt: skip
     return logs
+
+
+def _on_mujoco(spec: ScenarioSpec, law: Any, torque: bool, common: dict[str, Any]) -> RunLog:
+    """One scheme of ``spec`` on MuJoCo's simulation of its MJCF robot (:mod:`redres.sim`):
+    a torque law through joint torques, a scheme's controller through the position servos."""
+    from ..sim import MujocoPlant, run_on_mujoco, simulate_on_mujoco
+
+    assert spec.mjcf is not None  # the spec checked it
+    plant = MujocoPlant(spec.mjcf, frame=spec.robot.tip, timestep=spec.dt)
+    if torque:
+        return simulate_on_mujoco(plant, law, spec.trajectory, robot=spec.robot, **common)
+    return run_on_mujoco(plant, spec.task(), spec.trajectory, law, robot=spec.robot,
+                         gain=spec.gain, shaping=spec.shaping, **common)  # fmt: skip
 
 
 def aligned_table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:

@@ -8,6 +8,8 @@ and the fix. See docs/scenarios.md for the format; built-in scenarios ship in
 
 from __future__ import annotations
 
+import importlib.util
+
 __all__ = [
     "ScenarioError",
     "ScenarioSpec",
@@ -83,27 +85,36 @@ class ScenarioSpec:
     source: str = ""
     #: End each rate-control step in command shaping (``shaping = true`` in ``[run]``).
     shaping: bool = False
+    #: What simulates the runs: ``"redres"`` or ``"mujoco"`` (``plant =`` in ``[run]``).
+    plant: str = "redres"
+    #: The robot's MJCF file, if it has one (what a MuJoCo plant loads).
+    mjcf: Path | None = None
 
 
-def _robot(r: Reader, base: Path) -> tuple[Robot, np.ndarray]:
-    """The robot and its start configuration ``q0``."""
-    sources = {key: r.get(key, "string", None) for key in ("model", "urdf", "mjcf")}
+def _robot(r: Reader, base: Path) -> tuple[Robot, np.ndarray, Path | None]:
+    """The robot, its start configuration ``q0`` and its MJCF file (None for another)."""
+    keys = ("model", "urdf", "mjcf", "menagerie")
+    sources = {key: r.get(key, "string", None) for key in keys}
     given = [key for key, value in sources.items() if value is not None]
     tip = r.get("tip", "string", None)
     if len(given) != 1:
         raise r.fail(
             given[1] if len(given) > 1 else "model",
-            'give exactly one of model = "<built-in name>", urdf = "<path>" or '
-            'mjcf = "<path>"' + (f"; got {' and '.join(given)}" if given else ""),
+            'give exactly one of model = "<built-in name>", urdf = "<path>", mjcf = '
+            '"<path>" or menagerie = "<arm>"' + (f"; got {' and '.join(given)}" if given else ""),
         )
     key = given[0]
     model, file = sources["model"], sources[key]
+    mjcf: Path | None = None
     with r.blame(key):
         if key == "model":
             robot = models.load(file)
+        elif key == "menagerie":  # a MuJoCo Menagerie arm (MUJOCO_MENAGERIE, or shipped)
+            robot, mjcf = models.menagerie(file, tip=tip), models.menagerie_path(file)
         else:  # a path relative to the scenario file
             load = Robot.from_urdf if key == "urdf" else Robot.from_mjcf
             robot = load(base / file, tip=tip)
+            mjcf = base / file if key == "mjcf" else None
     if tip is not None and model is not None:
         if tip not in robot.frames():
             raise r.fail("tip", f"unknown frame {tip!r}; frames: {', '.join(robot.frames())}")
@@ -113,7 +124,7 @@ def _robot(r: Reader, base: Path) -> tuple[Robot, np.ndarray]:
         q0 = robot.neutral()
     elif not robot.within_limits(q0):
         raise r.fail("q0", "is outside the joint limits; see `redres robots` for them")
-    return robot, q0
+    return robot, q0, mjcf
 
 
 def _trajectory(r: Reader, start: np.ndarray) -> Trajectory:
@@ -278,7 +289,7 @@ def parse_scenario(
     top.used.update({"robot", "trajectory", "run", "obstacles", "schemes"})
     if "robot" not in data:
         raise ScenarioError(f'{file}: missing [robot] table; add [robot] with model = "panda"')
-    robot, q0 = top.read(data["robot"], "[robot]", partial(_robot, base=base))
+    robot, q0, mjcf = top.read(data["robot"], "[robot]", partial(_robot, base=base))
     if "trajectory" not in data:
         raise ScenarioError(f'{file}: missing [trajectory] table; add type = "circle" etc.')
     path = partial(_trajectory, start=robot.fk(q0))
@@ -287,6 +298,14 @@ def parse_scenario(
     dt, duration = run.positive("dt", 1e-3), run.positive("duration", trajectory.duration)
     gain = run.nonnegative("gain", 50.0)
     shaping = run.boolean("shaping", False)
+    plant = run.string("plant", "redres")
+    if plant not in ("redres", "mujoco"):
+        raise run.fail("plant", f"use 'redres' or 'mujoco'; got {plant!r}")
+    if plant == "mujoco" and mjcf is None:
+        raise run.fail("plant", "MuJoCo simulates an MJCF robot: give [robot] mjcf = ... or "
+                       'menagerie = "panda"')  # fmt: skip
+    if plant == "mujoco" and importlib.util.find_spec("mujoco") is None:
+        raise run.fail("plant", "MuJoCo is not installed: pip install 'redres[mujoco]'")
     if shaping and np.all(np.isinf(robot.qdd_max)) and np.all(np.isinf(robot.qddd_max)):
         raise run.fail("shaping", f"the robot {robot.name!r} has no acceleration or jerk "
                        "limits to shape to; give them (qdd_max, qddd_max) in its DH records "
@@ -305,7 +324,7 @@ def parse_scenario(
     top.done()
     return ScenarioSpec(
         name, description, robot, q0, FrameTask, trajectory, dt, duration, gain, obstacles,
-        schemes, file, shaping,
+        schemes, file, shaping, plant, mjcf,
     )  # fmt: skip
 
 
