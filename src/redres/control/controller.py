@@ -190,6 +190,8 @@ class Controller:
         self._scaled = False
         self._shaper = as_shaper(shaping, robot, self._dt)
         self._shaped: FloatArray = self._out[:0]
+        if self._shaper is None:  # no shaping: `step` is the step itself (no extra call)
+            self.step = self._step  # type: ignore[method-assign]
 
     # -- settings (fixed at construction) ---------------------------------------------
 
