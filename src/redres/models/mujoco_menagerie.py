@@ -2,7 +2,7 @@
 
 redres does not download models: point ``root`` (or the environment variable
 ``MUJOCO_MENAGERIE``) at a checkout, or at any folder laid out like one
-(``<folder>/<file>.xml`` with its meshes). Without either, the four arms of :data:`ARMS`
+(``<folder>/<file>.xml`` with its meshes). Without either, the four arms of ``ARMS``
 but the Gen3 come from copies shipped with redres (``models/data/menagerie``: the
 Menagerie's files with the meshes removed, their licenses and commits kept there).
 ``menagerie("fr3")`` is the Franka FR3 of ``franka_fr3/fr3.xml`` with Franka's published
@@ -33,9 +33,9 @@ ARMS: dict[str, tuple[str, str, JointLimits | None]] = {
 
 
 def menagerie_path(name: str, root: str | Path | None = None) -> Path:
-    """The MJCF file of arm ``name`` (a key of :data:`ARMS`, or ``"<folder>/<file>.xml"``)
+    """The MJCF file of arm ``name`` (a key of ``ARMS``, or ``"<folder>/<file>.xml"``)
     in the checkout ``root`` (default: ``$MUJOCO_MENAGERIE``, else the copies shipped with
-    redres, :data:`SHIPPED`).
+    redres, ``SHIPPED``).
 
     Raises:
         RobotNotFoundError: an unknown name.
@@ -66,7 +66,7 @@ def menagerie_path(name: str, root: str | Path | None = None) -> Path:
 def menagerie(name: str, root: str | Path | None = None, *, tip: str | None = None) -> Robot:
     """The robot of arm ``name`` of a Menagerie checkout (:func:`menagerie_path`), with the
     vendor's published velocity, acceleration, jerk and torque limits where
-    :data:`ARMS` has them."""
+    ``ARMS`` has them."""
     robot = Robot.from_mjcf(menagerie_path(name, root), tip=tip)
     limits = ARMS[name][2] if name in ARMS else None
     return robot if limits is None else robot.with_limits(**limits.rates())

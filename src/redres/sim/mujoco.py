@@ -69,9 +69,11 @@ class MujocoPlant:
         timestep: MuJoCo's integration step, s (default: the file's).
 
     Attributes:
-        model, data: MuJoCo's ``MjModel`` and ``MjData`` (read them; the plant steps them).
+        model: MuJoCo's ``MjModel`` (read it; the plant steps it), and ``data`` its
+            ``MjData``.
         n: the number of joints (every hinge and slide joint of the file, in its order).
         joint_names: their names.
+        frame: the site or body the runs track.
     """
 
     name = "mujoco"
@@ -357,8 +359,9 @@ def run_on_mujoco(
 
     Args:
         plant: the MuJoCo plant.
-        task, trajectory, scheme, dt, duration, gain, limit_velocity, shaping, label,
-            progress: as for :func:`redres.run`.
+        task: as for :func:`redres.run`, and so are ``trajectory``, ``scheme``, ``dt``,
+            ``duration``, ``gain``, ``limit_velocity``, ``shaping``, ``label`` and
+            ``progress``.
         robot: the controller's model (default: :meth:`MujocoPlant.robot`).
         q0: start configuration (default: the robot's neutral one), the plant at rest.
 
