@@ -35,8 +35,8 @@ _LAZY: dict[str, str] = dict.fromkeys(("Controller", "run"), ".control") | {
     "RedresError": ".errors", "warmup": "._warmup", "Viewer": ".viewer", "view": ".viewer"
 }  # fmt: skip
 _SUBMODULES = frozenset(
-    {"batch", "control", "dynamics", "errors", "linalg", "models", "objectives", "resolution",
-     "sim", "tasks"}
+    {"batch", "control", "dynamics", "errors", "hardware", "linalg", "models", "objectives",
+     "resolution", "sim", "tasks"}
 )  # fmt: skip
 
 
@@ -66,6 +66,7 @@ __all__ = [
     "control",
     "dynamics",
     "errors",
+    "hardware",
     "ik",
     "linalg",
     "models",

@@ -22,6 +22,7 @@ __all__ = [
     "NotPositiveDefiniteError",
     "RedresError",
     "RobotNotFoundError",
+    "RobotStoppedError",
     "ShapeError",
     "SimulationError",
     "URDFError",
@@ -78,6 +79,16 @@ class MissingDependencyError(RedresError, ImportError):
 
 class SimulationError(RedresError, RuntimeError):
     """A control loop or simulation produced a non-finite value (message names the step)."""
+
+
+class RobotStoppedError(RedresError, RuntimeError):
+    """A real robot (or its protocol simulator) stopped the motion: the message names the
+    robot's own reason (``communication_constraints_violation``, a limit, ...); ``log``
+    holds the run up to that cycle (a :class:`~redres.control.RunLog`, or None)."""
+
+    def __init__(self, message: str, log: object = None) -> None:
+        super().__init__(message)
+        self.log = log
 
 
 class _KeyLookupError(RedresError, KeyError):

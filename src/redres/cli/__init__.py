@@ -11,12 +11,12 @@ import json
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .._version import __version__
-from ..errors import RedresError, describe_os_error
+from ..errors import InvalidParameterError, RedresError, describe_os_error
 
 if TYPE_CHECKING:
     from .demo import Output
@@ -111,6 +111,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print("redres run: error: give a scenario file (or --list)", file=sys.stderr)
         return 2
     spec = load_scenario(_scenario_path(args.scenario, builtin))
+    franka = _franka_target(args, spec.robot.name)
+    if franka is not None:
+        return run_scenarios([spec], _output(args), title=spec.name, franka=franka)
     if not args.view:
         return run_scenarios([spec], _output(args), title=spec.name)
     from ..viewer import Viewer, serve_runs
@@ -125,6 +128,22 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return run_scenarios([spec], _output(args), title=spec.name, after=after, viewer=viewer)
     finally:
         viewer.close()
+
+
+def _franka_target(args: argparse.Namespace, robot: str) -> Any:
+    """Where ``--robot`` / ``--dry-run`` send the scenario (None: simulate it as usual)."""
+    if args.robot is None and not args.dry_run:
+        return None
+    from ..scenarios.runner import FrankaTarget
+
+    address = None
+    if args.robot is not None:
+        scheme, _, host = args.robot.partition("://")
+        if scheme != "franka" or not host:
+            raise InvalidParameterError(f"--robot takes franka://HOST; got {args.robot!r}")
+        address = None if args.dry_run else host
+    arm = args.arm or ("panda" if robot.startswith("panda") else "fr3")
+    return FrankaTarget(address, arm, args.mode)
 
 
 def _scenario_path(target: str, builtin: dict[str, Path]) -> Path:
@@ -228,6 +247,22 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("scenario", nargs="?", help="scenario file or built-in scenario name")
     run.add_argument("--list", action="store_true", help="list the built-in scenarios")
     run.add_argument("--view", action="store_true", help="then show the runs in the browser")
+    run.add_argument(
+        "--robot", metavar="franka://HOST", help="run on the Franka arm at HOST (docs/franka.md)"
+    )
+    run.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="with --robot: the same 1 kHz loop on the model, no robot",
+    )
+    run.add_argument(
+        "--arm",
+        choices=("fr3", "panda"),
+        default=None,
+        help="the Franka arm (default: the scenario's robot if a Panda, else fr3)",
+    )
+    run.add_argument("--mode", choices=("velocity", "position"), default="velocity",
+                     help="the Franka command of the rate-control schemes")  # fmt: skip
     _viewer_options(run)
     _output_options(run)
     view = _command(

@@ -24,7 +24,13 @@ from ..control import LiveView, RunLog
 from ..errors import MissingDependencyError
 from ..objectives import JointLimitObjective
 from ..report.writer import check_out_dir, write_report
-from ..scenarios.runner import format_table, run_scenario, summarise, warning_lines
+from ..scenarios.runner import (
+    FrankaTarget,
+    format_table,
+    run_scenario,
+    summarise,
+    warning_lines,
+)
 from ..scenarios.spec import ScenarioSpec, builtin
 
 DEG = np.pi / 180
@@ -179,10 +185,11 @@ def run_scenarios(
     examples: bool = False,
     after: Callable[[list[tuple[ScenarioSpec, RunLog]]], None] | None = None,
     viewer: LiveView | None = None,
+    franka: FrankaTarget | None = None,
 ) -> int:
-    """Run ``specs`` (shown live in ``viewer``, if given), print the table (or JSON), write
-    the report, then hand the runs to ``after`` (``redres run --view`` serves them);
-    returns the exit code."""
+    """Run ``specs`` (shown live in ``viewer``, if given; on a Franka arm with
+    ``franka``), print the table (or JSON), write the report, then hand the runs to
+    ``after`` (``redres run --view`` serves them); returns the exit code."""
     as_json, quiet, quick = output.as_json, output.quiet, output.quick
     check_out_dir(output.folder, force=output.force)  # before any run
     started = time.perf_counter()
@@ -194,7 +201,7 @@ def run_scenarios(
             spec.duration *= 0.05
         if loud:
             print(f"{spec.name}: {spec.description}", file=sys.stderr)
-        logs = run_scenario(spec, progress=None if loud else False, viewer=viewer)
+        logs = run_scenario(spec, progress=None if loud else False, viewer=viewer, franka=franka)
         runs += [(spec, log) for log in logs]
     description = " ".join(f"{s.description}." for s in specs)
     report = _write_report(output.folder, runs, title, description, output.force)

@@ -9,7 +9,7 @@ line each.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from ..control import LiveView, RunLog, run
@@ -58,14 +58,42 @@ _MM = {"max_position_error_m", "rms_position_error_m", "min_obstacle_clearance_m
 _OPTIONAL = {"min_obstacle_clearance_m"}  # shown when a run has it
 
 
+@dataclass(frozen=True)
+class FrankaTarget:
+    """Where ``redres run --robot franka://HOST`` (or ``--dry-run``) runs a scenario: the
+    robot's ``address`` (None: the dry run on the model), the ``arm`` and the ``mode`` of
+    the rate-control schemes (torque laws run in torque mode)."""
+
+    address: str | None
+    arm: str = "fr3"
+    mode: str = "velocity"
+
+
 def run_scenario(
-    spec: ScenarioSpec, *, progress: bool | None = None, viewer: LiveView | None = None
+    spec: ScenarioSpec,
+    *,
+    progress: bool | None = None,
+    viewer: LiveView | None = None,
+    franka: FrankaTarget | None = None,
 ) -> list[RunLog]:
     """Run each scheme of ``spec`` from the same start; returns the logs in order. A
     ``viewer`` shows the rate-control runs live as they are computed (``rr.run``'s
-    ``viewer=``; torque-control runs are shown once finished)."""
+    ``viewer=``; torque-control runs are shown once finished). ``franka``: on a Franka
+    arm (:func:`redres.hardware.run_on_franka`), one scheme after the other from where the
+    robot stands."""
     extra = [ObstacleObjective(spec.obstacles)] if spec.obstacles else []
     logs = []
+    if franka is not None:
+        from ..hardware import run_on_franka
+
+        for s in spec.schemes:
+            torque = s.kind == "osc"
+            logs.append(run_on_franka(
+                franka.address, None if torque else spec.task(), spec.trajectory_from, s.build(),
+                mode="torque" if torque else franka.mode, arm=franka.arm,  # type: ignore[arg-type]
+                duration=spec.duration, gain=spec.gain, label=s.label, progress=progress,
+            ))  # fmt: skip
+        return logs
     for s in spec.schemes:
         common: dict[str, Any] = {"dt": spec.dt, "duration": spec.duration, "q0": spec.q0,
                                   "label": s.label, "progress": progress}  # fmt: skip

@@ -89,6 +89,8 @@ class ScenarioSpec:
     plant: str = "redres"
     #: The robot's MJCF file, if it has one (what a MuJoCo plant loads).
     mjcf: Path | None = None
+    #: The scenario's path from another start pose (4x4): a real robot starts where it is.
+    trajectory_from: Callable[[np.ndarray], Trajectory] | None = None
 
 
 def _robot(r: Reader, base: Path) -> tuple[Robot, np.ndarray, Path | None]:
@@ -292,8 +294,11 @@ def parse_scenario(
     robot, q0, mjcf = top.read(data["robot"], "[robot]", partial(_robot, base=base))
     if "trajectory" not in data:
         raise ScenarioError(f'{file}: missing [trajectory] table; add type = "circle" etc.')
-    path = partial(_trajectory, start=robot.fk(q0))
-    trajectory = top.read(data["trajectory"], "[trajectory]", path)
+
+    def trajectory_from(start: np.ndarray) -> Trajectory:
+        return top.read(data["trajectory"], "[trajectory]", partial(_trajectory, start=start))
+
+    trajectory = trajectory_from(robot.fk(q0))
     run = Reader(data.get("run", {}), "[run]", file, ScenarioError)
     dt, duration = run.positive("dt", 1e-3), run.positive("duration", trajectory.duration)
     gain = run.nonnegative("gain", 50.0)
@@ -324,7 +329,7 @@ def parse_scenario(
     top.done()
     return ScenarioSpec(
         name, description, robot, q0, FrameTask, trajectory, dt, duration, gain, obstacles,
-        schemes, file, shaping, plant, mjcf,
+        schemes, file, shaping, plant, mjcf, trajectory_from,
     )  # fmt: skip
 
 
