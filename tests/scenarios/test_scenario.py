@@ -304,3 +304,21 @@ def test_negative_objective_weights_name_the_objective(
         load_scenario(path)
     assert main(["run", str(path), "--out", str(tmp_path / "o")]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_without_mujoco_the_mujoco_scenario_says_what_to_install(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On a machine without the mujoco extra the list still lists every built-in scenario,
+    the MuJoCo one with what it needs, and running it exits 2 naming the install."""
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "mujoco" else real(name, *a)
+    )
+    assert main(["run", "--list"]) == 0
+    listed = capsys.readouterr().out
+    assert "panda_mujoco_circle" in listed and "pip install 'redres[mujoco]'" in listed
+    assert main(["run", "panda_mujoco_circle", "--out", str(tmp_path / "r")]) == 2
+    assert "MuJoCo is not installed: pip install 'redres[mujoco]'" in capsys.readouterr().err

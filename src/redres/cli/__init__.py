@@ -100,7 +100,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     builtin = builtin_scenarios()
     if args.list:
-        listing = {name: load_scenario(path).description for name, path in sorted(builtin.items())}
+        listing = {name: _description(path) for name, path in sorted(builtin.items())}
         if args.json:
             print(json.dumps([{"name": k, "description": v} for k, v in listing.items()]))
             return 0
@@ -128,6 +128,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return run_scenarios([spec], _output(args), title=spec.name, after=after, viewer=viewer)
     finally:
         viewer.close()
+
+
+def _description(path: Path) -> str:
+    """A built-in scenario's description; one this machine cannot run says why (a MuJoCo
+    scenario without the extra) instead of failing the whole list."""
+    from ..scenarios.spec import load_scenario
+
+    try:
+        return load_scenario(path).description
+    except RedresError as exc:
+        return f"(cannot run here: {str(exc).split(': ', 1)[-1]})"
 
 
 def _franka_target(args: argparse.Namespace, robot: str) -> Any:
