@@ -31,6 +31,13 @@ FRESH_PROCESS_FILES = (
 )
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line(
+        "markers", "robot_loop: a 1 kHz loop against a robot simulator; run alone on the "
+        "machine (make test runs these after the parallel suite)",
+    )  # fmt: skip
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     if os.environ.get("PYTEST_XDIST_WORKER") is None:
         return  # one process: the files' own order

@@ -154,7 +154,7 @@ def _franka_target(args: argparse.Namespace, robot: str) -> Any:
             raise InvalidParameterError(f"--robot takes franka://HOST; got {args.robot!r}")
         address = None if args.dry_run else host
     arm = args.arm or ("panda" if robot.startswith("panda") else "fr3")
-    return FrankaTarget(address, arm, args.mode)
+    return FrankaTarget(address, arm, args.mode, args.hand)
 
 
 def _scenario_path(target: str, builtin: dict[str, Path]) -> Path:
@@ -272,6 +272,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="the Franka arm (default: the scenario's robot if a Panda, else fr3)",
     )
+    run.add_argument("--hand", action="store_true", help="the Franka Hand is on the arm")
     run.add_argument("--mode", choices=("velocity", "position"), default="velocity",
                      help="the Franka command of the rate-control schemes")  # fmt: skip
     _viewer_options(run)

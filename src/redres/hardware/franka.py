@@ -31,6 +31,7 @@ before a robot.
 
 from __future__ import annotations
 
+import gc
 import math
 import time
 from collections.abc import Callable
@@ -42,7 +43,7 @@ from .. import _compile
 from .._validate import FloatArray
 from ..control import Controller, RunLog, analysis
 from ..control.shaping import MARGIN, CommandShaper
-from ..dynamics import TorqueLaw
+from ..dynamics import Payload, TorqueLaw, with_payload
 from ..dynamics.simulate import RigidBodyPlant
 from ..errors import InvalidParameterError, MissingDependencyError, RobotStoppedError
 from ..models import menagerie, panda
@@ -63,15 +64,35 @@ TORQUE_RATE = 1000.0
 WARM_GROUPS = ("linalg", "derivatives", "chain", "controller", "shaping", "hard limits")
 
 
-def franka_robot(arm: str = "fr3") -> Robot:
-    """redres' model of a Franka arm without a hand: ``"fr3"`` (the MuJoCo Menagerie's FR3
-    shipped with redres, tip at the flange) or ``"panda"`` (the built-in Panda, tip at
-    its TCP), each with Franka's published limits."""
-    if arm == "fr3":
-        return menagerie("fr3")
+def franka_robot(arm: str = "fr3", *, hand: bool = False) -> Robot:
+    """redres' model of a Franka arm with Franka's published limits: ``"fr3"`` (the MuJoCo
+    Menagerie's FR3 shipped with redres) or ``"panda"`` (the built-in Panda).
+
+    ``hand=False``: the tip is the flange (``attachment_site`` of the FR3, turned −45° about
+    z like the hand's mount; ``flange`` of the Panda), nothing attached. ``hand=True``: the
+    Franka Hand's mass is on the flange and the tip is its ``tcp``, 0.1034 m along the
+    hand's z (Franka's robot description; configure the same end effector in Desk).
+    """
     if arm == "panda":
-        return panda()
-    raise InvalidParameterError(f"arm must be 'fr3' or 'panda'; got {arm!r}")
+        robot = panda(hand=hand)
+        return robot if hand else robot.derived(tip="flange")
+    if arm != "fr3":
+        raise InvalidParameterError(f"arm must be 'fr3' or 'panda'; got {arm!r}")
+    robot = menagerie("fr3", tip="attachment_site")
+    if not hand:
+        return robot
+    from ..models.panda import HAND_COM, HAND_INERTIA, HAND_MASS, TCP_D, inertia_matrix
+
+    robot.add_frame("tcp", "attachment_site", _along_z(TCP_D))
+    load = Payload(HAND_MASS, com=HAND_COM, inertia=inertia_matrix(*HAND_INERTIA),
+                   frame="attachment_site")  # fmt: skip
+    return with_payload(robot, load, name="fr3+hand").derived(tip="tcp")
+
+
+def _along_z(d: float) -> FloatArray:
+    T = np.eye(4)
+    T[2, 3] = d
+    return T
 
 
 class _State:
@@ -185,6 +206,7 @@ def run_on_franka(
     *,
     mode: Mode = "velocity",
     arm: str = "fr3",
+    hand: bool = False,
     robot: Robot | None = None,
     duration: float | None = None,
     gain: float = 50.0,
@@ -202,7 +224,8 @@ def run_on_franka(
             (``lambda T0: Circle(T0, 0.05, 4.0, ramp=0.5)``: the robot starts where it is).
         law: a redres scheme (velocity and position modes) or a torque law (torque mode).
         mode: ``"velocity"``, ``"position"`` or ``"torque"``.
-        arm: ``"fr3"`` or ``"panda"`` (:func:`franka_robot`); ``robot`` overrides it.
+        arm: ``"fr3"`` or ``"panda"``, ``hand`` whether the Franka Hand is on
+            (:func:`franka_robot`); ``robot`` overrides both.
         duration: s of motion before the stop (default: the trajectory's).
         gain: the CLIK gain (velocity and position modes), 1/s.
         q0: the dry run's start (default: Franka's ready pose); the robot starts where it is.
@@ -229,7 +252,7 @@ def run_on_franka(
         raise InvalidParameterError(
             "torque mode runs a torque law; velocity and position modes a redres scheme"
         )
-    robot = franka_robot(arm) if robot is None else robot
+    robot = franka_robot(arm, hand=hand) if robot is None else robot
     start = np.array([0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.pi / 4])
     backend: Any = _Model(robot, start if q0 is None else np.asarray(q0, float))
     if address is not None:
@@ -270,6 +293,8 @@ def run_on_franka(
     rate = TORQUE_RATE * (1.0 - MARGIN) * DT
     t, k, stopping, moving = 0.0, 0, False, 0
     bar = analysis.progress_bar(steps, progress, f"franka {mode} {label or law.name}")
+    collecting = gc.isenabled()
+    gc.disable()  # a collection inside a 1 ms cycle can take several: none until the stop
     try:
         while True:
             if k:  # the first cycle's state is the one that started the motion
@@ -316,6 +341,8 @@ def run_on_franka(
         _finish(log, k, moving, robot, frame, success, robot_time, compute, lost, record)
         raise RobotStoppedError(f"the robot stopped the motion at {t:.3f} s: {exc}", log) from exc
     finally:
+        if collecting:
+            gc.enable()
         if bar is not None:
             bar.close()
     _finish(log, k, moving, robot, frame, success, robot_time, compute, lost, record)

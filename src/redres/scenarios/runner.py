@@ -67,6 +67,7 @@ class FrankaTarget:
     address: str | None
     arm: str = "fr3"
     mode: str = "velocity"
+    hand: bool = False
 
 
 def run_scenario(
@@ -90,7 +91,7 @@ def run_scenario(
             torque = s.kind == "osc"
             logs.append(run_on_franka(
                 franka.address, None if torque else spec.task(), spec.trajectory_from, s.build(),
-                mode="torque" if torque else franka.mode, arm=franka.arm,  # type: ignore[arg-type]
+                mode="torque" if torque else franka.mode, arm=franka.arm, hand=franka.hand,  # type: ignore[arg-type]
                 duration=spec.duration, gain=spec.gain, label=s.label, progress=progress,
             ))  # fmt: skip
         return logs
