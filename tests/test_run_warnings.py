@@ -143,3 +143,53 @@ def test_a_simulated_run_records_its_limits_and_warns_too() -> None:
     warning = _kinds(log)["joint_limits"]
     assert warning["value"] == pytest.approx(excess.max(), rel=1e-12)
     assert warning["joint"] == robot.joint_names[int(np.argmax(excess.max(axis=0)))]
+
+
+BALL = """
+name = "ball"
+[robot]
+model = "panda"
+q0 = [-0.811, -1.061, 0.515, -2.269, -0.299, 1.036, 0.521]
+[trajectory]
+type = "circle"
+radius = 0.10
+period = 2.5
+normal = [-0.404, -0.565, -1.433]
+phase = 1.851
+[run]
+duration = 10.0
+[[obstacles]]
+type = "sphere"
+name = "ball"
+center = [0.09, 0.33, 0.40]
+radius = 0.05
+[[schemes]]
+type = "pinv"
+[[schemes]]
+type = "gradient_projection"
+k_null = 1.0
+objectives = [{ type = "obstacles", influence = 0.15 }]
+"""
+
+
+def test_a_run_into_an_obstacle_warns_with_the_obstacle_the_depth_and_the_time(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The built-in joint-limit circle's ball: the minimum-norm run's elbow goes into it,
+    and the table and the JSON say so (obstacle, link, depth, time), as a joint past its
+    limits is; the depth is the logged clearance (an independent distance: Pinocchio's
+    poses of the capsules against the sphere), the run that avoids it has no warning."""
+    scenario = tmp_path / "ball.toml"
+    scenario.write_text(BALL)
+    assert main(["run", str(scenario), "--json", "--out", str(tmp_path / "a")]) == 0
+    runs = json.loads(capsys.readouterr().out)["runs"]
+    into = [w for w in runs[0]["warnings"] if w["kind"] == "collision"]
+    assert len(into) == 1 and into[0]["joint"] == "ball", runs[0]["warnings"]
+    assert into[0]["value"] == pytest.approx(-runs[0]["min_obstacle_clearance_m"], abs=1e-12)
+    assert into[0]["value"] > 0.01 and 0.0 < into[0]["t"] < 10.0
+    assert "mm into obstacle 'ball'" in into[0]["message"]
+    assert runs[1]["min_obstacle_clearance_m"] > 0.0
+    assert not [w for w in runs[1]["warnings"] if w["kind"] == "collision"]
+    assert main(["run", str(scenario), "--quiet", "--out", str(tmp_path / "b")]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if "collision:" in ln]
+    assert len(lines) == 1 and "'ball'" in lines[0]

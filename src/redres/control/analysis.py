@@ -128,4 +128,8 @@ def analyse_run(
         pairs = np.array([obstacle.cost_and_distance(robot, q) for q in log.q]).reshape(-1, 2)
         log.objectives[obstacle.name] = pairs[:, 0]
         log.objectives["obstacle_distance_m"] = pairs[:, 1]
+        if log.steps and pairs[:, 1].min() < 0.0:  # which link went into which obstacle
+            deepest = min(obstacle.proximities(robot, log.q[int(np.argmin(pairs[:, 1]))]),
+                          key=lambda p: p.distance)  # fmt: skip
+            log.extra["deepest_contact"] = {"obstacle": deepest.obstacle, "link": deepest.capsule}
     return s

@@ -22,7 +22,7 @@ NOT_REACHED_M = 5e-3
 #: A joint this far past a limit, rad or m, has left its limits (rounding is not).
 LIMIT_TOL = 1e-9
 
-WarningKind = Literal["joint_limits", "singular", "not_reached"]
+WarningKind = Literal["joint_limits", "collision", "singular", "not_reached"]
 
 
 @dataclass(frozen=True)
@@ -34,6 +34,9 @@ class RunWarning:
       that went furthest, by how much (rad, or m for a prismatic joint), when, and how many
       steps the run spent outside any limit. The limits are those the run recorded
       (``log.q_min``, ``log.q_max``); a log built without them has no such warning.
+    - ``collision``: the arm went into an obstacle (the arm–obstacle clearance, logged when
+      the run has an obstacle objective, fell below zero): which obstacle and link, how
+      deep (m), when, for how many steps and in how many separate events.
     - ``singular``: σ_min of the task Jacobian fell under ``SINGULAR_SIGMA = 1e-3``: its
       smallest value, when, for how many steps and in how many separate events.
     - ``not_reached``: the position error went over ``NOT_REACHED_M = 5e-3`` m: the
@@ -42,12 +45,12 @@ class RunWarning:
     ``str(warning)`` is its message.
 
     Attributes:
-        kind: ``"joint_limits"``, ``"singular"`` or ``"not_reached"``.
+        kind: ``"joint_limits"``, ``"collision"``, ``"singular"`` or ``"not_reached"``.
         message: the line printed by ``redres run`` and ``redres demo``.
-        value: the worst figure: how far past the limit (rad or m), the smallest σ_min, or
-            the largest position error (m).
+        value: the worst figure: how far past the limit (rad or m), how deep into the
+            obstacle (m), the smallest σ_min, or the largest position error (m).
         t: the time of that figure, s.
-        joint: the joint concerned (``joint_limits`` only).
+        joint: the joint concerned (``joint_limits``), or the obstacle (``collision``).
         steps: how many steps it lasted.
     """
 
@@ -94,6 +97,24 @@ def _joint_limits(log: RunLog) -> RunWarning | None:
     )  # fmt: skip
 
 
+def _collision(log: RunLog) -> RunWarning | None:
+    distance = log.objectives.get("obstacle_distance_m")
+    if distance is None or not len(distance) or not distance.min() < 0.0:
+        return None
+    inside = distance < 0.0
+    k = int(np.argmin(distance))
+    contact = log.extra.get("deepest_contact", {})
+    obstacle, link = contact.get("obstacle", "an obstacle"), contact.get("link", "the arm")
+    count, events = int(inside.sum()), _intervals(inside)
+    return RunWarning(
+        "collision",
+        f"collision: link {link!r} went {1e3 * -distance[k]:.1f} mm into obstacle "
+        f"{obstacle!r} at t = {log.t[k]:.3f} s ({count} steps in contact, {events} "
+        f"event{'s' if events > 1 else ''})",
+        float(-distance[k]), float(log.t[k]), str(obstacle), count,
+    )  # fmt: skip
+
+
 def _singular(log: RunLog) -> RunWarning | None:
     singular = log.sigma_min < SINGULAR_SIGMA
     if not singular.any():
@@ -128,7 +149,7 @@ def _not_reached(log: RunLog) -> RunWarning | None:
 def run_warnings(log: RunLog) -> list[RunWarning]:
     """The warnings of ``log`` (module docstring), in a fixed order; use
     :attr:`RunLog.warnings <redres.control.RunLog.warnings>`."""
-    found = (_joint_limits(log), _singular(log), _not_reached(log))
+    found = (_joint_limits(log), _collision(log), _singular(log), _not_reached(log))
     return [w for w in found if w is not None]
 
 
@@ -208,8 +229,9 @@ class RunLog:
     def warnings(self) -> list[RunWarning]:
         """What the run did that its user should know
         (:class:`~redres.control.RunWarning`): a joint past its limits (which, by how much,
-        when), singular configurations, a target not reached (the largest error); empty
-        for a clean run. Each prints as its one-line message."""
+        when), the arm inside an obstacle (which, how deep, when), singular configurations,
+        a target not reached (the largest error); empty for a clean run. Each prints as its
+        one-line message."""
         return run_warnings(self)
 
     def summary(self) -> dict[str, Any]:
