@@ -64,3 +64,22 @@ def test_a_fixed_base_body_keeps_its_placement(
             np.testing.assert_allclose(T[:3, 3], data.xpos[body], rtol=0, atol=1e-12)
             np.testing.assert_allclose(T[:3, :3], data.xmat[body].reshape(3, 3), atol=1e-12)
         np.testing.assert_allclose(robot.fk(q)[:3, 3], data.site_xpos[0], rtol=0, atol=1e-12)
+
+
+def test_a_branching_file_names_its_sites_as_tips(tmp_path: Path) -> None:
+    """Two fingers make the tree branch: the error lists the links and the sites (an MJCF's
+    TCP is usually a site), and a site given as tip is taken."""
+    arm = ARM.format(compiler="", orientation="").replace(
+        '<site name="tip" pos="0.2 0.01 0"/>',
+        '<site name="tip" pos="0.2 0.01 0"/>'
+        '<body name="left" pos="0.25 0.02 0"><joint name="f1" axis="0 1 0" range="0 0.04"/>'
+        '<inertial mass="0.1" pos="0 0 0" diaginertia="1e-4 1e-4 1e-4"/></body>'
+        '<body name="right" pos="0.25 -0.02 0"><joint name="f2" axis="0 1 0" range="0 0.04"/>'
+        '<inertial mass="0.1" pos="0 0 0" diaginertia="1e-4 1e-4 1e-4"/></body>',
+    )
+    path = tmp_path / "hand.xml"
+    path.write_text(arm)
+    with pytest.raises(rr.errors.URDFError, match=r"branches; pass tip= one of its links: .*"
+                       r"left, right; or of its sites: tip"):  # fmt: skip
+        rr.Robot.from_mjcf(path)
+    assert rr.Robot.from_mjcf(path, tip="tip").tip == "tip"

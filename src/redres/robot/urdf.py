@@ -278,11 +278,13 @@ def _default_tip(model: pin.Model, file: str) -> str:
     after its last joint (fixed fingers make the link tree branch while the joint tree
     does not; then, as for any branch, the caller must choose)."""
     bodies = [str(f.name) for f in model.frames if f.type == pin.FrameType.BODY]
+    sites = [str(f.name) for f in model.frames if f.type == pin.FrameType.OP_FRAME]
+    choices = f"one of its links: {', '.join(bodies)}"
+    if sites:  # an MJCF's sites (a TCP, an attachment site) are tips as good as links
+        choices += f"; or of its sites: {', '.join(sites)}"
     leaves = [j for j in range(1, model.njoints) if len(model.children[j]) == 0]
     if len(leaves) != 1:
-        raise URDFError(
-            f"{file}: the kinematic tree branches; pass tip= one of its links: {', '.join(bodies)}"
-        )
+        raise URDFError(f"{file}: the kinematic tree branches; pass tip= {choices}")
     leaf = leaves[0]
     on_leaf = [i for i, f in enumerate(model.frames)
                if f.parentJoint == leaf and f.type == pin.FrameType.BODY]  # fmt: skip
@@ -300,7 +302,7 @@ def _default_tip(model: pin.Model, file: str) -> str:
         names = ", ".join(str(model.frames[i].name) for i in ends)
         raise URDFError(
             f"{file}: the links fixed after joint {model.names[leaf]!r} branch ({names}); "
-            f"pass tip= one of its links: {', '.join(bodies)}"
+            f"pass tip= {choices}"
         )
     return str(model.frames[ends[-1]].name)
 
