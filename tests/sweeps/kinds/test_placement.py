@@ -61,3 +61,17 @@ poses = [{", ".join(lines)}]
     np.testing.assert_allclose(ranked["bases"][0], BEST, atol=1e-9)
     assert ranked["count"][0] == len(lines) and ranked["count"][1] < len(lines)
     assert (np.diff(ranked["count"]) <= 0).all()
+
+
+def test_candidate_positions_lie_on_the_grid_exactly() -> None:
+    """A base at y = 0 is at 0 (``np.arange(-0.3, 0.3, 0.1)`` has 5.55e-17 there): the
+    ranking prints positions a user can read."""
+    from redres.sweeps.kinds.placement import PlacementParams, candidates
+
+    p = PlacementParams(map="m", map_sha256="", poses=(), x=(-0.3, 0.3, 0.1), y=(-0.3, 0.3, 0.1))
+    c = candidates(p)
+    for column in (c[:, 0], c[:, 1]):
+        values = np.unique(column)
+        np.testing.assert_array_equal(values, np.round(np.linspace(-0.3, 0.3, 7), 12))
+        assert 0.0 in values and not np.any((values != 0.0) & (np.abs(values) < 1e-9))
+        assert not np.any(np.signbit(values[values == 0.0]))  # +0.0, not -0.0

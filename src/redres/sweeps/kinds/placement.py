@@ -106,8 +106,9 @@ def _parse(r: Reader, base: Path) -> PlacementParams:
 
 
 def candidates(p: PlacementParams) -> np.ndarray:
-    """The candidate bases ``(x, y, yaw)``, ``(C, 3)``, x slowest, yaw fastest."""
-    axes = [np.arange(lo, hi + 0.5 * step, step) for lo, hi, step in (p.x, p.y)]
+    """The candidate bases ``(x, y, yaw)``, ``(C, 3)``, x slowest, yaw fastest; positions
+    on the grid ``lo + k step``, rounded to 1e-12 m (a base at y = 0 is at 0, not 5.55e-17)."""
+    axes = [np.round(np.arange(lo, hi + 0.5 * step, step), 12) + 0.0 for lo, hi, step in (p.x, p.y)]
     yaw = 2.0 * math.pi * np.arange(p.yaws) / p.yaws
     grid = np.meshgrid(axes[0], axes[1], yaw, indexing="ij")
     return np.column_stack([g.ravel() for g in grid])
