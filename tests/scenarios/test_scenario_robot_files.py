@@ -72,6 +72,13 @@ def test_redres_runs_an_mjcf_scenario(
     direct = load_scenario(mjcf_scenario)
     assert [r["robot"] for r in runs] == [direct.robot.name]
     assert runs[0]["steps"] == round(direct.duration / direct.dt)
+    # An MJCF file has no velocity limits: no ratio to infinity, a dash in the table.
+    assert runs[0]["peak_speed_ratio"] is None
+    assert main(["run", str(mjcf_scenario), "--out", str(tmp_path / "table")]) == 0
+    header, _, row = capsys.readouterr().out.splitlines()[:3]
+    assert "peak qd/qd_max" in header, header
+    start = header.index("peak qd/qd_max")
+    assert row[start : start + len("peak qd/qd_max")].strip() == "-", row
 
 
 @pytest.mark.parametrize(

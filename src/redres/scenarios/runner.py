@@ -12,6 +12,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from ..control import LiveView, RunLog, run
 from ..dynamics.simulate import simulate
 from ..objectives import ObstacleObjective
@@ -26,11 +28,15 @@ __all__ = ["aligned_table", "format_table", "run_scenario", "summarise", "warnin
 
 def summarise(robot: Robot, log: RunLog) -> dict[str, Any]:
     """:meth:`RunLog.summary` of a run of ``robot`` (tables, ``--json``); a log that did not
-    record its joint limits (one built by hand) is measured against ``robot``'s."""
+    record its joint limits (one built by hand) is measured against ``robot``'s. A robot
+    without velocity limits has no ``peak_speed_ratio`` (None: a dash in the tables)."""
     if log.q_min is None or log.q_max is None:
         log = replace(log, joint_names=tuple(robot.joint_names), q_min=robot.q_min.copy(),
                       q_max=robot.q_max.copy())  # fmt: skip
-    return log.summary()
+    out = log.summary()
+    if not np.isfinite(robot.qd_max).any():  # no velocity limit (an MJCF file): no ratio to it
+        out["peak_speed_ratio"] = None
+    return out
 
 
 def warning_lines(summaries: Sequence[dict[str, Any]]) -> list[str]:
@@ -141,6 +147,6 @@ def format_table(summaries: Sequence[dict[str, Any]]) -> str:
             value = s.get(key, "")
             if key in _MM and isinstance(value, float):
                 value = value * 1e3
-            row.append(fmt.format(value) if value != "" else "-")
+            row.append(fmt.format(value) if value not in ("", None) else "-")
         rows.append(row)
     return aligned_table([title for _, title, _ in columns], rows)
