@@ -132,11 +132,15 @@ def test_bad_input_is_refused_by_name() -> None:
         CommandShaper(V, A[:6], J)
     with pytest.raises(rr.errors.InvalidParameterError, match="number of joints"):
         CommandShaper(1.0, 1.0, 1.0)
+    with pytest.raises(rr.errors.ShapeError, match=r"qddd_max must be a number or shape \(7,\)"):
+        CommandShaper(V, A, J.reshape(7, 1))
     shaper = CommandShaper(V, A, J)
     with pytest.raises(rr.errors.ShapeError, match=r"shape \(7,\)"):
         shaper(np.zeros(6))
     with pytest.raises(rr.errors.NonFiniteError, match="finite"):
         shaper(np.full(7, np.nan))
+    with pytest.raises(rr.errors.InvalidParameterError, match="qd"):
+        shaper(np.full(7, 1j))  # complex: refused by name, never made real
     assert np.all(shaper.qd == 0.0)  # a refused command leaves the state
 
 

@@ -284,11 +284,8 @@ class Controller:
             NonFiniteError: ``q`` contains NaN or infinity.
             SimulationError: the scheme returned a non-finite joint velocity.
         """
-        q_next = self._step(q)
-        shaper = self._shaper
-        if shaper is None:
-            return q_next
-        self._shaped = qd = shaper(self.qd_wanted)
+        self._step(q)  # (without a shaper, ``step`` is ``_step``: see __init__)
+        self._shaped = qd = self._shaper(self.qd_wanted)  # type: ignore[misc]
         return np.asarray(q, dtype=_F64) + qd * self._dt  # q: checked by _step
 
     def _step(self, q: Any) -> FloatArray:

@@ -121,7 +121,10 @@ class CommandShaper:
             raise InvalidParameterError("every limit is a number: give the number of joints n")
         rows = []
         for name, value in given.items():
-            row = np.broadcast_to(real_array(value, name, "a number or a vector"), (n,))
+            given_row = real_array(value, name, "a number or a vector")
+            if given_row.ndim > 1:
+                raise ShapeError(f"{name} must be a number or shape ({n},); got {given_row.shape}")
+            row = np.broadcast_to(given_row, (n,))
             if not np.all(row > 0.0):  # NaN fails too
                 raise InvalidParameterError(f"{name} must be positive (inf: none); got {row}")
             rows.append(row)
@@ -143,8 +146,7 @@ class CommandShaper:
         """A shaper to ``robot``'s ``qd_max``, ``qdd_max`` and ``qddd_max``
         (:meth:`redres.Robot.with_limits` sets them; the Panda and FR3 models carry the
         published ones)."""
-        qddd_max = getattr(robot, "qddd_max", np.full(robot.n, np.inf))
-        return cls(robot.qd_max, robot.qdd_max, qddd_max, dt, margin=margin)
+        return cls(robot.qd_max, robot.qdd_max, robot.qddd_max, dt, margin=margin)
 
     def reset(self, qd: Any = None, qdd: Any = None) -> None:
         """Start from the measured joint velocity ``qd`` and acceleration ``qdd`` (default:
@@ -169,7 +171,7 @@ class CommandShaper:
             ShapeError: ``qd`` does not have shape ``(n,)``.
             NonFiniteError: ``qd`` holds NaN or infinity.
         """
-        u = np.asarray(qd, dtype=float)
+        u = real_array(qd, "qd")  # a float64 array passes as it is; complex is refused
         if u.shape != (self.n,):
             raise ShapeError(f"qd must have shape ({self.n},); got {u.shape}")
         if self._kernel is None or (self._pending and KERNELS.ready()):

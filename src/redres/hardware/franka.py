@@ -32,7 +32,6 @@ before a robot.
 from __future__ import annotations
 
 import gc
-import math
 import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Literal
@@ -228,7 +227,8 @@ def run_on_franka(
             (:func:`franka_robot`); ``robot`` overrides both.
         duration: s of motion before the stop (default: the trajectory's).
         gain: the CLIK gain (velocity and position modes), 1/s.
-        q0: the dry run's start (default: Franka's ready pose); the robot starts where it is.
+        q0: the dry run's start, inside the limits (default: the robot's neutral
+            configuration); a robot starts where it is.
         label, progress: as for :func:`redres.run`.
 
     Returns:
@@ -253,8 +253,7 @@ def run_on_franka(
             "torque mode runs a torque law; velocity and position modes a redres scheme"
         )
     robot = franka_robot(arm, hand=hand) if robot is None else robot
-    start = np.array([0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.pi / 4])
-    backend: Any = _Model(robot, start if q0 is None else np.asarray(q0, float))
+    backend: Any = _Model(robot, analysis.start_configuration(robot, q0))
     if address is not None:
         backend = _Libfranka(address)
     first = backend.peek()  # the state before the motion: where the robot is

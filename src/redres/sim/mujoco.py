@@ -24,7 +24,6 @@ are MuJoCo's own kinematics of its state.
 
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -37,6 +36,7 @@ from ..control import Controller, RunLog, analysis
 from ..dynamics import simulate
 from ..errors import InvalidParameterError, MissingDependencyError, SimulationError
 from ..robot import Robot
+from ..robot.chain import log3
 from ..tasks import FrameTask
 
 if TYPE_CHECKING:
@@ -103,6 +103,7 @@ class MujocoPlant:
         if timestep is not None:
             m.opt.timestep = as_scalar(timestep, "timestep", minimum=0.0, strict=True)
         self.frame, self._site = self._frame(frame)
+        self._actuators: np.ndarray | None = None  # the position actuators, on first use
         self.name = f"mujoco:{self.path.stem}"
 
     def _frame(self, frame: str | None) -> tuple[str, bool]:
@@ -303,9 +304,8 @@ class MujocoPlant:
         return out[self._dof]
 
     def _position_actuators(self) -> np.ndarray:
-        cached = self.__dict__.get("_actuators")
-        if cached is not None:
-            return cached  # type: ignore[no-any-return]
+        if self._actuators is not None:
+            return self._actuators
         m = self.model
         by_joint = {int(m.actuator_trnid[a, 0]): a for a in range(m.nu)}
         joints = [self.model.joint(name).id for name in self.joint_names]
@@ -322,20 +322,21 @@ class MujocoPlant:
                 f"{self.path.name}: the actuators are not position servos "
                 "(gain k_p, bias [0, -k_p, -k_v])"
             )
-        self.__dict__["_actuators"] = found
+        self._actuators = found
         return found
 
 
 def _measure(plant: MujocoPlant, log: RunLog, targets: FloatArray) -> None:
     """The log's frame positions and tracking errors from MuJoCo's kinematics of its
     configurations against the target poses ``targets`` (K x 4 x 4)."""
-    for k, q in enumerate(log.q):
-        T = plant.pose(q)
-        Td = targets[k]
-        log.position[k], log.target[k] = T[:3, 3], Td[:3, 3]
-        log.position_error[k] = float(np.linalg.norm(Td[:3, 3] - T[:3, 3]))
-        R = Td[:3, :3] @ T[:3, :3].T  # log(R_d Rᵀ): its angle
-        log.orientation_error[k] = math.acos(max(-1.0, min(1.0, (np.trace(R) - 1.0) / 2.0)))
+    if not log.steps:
+        return
+    poses = np.array([plant.pose(q) for q in log.q])
+    log.position[:], log.target[:] = poses[:, :3, 3], targets[:, :3, 3]
+    log.position_error[:] = np.linalg.norm(log.target - log.position, axis=1)
+    # |log(R_d Rᵀ)|, the frame task's orientation error, by redres' one SO(3) logarithm
+    rotations = targets[:, :3, :3] @ poses[:, :3, :3].transpose(0, 2, 1)
+    log.orientation_error[:] = np.linalg.norm(log3(rotations), axis=1)
 
 
 def run_on_mujoco(
