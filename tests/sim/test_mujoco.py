@@ -193,3 +193,22 @@ def test_a_run_refuses_a_robot_that_is_not_the_plants_arm() -> None:
                            (plant.robot().derived(tip="link7"), "from MuJoCo's")):  # fmt: skip
         with pytest.raises(rr.errors.InvalidParameterError, match=message):
             run_on_mujoco(plant, FrameTask(), None, scheme, robot=robot, duration=0.01)
+
+
+def test_a_payload_in_mujoco_is_the_payload_in_redres(rng: np.random.Generator) -> None:
+    """``add_payload`` sums the load into the body's mass, centre of mass and inertia in
+    MuJoCo's model: its mass matrix and bias forces then equal redres' ``with_payload``
+    robot's (Pinocchio), to 1e-11 of their size."""
+    plant = _plant("panda")
+    robot = plant.robot()
+    load = Payload(1.5, com=(0.01, -0.02, 0.05), inertia=np.diag([0.004, 0.003, 0.002]),
+                   frame=plant.frame)  # fmt: skip
+    plant.add_payload(load)
+    loaded = with_payload(robot, load)
+    for _ in range(5):
+        q, qd = robot.random_configuration(rng), rng.uniform(-1.0, 1.0, robot.n)
+        plant.reset(q, qd)
+        M, b = loaded.mass_matrix(q), loaded.bias(q, qd)
+        np.testing.assert_allclose(plant.mass_matrix(), M, rtol=0, atol=1e-11 * np.abs(M).max())
+        np.testing.assert_allclose(plant.bias(), b, rtol=0, atol=1e-11 * np.abs(b).max())
+    assert np.abs(loaded.mass_matrix(q) - robot.mass_matrix(q)).max() > 1e-3  # it weighs
