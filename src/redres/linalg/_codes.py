@@ -6,25 +6,40 @@ importing numba.
 
 from __future__ import annotations
 
+from enum import IntEnum
+
 #: Default relative rank tolerance: singular values ``<= RCOND * sigma_max`` count as zero
 #: (:data:`redres.linalg.RCOND`; kernels compile it in).
 RCOND = 1e-10
 
-# Status codes returned by the kernels (0 = success); each names one argument.
-OK = 0
-J_NONFINITE = 1
-XD_NONFINITE = 2
-GRAD_NONFINITE = 3
-W_NONFINITE = 4
-W_NOT_SPD = 5
-W_ASYMMETRIC = 6
-XD_SHAPE = 7
-GRAD_SHAPE = 8
-W_SHAPE = 9
-J_EMPTY = 10
-SCALAR_INVALID = 11  # k_null, damping or rcond of the fast lane (rate_step says which)
-XD_TOO_LARGE = 12
-# 13 to 15: free
+
+class Status(IntEnum):
+    """What a kernel of :mod:`redres.linalg` returns (also the chain, batch and fused-step
+    kernels, whose codes follow from ``Q_NONFINITE``): 0 = success, else the input it
+    refused, named in the error :func:`redres.linalg._status.raise_status` raises."""
+
+    OK = 0
+    J_NONFINITE = 1
+    XD_NONFINITE = 2
+    GRAD_NONFINITE = 3
+    W_NONFINITE = 4
+    W_NOT_SPD = 5
+    W_ASYMMETRIC = 6
+    XD_SHAPE = 7
+    GRAD_SHAPE = 8
+    W_SHAPE = 9
+    J_EMPTY = 10
+    SCALAR_INVALID = 11  # k_null, damping or rcond of the fast lane (rate_step says which)
+    XD_TOO_LARGE = 12
+    Q_NONFINITE = 16
+    Q_SHAPE = 17
+    POSE_NONFINITE = 18
+
+
+#: The same values as plain ints, which the kernels compile in.
+(OK, J_NONFINITE, XD_NONFINITE, GRAD_NONFINITE, W_NONFINITE, W_NOT_SPD, W_ASYMMETRIC,
+ XD_SHAPE, GRAD_SHAPE, W_SHAPE, J_EMPTY, SCALAR_INVALID, XD_TOO_LARGE, Q_NONFINITE, Q_SHAPE,
+ POSE_NONFINITE) = (int(code) for code in Status)  # fmt: skip
 
 #: Bound on the entries of a task velocity ``xd`` (a ``RedresError`` beyond): far above any
 #: physical rate, and low enough that ``J# xd`` cannot overflow for any Jacobian the kernels
@@ -48,11 +63,6 @@ LAZY = 4
 NO_WEIGHTS = 0
 DIAGONAL = 1
 FULL = 2
-
-# Codes of the fused CLIK step (redres.control._kernels), after the rate-step codes.
-Q_NONFINITE = 16
-Q_SHAPE = 17
-POSE_NONFINITE = 18
 
 # Layout of the ``config`` vector of ``redres.control._kernels`` (n joints, m task rows, k
 # chain joints): target rotation (row-major), target position, feedforward twist, per-row

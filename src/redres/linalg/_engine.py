@@ -21,7 +21,17 @@ Within the sizes of :func:`~redres.linalg._backend.use_fast_path` the compiled k
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple, TypedDict
+from collections.abc import Callable
+from typing import (
+    TYPE_CHECKING,
+    Any,
+    Literal,
+    NamedTuple,
+    Protocol,
+    TypedDict,
+    cast,
+    overload,
+)
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -32,6 +42,10 @@ from . import _codes as codes
 from ._backend import FloatArray, parse_damping, use_fast_path
 from ._info import AdaptiveDamping, InverseInfo
 from ._status import check_sigma, raise_status
+
+if TYPE_CHECKING:
+    from typing import Unpack  # Python 3.11; only read by type checkers
+
 from ._weights import (
     EMPTY_1D,
     EMPTY_2D,
@@ -74,6 +88,60 @@ class InverseOptions(DampedOptions, total=False):
 
 
 Result = FloatArray | WithInfo
+
+
+class OfJ(Protocol):
+    """The type of ``f(J, *, rcond=..., return_info=...)``: the matrix, or with
+    ``return_info=True`` the matrix and its diagnostics."""
+
+    @overload
+    def __call__(
+        self, J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
+    ) -> FloatArray: ...
+    @overload
+    def __call__(
+        self, J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]
+    ) -> WithInfo: ...
+
+
+class OfJM(Protocol):
+    """The type of ``f(J, M, *, damping=..., rcond=..., return_info=...)`` (a weight or
+    inertia ``M``), as :class:`OfJ`."""
+
+    @overload
+    def __call__(
+        self,
+        J: ArrayLike,
+        M: ArrayLike,
+        /,
+        *,
+        return_info: Literal[False] = ...,
+        **kw: Unpack[DampedOptions],
+    ) -> FloatArray: ...
+    @overload
+    def __call__(
+        self,
+        J: ArrayLike,
+        M: ArrayLike,
+        /,
+        *,
+        return_info: Literal[True],
+        **kw: Unpack[DampedOptions],
+    ) -> WithInfo: ...
+
+
+def of_j(function: Callable[..., Result]) -> OfJ:
+    """Decorator: type a matrix function of ``J`` as :class:`OfJ` (its ``return_info``
+    overloads, written once for every function of that signature); returns it unchanged."""
+    return cast(OfJ, function)
+
+
+def of_jm(function: Callable[..., Result]) -> OfJM:
+    """Decorator: type a matrix function of ``J`` and ``M`` as :class:`OfJM` (as
+    :func:`of_j`)."""
+    return cast(OfJM, function)
+
+
 Parts = tuple[FloatArray, "Stats", str]
 """``(matrix, stats, method)`` before packaging."""
 

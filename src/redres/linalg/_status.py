@@ -12,12 +12,12 @@ from .._validate import FloatArray
 from ..errors import InvalidParameterError, NonFiniteError, NotPositiveDefiniteError
 from . import _codes as codes
 
-_NONFINITE = {
-    codes.Q_NONFINITE: "q",
-    codes.J_NONFINITE: "J",
-    codes.XD_NONFINITE: "xd",
-    codes.GRAD_NONFINITE: "grad",
-    codes.W_NONFINITE: "W",
+_NONFINITE: dict[int, str] = {
+    codes.Status.Q_NONFINITE: "q",
+    codes.Status.J_NONFINITE: "J",
+    codes.Status.XD_NONFINITE: "xd",
+    codes.Status.GRAD_NONFINITE: "grad",
+    codes.Status.W_NONFINITE: "W",
 }
 
 
@@ -39,7 +39,9 @@ def raise_status(status: int, names: dict[str, str]) -> None:
             f"{w} must be symmetric positive definite; it is not symmetric "
             "(use (W + W.T) / 2 if the asymmetry is rounding)"
         )
-    raise RuntimeError(f"unexpected kernel status {status}")  # pragma: no cover
+    known = status in codes.Status._value2member_map_
+    name = codes.Status(status).name if known else "not a status"
+    raise RuntimeError(f"unexpected kernel status {status} ({name})")
 
 
 def too_large(name: str) -> InvalidParameterError:

@@ -20,7 +20,7 @@ and ``J_bar_lambda = M^-1 J^T Lambda_lambda``; with no damping, singular values 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Literal, overload
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -32,11 +32,11 @@ from . import _codes as codes
 from . import _engine as eng
 from . import _weights as wt
 from ._backend import FloatArray
-from ._engine import DampedOptions, Result, WithInfo
+from ._engine import Result
 from ._info import RCOND, AdaptiveDamping
 
 if TYPE_CHECKING:
-    from typing import Unpack  # Python 3.11; only read by type checkers
+    pass  # Python 3.11; only read by type checkers
 
 __all__ = [
     "dynamically_consistent_pinv",
@@ -123,14 +123,7 @@ def _decompose_svd(
     return Lam, np.asarray(J_bar), A, stats, _method(mode)
 
 
-@overload
-def task_space_inertia(
-    J: ArrayLike, M: ArrayLike, *, return_info: Literal[False] = ..., **kw: Unpack[DampedOptions]
-) -> FloatArray: ...
-@overload
-def task_space_inertia(
-    J: ArrayLike, M: ArrayLike, *, return_info: Literal[True], **kw: Unpack[DampedOptions]
-) -> WithInfo: ...
+@eng.of_jm
 def task_space_inertia(
     J: ArrayLike,
     M: ArrayLike,
@@ -156,14 +149,7 @@ def task_space_inertia(
     return eng.finish((Lam, stats, method), A.shape, return_info)
 
 
-@overload
-def dynamically_consistent_pinv(
-    J: ArrayLike, M: ArrayLike, *, return_info: Literal[False] = ..., **kw: Unpack[DampedOptions]
-) -> FloatArray: ...
-@overload
-def dynamically_consistent_pinv(
-    J: ArrayLike, M: ArrayLike, *, return_info: Literal[True], **kw: Unpack[DampedOptions]
-) -> WithInfo: ...
+@eng.of_jm
 def dynamically_consistent_pinv(
     J: ArrayLike,
     M: ArrayLike,

@@ -22,7 +22,7 @@ from ..errors import ShapeError
 from . import _backend as be
 from . import _engine as eng
 from ._backend import FloatArray
-from ._engine import DampedOptions, InverseOptions, Result, WithInfo
+from ._engine import InverseOptions, Result, WithInfo
 from ._info import RCOND, AdaptiveDamping
 
 if TYPE_CHECKING:
@@ -70,12 +70,7 @@ def pinv(J: ArrayLike, rcond: float = RCOND, *, return_info: bool = False) -> Re
     return eng.finish((filt.pinv(), filt.stats, "pinv"), A.shape, return_info)
 
 
-@overload
-def right_pinv(
-    J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
-) -> FloatArray: ...
-@overload
-def right_pinv(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
+@eng.of_j
 def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
     """Right pseudo-inverse ``J^T (J J^T)^-1`` of a wide Jacobian (``m <= n``).
 
@@ -105,12 +100,7 @@ def right_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False)
     return eng.finish(parts, A.shape, return_info)
 
 
-@overload
-def left_pinv(
-    J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
-) -> FloatArray: ...
-@overload
-def left_pinv(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
+@eng.of_j
 def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
     """Left pseudo-inverse ``(J^T J)^-1 J^T`` of a tall Jacobian (``m >= n``).
 
@@ -138,12 +128,7 @@ def left_pinv(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) 
     return eng.finish(_left(A, eng.as_rcond(rcond)), A.shape, return_info)
 
 
-@overload
-def square_inverse(
-    J: ArrayLike, *, rcond: float = ..., return_info: Literal[False] = ...
-) -> FloatArray: ...
-@overload
-def square_inverse(J: ArrayLike, *, rcond: float = ..., return_info: Literal[True]) -> WithInfo: ...
+@eng.of_j
 def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = False) -> Result:
     """Inverse ``J^-1`` of a square Jacobian (Siciliano et al. 2009, §3.5); a singular
     ``J`` gives the truncated SVD pseudo-inverse (module docstring).
@@ -166,14 +151,7 @@ def square_inverse(J: ArrayLike, *, rcond: float = RCOND, return_info: bool = Fa
     return eng.finish(parts, A.shape, return_info)
 
 
-@overload
-def weighted_pinv(
-    J: ArrayLike, W: ArrayLike, *, return_info: Literal[False] = ..., **kw: Unpack[DampedOptions]
-) -> FloatArray: ...
-@overload
-def weighted_pinv(
-    J: ArrayLike, W: ArrayLike, *, return_info: Literal[True], **kw: Unpack[DampedOptions]
-) -> WithInfo: ...
+@eng.of_jm
 def weighted_pinv(
     J: ArrayLike,
     W: ArrayLike,
