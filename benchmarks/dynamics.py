@@ -5,9 +5,11 @@ Run from the repository root::
     python benchmarks/dynamics.py [--rounds 21] [--calls 500]
 
 Times ``OperationalSpaceController.step`` (6-D task at the TCP, posture objective in the
-null space) with each projector, the acceleration-level controller, and the pieces one
-step is made of (the Robot calls into Pinocchio, the inverse, the bare-array torque law),
-plus one semi-implicit Euler step of the simulator (ABA). Cases are interleaved in
+null space) with each projector — the dynamic one compiled (one kernel call,
+:mod:`redres.dynamics.chain`) and on its Pinocchio path —, the acceleration-level
+controller, and the pieces one step is made of (the Robot calls into Pinocchio, the
+compiled terms, the inverse, the bare-array torque law), plus one semi-implicit Euler step
+of the simulator (ABA). Cases are interleaved in
 shuffled order in every round; the table reports the median over rounds of the mean time
 per call, so that drifts of the machine load affect all cases alike.
 """
@@ -36,6 +38,7 @@ from redres.dynamics import (
     OperationalSpaceController,
     operational_space_torque,
 )
+from redres.dynamics.chain import ChainDynamics
 from redres.linalg import dynamically_consistent_pinv, generalized_inverse
 from redres.objectives import PostureObjective
 
@@ -50,6 +53,9 @@ def cases() -> dict[str, Callable[[], object]]:
     target = robot.fk(q_ref)
     laws = {
         "osc step (dynamic)": OperationalSpaceController(objectives=[PostureObjective(q_ref)]),
+        "osc step (dynamic, Pinocchio path)": OperationalSpaceController(
+            objectives=[PostureObjective(q_ref)]
+        ),
         "osc step (kinematic)": OperationalSpaceController(
             objectives=[PostureObjective(q_ref)], projector="kinematic"
         ),
@@ -58,6 +64,8 @@ def cases() -> dict[str, Callable[[], object]]:
     for law in laws.values():
         law.task.set_target(target)
         law.reset()
+    laws["osc step (dynamic, Pinocchio path)"]._compiled = (robot, None)  # type: ignore[attr-defined]
+    chain = ChainDynamics(robot)
     J, M, b = robot.jacobian(q), robot.mass_matrix(q), robot.bias(q, qd)
     a, tau0 = rng.normal(size=6), rng.normal(size=robot.n)
     zero = np.zeros(robot.n)
@@ -70,6 +78,7 @@ def cases() -> dict[str, Callable[[], object]]:
             "  robot.jacobian_dot": lambda: robot.jacobian_dot(q, qd),
             "  robot.mass_matrix": lambda: robot.mass_matrix(q),
             "  robot.bias": lambda: robot.bias(q, qd),
+            "  ChainDynamics.terms (all five, compiled)": lambda: chain.terms(q, qd),
             "  J_bar (generalized_inverse, W=M)": lambda: generalized_inverse(
                 J, weights=M, return_info=True
             ),
@@ -105,7 +114,8 @@ def main() -> None:
             samples[name].append((time.perf_counter_ns() - t0) / args.calls / 1e3)
     print(
         f"# {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
-        f"numpy {np.__version__}; {args.rounds} rounds x {args.calls} calls"
+        f"numpy {np.__version__}; {args.rounds} rounds x {args.calls} calls; load average "
+        f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}"
     )
     print(f"{'case':40s} {'median us':>10s} {'min us':>8s}")
     for name in timed:

@@ -235,7 +235,12 @@ def check(root: Path, layers: dict[str, int], internal: set[str]) -> dict[str, l
     edges = [e for e in all_edges if e.imported in modules]
     units = {unit_of(m) for m in modules}
     kernel = {m for m, p in modules.items() if p.name.endswith("_kernels.py")}
-    constants = {m for m, p in modules.items() if p.name in ("_codes.py", "_layout.py")}
+    constants = {  # the compiler's constant modules: _codes.py, _*_codes.py, _layout.py
+        m
+        for m, p in modules.items()
+        if p.name in ("_codes.py", "_layout.py")
+        or (p.name.startswith("_") and p.name.endswith("_codes.py"))
+    }
     found: dict[str, list[str]] = {kind: [] for kind in KINDS}
     found["table"] = [f"unit {u} is missing from the layer table" for u in units - set(layers)]
     found["table"] += [f"unit {u} of the layer table does not exist" for u in set(layers) - units]

@@ -105,6 +105,14 @@ def _shaping() -> None:
     CommandShaper(1.0, 10.0, 5000.0, n=2)(np.ones(2))
 
 
+def _dynamics() -> None:
+    from .dynamics import OperationalSpaceController
+    from .models import panda
+
+    robot = panda()
+    OperationalSpaceController().step(robot, robot.neutral(), np.zeros(robot.n))
+
+
 def _f(ndim: int, dtype: type = float) -> np.ndarray:
     """An array of ``ndim`` dimensions: its type is what a precompiled kernel takes."""
     return np.zeros((1,) * ndim, dtype=dtype)
@@ -157,6 +165,7 @@ WORKLOADS: dict[str, Callable[[], None]] = {
     "chain": _chain,
     "controller": _controller,
     "shaping": _shaping,
+    "dynamics": _dynamics,
     "hard limits": _hard_limits,
     "ik": _ik,
     "batch": _batch,
@@ -165,7 +174,7 @@ WORKLOADS: dict[str, Callable[[], None]] = {
 
 def groups() -> dict[str, _compile.KernelGroup]:
     """Every kernel group, by name (importing their owners declares them)."""
-    from . import batch, control, ik, linalg  # noqa: F401
+    from . import batch, control, dynamics, ik, linalg  # noqa: F401
     from .resolution import hard_limits  # noqa: F401
     from .robot import chain, derivatives  # noqa: F401
 

@@ -11,19 +11,19 @@ the kernels' entry points and turns their status codes into errors.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .. import _compile
-from .._validate import FloatArray, as_vector
+from .._validate import FloatArray
 from ..errors import NonFiniteError, ShapeError
 from ..linalg import _backend as be
 from ..linalg import _codes as codes
 from ..linalg._status import raise_status
-from ..objectives import Objective
+from ..objectives import quadratic_coefficients
 from ..resolution import GradientProjectionScheme, Inverse, PseudoInverseScheme, Scheme
 from ..tasks import FrameTask, Task
 
@@ -157,30 +157,6 @@ def fused_config(
         config[codes.CFG_HAS_GRAD] = 1.0
         config[v : v + n], config[v + n : v + 2 * n] = fused.quadratic
     return config
-
-
-def quadratic_coefficients(
-    robot: Robot, objectives: Sequence[tuple[Objective, float]]
-) -> tuple[FloatArray, FloatArray] | None:
-    """``(a, r)`` with ``Σ wᵢ ∇Dᵢ(q) = a ∘ (q − r)`` for weighted diagonal quadratic costs
-    ``∇Dᵢ = aᵢ ∘ (q − rᵢ)``: ``a = Σ wᵢ aᵢ``, ``r = Σ wᵢ aᵢ rᵢ / a`` (0 where ``a = 0``;
-    one cost's ``rᵢ`` as it is). None if a cost has no quadratic form (or there are none).
-    """
-    if not objectives:
-        return None
-    forms = []
-    for obj, weight in objectives:
-        form = obj.quadratic_form(robot)
-        if form is None:
-            return None
-        ai, ri = (as_vector(x, f"quadratic form of {obj.name}", robot.n) for x in form)
-        forms.append((weight * ai, ri))
-    if len(forms) == 1:
-        return forms[0]
-    a = np.sum([ai for ai, _ in forms], axis=0)
-    ar = np.sum([ai * ri for ai, ri in forms], axis=0)
-    r = np.divide(ar, a, out=np.zeros(robot.n), where=a != 0.0)
-    return a, r
 
 
 def native(name: str) -> Callable[..., Any] | None:

@@ -76,13 +76,32 @@ class TaskServo:
         self.task.set_target(sample.pose, self._twist, validate=False)
         self._has_target = True
 
+    @property
+    def has_target(self) -> bool:
+        """Whether the task has a target (else :meth:`evaluate` holds the current pose)."""
+        return self._has_target
+
+    def hold(self, pose: FloatArray) -> None:
+        """Hold ``pose`` (4x4) with zero feed-forward (the target when none was given)."""
+        self.task.set_target(pose, np.zeros(6), validate=False)
+        self._has_target = True
+
+    @property
+    def twist(self) -> FloatArray:
+        """The reference twist ``ẋ_d`` (6,) (the array itself: do not modify)."""
+        return self._twist
+
+    @property
+    def acceleration(self) -> FloatArray:
+        """The reference acceleration ``ẍ_d`` (6,) (the array itself: do not modify)."""
+        return self._accel
+
     def evaluate(self, robot: Robot, q: FloatArray, qd: FloatArray) -> ServoState:
         """Error, Jacobian and the commanded ``ẍ* − J̇ q̇`` at ``(q, q̇)``."""
         frame, rows = self.task.frame, self._sel
         T, J6 = robot.kinematics(q, frame)
         if not self._has_target:
-            self.task.set_target(T, np.zeros(6), validate=False)
-            self._has_target = True
+            self.hold(T)
         e6 = self.task.full_error(T)
         jdot_qd = robot.jacobian_dot(q, qd, frame)[rows] @ qd
         J = J6[rows]

@@ -52,15 +52,22 @@ from numpy.typing import ArrayLike
 from .._validate import FloatArray, as_matrix, as_vector
 from ..errors import InvalidParameterError, NotPositiveDefiniteError
 from ..linalg import RCOND, AdaptiveDamping, InverseInfo, generalized_inverse
+from ..linalg._backend import parse_damping
+from ..linalg._engine import method_label
+from ..linalg._status import raise_status
 from ..linalg.dynamics import mass_matrix_factor
-from ..objectives import PostureObjective
+from ..objectives import PostureObjective, quadratic_coefficients
 from ..resolution.gradient_projection import WeightedObjective
 from ..tasks import FrameTask
+from ._codes import OUT_EXTRA, OUT_POSE, OUT_STATS, OUT_TARGET
 from ._servo import ServoLaw, ServoState
 from .base import ControlStep
+from .chain import KERNELS as CHAIN_KERNELS
+from .chain import ChainDynamics, chain_dynamics
 
 if TYPE_CHECKING:
     from .._toml import ScenarioParams
+    from ..control import Sample
     from ..robot import Robot
 
 Projector = Literal["dynamic", "kinematic"]
@@ -252,6 +259,7 @@ class OperationalSpaceController(ServoLaw):
         self.compensation = check_choice(compensation, "compensation", _COMPENSATIONS)
         super().__init__(task, kp, kd, objectives, null_kp, null_kd, damping, rcond)
         self.name = name or f"osc_{projector}"
+        self._compiled: tuple[Robot, _CompiledStep | None] | None = None
 
     @classmethod
     def from_scenario(cls, params: ScenarioParams) -> OperationalSpaceController:
@@ -281,6 +289,24 @@ class OperationalSpaceController(ServoLaw):
             tau0 = tau0 + as_vector(self.null_torque(robot, q, qd), "null_torque()", robot.n)
         return tau0
 
+    def step(
+        self, robot: Robot, q: FloatArray, qd: FloatArray, sample: Sample | None = None
+    ) -> ControlStep:
+        """Torques for state ``(q, q̇)`` tracking ``sample`` (``None``: hold the target).
+
+        On a robot whose joints form one serial chain to the task frame, with the dynamic
+        projector, joint-space compensation, no ``null_torque`` and quadratic objectives
+        (posture, joint limits), the step is one compiled call
+        (:mod:`redres.dynamics.chain`); otherwise, and while that compiles behind,
+        Pinocchio's algorithms and NumPy compute the same torque."""
+        if self._compiled is None or self._compiled[0] is not robot:
+            self._compiled = (robot, _CompiledStep.build(self, robot))
+        compiled = self._compiled[1]
+        if compiled is None or not compiled.ready():
+            return super().step(robot, q, qd, sample)
+        self.servo.update(sample)
+        return compiled.step(self, q, qd)
+
     def _step(
         self, robot: Robot, q: FloatArray, qd: FloatArray, s: ServoState, M: FloatArray
     ) -> ControlStep:
@@ -299,3 +325,82 @@ class OperationalSpaceController(ServoLaw):
         return ControlStep(
             out.tau, out.info, s.error, s.pose, self.task.target, out.null, {"tau0": tau0}
         )
+
+
+class _CompiledStep:
+    """The arrays of :func:`redres.dynamics._kernels.osc_step` for one controller and robot
+    (built when the law allows it, :meth:`OperationalSpaceController.step`)."""
+
+    def __init__(self, law: OperationalSpaceController, dynamics: ChainDynamics) -> None:
+        n, rows = dynamics.n, law.servo.rows
+        self.dynamics = dynamics
+        self.rows = np.array(rows, dtype=np.int64)
+        self.gains = np.array([law.servo.gains.kp, law.servo.gains.kd])
+        mode, lam, lam_max, eps = parse_damping(law.damping)
+        self.settings = np.array([law.null_law.kp, law.null_law.kd, 0.0, mode, lam, lam_max, eps,
+                                  law.rcond])  # fmt: skip
+        self.quad = np.zeros((2, n))
+        self.method = method_label(mode, True, "")
+        self.feed = np.zeros(12)
+        self.J = np.empty((6, n))
+        self.out = np.empty(4 * n + OUT_EXTRA)
+        self.q, self.qd = np.zeros(n), np.zeros(n)
+        self._target = law.task.target_block
+        self.args = self._arguments()
+        self._entry: Any = None
+
+    @classmethod
+    def build(cls, law: OperationalSpaceController, robot: Robot) -> _CompiledStep | None:
+        """The compiled step of ``law`` on ``robot``, or None where it does not apply."""
+        if law.projector != "dynamic" or law.compensation != "joint" or law.null_torque:
+            return None
+        dynamics = chain_dynamics(robot, law.task.frame)
+        if dynamics is None:
+            return None
+        quadratic = quadratic_coefficients(robot, law.null_law.objectives)
+        if law.null_law.objectives and quadratic is None:
+            return None
+        step = cls(law, dynamics)
+        if quadratic is not None:
+            step.quad[:] = quadratic
+            step.settings[2] = 1.0
+        return step
+
+    def _arguments(self) -> tuple[Any, ...]:
+        d = self.dynamics
+        return (*d.arrays, d.damping, self.q, self.qd, self._target, self.feed, self.gains,
+                self.rows, self.quad, self.settings, self.J, self.out)  # fmt: skip
+
+    def ready(self) -> bool:
+        """Whether the kernel runs compiled (it compiles behind until then)."""
+        if self._entry is None and CHAIN_KERNELS.ready():
+            self._entry = CHAIN_KERNELS.entry("osc_step", self.args)
+        return self._entry is not None
+
+    def step(self, law: OperationalSpaceController, q: Any, qd: Any) -> ControlStep:
+        """The torque at ``(q, q̇)`` with the servo's reference."""
+        n = self.dynamics.n
+        shape = self.q.shape
+        if not (type(q) is type(qd) is np.ndarray and q.dtype == qd.dtype == np.float64
+                and q.shape == qd.shape == shape):  # fmt: skip
+            q, qd = as_vector(q, "q", n), as_vector(qd, "qd", n)
+        self.q[:], self.qd[:] = q, qd  # their finiteness: the kernel's check
+        servo, task = law.servo, law.task
+        if not servo.has_target:
+            servo.hold(self.dynamics.pose(as_vector(q, "q", n)))
+        if task.target_block is not self._target:  # the task was given another block
+            self._target = task.target_block
+            self.args = self._arguments()
+        self.feed[:6], self.feed[6:] = servo.twist, servo.acceleration
+        status = self._entry(*self.args)
+        if status:
+            as_vector(q, "q", n), as_vector(qd, "qd", n)  # names the non-finite one
+            raise_status(status, {"J": "the task Jacobian", "W": "M"})
+        out = self.out.copy()
+        b = 4 * n
+        rank, smin, smax, used = out[b + OUT_STATS : b + OUT_EXTRA].tolist()
+        info = InverseInfo(int(rank), rank == min(len(self.rows), n), smin, smax, used, self.method)
+        return ControlStep(out[:n], info, out[b : b + OUT_POSE],
+                           out[b + OUT_POSE : b + OUT_TARGET].reshape(4, 4),
+                           out[b + OUT_TARGET : b + OUT_STATS].reshape(4, 4), out[2 * n : 3 * n],
+                           {"tau0": out[3 * n : b]})  # fmt: skip

@@ -1,6 +1,6 @@
 """Secondary objectives: costs D(q) with analytic gradients (docs/conventions.md)."""
 
-from .base import Objective
+from .base import Objective, quadratic_coefficients
 from .joint_limits import JointLimitObjective
 from .manipulability import ManipulabilityObjective
 from .obstacles import (
@@ -26,4 +26,5 @@ __all__ = [
     "Proximity",
     "SphereObstacle",
     "proximities",
+    "quadratic_coefficients",
 ]

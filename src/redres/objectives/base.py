@@ -7,9 +7,12 @@ maximise is wrapped as a cost.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from .._validate import FloatArray
+import numpy as np
+
+from .._validate import FloatArray, as_vector
 
 if TYPE_CHECKING:
     from ..robot import Robot
@@ -45,3 +48,27 @@ class Objective(ABC):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r})"
+
+
+def quadratic_coefficients(
+    robot: Robot, objectives: Sequence[tuple[Objective, float]]
+) -> tuple[FloatArray, FloatArray] | None:
+    """``(a, r)`` with ``Σ wᵢ ∇Dᵢ(q) = a ∘ (q − r)`` for weighted diagonal quadratic costs
+    ``∇Dᵢ = aᵢ ∘ (q − rᵢ)``: ``a = Σ wᵢ aᵢ``, ``r = Σ wᵢ aᵢ rᵢ / a`` (0 where ``a = 0``;
+    one cost's ``rᵢ`` as it is). None if a cost has no quadratic form (or there are none).
+    """
+    if not objectives:
+        return None
+    forms = []
+    for obj, weight in objectives:
+        form = obj.quadratic_form(robot)
+        if form is None:
+            return None
+        ai, ri = (as_vector(x, f"quadratic form of {obj.name}", robot.n) for x in form)
+        forms.append((weight * ai, ri))
+    if len(forms) == 1:
+        return forms[0]
+    a = np.sum([ai for ai, _ in forms], axis=0)
+    ar = np.sum([ai * ri for ai, ri in forms], axis=0)
+    r = np.divide(ar, a, out=np.zeros(robot.n), where=a != 0.0)
+    return a, r

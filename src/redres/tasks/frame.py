@@ -123,6 +123,12 @@ class FrameTask(Task):
         return T
 
     @property
+    def target_block(self) -> FloatArray:
+        """The target as the compiled kernels read it: 18 floats, the rotation row-major,
+        the position, the twist (the array itself, written in place by :meth:`set_target`)."""
+        return self._target
+
+    @property
     def twist(self) -> FloatArray:
         """The desired twist ``[v; ω]`` of the target (a copy; zeros by default)."""
         return np.array(self._twist, dtype=float)

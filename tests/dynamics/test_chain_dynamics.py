@@ -1,0 +1,159 @@
+"""The compiled dynamics of a serial chain against Pinocchio (the oracle), and the compiled
+operational-space step against the controller's Pinocchio path, on every built-in arm, the
+URDF fixture, DH chains with prismatic joints and armature, and payloads."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import redres as rr
+from redres.dynamics import OperationalSpaceController, with_payload
+from redres.dynamics.chain import ChainDynamics, chain_dynamics
+from redres.errors import NonFiniteError, ShapeError
+from redres.linalg import AdaptiveDamping
+from redres.objectives import JointLimitObjective, ManipulabilityObjective, PostureObjective
+from redres.robot.chain import NotSerialChainError
+from redres.tasks import FrameTask, PositionTask
+
+
+def _states(robot: rr.Robot, rng: np.random.Generator, count: int):
+    lo = np.where(np.isfinite(robot.q_min), robot.q_min, -np.pi)
+    hi = np.where(np.isfinite(robot.q_max), robot.q_max, np.pi)
+    for _ in range(count):
+        yield rng.uniform(lo, hi), rng.uniform(-3.0, 3.0, robot.n)
+
+
+def _check_terms(robot: rr.Robot, rng: np.random.Generator, count: int) -> None:
+    dyn = ChainDynamics(robot)
+    worst = dict.fromkeys(("pose", "jacobian", "jdot_qd", "mass_matrix", "bias"), 0.0)
+    for q, qd in _states(robot, rng, count):
+        got = dyn.terms(q, qd)
+        M = robot.mass_matrix(q)
+        want = {
+            "pose": robot.fk(q),
+            "jacobian": robot.jacobian(q),
+            "jdot_qd": robot.jacobian_dot(q, qd) @ qd,
+            "mass_matrix": M,
+            "bias": robot.bias(q, qd),
+        }
+        for name, value in want.items():
+            scale = max(1.0, float(np.abs(value).max()))
+            worst[name] = max(worst[name], float(np.abs(getattr(got, name) - value).max()) / scale)
+    assert max(worst.values()) < 1e-12, worst
+
+
+@pytest.mark.parametrize("name", ["panda", "iiwa14", "srs7", "planar3"])
+def test_builtin_arms_equal_pinocchio_on_10000_states(name: str) -> None:
+    robot = rr.models.load(name)
+    _check_terms(robot, np.random.default_rng(7), 10_000 if name in ("panda", "iiwa14") else 2_000)
+
+
+def test_urdf_fixture_and_a_payload_equal_pinocchio(fixtures_dir: Path) -> None:
+    robot = rr.Robot.from_urdf(fixtures_dir / "panda_description.urdf", tip="panda_hand_tcp")
+    _check_terms(robot, np.random.default_rng(1), 500)
+    load = rr.dynamics.Payload(1.3, com=(0.02, -0.01, 0.07), inertia=np.diag([0.004, 0.005, 0.003]))
+    _check_terms(with_payload(rr.models.panda(), load), np.random.default_rng(2), 500)
+
+
+def test_prismatic_joints_and_armature_equal_pinocchio() -> None:
+    rng = np.random.default_rng(3)
+    links = []
+    for kind in ["revolute", "prismatic", "revolute", "revolute", "prismatic", "revolute"]:
+        A = rng.standard_normal((3, 3))
+        links.append({
+            "a": rng.uniform(-0.4, 0.4), "alpha": rng.uniform(-np.pi, np.pi),
+            "d": rng.uniform(-0.4, 0.4), "theta": rng.uniform(-np.pi, np.pi), "joint": kind,
+            "q_min": -0.5, "q_max": 0.5, "mass": rng.uniform(0.5, 3.0),
+            "com": rng.uniform(-0.1, 0.1, 3), "inertia": A @ A.T * 0.01 + 0.01 * np.eye(3),
+            "armature": rng.uniform(0.0, 0.3),
+        })  # fmt: skip
+    robot = rr.Robot.from_dh(links, "modified", base=np.eye(4))
+    assert robot.model.armature.max() > 0.0
+    _check_terms(robot, rng, 1_000)
+
+
+def test_a_chain_that_misses_joints_is_refused() -> None:
+    robot = rr.Robot.from_urdf(
+        Path(__file__).parents[1] / "fixtures" / "panda_description.urdf", tip="panda_hand_tcp"
+    )
+    with pytest.raises(NotSerialChainError, match="holds 4 of the model's 7 joints"):
+        ChainDynamics(robot, "panda_link4")
+    assert chain_dynamics(robot, "panda_link4") is None
+
+
+def test_terms_refuse_bad_input() -> None:
+    dyn = ChainDynamics(rr.models.panda())
+    with pytest.raises(ShapeError, match="q must have shape"):
+        dyn.terms(np.zeros(6), np.zeros(7))
+    with pytest.raises(NonFiniteError, match="qd contains NaN"):
+        dyn.terms(np.zeros(7), np.full(7, np.nan))
+
+
+LAWS = {
+    "posture, exact": dict(objectives=[(PostureObjective(), 1.0)]),
+    "two costs, damped": dict(
+        objectives=[(JointLimitObjective(), 2.0), (PostureObjective(), 0.5)], damping=0.02
+    ),
+    "no cost, adaptive": dict(objectives=[], damping=AdaptiveDamping(0.1, 0.05)),
+    "position rows, gains per row": dict(task=PositionTask(), kp=[100.0, 200.0, 300.0], kd=20.0),
+}
+
+
+@pytest.mark.parametrize("law", list(LAWS))
+def test_compiled_osc_step_equals_the_pinocchio_path(law: str, arm: rr.Robot) -> None:
+    rng = np.random.default_rng(11)
+    settings = LAWS[law]
+
+    def make() -> OperationalSpaceController:
+        kw = dict(settings)
+        if "task" in kw:
+            kw["task"] = type(kw["task"])()
+        return OperationalSpaceController(**kw)  # type: ignore[arg-type]
+
+    fast, slow = make(), make()
+    slow._compiled = (arm, None)  # the Pinocchio path, for ever
+    traj = rr.control.Circle(arm.fk(arm.neutral()), radius=0.05, period=2.0)
+    worst = 0.0
+    for k, (q, qd) in enumerate(_states(arm, rng, 200)):
+        q = 0.3 * q + 0.7 * arm.neutral()
+        sample = traj.sample(0.01 * k) if k % 2 else None
+        a, b = fast.step(arm, q, qd, sample), slow.step(arm, q, qd, sample)
+        for x, y in ((a.tau, b.tau), (a.tau_null, b.tau_null), (a.extra["tau0"], b.extra["tau0"]),
+                     (a.error, b.error), (a.pose, b.pose), (a.target, b.target)):  # fmt: skip
+            worst = max(worst, float(np.abs(x - y).max()) / max(1.0, float(np.abs(y).max())))
+        assert a.info.rank == b.info.rank and a.info.method == b.info.method
+        assert a.info.sigma_min == pytest.approx(b.info.sigma_min, rel=1e-9, abs=1e-12)
+    assert fast._compiled is not None and fast._compiled[1] is not None
+    assert fast._compiled[1]._entry is not None  # the kernel ran, not the fallback
+    assert worst < 1e-11
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(projector="kinematic"),
+        dict(compensation="task"),
+        dict(null_torque=lambda robot, q, qd: np.zeros(robot.n)),
+        dict(objectives=[(ManipulabilityObjective(), 1.0)]),
+    ],
+    ids=["kinematic projector", "task compensation", "null torque", "manipulability"],
+)
+def test_laws_the_kernel_does_not_cover_take_the_pinocchio_path(kw: dict, panda: rr.Robot) -> None:
+    law = OperationalSpaceController(**kw)
+    step = law.step(panda, panda.neutral(), np.zeros(panda.n))
+    assert law._compiled is not None and law._compiled[1] is None
+    assert np.isfinite(step.tau).all()
+
+
+def test_compiled_osc_step_names_bad_input(panda: rr.Robot) -> None:
+    law = OperationalSpaceController(task=FrameTask())
+    law.step(panda, panda.neutral(), np.zeros(7))
+    with pytest.raises(ShapeError, match="q must have shape"):
+        law.step(panda, np.zeros(6), np.zeros(7))
+    with pytest.raises(NonFiniteError, match="qd contains NaN"):
+        law.step(panda, panda.neutral(), np.full(7, np.nan))
+    with pytest.raises(NonFiniteError, match="q contains NaN"):
+        law.step(panda, np.full(7, np.inf), np.zeros(7))
