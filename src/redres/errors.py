@@ -9,7 +9,13 @@ know about redres.
 from __future__ import annotations
 
 import errno
+import json
 import os
+import shlex
+import sys
+from importlib import metadata
+from pathlib import Path
+from urllib.parse import unquote, urlparse
 
 __all__ = [
     "DHParameterError",
@@ -28,6 +34,7 @@ __all__ = [
     "URDFError",
     "UnknownParameterError",
     "describe_os_error",
+    "install_hint",
     "shown_path",
 ]
 
@@ -74,7 +81,61 @@ class ModelFileNotFoundError(RedresError, FileNotFoundError):
 
 
 class MissingDependencyError(RedresError, ImportError):
-    """An optional dependency is needed; the message names the extra that installs it."""
+    """An optional dependency is needed; the message names the extra that installs it
+    and the command that does (:func:`install_hint`)."""
+
+
+def install_hint(extra: str) -> str:
+    """The command that installs redres' optional ``extra`` into the running environment.
+
+    redres is not on a package index, so ``pip install 'redres[extra]'`` cannot work.
+    From a source checkout (an editable install) the command installs the extra from it;
+    otherwise it names the extra's own requirements, which pip finds on PyPI. Both run
+    this environment's pip (``python -m pip``, with the interpreter as the user would type
+    it)."""
+    python = _shown_executable()
+    checkout = _checkout()
+    if checkout is not None:
+        return f"{python} -m pip install -e {shlex.quote(f'{checkout}[{extra}]')}"
+    try:
+        requirements = metadata.requires("redres") or []
+    except metadata.PackageNotFoundError:  # pragma: no cover - run from a bare source tree
+        requirements = []
+    tag = f'extra == "{extra}"'
+    wanted = [r.split(";")[0].strip() for r in requirements if tag in r]
+    if not wanted:  # pragma: no cover - an extra pyproject.toml does not declare
+        return f"{python} -m pip install -e {shlex.quote(f'.[{extra}]')} (from the redres source)"
+    return f"{python} -m pip install {' '.join(map(shlex.quote, wanted))}"
+
+
+def _checkout() -> str | None:
+    """The source folder redres is installed from in editable mode (shown relative to the
+    working directory where it is inside it), or None."""
+    try:
+        text = metadata.distribution("redres").read_text("direct_url.json")
+    except metadata.PackageNotFoundError:  # pragma: no cover
+        return None
+    if not text:
+        return None
+    info = json.loads(text)
+    if not info.get("dir_info", {}).get("editable"):
+        return None
+    folder = Path(unquote(urlparse(info.get("url", "")).path))
+    try:
+        relative = folder.relative_to(Path.cwd())
+    except ValueError:
+        return str(folder)
+    return "." if str(relative) == "." else f"./{relative}"
+
+
+def _shown_executable() -> str:
+    """``sys.executable`` relative to the working directory where it is inside it (a
+    project's ``.venv/bin/python``), else ``python`` when that is the same interpreter."""
+    exe = Path(sys.executable)
+    try:
+        return f"./{exe.relative_to(Path.cwd())}" if exe.is_absolute() else str(exe)
+    except ValueError:
+        return "python" if Path(sys.prefix) == Path(sys.base_prefix) else str(exe)
 
 
 class SimulationError(RedresError, RuntimeError):

@@ -28,21 +28,21 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ._validate import FloatArray, as_scalar, as_vector
-from .errors import InvalidParameterError, MissingDependencyError
+from .errors import InvalidParameterError, MissingDependencyError, install_hint
 
 if TYPE_CHECKING:
     from .control import RunLog
     from .objectives import Obstacle
     from .robot import Robot
 
-_HINT = "install the extra: pip install 'redres[viewer]'"
-
 
 def _viser() -> Any:
     try:
         import viser
     except ImportError:
-        raise MissingDependencyError(f"the live viewer needs viser; {_HINT}") from None
+        raise MissingDependencyError(
+            f"the live viewer needs viser; install the viewer extra: {install_hint('viewer')}"
+        ) from None
     return viser
 
 

@@ -12,6 +12,7 @@ import tomllib
 import redres as rr
 from redres.cli import main
 from redres.control import Circle, FigureEight
+from redres.errors import install_hint
 from redres.resolution import Scheme
 from redres.scenarios.registry import scheme_types
 from redres.scenarios.spec import (
@@ -319,6 +320,7 @@ def test_without_mujoco_the_mujoco_scenario_says_what_to_install(
     )
     assert main(["run", "--list"]) == 0
     listed = capsys.readouterr().out
-    assert "panda_mujoco_circle" in listed and "pip install 'redres[mujoco]'" in listed
+    hint = install_hint("mujoco")
+    assert "panda_mujoco_circle" in listed and hint in listed
     assert main(["run", "panda_mujoco_circle", "--out", str(tmp_path / "r")]) == 2
-    assert "MuJoCo is not installed: pip install 'redres[mujoco]'" in capsys.readouterr().err
+    assert f"MuJoCo is not installed: {hint}" in capsys.readouterr().err

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._version import __version__
-from ..errors import InvalidParameterError, RedresError, describe_os_error
+from ..errors import InvalidParameterError, RedresError, describe_os_error, install_hint
 
 if TYPE_CHECKING:
     from .demo import Output
@@ -84,7 +84,7 @@ def _cmd_robots(args: argparse.Namespace) -> int:
         print(f"\nexample-robot-data ({len(examples)}; rr.models.example_robot(name, tip=...)):")
         print("  " + ", ".join(examples))
     else:
-        print("\nexample-robot-data URDFs: install the extra: pip install 'redres[robots]'")
+        print(f"\nexample-robot-data URDFs: install the robots extra: {install_hint('robots')}")
     return 0
 
 

@@ -6,18 +6,20 @@ import difflib
 from importlib import metadata
 from pathlib import Path
 
-from ..errors import MissingDependencyError, RobotNotFoundError
+from ..errors import MissingDependencyError, RobotNotFoundError, install_hint
 from ..robot import Robot
 
 _DIST = "example-robot-data"
-_HINT = "install the extra: pip install 'redres[robots]'"
 
 
 def _robots_dir() -> Path:
     try:
         dist = metadata.distribution(_DIST)
     except metadata.PackageNotFoundError:
-        raise MissingDependencyError(f"example-robot-data is not installed; {_HINT}") from None
+        raise MissingDependencyError(
+            "example-robot-data is not installed; install the robots extra: "
+            + install_hint("robots")
+        ) from None
     root = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
     if not root.is_dir():
         raise MissingDependencyError(f"example-robot-data has no robots folder at {root}")

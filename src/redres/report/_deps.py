@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-from ..errors import MissingDependencyError
+from ..errors import MissingDependencyError, install_hint
 
 
 def require(module: str) -> ModuleType:
@@ -20,7 +20,7 @@ def require(module: str) -> ModuleType:
         package = module.split(".", 1)[0]
         raise MissingDependencyError(
             f"redres reports need {package}, which is not installed; install the report "
-            f"extra with: pip install 'redres[report]'"
+            f"extra: {install_hint('report')}"
         ) from exc
 
 

@@ -34,7 +34,7 @@ from .. import models
 from .._toml import Reader, load
 from ..control.analysis import run_steps
 from ..control.trajectories import Circle, FigureEight, Hold, Line, MinimumJerk, Trajectory
-from ..errors import RedresError
+from ..errors import RedresError, install_hint
 from ..linalg import AdaptiveDamping
 from ..objectives import (
     CapsuleObstacle,
@@ -310,7 +310,7 @@ def parse_scenario(
         raise run.fail("plant", "MuJoCo simulates an MJCF robot: give [robot] mjcf = ... or "
                        'menagerie = "panda"')  # fmt: skip
     if plant == "mujoco" and importlib.util.find_spec("mujoco") is None:
-        raise run.fail("plant", "MuJoCo is not installed: pip install 'redres[mujoco]'")
+        raise run.fail("plant", f"MuJoCo is not installed: {install_hint('mujoco')}")
     if shaping and np.all(np.isinf(robot.qdd_max)) and np.all(np.isinf(robot.qddd_max)):
         raise run.fail("shaping", f"the robot {robot.name!r} has no acceleration or jerk "
                        "limits to shape to; give them (qdd_max, qddd_max) in its DH records "

@@ -6,7 +6,7 @@ kinematic :class:`~redres.control.Controller` through its position actuators, an
 :func:`~redres.sim.simulate_on_mujoco` with a torque law (``OperationalSpaceController``, the
 acceleration controller) through joint torques. Both return a
 :class:`~redres.control.RunLog` whose tracking error is measured by MuJoCo's kinematics.
-Needs the ``mujoco`` extra (``pip install 'redres[mujoco]'``).
+Needs the ``mujoco`` extra (``pip install -e '.[mujoco]'``).
 """
 
 from .mujoco import MujocoPlant, run_on_mujoco, simulate_on_mujoco

@@ -34,7 +34,7 @@ import pinocchio as pin
 from .._validate import FloatArray, as_scalar, as_vector
 from ..control import Controller, RunLog, analysis
 from ..dynamics import simulate
-from ..errors import InvalidParameterError, MissingDependencyError, SimulationError
+from ..errors import InvalidParameterError, MissingDependencyError, SimulationError, install_hint
 from ..robot import Robot
 from ..robot.chain import log3
 from ..tasks import FrameTask
@@ -54,7 +54,7 @@ def _mujoco() -> Any:
         import mujoco
     except ImportError:
         raise MissingDependencyError(
-            "MuJoCo is not installed: pip install 'redres[mujoco]'"
+            f"MuJoCo is not installed; install the mujoco extra: {install_hint('mujoco')}"
         ) from None
     return mujoco
 

@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from .. import _compile
-from ..errors import InvalidParameterError, MissingDependencyError, RedresError
+from ..errors import InvalidParameterError, MissingDependencyError, RedresError, install_hint
 from .folder import (
     FORMAT,
     FORMAT_VERSION,
@@ -151,7 +151,7 @@ def run(
     old = read_json(folder / HEADER) if folder.is_dir() else None
     storage = storage or (old or {}).get("storage") or ("zarr" if zarr_available() else "npz")
     if storage == "zarr" and not zarr_available():
-        raise MissingDependencyError("storage 'zarr' needs Zarr 3: pip install 'redres[zarr]'")
+        raise MissingDependencyError(f"storage 'zarr' needs Zarr 3: {install_hint('zarr')}")
     header = _header(spec, plan, storage, shard_units, count)
     store = open_store(storage, folder, plan.fields, plan.units, shard_units)
     report = SweepReport(folder, spec.kind, count)
@@ -293,7 +293,7 @@ def _dispatch(
             from distributed import Client
         except ImportError:
             raise MissingDependencyError(
-                "--scheduler needs Dask's distributed scheduler: pip install 'redres[dask]'"
+                f"--scheduler needs Dask's distributed scheduler: {install_hint('dask')}"
             ) from None
         with Client(scheduler) as client:  # type: ignore[no-untyped-call]
             report.engine = "dask"

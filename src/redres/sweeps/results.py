@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import shown_path
+from ..errors import install_hint, shown_path
 from .folder import FORMAT, HEADER, MANIFEST, SweepFolderError, read_json
 from .kind import Field
 from .store import Store, open_store
@@ -86,7 +86,7 @@ def load(out: str | Path) -> SweepData:
 
         if not zarr_available():
             raise SweepFolderError(
-                f"{shown_path(folder)} is stored in Zarr; install it: pip install 'redres[zarr]'"
+                f"{shown_path(folder)} is stored in Zarr; install it: {install_hint('zarr')}"
             )
     store = open_store(header["storage"], folder, fields, header["units"], header["shard_units"])
     finished = sorted(int(p.stem) for p in (folder / MANIFEST).glob("*.json") if p.stem.isdigit())

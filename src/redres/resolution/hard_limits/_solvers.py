@@ -10,10 +10,9 @@ from typing import Any
 import numpy as np
 
 from ..._validate import FloatArray
-from ...errors import InvalidParameterError, MissingDependencyError
+from ...errors import InvalidParameterError, MissingDependencyError, install_hint
 from ._codes import MET_TOLERANCE
 
-_EXTRA = "pip install 'redres[qp]'"
 _DAQP_ARGS = ("H", "f", "A", "bupper", "blower", "sense")
 _EQUALITY = 5  # DAQP's sense flag of an equality row
 
@@ -24,14 +23,15 @@ def backend(solver: str) -> Any:
         import qpsolvers
     except ImportError as exc:
         raise MissingDependencyError(
-            f"QPScheme needs qpsolvers and a QP backend (DAQP or ProxQP): {_EXTRA}"
+            "QPScheme needs qpsolvers and a QP backend (DAQP or ProxQP), the qp extra: "
+            + install_hint("qp")
         ) from exc
     available = list(qpsolvers.available_solvers)
     if solver not in available:
         listed = ", ".join(available) or "none"
         raise MissingDependencyError(
             f"QP backend {solver!r} is not installed (available: {listed}); "
-            f"{_EXTRA} installs daqp and proxsuite"
+            f"the qp extra installs daqp and proxsuite: {install_hint('qp')}"
         )
     if solver == "daqp":
         import daqp

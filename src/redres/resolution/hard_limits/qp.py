@@ -24,7 +24,7 @@ With ``levels`` (lower-priority tasks, each evaluated at ``q`` by the scheme and
 the levels above held as equality constraints, ``J_i q̇ = J_i q̇*_i`` for ``i < k`` (a
 sequence of QPs; a lower level never disturbs a higher one).
 
-The QPs go through qpsolvers' backends (extra ``qp``: ``pip install 'redres[qp]'``).
+The QPs go through qpsolvers' backends (extra ``qp``: ``pip install -e '.[qp]'``).
 The default backend, DAQP (Arnström, Bemporad, Axehill 2022, a dual active-set solver for
 small dense QPs), is called directly with the dense matrices qpsolvers would build: the
 solve takes about a microsecond, qpsolvers' generic conversions about twenty. Any other

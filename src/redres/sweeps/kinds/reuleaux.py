@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import MissingDependencyError
+from ...errors import MissingDependencyError, install_hint
 from .capability import CapabilityMap, load_map
 
 __all__ = ["export_reuleaux", "quaternions"]
@@ -46,13 +46,13 @@ def export_reuleaux(source: CapabilityMap | str | Path, path: str | Path) -> Pat
     in Reuleaux's layout (module docstring); returns the path.
 
     Raises:
-        MissingDependencyError: h5py is not installed (``pip install 'redres[h5py]'``).
+        MissingDependencyError: h5py is not installed (``pip install -e '.[h5py]'``).
     """
     try:
         import h5py
     except ImportError:
         raise MissingDependencyError(
-            "the Reuleaux export writes HDF5 with h5py: pip install 'redres[h5py]'"
+            f"the Reuleaux export writes HDF5 with h5py: {install_hint('h5py')}"
         ) from None
     m = source if isinstance(source, CapabilityMap) else load_map(source)
     index = m.reachability_index
