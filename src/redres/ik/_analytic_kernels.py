@@ -4,7 +4,7 @@ Entry points and their call tree::
 
     solve_pose(links, axes, kinds, bounds, arm, T, q7, out, codes) -> (status, count, flags)
         _is_pose, _frame6, _rot, _angle, _unit, _perpendicular, _wrist, _to_base, _emit
-        _emit -> _wrap, robot._chain_kernels.fk (the solution's own FK error)
+        _emit -> _wrap, _column_dot, robot._chain_kernels.fk (the solution's own FK error)
     solve_many(links, axes, kinds, bounds, arm, T, q7, out, codes, summary)
         solve_pose over a parallel range of poses (each pose independent: results do not
         depend on the thread count)
@@ -160,31 +160,40 @@ def _frame6(links, axes, T, q7, R6):
     X6, X7 = links[6], links[7]
     ax, ay, az = axes[6, 0], axes[6, 1], axes[6, 2]
     c, s = math.cos(q7), math.sin(q7)
-    p7 = np.empty(3)
+    p7x, p7y, p7z = T[0, 3], T[1, 3], T[2, 3]
     for i in range(3):  # row i of R7 = R_T R_X7ᵀ, then of R7 Rot(a7, q7)ᵀ = (Rot r_i)ᵀ
         r0 = T[i, 0] * X7[0, 0] + T[i, 1] * X7[0, 1] + T[i, 2] * X7[0, 2]
         r1 = T[i, 0] * X7[1, 0] + T[i, 1] * X7[1, 1] + T[i, 2] * X7[1, 2]
         r2 = T[i, 0] * X7[2, 0] + T[i, 1] * X7[2, 1] + T[i, 2] * X7[2, 2]
-        p7[i] = T[i, 3] - (r0 * X7[0, 3] + r1 * X7[1, 3] + r2 * X7[2, 3])
+        shift = r0 * X7[0, 3] + r1 * X7[1, 3] + r2 * X7[2, 3]
+        if i == 0:
+            p7x -= shift
+        elif i == 1:
+            p7y -= shift
+        else:
+            p7z -= shift
         y0, y1, y2 = _rot(ax, ay, az, c, s, r0, r1, r2)
         for j in range(3):  # R6 = Y R_X6ᵀ
             R6[i, j] = y0 * X6[j, 0] + y1 * X6[j, 1] + y2 * X6[j, 2]
-    px = p7[0] - (R6[0, 0] * X6[0, 3] + R6[0, 1] * X6[1, 3] + R6[0, 2] * X6[2, 3])
-    py = p7[1] - (R6[1, 0] * X6[0, 3] + R6[1, 1] * X6[1, 3] + R6[1, 2] * X6[2, 3])
-    pz = p7[2] - (R6[2, 0] * X6[0, 3] + R6[2, 1] * X6[1, 3] + R6[2, 2] * X6[2, 3])
+    px = p7x - (R6[0, 0] * X6[0, 3] + R6[0, 1] * X6[1, 3] + R6[0, 2] * X6[2, 3])
+    py = p7y - (R6[1, 0] * X6[0, 3] + R6[1, 1] * X6[1, 3] + R6[1, 2] * X6[2, 3])
+    pz = p7z - (R6[2, 0] * X6[0, 3] + R6[2, 1] * X6[1, 3] + R6[2, 2] * X6[2, 3])
     return px, py, pz
 
 
 @kernel
-def _emit(links, axes, kinds, bounds, T, q7, joints, branch, flags, row, code, scratch):
-    """Solution ``joints`` (q1 … q6) and ``q7`` into ``row`` (each joint moved by 2π
-    into its limits where that fits), its FK error, branch, flags and limit test into
-    ``code``."""
+def _emit(links, axes, kinds, bounds, T, q7, q1, q2, q3, q4, q5, q6, branch, flags, row, code,
+          scratch):  # fmt: skip
+    """Solution ``q1 … q6`` and ``q7`` into ``row`` (each joint moved by 2π into its
+    limits where that fits), its FK error, branch, flags and limit test into ``code``."""
     within = 1
     for j in range(N_JOINTS):
         lo, hi = bounds[0, j] - LIMIT_TOL, bounds[1, j] + LIMIT_TOL
-        x = q7 if j == N_JOINTS - 1 else _wrap(joints[j])
-        if j < N_JOINTS - 1:
+        if j == N_JOINTS - 1:
+            x = q7
+        else:
+            x = _wrap(q1 if j == 0 else q2 if j == 1 else q3 if j == 2 else q4 if j == 3
+                      else q5 if j == 4 else q6)  # fmt: skip
             if x < lo and x + TWO_PI <= hi:
                 x += TWO_PI
             elif x > hi and x - TWO_PI >= lo:
@@ -196,16 +205,22 @@ def _emit(links, axes, kinds, bounds, T, q7, joints, branch, flags, row, code, s
     dx, dy, dz = scratch[0, 3] - T[0, 3], scratch[1, 3] - T[1, 3], scratch[2, 3] - T[2, 3]
     row[POSITION_ERROR] = math.sqrt(dx * dx + dy * dy + dz * dz)
     # angle of E = R_Tᵀ R: atan2(|vee(E − Eᵀ)| / 2, (tr E − 1) / 2), accurate at every angle
-    e = np.zeros((3, 3))
-    for i in range(3):
-        for j in range(3):
-            e[i, j] = T[0, i] * scratch[0, j] + T[1, i] * scratch[1, j] + T[2, i] * scratch[2, j]
-    wx, wy, wz = e[2, 1] - e[1, 2], e[0, 2] - e[2, 0], e[1, 0] - e[0, 1]
+    wx = _column_dot(T, scratch, 2, 1) - _column_dot(T, scratch, 1, 2)
+    wy = _column_dot(T, scratch, 0, 2) - _column_dot(T, scratch, 2, 0)
+    wz = _column_dot(T, scratch, 1, 0) - _column_dot(T, scratch, 0, 1)
+    trace = _column_dot(T, scratch, 0, 0) + _column_dot(T, scratch, 1, 1)
+    trace += _column_dot(T, scratch, 2, 2)
     half_sine = 0.5 * math.sqrt(wx * wx + wy * wy + wz * wz)
-    row[ROTATION_ERROR] = math.atan2(half_sine, 0.5 * (e[0, 0] + e[1, 1] + e[2, 2] - 1.0))
+    row[ROTATION_ERROR] = math.atan2(half_sine, 0.5 * (trace - 1.0))
     code[BRANCH] = branch
     code[FLAGS] = flags
     code[WITHIN] = within
+
+
+@kernel(inline=True)
+def _column_dot(A, B, i, j):
+    """Column ``i`` of ``A[:3, :3]`` dotted with column ``j`` of ``B[:3, :3]``: ``(AᵀB)[i, j]``."""
+    return A[0, i] * B[0, j] + A[1, i] * B[1, j] + A[2, i] * B[2, j]
 
 
 @kernel
@@ -216,10 +231,8 @@ def solve_pose(links, axes, kinds, bounds, arm, T, q7, out, codes):
         return BAD_POSE, 0, 0
     if not math.isfinite(q7):
         return BAD_Q7, 0, 0
-    R6 = np.empty((3, 3))
-    scratch = np.empty((4, 4))
-    joints = np.empty(6)
-    R3 = np.empty((3, 3))
+    work = np.empty((3, 4, 4))  # one allocation: the FK's pose, R6, R3 (3x3 blocks)
+    scratch, R6, R3 = work[0], work[1], work[2]
     # 1. frame 6, the wrist point W, the joint-6 axis z6
     fx, fy, fz = _frame6(links, axes, T, q7, R6)
     w0, w1, w2 = arm[W6], arm[W6 + 1], arm[W6 + 2]
@@ -308,8 +321,7 @@ def solve_pose(links, axes, kinds, bounds, arm, T, q7, out, codes):
                 R3[i, 0] = vi * hx + fi * n3x + bi * m3x
                 R3[i, 1] = vi * hy + fi * n3y + bi * m3y
                 R3[i, 2] = vi * hz + fi * n3z + bi * m3z
-            joints[3] = q4
-            _wrist(X3, links[4], axes, arm, R3, R6, c4, s4, u3x, u3y, u3z, z6x, z6y, z6z, joints)
+            q5, q6 = _wrist(X3, links[4], axes, arm, R3, R6, c4, s4, u3x, u3y, u3z, z6x, z6y, z6z)
             # 4. the shoulder: t = R_X0ᵀ R3 a3 (axis 3), h = R_X0ᵀ R3 Cᵀ m
             tx, ty, tz = _to_base(X0, R3, axes[2, 0], axes[2, 1], axes[2, 2])
             hmx, hmy, hmz = _to_base(X0, R3, arm[M3C], arm[M3C + 1], arm[M3C + 2])
@@ -345,10 +357,9 @@ def solve_pose(links, axes, kinds, bounds, arm, T, q7, out, codes):
                     sigma = 1.0 if k1x * ox + k1y * oy + k1z * oz > 0.0 else -1.0
                     q1, q3 = 0.5 * sigma * q3, 0.5 * q3
                     flags |= SHOULDER_SINGULAR
-                joints[0], joints[1], joints[2] = q1, q2, q3
                 branch = 4 * i4 + 2 * i_phi + i_sh
-                _emit(links, axes, kinds, bounds, T, q7, joints, branch, flags, out[count],
-                      codes[count], scratch)  # fmt: skip
+                _emit(links, axes, kinds, bounds, T, q7, q1, q2, q3, q4, q5, q6, branch, flags,
+                      out[count], codes[count], scratch)  # fmt: skip
                 all_flags |= flags
                 count += 1
     if count == 0:
@@ -382,8 +393,8 @@ def _to_base(X0, R3, x, y, z):
 
 
 @kernel
-def _wrist(X3, X4, axes, arm, R3, R6, c4, s4, u3x, u3y, u3z, z6x, z6y, z6z, joints):
-    """``joints[4], joints[5]`` <- ``q5, q6`` (subproblem 1 each): ``q6`` turns
+def _wrist(X3, X4, axes, arm, R3, R6, c4, s4, u3x, u3y, u3z, z6x, z6y, z6z):
+    """``(q5, q6)`` (subproblem 1 each): ``q6`` turns
     ``R6ᵀ z5`` into ``R_X5ᵀ a5`` about ``a6``; ``q5`` turns ``R_X5 a6`` into
     ``(R4 R_X4)ᵀ z6`` about ``a5`` (joint axes 1-based here)."""
     z5x = R3[0, 0] * u3x + R3[0, 1] * u3y + R3[0, 2] * u3z
@@ -392,7 +403,7 @@ def _wrist(X3, X4, axes, arm, R3, R6, c4, s4, u3x, u3y, u3z, z6x, z6y, z6z, join
     l0 = R6[0, 0] * z5x + R6[1, 0] * z5y + R6[2, 0] * z5z
     l1 = R6[0, 1] * z5x + R6[1, 1] * z5y + R6[2, 1] * z5z
     l2 = R6[0, 2] * z5x + R6[1, 2] * z5y + R6[2, 2] * z5z
-    joints[5] = _angle(axes[5, 0], axes[5, 1], axes[5, 2], l0, l1, l2,
+    q6 = _angle(axes[5, 0], axes[5, 1], axes[5, 2], l0, l1, l2,
                        arm[BTA4], arm[BTA4 + 1], arm[BTA4 + 2])  # fmt: skip
     # (R4 R_X4)ᵀ z6 = R_X4ᵀ Rot(a4, −q4) R_X3ᵀ R3ᵀ z6
     g0 = R3[0, 0] * z6x + R3[1, 0] * z6y + R3[2, 0] * z6z
@@ -405,5 +416,6 @@ def _wrist(X3, X4, axes, arm, R3, R6, c4, s4, u3x, u3y, u3z, z6x, z6y, z6z, join
     m0 = X4[0, 0] * h0 + X4[1, 0] * h1 + X4[2, 0] * h2
     m1 = X4[0, 1] * h0 + X4[1, 1] * h1 + X4[2, 1] * h2
     m2 = X4[0, 2] * h0 + X4[1, 2] * h1 + X4[2, 2] * h2
-    joints[4] = _angle(axes[4, 0], axes[4, 1], axes[4, 2], arm[BA5], arm[BA5 + 1], arm[BA5 + 2],
-                       m0, m1, m2)  # fmt: skip
+    q5 = _angle(axes[4, 0], axes[4, 1], axes[4, 2], arm[BA5], arm[BA5 + 1], arm[BA5 + 2],
+                m0, m1, m2)  # fmt: skip
+    return q5, q6

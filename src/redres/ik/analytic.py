@@ -51,7 +51,9 @@ The structure is detected from the robot's serial chain to the frame
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import weakref
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
@@ -125,35 +127,60 @@ class AnalyticArm:
 
 @dataclass(frozen=True)
 class IKSolutions:
-    """Every solution of one pose at one ``q7`` (``k`` of them, ``0 ≤ k ≤ 8``).
+    """Every solution of one pose at one ``q7`` (``count`` of them, ``0 ≤ count ≤ 8``).
+
+    The arrays are views of the kernel's buffers, made on access (a call returns before
+    slicing them: most callers read two or three).
 
     Attributes:
-        q: the configurations, ``(k, 7)``, rad.
-        branch: each one's branch code ``4 i4 + 2 iφ + is`` (module docstring), ``(k,)``.
-        within_limits: whether each is within the joint limits, ``(k,)``.
-        position_error: its FK position error (the kernel's own FK), m, ``(k,)``.
-        rotation_error: its FK rotation error (angle), rad, ``(k,)``.
-        solution_flags: what is special about each, ``(k,)`` (:class:`AnalyticFlag` bits).
-        flags: their union, and ``UNREACHABLE`` when there is none.
+        count: how many solutions.
+        flags: the union of the solutions' flags, and ``UNREACHABLE`` when there is none.
         q7: the last joint's value, rad.
+        q: the configurations, ``(count, 7)``, rad.
+        branch: each one's branch code ``4 i4 + 2 iφ + is`` (module docstring).
+        within_limits: whether each is within the joint limits.
+        position_error: its FK position error (the kernel's own FK), m.
+        rotation_error: its FK rotation error (angle), rad.
+        residual: ``max(position_error m, rotation_error rad)``.
+        solution_flags: what is special about each (:class:`AnalyticFlag` bits).
     """
 
-    q: FloatArray
-    branch: NDArray[np.int64]
-    within_limits: NDArray[np.bool_]
-    position_error: FloatArray
-    rotation_error: FloatArray
-    solution_flags: NDArray[np.int64]
+    count: int
     flags: AnalyticFlag
     q7: float
+    values: FloatArray = dataclasses.field(repr=False)  # (8, N_VALUES) kernel buffer
+    codes: NDArray[np.int64] = dataclasses.field(repr=False)  # (8, N_CODES) kernel buffer
+
+    @property
+    def q(self) -> FloatArray:
+        return self.values[: self.count, : codes.N_JOINTS]
+
+    @property
+    def branch(self) -> NDArray[np.int64]:
+        return self.codes[: self.count, codes.BRANCH]
+
+    @property
+    def within_limits(self) -> NDArray[np.bool_]:
+        return self.codes[: self.count, codes.WITHIN] == 1
+
+    @property
+    def position_error(self) -> FloatArray:
+        return self.values[: self.count, codes.POSITION_ERROR]
+
+    @property
+    def rotation_error(self) -> FloatArray:
+        return self.values[: self.count, codes.ROTATION_ERROR]
 
     @property
     def residual(self) -> FloatArray:
-        """``max(position_error m, rotation_error rad)`` of each solution, ``(k,)``."""
         return np.maximum(self.position_error, self.rotation_error)
 
+    @property
+    def solution_flags(self) -> NDArray[np.int64]:
+        return self.codes[: self.count, codes.FLAGS]
+
     def __len__(self) -> int:
-        return int(self.q.shape[0])
+        return self.count
 
 
 @dataclass(frozen=True)
@@ -185,6 +212,9 @@ class IKSolutionsBatch:
 
 # ---------------------------------------------------------------------- structure
 _ARMS: WeakKeyDictionary[Robot, dict[str | None, AnalyticArm]] = WeakKeyDictionary()
+#: The arm of the last single-pose call: (robot, frame, arm) (a weak-dict lookup costs
+#: a tenth of a call).
+_LAST: list[tuple[weakref.ref[Robot], str | None, AnalyticArm] | None] = [None]
 
 
 def analytic_arm(robot: Robot, frame: str | None = None) -> AnalyticArm:
@@ -323,9 +353,14 @@ def ik_all(robot: Robot, T: Any, *, q7: float, frame: str | None = None) -> IKSo
         ShapeError: ``T`` is not a 4x4 homogeneous transform with a rotation block.
         NonFiniteError: ``T`` or ``q7`` holds NaN or infinity.
     """
-    arm = analytic_arm(robot, frame)
+    last = _LAST[0]
+    if last is not None and last[0]() is robot and last[1] == frame:
+        arm = last[2]
+    else:
+        arm = analytic_arm(robot, frame)
+        _LAST[0] = (weakref.ref(robot), frame, arm)
     if not (type(T) is np.ndarray and T.dtype == _F64 and T.shape == (4, 4)
-            and T.flags.c_contiguous and T.flags.writeable):  # fmt: skip
+            and T.flags.c_contiguous):  # fmt: skip
         T = np.array(_pose(T, "T"), dtype=np.float64, order="C")  # checked again in the kernel
     x = q7 if type(q7) is float else _q7(q7)
     out = np.empty((codes.MAX_SOLUTIONS, codes.N_VALUES))
@@ -336,16 +371,7 @@ def ik_all(robot: Robot, T: Any, *, q7: float, frame: str | None = None) -> IKSo
     if status != codes.SOLVED:
         _refused(status, T, x, "T", "q7")
     result = object.__new__(IKSolutions)  # the frozen dataclass without its __init__
-    result.__dict__.update(
-        q=out[:count, : codes.N_JOINTS],
-        branch=found[:count, codes.BRANCH],
-        within_limits=found[:count, codes.WITHIN] == 1,
-        position_error=out[:count, codes.POSITION_ERROR],
-        rotation_error=out[:count, codes.ROTATION_ERROR],
-        solution_flags=found[:count, codes.FLAGS],
-        flags=AnalyticFlag(flags),
-        q7=x,
-    )
+    result.__dict__.update(count=count, flags=_FLAGS[flags], q7=x, values=out, codes=found)
     return result
 
 
@@ -387,6 +413,7 @@ def ik_all_batch(robot: Robot, T: Any, q7: Any, *, frame: str | None = None) -> 
 
 
 _F64 = np.dtype(np.float64)
+_FLAGS = [AnalyticFlag(i) for i in range(2 * max(AnalyticFlag))]
 
 
 def _pose(T: Any, name: str) -> FloatArray:
