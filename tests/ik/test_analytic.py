@@ -116,6 +116,21 @@ def test_batch_equals_single_calls_bit_for_bit_at_any_thread_count() -> None:
     assert (one.branch[np.arange(8)[None, :] >= one.count[:, None]] == -1).all()
 
 
+def test_plain_python_twin_gives_the_same_solutions() -> None:
+    robot = rr.models.iiwa14()
+    arm = analytic_arm(robot)
+    plain = analytic.KERNELS.module(plain=True)
+    q, T = _poses(robot, 5, 7)
+    for x, pose in zip(q, T):
+        ref = ik_all(robot, pose, q7=float(x[6]))
+        out, codes = np.zeros((8, 9)), np.zeros((8, 3), dtype=np.int64)
+        status, count, flags = plain.solve_pose(arm.links, arm.axes, arm.kinds, arm.bounds,
+                                                arm.arm, pose, float(x[6]), out, codes)  # fmt: skip
+        assert (status, count, flags) == (0, len(ref), int(ref.flags))
+        assert np.allclose(out[:count, :7], ref.q, atol=1e-12, rtol=0.0)
+        assert np.array_equal(codes[:count, 0], ref.branch)
+
+
 # ---------------------------------------------------------------------- special cases
 
 
