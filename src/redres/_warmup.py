@@ -140,6 +140,17 @@ def _ik() -> None:
     ik(robot, robot.fk(robot.neutral() + 0.2), seed=0)
 
 
+def _analytic_ik() -> None:
+    from .ik.analytic import ik_all, ik_all_batch
+    from .models import panda
+
+    robot = panda()
+    q = robot.neutral()
+    T = robot.fk(q)
+    ik_all(robot, T, q7=float(q[6]))
+    ik_all_batch(robot, T[None], q[6:])
+
+
 def _batch() -> None:
     from . import batch, linalg
     from .models import panda
@@ -168,6 +179,7 @@ WORKLOADS: dict[str, Callable[[], None]] = {
     "dynamics": _dynamics,
     "hard limits": _hard_limits,
     "ik": _ik,
+    "analytic ik": _analytic_ik,
     "batch": _batch,
 }
 
@@ -175,6 +187,7 @@ WORKLOADS: dict[str, Callable[[], None]] = {
 def groups() -> dict[str, _compile.KernelGroup]:
     """Every kernel group, by name (importing their owners declares them)."""
     from . import batch, control, dynamics, ik, linalg  # noqa: F401
+    from .ik import analytic  # noqa: F401
     from .resolution import hard_limits  # noqa: F401
     from .robot import chain, derivatives  # noqa: F401
 

@@ -1,0 +1,468 @@
+"""Every inverse-kinematics solution of a 7R arm at a given ``q7``, in closed form.
+
+``ik_all(robot, T, q7=...)`` returns all joint configurations (up to eight) that put the
+frame at pose ``T`` with the last joint at ``q7``, computed by a compiled kernel
+(:mod:`redres.ik._analytic_kernels`) in microseconds. Covered: arms whose first three
+axes meet at one point ``S`` (a spherical shoulder) and whose axes 5 and 6 meet at a
+point ``W`` (the Franka Panda and FR3, whose axis 7 is offset; S-R-S arms such as the
+iiwa14). With ``q7`` fixed the arm is a 6R chain with a spherical shoulder, the geometry
+of He & Liu, "Analytical inverse kinematics for Franka Emika Panda – a geometrical
+solver for 7-DOF manipulators with unconventional design", ICCCR 2021, solved here for
+any such chain with Paden–Kahan subproblems (Murray, Li & Sastry, *A Mathematical
+Introduction to Robotic Manipulation*, 1994, §3.3; Elias & Wen, "IK-Geo", 2022).
+
+Derivation (joints 1-based, ``Rot(a, θ)`` the rotation about the unit ``a``; frame ``j``
+is the frame after joint ``j``; ``X_j`` the placement of joint ``j + 1`` in it):
+
+1. **Frame 6.** ``T = F6 · X6 · Rot(a7, q7) · X7`` gives ``F6``, hence the point
+   ``W = F6 ∘ w6`` (fixed in link 6: on axes 5 and 6) and the joint-6 axis ``z6``.
+2. **Elbow.** ``S`` and ``W`` are fixed in links 3 and 4, so ``|W − S|`` depends on
+   ``q4`` alone: with ``s'`` the point ``S`` in joint 4's placement frame and ``w4``
+   the point ``W`` in frame 4, ``|W − S|² = |w4|² + |s'|² − 2 s'·Rot(a4, q4) w4
+   = K − 2 (P + A cos q4 + B sin q4)`` (Rodrigues), two roots ``q4 = atan2(B, A) ±
+   acos(x)``.
+3. **Shoulder orientation.** For each ``q4``, the vector ``S → W`` in frame 3 (``v3``)
+   and the joint-5 axis there (``u3``) are known. Every frame-3 orientation ``R3`` with
+   ``R3 v3 = W − S`` is ``Rot(ŵ, φ) R3⁰``; the joint-5 axis ``z5 = R3 u3`` must make with
+   ``z6`` the fixed angle ``γ`` of link 5 (``cos γ = a5 · R(X5) a6``, 0 for the
+   Panda). Taking ``R3⁰`` that turns the part of ``u3`` normal to the line onto the part
+   of ``z6`` normal to it, ``z5·z6 = (z6·ŵ)(u3·v̂3) + |u3⊥||z6⊥| cos φ = cos γ``: two
+   roots ``φ = ± acos(...)``.
+4. **Joints.** ``R3`` gives ``q1, q2, q3`` (subproblem 2 on axis 3, two signs: the
+   shoulder branches), and ``(R4 R(X4))ᵀ R6 = Rot(a5, q5) R(X5) Rot(a6, q6)`` gives
+   ``q5, q6`` uniquely (subproblem 1 twice; its solvability is step 3's condition).
+
+Branch code ``4 i4 + 2 iφ + is``: ``i4`` 0 for ``q4 = atan2(B, A) + acos(x)``, 1 for
+``−``; ``iφ`` 0 for ``φ = +acos``, 1 for ``−`` (``φ`` turns ``z5`` about ``S → W``
+away from its position closest to ``z6``); ``is`` 0 for ``+`` in subproblem 2, 1 for
+``−``. Each is intrinsic to the arm's geometry (no arbitrary frame enters it).
+
+Singular and boundary cases are flagged (:class:`~redres.ik._analytic_codes.AnalyticFlag`),
+never NaN: a shoulder with axes 1 and 3 aligned (one solution, ``q1 ± q3`` split
+evenly), a stretched elbow and merged roots of step 3 (one solution each), a free
+rotation about ``S → W`` (one of the continuum), an unreachable pose (no solution,
+``UNREACHABLE``). Each joint is moved by 2π into its limits where that fits;
+``within_limits`` tells which solutions lie inside them (to 1e-12 rad).
+
+The structure is detected from the robot's serial chain to the frame
+(:func:`analytic_arm`) to :data:`STRUCTURE_TOL`; an arm without it raises
+:class:`NotAnalyticError` naming the failed test (``rr.ik`` solves any arm numerically).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import weakref
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+from weakref import WeakKeyDictionary
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .. import _compile
+from .._validate import FloatArray, as_scalar, as_transform
+from ..errors import (
+    InvalidParameterError,
+    MissingDependencyError,
+    NonFiniteError,
+    RedresError,
+    ShapeError,
+)
+from . import _analytic_codes as codes
+from ._analytic_codes import AnalyticFlag
+
+if TYPE_CHECKING:
+    from ..robot import Robot
+
+__all__ = [
+    "STRUCTURE_TOL",
+    "AnalyticArm",
+    "AnalyticFlag",
+    "IKSolutions",
+    "IKSolutionsBatch",
+    "NotAnalyticError",
+    "analytic_arm",
+    "ik_all",
+    "ik_all_batch",
+]
+
+#: The analytic kernels. Cold (2026-12-07, 2 shared cores, load 4.7): a first ``ik_all``
+#: 21.5 s with the chain kernels (4.5 s of it), the batch form 2.4 s more; warm 1.0 s.
+KERNELS = _compile.KernelGroup("analytic ik", ("redres.ik._analytic_kernels",), cold_seconds=17.0)
+
+#: Tolerance of the structure tests, m for distances between axes, and for the sines
+#: of angles between axes that must not be parallel.
+STRUCTURE_TOL = 1e-9
+
+
+class NotAnalyticError(RedresError, ValueError):
+    """The arm lacks the structure of :mod:`redres.ik.analytic` (the message names the
+    failed test); ``rr.ik`` solves it numerically."""
+
+
+@dataclass(frozen=True)
+class AnalyticArm:
+    """The constants of the closed form of one arm (module docstring): build with
+    :func:`analytic_arm`.
+
+    Attributes:
+        frame: the frame solved for.
+        links, axes, kinds: the :attr:`~redres.robot.SerialChain.arrays` of its chain.
+        bounds: joint limits, ``(2, 7)``, rad (``q_min``, ``q_max``).
+        arm: the packed constants, slots named in :mod:`redres.ik._analytic_codes`.
+        shoulder: the point ``S`` in the world, m.
+        wrist: the point ``W`` in frame 6, m.
+    """
+
+    frame: str
+    links: FloatArray
+    axes: FloatArray
+    kinds: NDArray[np.int64]
+    bounds: FloatArray
+    arm: FloatArray
+    shoulder: FloatArray
+    wrist: FloatArray
+
+
+@dataclass(frozen=True)
+class IKSolutions:
+    """Every solution of one pose at one ``q7`` (``count`` of them, ``0 ≤ count ≤ 8``).
+
+    The arrays are views of the kernel's buffers, made on access (a call returns before
+    slicing them: most callers read two or three).
+
+    Attributes:
+        count: how many solutions.
+        flags: the union of the solutions' flags, and ``UNREACHABLE`` when there is none.
+        q7: the last joint's value, rad.
+        q: the configurations, ``(count, 7)``, rad.
+        branch: each one's branch code ``4 i4 + 2 iφ + is`` (module docstring).
+        within_limits: whether each is within the joint limits.
+        position_error: its FK position error (the kernel's own FK), m.
+        rotation_error: its FK rotation error (angle), rad.
+        residual: ``max(position_error m, rotation_error rad)``.
+        solution_flags: what is special about each (:class:`AnalyticFlag` bits).
+    """
+
+    count: int
+    flags: AnalyticFlag
+    q7: float
+    values: FloatArray = dataclasses.field(repr=False)  # (8, N_VALUES) kernel buffer
+    codes: NDArray[np.int64] = dataclasses.field(repr=False)  # (8, N_CODES) kernel buffer
+
+    @property
+    def q(self) -> FloatArray:
+        return self.values[: self.count, : codes.N_JOINTS]
+
+    @property
+    def branch(self) -> NDArray[np.int64]:
+        return self.codes[: self.count, codes.BRANCH]
+
+    @property
+    def within_limits(self) -> NDArray[np.bool_]:
+        return self.codes[: self.count, codes.WITHIN] == 1
+
+    @property
+    def position_error(self) -> FloatArray:
+        return self.values[: self.count, codes.POSITION_ERROR]
+
+    @property
+    def rotation_error(self) -> FloatArray:
+        return self.values[: self.count, codes.ROTATION_ERROR]
+
+    @property
+    def residual(self) -> FloatArray:
+        return np.maximum(self.position_error, self.rotation_error)
+
+    @property
+    def solution_flags(self) -> NDArray[np.int64]:
+        return self.codes[: self.count, codes.FLAGS]
+
+    def __len__(self) -> int:
+        return self.count
+
+
+@dataclass(frozen=True)
+class IKSolutionsBatch:
+    """Every solution of ``N`` poses, padded to 8 per pose: row ``j`` of pose ``i`` holds
+    a solution when ``j < count[i]`` (padding: zeros, ``branch`` −1, not within limits).
+
+    Attributes:
+        q: ``(N, 8, 7)``, rad. branch, solution_flags: ``(N, 8)`` int64.
+        within_limits: ``(N, 8)``. position_error, rotation_error: ``(N, 8)``, m, rad.
+        count: solutions per pose, ``(N,)``. flags: per pose, ``(N,)`` int64
+        (:class:`AnalyticFlag` bits).
+    """
+
+    q: FloatArray
+    branch: NDArray[np.int64]
+    within_limits: NDArray[np.bool_]
+    position_error: FloatArray
+    rotation_error: FloatArray
+    solution_flags: NDArray[np.int64]
+    count: NDArray[np.int64]
+    flags: NDArray[np.int64]
+
+    @property
+    def residual(self) -> FloatArray:
+        """``max(position_error, rotation_error)``, ``(N, 8)`` (0 in the padding)."""
+        return np.maximum(self.position_error, self.rotation_error)
+
+
+# ---------------------------------------------------------------------- structure
+_ARMS: WeakKeyDictionary[Robot, dict[str | None, AnalyticArm]] = WeakKeyDictionary()
+#: The arm of the last single-pose call: (robot, frame, arm) (a weak-dict lookup costs
+#: a tenth of a call).
+_LAST: list[tuple[weakref.ref[Robot], str | None, AnalyticArm] | None] = [None]
+
+
+def analytic_arm(robot: Robot, frame: str | None = None) -> AnalyticArm:
+    """The closed form's constants for ``robot``'s chain to ``frame`` (default: its tip),
+    computed once per robot and frame.
+
+    Raises:
+        NotAnalyticError: not 7 revolute joints, axes 1-3 not meeting at one point, axes
+            5 and 6 not meeting, or an elbow that does not change ``|W − S|`` (the
+            message says which).
+        FrameNotFoundError: unknown ``frame``.
+    """
+    per_robot = _ARMS.get(robot)
+    if per_robot is None:
+        per_robot = _ARMS[robot] = {}
+    found = per_robot.get(frame)
+    if found is None:
+        found = per_robot[frame] = _build(robot, frame)
+    return found
+
+
+def _build(robot: Robot, frame: str | None) -> AnalyticArm:
+    from ..robot import NotSerialChainError
+
+    name = robot.model.frames[robot.frame_id(frame)].name
+    where = f"{robot.name}, frame {name!r}"
+    try:
+        chain = robot.chain(name)
+    except NotSerialChainError as exc:
+        raise NotAnalyticError(f"{where}: {exc}") from None
+    links, axes, kinds = chain.arrays
+    if len(kinds) != 7 or robot.n != 7 or chain.prismatic.any():
+        prismatic = int(chain.prismatic.sum())
+        _refuse(
+            where,
+            "needs 7 revolute joints up to the frame and n = 7; got "
+            f"{len(kinds)} joints ({prismatic} prismatic), n = {robot.n}",
+        )
+    R = [X[:, :3] for X in links]
+    p = [X[:, 3] for X in links]
+    s1, gap = _meet(np.zeros(3), axes[0], p[1], R[1] @ axes[1], where, "axes 1 and 2")
+    if gap > STRUCTURE_TOL:
+        _refuse(where, f"axes 1 and 2 do not meet (they pass {gap:.3g} m apart)")
+    s2 = R[1].T @ (s1 - p[1])
+    foot, gap = _foot(s2, p[2], R[2] @ axes[2])
+    if gap > STRUCTURE_TOL:
+        _refuse(where, f"axis 3 misses the point where axes 1 and 2 meet by {gap:.3g} m")
+    if np.linalg.norm(np.cross(axes[1], R[2] @ axes[2])) < STRUCTURE_TOL:
+        _refuse(where, "axes 2 and 3 are parallel (not a spherical shoulder)")
+    s3 = R[2].T @ (foot - p[2])
+    w5, gap = _meet(np.zeros(3), axes[4], p[5], R[5] @ axes[5], where, "axes 5 and 6")
+    if gap > STRUCTURE_TOL:
+        _refuse(where, f"axes 5 and 6 do not meet (they pass {gap:.3g} m apart)")
+    w6 = R[5].T @ (w5 - p[5])
+    w4 = R[4] @ w5 + p[4]
+    s_prime = R[3].T @ (s3 - p[3])
+    a = axes[3]
+    P = float((a @ s_prime) * (a @ w4))
+    K = float(w4 @ w4 + s_prime @ s_prime)
+    A, B = float(s_prime @ w4) - P, float(s_prime @ np.cross(a, w4))
+    if math.hypot(A, B) < STRUCTURE_TOL:
+        _refuse(where, "joint 4 does not change the distance between the shoulder and the wrist")
+    C = R[1] @ R[2]
+    k3 = C @ axes[2]
+    m3 = _normal(k3)
+    arm = np.zeros(codes.N_ARM)
+    for slot, value in (
+        (codes.S, links[0][:, :3] @ s1 + links[0][:, 3]), (codes.W6, w6), (codes.SP, s_prime),
+        (codes.W4, w4), (codes.Z5, R[4] @ axes[4]), (codes.K1, axes[0]),
+        (codes.K2, R[1] @ axes[1]), (codes.K3, k3), (codes.M3, m3), (codes.M3C, C.T @ m3),
+        (codes.BA5, R[5] @ axes[5]), (codes.BTA4, R[5].T @ axes[4]),
+        (codes.ELBOW, (K, P, A, B)), (codes.COS_GAMMA, axes[4] @ R[5] @ axes[5]),
+    ):  # fmt: skip
+        value = np.atleast_1d(value)
+        arm[slot : slot + len(value)] = value
+    bounds = np.ascontiguousarray(np.stack((robot.q_min, robot.q_max)), dtype=np.float64)
+    for array in (arm, bounds):
+        array.flags.writeable = False
+    return AnalyticArm(name, links, axes, kinds, bounds, arm, arm[codes.S : codes.S + 3], w6)
+
+
+def _refuse(where: str, why: str) -> None:
+    raise NotAnalyticError(
+        f"{where}: no closed form: {why}; analytic IK needs axes 1-3 meeting at one point "
+        f"and axes 5-6 meeting (tolerance {STRUCTURE_TOL:g}); use rr.ik (numerical) instead"
+    )
+
+
+def _meet(
+    p1: FloatArray, d1: FloatArray, p2: FloatArray, d2: FloatArray, where: str, what: str
+) -> tuple[FloatArray, float]:
+    """The midpoint of the closest points of lines ``p1 + t d1`` and ``p2 + s d2`` (unit
+    directions), and their distance."""
+    b = float(d1 @ d2)
+    if 1.0 - b * b < STRUCTURE_TOL**2:
+        _refuse(where, f"{what} are parallel")
+    w = p1 - p2
+    d, e = float(d1 @ w), float(d2 @ w)
+    t, s = (b * e - d) / (1.0 - b * b), (e - b * d) / (1.0 - b * b)
+    c1, c2 = p1 + t * d1, p2 + s * d2
+    return (c1 + c2) / 2.0, float(np.linalg.norm(c1 - c2))
+
+
+def _foot(x: FloatArray, p: FloatArray, d: FloatArray) -> tuple[FloatArray, float]:
+    """The foot of ``x`` on the line ``p + t d`` (unit ``d``) and the distance to it."""
+    foot = p + float((x - p) @ d) * d
+    return foot, float(np.linalg.norm(x - foot))
+
+
+def _normal(v: FloatArray) -> FloatArray:
+    """A unit vector normal to the unit ``v``."""
+    e = np.zeros(3)
+    e[int(np.argmin(np.abs(v)))] = 1.0
+    n = np.cross(v, e)
+    return np.asarray(n / np.linalg.norm(n))
+
+
+# ---------------------------------------------------------------------- solving
+
+
+def ik_all(robot: Robot, T: Any, *, q7: float, frame: str | None = None) -> IKSolutions:
+    """Every configuration that puts ``frame`` at ``T`` with the last joint at ``q7``
+    (module docstring).
+
+    Args:
+        robot: a 7R arm of the covered structure (:func:`analytic_arm`).
+        T: the frame's pose in the world, ``(4, 4)``.
+        q7: the last joint's value (the redundancy parameter), rad.
+        frame: the frame (default: the robot's tip).
+
+    Returns:
+        The :class:`IKSolutions` (none, with ``UNREACHABLE``, when out of reach).
+
+    Raises:
+        NotAnalyticError: the arm lacks the structure (the message says why).
+        ShapeError: ``T`` is not a 4x4 homogeneous transform with a rotation block.
+        NonFiniteError: ``T`` or ``q7`` holds NaN or infinity.
+    """
+    last = _LAST[0]
+    if last is not None and last[0]() is robot and last[1] == frame:
+        arm = last[2]
+    else:
+        arm = analytic_arm(robot, frame)
+        _LAST[0] = (weakref.ref(robot), frame, arm)
+    if not (type(T) is np.ndarray and T.dtype == _F64 and T.shape == (4, 4)
+            and T.flags.c_contiguous):  # fmt: skip
+        T = np.array(_pose(T, "T"), dtype=np.float64, order="C")  # checked again in the kernel
+    x = q7 if type(q7) is float else _q7(q7)
+    out = np.empty((codes.MAX_SOLUTIONS, codes.N_VALUES))
+    found = np.empty((codes.MAX_SOLUTIONS, codes.N_CODES), dtype=np.int64)
+    solve = _ENTRY[0] if _ENTRY else _solve_pose
+    status, count, flags = solve(arm.links, arm.axes, arm.kinds, arm.bounds, arm.arm,
+                                          T, x, out, found)  # fmt: skip
+    if status != codes.SOLVED:
+        _refused(status, T, x, "T", "q7")
+    result = object.__new__(IKSolutions)  # the frozen dataclass without its __init__
+    result.__dict__.update(count=count, flags=_FLAGS[flags], q7=x, values=out, codes=found)
+    return result
+
+
+def ik_all_batch(robot: Robot, T: Any, q7: Any, *, frame: str | None = None) -> IKSolutionsBatch:
+    """:func:`ik_all` for ``N`` poses ``T`` ``(N, 4, 4)`` at ``q7`` ``(N,)`` (or one value
+    for all), rad, on every core (numba's threads; each pose is independent, so results do
+    not depend on the thread count).
+
+    Raises:
+        NotAnalyticError, ShapeError, NonFiniteError: as :func:`ik_all` (the message names
+            the first bad pose).
+    """
+    arm = analytic_arm(robot, frame)
+    poses = np.ascontiguousarray(T, dtype=np.float64)
+    if poses.ndim != 3 or poses.shape[1:] != (4, 4):
+        raise ShapeError(f"T must have shape (N, 4, 4); got shape {poses.shape}")
+    n = poses.shape[0]
+    values = np.ascontiguousarray(np.broadcast_to(np.asarray(q7, dtype=np.float64), (n,)))
+    out = np.zeros((n, codes.MAX_SOLUTIONS, codes.N_VALUES))
+    found = np.zeros((n, codes.MAX_SOLUTIONS, codes.N_CODES), dtype=np.int64)
+    found[:, :, codes.BRANCH] = -1
+    summary = np.zeros((n, 3), dtype=np.int64)
+    _module().solve_many(arm.links, arm.axes, arm.kinds, arm.bounds, arm.arm, poses, values,
+                         out, found, summary)  # fmt: skip
+    bad = np.flatnonzero(summary[:, 0] != codes.SOLVED)
+    if len(bad):
+        i = int(bad[0])
+        _refused(int(summary[i, 0]), poses[i], float(values[i]), f"T[{i}]", f"q7[{i}]")
+    return IKSolutionsBatch(
+        q=out[:, :, : codes.N_JOINTS],
+        branch=found[:, :, codes.BRANCH],
+        within_limits=found[:, :, codes.WITHIN] == 1,
+        position_error=out[:, :, codes.POSITION_ERROR],
+        rotation_error=out[:, :, codes.ROTATION_ERROR],
+        solution_flags=found[:, :, codes.FLAGS],
+        count=summary[:, 1].copy(),
+        flags=summary[:, 2].copy(),
+    )
+
+
+_F64 = np.dtype(np.float64)
+_FLAGS = [AnalyticFlag(i) for i in range(2 * max(AnalyticFlag))]
+
+
+def _pose(T: Any, name: str) -> FloatArray:
+    return as_transform(T, name)
+
+
+def _q7(value: Any) -> float:
+    if value is None:
+        raise InvalidParameterError(
+            "q7 is required: the value of the last joint, rad, that picks the solutions "
+            "among the arm's self-motion"
+        )
+    return as_scalar(value, "q7")
+
+
+def _refused(status: int, T: FloatArray, q7: float, t_name: str, q_name: str) -> None:
+    """Raise the error the kernel's refusal ``status`` stands for, naming the argument."""
+    if status == codes.BAD_Q7 or not math.isfinite(q7):
+        raise NonFiniteError(f"{q_name} must be finite; got {q7}")
+    if not np.isfinite(T).all():
+        raise NonFiniteError(f"{t_name} contains NaN or infinity")
+    as_transform(T, t_name)  # raises ShapeError with the reason
+    raise ShapeError(f"{t_name}: the upper-left 3x3 block is not a rotation matrix")
+
+
+# ---------------------------------------------------------------------- kernels
+
+
+def _module() -> Any:
+    module = KERNELS.module()
+    if module is None:
+        raise MissingDependencyError(
+            "analytic IK needs numba, which cannot be imported; install numba (a dependency "
+            "of redres) or set REDRES_DISABLE_JIT=1 for the plain-Python kernels"
+        )
+    return module
+
+
+_ENTRY: list[Any] = []
+
+
+def _solve_pose(*args: Any) -> tuple[int, int, int]:
+    """``solve_pose(*args)`` through its native entry point for these types, made at the
+    first call (:func:`redres._compile.entry_point`), or through the plain-Python twin
+    while the kernels compile behind (not kept: the compiled kernel takes over when
+    ready)."""
+    module = _module()
+    if not _compile.is_compiled(module):
+        return module.solve_pose(*args)  # type: ignore[no-any-return]
+    _ENTRY.append(_compile.entry_point(module.solve_pose, args))
+    return _ENTRY[0](*args)  # type: ignore[no-any-return]
