@@ -18,9 +18,12 @@ demo: $(STAMP)
 	$(BIN)/redres demo
 
 # On every core (pytest-xdist; tests/conftest.py: one compilation of a kernel at a time
-# across the workers); `python -m pytest` alone runs the same suite in one process.
+# across the workers); `python -m pytest` alone runs the same suite in one process. Then,
+# one at a time, the 1 kHz loops against the Franka simulator (tests/hardware; they skip,
+# saying why, without franka-sim in .franka-sim, pylibfranka or a network namespace).
 test: $(STAMP)
 	$(BIN)/python -m pytest -n auto --dist worksteal --durations=25
+	REDRES_ROBOT_LOOP=1 $(BIN)/python -m pytest -m robot_loop tests/hardware
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples

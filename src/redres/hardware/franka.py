@@ -13,12 +13,20 @@ and runs one redres controller in the robot's own 1 kHz loop:
   compensates gravity itself), limited to the torque rate the robot accepts (1000 N·m/s).
 
 Command shaping (:mod:`redres.control.shaping`) is always on, started from the robot's
-last commanded velocity and acceleration; when cycles were lost (the robot then carries
-the command on at frozen acceleration and reports the carried-on command in ``q_d``,
-``dq_d``, ``ddq_d``, as Franka's documentation of the interface says) the shaper and the
-position command restart from those, so the next command continues the robot's; time is
-the robot's (``readOnce``'s elapsed duration), so the trajectory runs
-in robot time whatever the load of the client machine. At the end the command ramps to
+last commanded velocity and acceleration. Time is the robot's (``readOnce``'s elapsed
+duration), so the trajectory runs in robot time whatever the load of the client machine.
+
+After a missed cycle (:class:`_Continuation`): the robot checks each command by backward
+differences against the commands it applied, and carries a cycle nobody answered on at
+frozen acceleration (reporting the carried-on command in ``q_d``, ``dq_d``, ``ddq_d``).
+A command that arrives late is dropped by the robot (Franka's documentation of the
+interface) but applied by franka-sim, which then differences the next command against it
+over the cycles between them; and a state read just after a late write may predate it.
+So the client compares each state with its own commands carried on at frozen acceleration:
+the robot continues our line (then the next command continues it, with zero jerk if the
+robot's history sits cycles behind), or it does not, and then the first such state after
+a write is not answered (the late command is either dropped or shows up in the next
+state) and the next one is taken as the robot's history. At the end the command ramps to
 rest within the limits and the motion is finished (the robot holds; its brakes are its
 own business). When the robot stops the motion itself — a lost connection, a limit, a
 reflex — :class:`~redres.errors.RobotStoppedError` names its reason and carries the run
@@ -59,6 +67,9 @@ Mode = Literal["velocity", "position", "torque"]
 DT = 1e-3
 #: The torque rate the Franka arms accept, N·m/s (``franka::kMaxTorqueRate``).
 TORQUE_RATE = 1000.0
+#: Fraction of the velocity, acceleration and jerk limits the commands keep in hand: room
+#: for the robot's state being single precision on the wire (:class:`_Continuation`).
+SHAPING_MARGIN = 0.05
 #: The kernel groups a robot loop may call.
 WARM_GROUPS = ("linalg", "derivatives", "chain", "controller", "shaping", "hard limits")
 
@@ -106,6 +117,108 @@ class _State:
         self.ddq_d = np.array(raw.ddq_d)
         self.success = float(raw.control_command_success_rate)
         self.elapsed = elapsed
+
+
+class _Continuation:
+    """The command history the robot differences our next command against, followed
+    across missed cycles (module docstring).
+
+    The robot checks the command signal — the joint velocity in velocity mode, the joint
+    position in position mode — by backward differences against the last command it
+    applied, over the cycles between them, and carries a cycle that brought no command on
+    at frozen acceleration (Franka's interface documentation: "keep acceleration constant
+    and integrate"). Each state reports that history, rounded to single precision on the
+    wire: ``dq_d``, ``ddq_d`` (velocity mode); ``q_d``, ``dq_d``, ``ddq_d`` (position mode).
+    :meth:`plan` finds it on one of our last commands carried on that way, ``i`` cycles on
+    (in double precision: a rounded ``q_d`` would be a jerk of 100 rad/s³), and so knows
+    the ``s`` cycles the next command is differenced over:
+
+    * on our last command, ``s = 1`` (every ordinary cycle, and a gap the robot carried our
+      command through): a shaped step from it;
+    * on our last command, ``s > 1`` (franka-sim applied our late command and carried it on
+      from there, the state ahead of its history): the zero-jerk continuation of that line,
+      whose differences over the ``s`` cycles are the line's own;
+    * on an earlier command, or nowhere, in the first state after a write: our last
+      command may have come late — dropped (the robot), or applied after this state went
+      out (franka-sim) — so this cycle is not answered and the next state tells which;
+    * on an earlier command otherwise: as on the last one; nowhere: the zero-jerk
+      continuation of the reported history (its rounding is then a jerk once, not twice).
+    """
+
+    #: Commands kept to find the robot's history on.
+    KEPT = 4
+    #: How far the reported history may be from our line and still be taken for it: single
+    #: precision on the wire (4 units in the last place), and what changes the jerk the
+    #: robot computes by at most ``JERK_SLACK`` (a fifth of what ``SHAPING_MARGIN`` keeps in hand).
+    RTOL, JERK_SLACK = 2.0**-22, 50.0
+
+    def __init__(self, position: bool, shaper: CommandShaper) -> None:
+        self.position, self.shaper = position, shaper
+        orders = (3, 2, 1) if position else (2, 1)  # value, derivatives: to the jerk in DT^k
+        self.atol = [self.JERK_SLACK * DT**k for k in orders]
+        self.sent: list[tuple[int, list[FloatArray]]] = []  # (tick, history), newest first
+        self.answered = False  # whether the last state read was answered
+
+    def _reported(self, state: _State) -> list[FloatArray]:
+        if self.position:
+            return [state.q_d, state.dq_d, state.ddq_d]
+        return [state.dq_d, state.ddq_d]
+
+    def _line(self, history: list[FloatArray], i: int) -> list[FloatArray]:
+        """``history`` carried on ``i`` cycles at frozen acceleration, as the robot does
+        (velocity, then position: ``v += a dt``, ``q += v dt``)."""
+        if not self.position:
+            return [history[0] + i * DT * history[1], history[1]]
+        q, qd, qdd = history
+        return [q + DT * (i * qd + i * (i + 1) / 2 * DT * qdd), qd + i * DT * qdd, qdd]
+
+    def _find(self, reported: list[FloatArray], tick: int) -> tuple[int, list[FloatArray], int]:
+        """Which of our commands the reported history continues: ``(j, history, s)``, ``j =
+        0`` the last, ``history`` the robot's in double precision, ``s`` the cycles from it
+        to ``tick``; ``j = -1`` and the reported history if none."""
+        for j, (sent, history) in enumerate(self.sent):
+            for i in range(tick - sent - 1, -1, -1):
+                line = self._line(history, i)
+                if all(np.all(np.abs(r - x) <= self.RTOL * np.abs(x) + tol)
+                       for r, x, tol in zip(reported, line, self.atol)):  # fmt: skip
+                    return j, line, tick - sent - i
+        return -1, reported, 1
+
+    def plan(self, state: _State, tick: int, q_c: FloatArray) -> tuple[str, FloatArray]:
+        """What to do with the state of robot tick ``tick``: ``("step", q_c)``, a shaped
+        step (the shaper set to the robot's history where it is not ours, and the position
+        command to integrate from); ``("hold", command)``, the zero-jerk continuation of
+        the robot's history; ``("skip", q_c)``, no command this cycle."""
+        if not self.sent:
+            return "step", q_c  # the first cycle: the shaper starts from the robot's state
+        j, history, cycles = self._find(self._reported(state), tick)
+        if j == 0 and cycles == 1 and tick - self.sent[0][0] == 1:
+            return "step", q_c  # the ordinary cycle: the robot applied our last command
+        if j != 0 and self.answered:
+            self.answered = False
+            return "skip", q_c
+        if j >= 0 and cycles == 1:
+            self.shaper.reset(*history[-2:])
+            return "step", history[0] if self.position else q_c
+        s = DT * cycles  # differenced over that many cycles: continue at frozen acceleration
+        if self.position:
+            qd = history[1] + s * history[2]
+            self.shaper.reset(qd, history[2])
+            return "hold", history[0] + s * qd
+        qd = history[0] + s * history[1]
+        self.shaper.reset(qd, history[1])
+        return "hold", qd
+
+    def wrote(self, tick: int, q_c: FloatArray) -> None:
+        """Our command answering the state of robot tick ``tick`` was sent; ``q_c`` the
+        position command (position mode)."""
+        qd, qdd = self.shaper.qd, self.shaper.qdd
+        if not self.sent:  # the robot takes the first command as a standstill
+            qd, qdd = (0.0 * qd if self.position else qd), 0.0 * qdd
+            self.shaper.reset(qd, qdd)
+        history = [q_c.copy(), qd, qdd] if self.position else [qd, qdd]
+        self.sent = [(tick, history), *self.sent[: self.KEPT - 1]]
+        self.answered = True
 
 
 class _Libfranka:
@@ -265,7 +378,7 @@ def run_on_franka(
     q_start = first.q_d if mode == "position" else first.q
     path = trajectory(robot.fk(q_start)) if callable(trajectory) else trajectory
     duration = analysis.run_duration(path, duration)
-    shaper = CommandShaper.for_robot(robot, DT)
+    shaper = CommandShaper.for_robot(robot, DT, margin=SHAPING_MARGIN)
     controller = None
     # Nothing compiles in the robot's loop: the kernels are cached (or compiled) first,
     # and one step at the start configuration loads every entry point the loop takes.
@@ -290,7 +403,8 @@ def run_on_franka(
     record = {"command": np.zeros((rows, robot.n)), "write_us": writing}
     q_c, tau_prev = state.q_d.copy(), np.zeros(robot.n)
     rate = TORQUE_RATE * (1.0 - MARGIN) * DT
-    t, k, stopping, moving = 0.0, 0, False, 0
+    follow = _Continuation(mode == "position", shaper)
+    t, k, tick, stopping, moving, unlogged = 0.0, 0, 0, False, 0, 0
     bar = analysis.progress_bar(steps, progress, f"franka {mode} {label or law.name}")
     collecting = gc.isenabled()
     gc.disable()  # a collection inside a 1 ms cycle can take several: none until the stop
@@ -300,17 +414,25 @@ def run_on_franka(
                 state = backend.read()
             t0 = time.perf_counter_ns()
             t += state.elapsed
-            missed = max(round(state.elapsed / DT) - 1, 0)
-            if missed and not torque:  # the robot carried the command on: continue its
-                shaper.reset(state.dq_d, state.ddq_d)
-                q_c = state.q_d.copy()
+            cycles = round(state.elapsed / DT)
+            tick, missed = tick + cycles, max(cycles - 1, 0) + unlogged
+            action, planned, unlogged = "step", q_c, 0
+            if not torque:  # where the robot's history is (_Continuation)
+                action, planned = follow.plan(state, tick, q_c)
+            if action == "skip":
+                unlogged = missed + 1  # counted with the next row's lost cycles
+                continue
             stopping = stopping or t >= duration
             moving = moving if stopping else k + 1
             if isinstance(law, TorqueLaw):
                 command = _torque(law, robot, state, path, t, tau_prev, rate, stopping)
                 tau_prev, done = command, stopping
+            elif action == "hold":  # the zero-jerk continuation of the robot's history
+                command, done = planned, False
+                q_c = planned if mode == "position" else q_c + planned * DT
             else:
                 assert controller is not None
+                q_c = planned
                 if stopping:
                     qd = shaper(np.zeros(robot.n))
                     done = bool(np.abs(qd).max() < 1e-9 and np.abs(shaper.qdd).max() < 1e-6)
@@ -324,6 +446,7 @@ def run_on_franka(
                 command = qd if mode == "velocity" else q_c
             t1 = time.perf_counter_ns()
             backend.write(command, finished=done)
+            follow.wrote(tick, q_c)
             compute[k], writing[k] = (t1 - t0) / 1e3, (time.perf_counter_ns() - t1) / 1e3
             log.q[k], log.qd[k], record["command"][k] = state.q, state.dq, command
             success[k], robot_time[k], lost[k] = state.success, t, missed
