@@ -52,7 +52,12 @@ from ..control import Controller, RunLog, analysis
 from ..control.shaping import MARGIN, CommandShaper
 from ..dynamics import Payload, TorqueLaw, with_payload
 from ..dynamics.simulate import RigidBodyPlant
-from ..errors import InvalidParameterError, MissingDependencyError, RobotStoppedError
+from ..errors import (
+    InvalidParameterError,
+    MissingDependencyError,
+    RobotStoppedError,
+    install_hint,
+)
 from ..models import menagerie, panda
 from ..resolution import Scheme
 from ..tasks import FrameTask
@@ -71,7 +76,7 @@ TORQUE_RATE = 1000.0
 #: for the robot's state being single precision on the wire (:class:`_Continuation`).
 SHAPING_MARGIN = 0.05
 #: The kernel groups a robot loop may call.
-WARM_GROUPS = ("linalg", "derivatives", "chain", "controller", "shaping", "hard limits")
+WARM_GROUPS = ("linalg", "derivatives", "chain", "controller", "shaping", "dynamics", "hard limits")
 
 
 def franka_robot(arm: str = "fr3", *, hand: bool = False) -> Robot:
@@ -229,7 +234,8 @@ class _Libfranka:
             import pylibfranka as pf
         except ImportError:
             raise MissingDependencyError(
-                "pylibfranka is not installed: pip install 'redres[franka]' (Python 3.10-3.12)"
+                "pylibfranka is not installed (Python 3.10-3.12); install the franka extra: "
+                + install_hint("franka")
             ) from None
         self.pf = pf
         try:
