@@ -1,4 +1,4 @@
-"""Analytic IK at a given q7: redres ``ik_all`` next to its peers, on the same Panda poses.
+"""Analytic IK at a given q7: redres ``at_q7`` next to its peers, on the same Panda poses.
 
 ``--poses`` configurations (default 1,000) are drawn uniformly within the Panda's joint
 limits (seeded); their poses of the hand TCP (the flange, turned −π/4 about z, then
@@ -39,7 +39,7 @@ import pinocchio as pin
 
 import redres as rr
 from redres import _compile
-from redres.ik.analytic import ik_all, ik_all_batch
+from redres.ik.analytic import at_q7, at_q7_batch
 
 #: (prepare: T -> the library's own input, solve: (input, q7) -> solutions (k, 7)).
 Solver = tuple[Callable[[np.ndarray], Any], Callable[[Any, float], np.ndarray]]
@@ -143,7 +143,7 @@ def main() -> None:
         T = np.array([robot.fk(x) for x in q])
         q7 = [float(x) for x in q[:, 6]]
         contenders: dict[str, Solver] = {
-            "redres ik_all": (lambda T: T, lambda pose, x, robot=robot: ik_all(robot, pose, q7=x).q)
+            "redres at_q7": (lambda T: T, lambda pose, x, robot=robot: at_q7(robot, pose, q7=x).q)
         }
         if name == "panda":
             _check_frames(robot, rng)
@@ -163,15 +163,15 @@ def main() -> None:
         for threads in (None, 1):
             previous = _compile.threads(threads)
             try:
-                ik_all_batch(robot, T, q[:, 6])
+                at_q7_batch(robot, T, q[:, 6])
                 reps = []
                 for _ in range(5):
                     t0 = time.perf_counter()
-                    batch = ik_all_batch(robot, T, q[:, 6])
+                    batch = at_q7_batch(robot, T, q[:, 6])
                     reps.append((time.perf_counter() - t0) / args.poses * 1e6)
             finally:
                 _compile.threads(previous)
-            label = f"redres ik_all_batch ({'all' if threads is None else 1} threads)"
+            label = f"redres at_q7_batch ({'all' if threads is None else 1} threads)"
             rows = np.arange(8)[None, :] < batch.count[:, None]
             near = np.abs((batch.q - q[:, None] + np.pi) % (2 * np.pi) - np.pi).max(axis=2)
             found = float((np.where(rows, near, np.inf).min(axis=1) < 1e-6).mean())

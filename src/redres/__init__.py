@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from ._warmup import warmup
     from .control import Controller, run
     from .errors import RedresError
+    from .ik.solutions import ik_all, self_motion
     from .viewer import Viewer, view
 
 from ._version import __version__
@@ -32,7 +33,8 @@ from ._version import __version__
 #: for what a program touches (the README example never loads the controller, the
 #: torque laws or the viewer). Submodules of ``__all__`` load the same way.
 _LAZY: dict[str, str] = dict.fromkeys(("Controller", "run"), ".control") | {
-    "RedresError": ".errors", "warmup": "._warmup", "Viewer": ".viewer", "view": ".viewer"
+    "RedresError": ".errors", "warmup": "._warmup", "Viewer": ".viewer", "view": ".viewer",
+    "ik_all": ".ik.solutions", "self_motion": ".ik.solutions",
 }  # fmt: skip
 _SUBMODULES = frozenset(
     {"batch", "control", "dynamics", "errors", "hardware", "linalg", "models", "objectives",
@@ -68,11 +70,13 @@ __all__ = [
     "errors",
     "hardware",
     "ik",
+    "ik_all",
     "linalg",
     "models",
     "objectives",
     "resolution",
     "run",
+    "self_motion",
     "sim",
     "tasks",
     "view",

@@ -141,14 +141,14 @@ def _ik() -> None:
 
 
 def _analytic_ik() -> None:
-    from .ik.analytic import ik_all, ik_all_batch
+    from .ik.analytic import at_q7, at_q7_batch
     from .models import panda
 
     robot = panda()
     q = robot.neutral()
     T = robot.fk(q)
-    ik_all(robot, T, q7=float(q[6]))
-    ik_all_batch(robot, T[None], q[6:])
+    at_q7(robot, T, q7=float(q[6]))
+    at_q7_batch(robot, T[None], q[6:])
 
 
 def _batch() -> None:

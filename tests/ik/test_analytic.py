@@ -15,7 +15,7 @@ import pytest
 import redres as rr
 from redres.ik import analytic
 from redres.ik._analytic_codes import AnalyticFlag
-from redres.ik.analytic import NotAnalyticError, analytic_arm, ik_all, ik_all_batch
+from redres.ik.analytic import NotAnalyticError, analytic_arm, at_q7, at_q7_batch
 from redres.models.franka import FR3
 
 TOL = 1e-10  # m, rad: FK of every solution away from singular sets
@@ -62,7 +62,7 @@ def test_every_solution_meets_the_pose_by_pinocchio(arm: rr.Robot) -> None:
     q, T = _poses(arm, 150, 1)
     checked = 0
     for x, pose in zip(q, T):
-        found = ik_all(arm, pose, q7=float(x[6]))
+        found = at_q7(arm, pose, q7=float(x[6]))
         assert found.flags == 0  # random poses: away from the singular sets
         assert 1 <= len(found) <= 8 and np.isfinite(found.q).all()
         assert len(set(found.branch.tolist())) == len(found)
@@ -78,7 +78,7 @@ def test_every_solution_meets_the_pose_by_pinocchio(arm: rr.Robot) -> None:
 def test_the_original_configuration_is_found_on_10000_poses(arm: rr.Robot) -> None:
     q, _ = _poses(arm, 10_000, 2)
     T = rr.batch.fk(arm, q)
-    found = ik_all_batch(arm, T, q[:, 6])
+    found = at_q7_batch(arm, T, q[:, 6])
     assert (found.count >= 1).all() and np.isfinite(found.q).all()
     rows = np.arange(8)[None, :] < found.count[:, None]
     assert (found.residual[rows] < TOL).all()
@@ -101,14 +101,14 @@ def test_batch_equals_single_calls_bit_for_bit_at_any_thread_count() -> None:
 
     previous = _compile.threads(1)
     try:
-        one = ik_all_batch(robot, T, q[:, 6])
+        one = at_q7_batch(robot, T, q[:, 6])
     finally:
         _compile.threads(previous)
-    many = ik_all_batch(robot, T, q[:, 6])
+    many = at_q7_batch(robot, T, q[:, 6])
     for field in ("q", "branch", "within_limits", "position_error", "count", "flags"):
         assert np.array_equal(getattr(one, field), getattr(many, field))
     for i in range(len(q)):
-        single = ik_all(robot, T[i], q7=float(q[i, 6]))
+        single = at_q7(robot, T[i], q7=float(q[i, 6]))
         k = len(single)
         assert k == one.count[i]
         assert np.array_equal(single.q, one.q[i, :k])
@@ -122,7 +122,7 @@ def test_plain_python_twin_gives_the_same_solutions() -> None:
     plain = analytic.KERNELS.module(plain=True)
     q, T = _poses(robot, 5, 7)
     for x, pose in zip(q, T):
-        ref = ik_all(robot, pose, q7=float(x[6]))
+        ref = at_q7(robot, pose, q7=float(x[6]))
         out, codes = np.zeros((8, 9)), np.zeros((8, 3), dtype=np.int64)
         status, count, flags = plain.solve_pose(arm.links, arm.axes, arm.kinds, arm.bounds,
                                                 arm.arm, pose, float(x[6]), out, codes)  # fmt: skip
@@ -142,7 +142,7 @@ def _check_finite(found: analytic.IKSolutions) -> None:
 def test_shoulder_singularity_is_flagged() -> None:
     robot = rr.models.panda()
     q = np.array([0.4, 0.0, -0.3, -1.8, 0.2, 1.9, 0.5])  # q2 = 0: axes 1 and 3 aligned
-    found = ik_all(robot, robot.fk(q), q7=q[6])
+    found = at_q7(robot, robot.fk(q), q7=q[6])
     _check_finite(found)
     assert found.flags & AnalyticFlag.SHOULDER_SINGULAR
     singular = (found.solution_flags & AnalyticFlag.SHOULDER_SINGULAR) != 0
@@ -159,7 +159,7 @@ def test_stretched_elbow_is_flagged() -> None:
     _, _, A, B = analytic_arm(robot).arm[ELBOW : ELBOW + 4]
     q4 = math.atan2(B, A)  # the extreme of |W − S| in q4: a double root
     q = np.array([0.3, 0.5, -0.2, q4, 0.4, -0.6, 0.7])
-    found = ik_all(robot, robot.fk(q), q7=q[6])
+    found = at_q7(robot, robot.fk(q), q7=q[6])
     _check_finite(found)
     assert found.flags & AnalyticFlag.ELBOW_STRETCHED
     assert len(found) <= 4 and (found.residual < 1e-8).all()
@@ -186,7 +186,7 @@ def test_merged_branches_are_flagged() -> None:
     values = [tangency(g) for g in grid]
     i = next(i for i in range(len(grid) - 1) if values[i] * values[i + 1] < 0)
     q[4] = brentq(tangency, grid[i], grid[i + 1], xtol=1e-15)
-    found = ik_all(robot, robot.fk(q), q7=q[6])
+    found = at_q7(robot, robot.fk(q), q7=q[6])
     _check_finite(found)
     assert found.flags & AnalyticFlag.BRANCHES_MERGED
     assert (found.residual < 1e-8).all()
@@ -197,10 +197,10 @@ def test_unreachable_pose_gives_no_solution_and_no_nan() -> None:
     robot = rr.models.panda()
     T = robot.fk(robot.neutral())
     T[:3, 3] += [3.0, 0.0, 0.0]
-    found = ik_all(robot, T, q7=0.0)
+    found = at_q7(robot, T, q7=0.0)
     assert len(found) == 0 and found.q.shape == (0, 7)
     assert found.flags == AnalyticFlag.UNREACHABLE
-    batch = ik_all_batch(robot, np.stack((T, robot.fk(robot.neutral()))), [0.0, robot.neutral()[6]])
+    batch = at_q7_batch(robot, np.stack((T, robot.fk(robot.neutral()))), [0.0, robot.neutral()[6]])
     assert batch.count.tolist()[0] == 0 and batch.count[1] >= 1
     assert batch.flags[0] == AnalyticFlag.UNREACHABLE and np.isfinite(batch.q).all()
 
@@ -211,21 +211,21 @@ def test_bad_input_is_refused_by_name() -> None:
     bad = T.copy()
     bad[0, 0] = np.nan
     with pytest.raises(rr.errors.NonFiniteError):
-        ik_all(robot, bad, q7=0.0)
+        at_q7(robot, bad, q7=0.0)
     with pytest.raises(rr.errors.NonFiniteError, match="q7"):
-        ik_all(robot, T, q7=math.inf)
+        at_q7(robot, T, q7=math.inf)
     with pytest.raises(rr.errors.InvalidParameterError, match="q7 is required"):
-        ik_all(robot, T, q7=None)  # type: ignore[arg-type]
+        at_q7(robot, T, q7=None)  # type: ignore[arg-type]
     with pytest.raises(rr.errors.ShapeError):
-        ik_all(robot, 2.0 * T, q7=0.0)
+        at_q7(robot, 2.0 * T, q7=0.0)
     with pytest.raises(rr.errors.NonFiniteError, match=r"T\[1\]"):
-        ik_all_batch(robot, np.stack((T, bad)), 0.0)
+        at_q7_batch(robot, np.stack((T, bad)), 0.0)
     # the same solutions from a list, a read-only array and a numpy scalar q7
-    ref = ik_all(robot, T, q7=0.1)
+    ref = at_q7(robot, T, q7=0.1)
     frozen = T.copy()
     frozen.flags.writeable = False
     for pose, q7 in ((T.tolist(), 0.1), (frozen, np.float64(0.1)), (np.asfortranarray(T), 0.1)):
-        assert np.array_equal(ik_all(robot, pose, q7=q7).q, ref.q)
+        assert np.array_equal(at_q7(robot, pose, q7=q7).q, ref.q)
 
 
 def test_arms_without_the_structure_are_refused() -> None:
@@ -249,7 +249,7 @@ def test_shipped_menagerie_arms(name: str) -> None:
     robot = rr.models.menagerie(name)  # MJCF frames and axes, not DH: the same closed form
     q, T = _poses(robot, 100, 6)
     for x, pose in zip(q, T):
-        found = ik_all(robot, pose, q7=float(x[6]))
+        found = at_q7(robot, pose, q7=float(x[6]))
         assert (found.residual < TOL).all()
         assert np.abs(_wrapped(found.q - x)).max(axis=1).min() < SAME
         for sol in found.q[:2]:
@@ -287,7 +287,7 @@ def _enumeration_agrees(robot: rr.Robot, poses: int, seeds: int, seed: int) -> f
     complete = 0
     for x, pose in zip(q, T):
         numerical = _newton_enumeration(robot, pose, x[6], rng.uniform(-np.pi, np.pi, (seeds, 6)))
-        closed = _wrapped(ik_all(robot, pose, q7=x[6]).q)
+        closed = _wrapped(at_q7(robot, pose, q7=x[6]).q)
         gaps = np.abs(_wrapped(closed[:, None] - closed[None])).max(axis=2)
         assert (gaps + np.eye(len(closed)) > 1e-6).all()  # distinct (each one is real: FK)
         for sol in numerical:  # nothing the closed form misses

@@ -1,6 +1,6 @@
 """Every inverse-kinematics solution of a 7R arm at a given ``q7``, in closed form.
 
-``ik_all(robot, T, q7=...)`` returns all joint configurations (up to eight) that put the
+``at_q7(robot, T, q7=...)`` returns all joint configurations (up to eight) that put the
 frame at pose ``T`` with the last joint at ``q7``, computed by a compiled kernel
 (:mod:`redres.ik._analytic_kernels`) in microseconds. Covered: arms whose first three
 axes meet at one point ``S`` (a spherical shoulder) and whose axes 5 and 6 meet at a
@@ -84,11 +84,11 @@ __all__ = [
     "IKSolutionsBatch",
     "NotAnalyticError",
     "analytic_arm",
-    "ik_all",
-    "ik_all_batch",
+    "at_q7",
+    "at_q7_batch",
 ]
 
-#: The analytic kernels. Cold (2026-12-07, 2 shared cores, load 4.7): a first ``ik_all``
+#: The analytic kernels. Cold (2026-12-07, 2 shared cores, load 4.7): a first ``at_q7``
 #: 21.5 s with the chain kernels (4.5 s of it), the batch form 2.4 s more; warm 1.0 s.
 KERNELS = _compile.KernelGroup("analytic ik", ("redres.ik._analytic_kernels",), cold_seconds=17.0)
 
@@ -336,7 +336,7 @@ def _normal(v: FloatArray) -> FloatArray:
 # ---------------------------------------------------------------------- solving
 
 
-def ik_all(robot: Robot, T: Any, *, q7: float, frame: str | None = None) -> IKSolutions:
+def at_q7(robot: Robot, T: Any, *, q7: float, frame: str | None = None) -> IKSolutions:
     """Every configuration that puts ``frame`` at ``T`` with the last joint at ``q7``
     (module docstring).
 
@@ -376,13 +376,13 @@ def ik_all(robot: Robot, T: Any, *, q7: float, frame: str | None = None) -> IKSo
     return result
 
 
-def ik_all_batch(robot: Robot, T: Any, q7: Any, *, frame: str | None = None) -> IKSolutionsBatch:
-    """:func:`ik_all` for ``N`` poses ``T`` ``(N, 4, 4)`` at ``q7`` ``(N,)`` (or one value
+def at_q7_batch(robot: Robot, T: Any, q7: Any, *, frame: str | None = None) -> IKSolutionsBatch:
+    """:func:`at_q7` for ``N`` poses ``T`` ``(N, 4, 4)`` at ``q7`` ``(N,)`` (or one value
     for all), rad, on every core (numba's threads; each pose is independent, so results do
     not depend on the thread count).
 
     Raises:
-        NotAnalyticError, ShapeError, NonFiniteError: as :func:`ik_all` (the message names
+        NotAnalyticError, ShapeError, NonFiniteError: as :func:`at_q7` (the message names
             the first bad pose).
     """
     arm = analytic_arm(robot, frame)
