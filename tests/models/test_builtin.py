@@ -3,13 +3,14 @@ Panda described joint by joint in a URDF written from Franka's description."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import redres as rr
-from redres.errors import MissingDependencyError, RobotNotFoundError
+from redres.errors import MissingDependencyError, RobotNotFoundError, install_hint
 
 
 def test_names_and_load() -> None:
@@ -105,7 +106,7 @@ def test_example_robot_data_missing_is_a_clear_error(monkeypatch: pytest.MonkeyP
         raise metadata.PackageNotFoundError(name)
 
     monkeypatch.setattr(metadata, "distribution", not_installed)
-    with pytest.raises(MissingDependencyError, match=r"pip install 'redres\[robots\]'"):
+    with pytest.raises(MissingDependencyError, match=re.escape(install_hint("robots"))):
         rr.models.example_robot("panda")
 
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import redres as rr
-from redres.errors import InvalidParameterError, MissingDependencyError
+from redres.errors import InvalidParameterError, MissingDependencyError, install_hint
 from redres.report import arm_frames, write_report
 from redres.report import html as report_html
 from redres.report import plots as report_plots
@@ -160,7 +160,7 @@ def test_missing_extra_is_named(
     runs: Runs, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setitem(sys.modules, "plotly.offline", None)  # import fails
-    with pytest.raises(MissingDependencyError, match=r"redres\[report\]") as info:
+    with pytest.raises(MissingDependencyError, match=re.escape(install_hint("report"))) as info:
         write_report(tmp_path / "out", runs, title="t")
     assert isinstance(info.value, ImportError) and "plotly" in str(info.value)
     assert list(tmp_path.iterdir()) == []

@@ -7,6 +7,7 @@ file (SHA-256 of every byte under the output folder).
 from __future__ import annotations
 
 import json
+import re
 import signal
 import subprocess
 import sys
@@ -18,6 +19,7 @@ import numpy as np
 import pytest
 
 from redres import sweeps
+from redres.errors import install_hint
 from redres.sweeps import SweepFolderError
 from redres.sweeps.store import checksum
 
@@ -200,7 +202,7 @@ def test_npz_when_zarr_is_absent(
     from redres.sweeps import engine
 
     monkeypatch.setattr(engine, "zarr_available", lambda: False)
-    with pytest.raises(MissingDependencyError, match=r"redres\[zarr\]"):
+    with pytest.raises(MissingDependencyError, match=re.escape(install_hint("zarr"))):
         sweeps.run(small_spec, tmp_path / "z", workers=1, progress=False, storage="zarr")
     report = sweeps.run(small_spec, tmp_path / "out", workers=1, progress=False)
     assert json.loads((tmp_path / "out" / "sweep.json").read_text())["storage"] == "npz"

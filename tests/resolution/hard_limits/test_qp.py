@@ -8,6 +8,7 @@ a second backend (ProxQP) and the limits themselves.
 
 from __future__ import annotations
 
+import re
 import sys
 
 import numpy as np
@@ -15,7 +16,7 @@ import pytest
 from scipy.optimize import linprog
 
 import redres as rr
-from redres.errors import InvalidParameterError, MissingDependencyError
+from redres.errors import InvalidParameterError, MissingDependencyError, install_hint
 from redres.objectives import JointLimitObjective
 from redres.resolution import (
     JointLimits,
@@ -207,10 +208,10 @@ def test_missing_backend_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> Non
     import qpsolvers
 
     monkeypatch.setattr(qpsolvers, "available_solvers", [])
-    with pytest.raises(MissingDependencyError, match=r"redres\[qp\]"):
+    with pytest.raises(MissingDependencyError, match=re.escape(install_hint("qp"))):
         QPScheme()
     monkeypatch.setitem(sys.modules, "qpsolvers", None)  # import qpsolvers -> ImportError
-    with pytest.raises(MissingDependencyError, match=r"redres\[qp\]"):
+    with pytest.raises(MissingDependencyError, match=re.escape(install_hint("qp"))):
         QPScheme()
     assert issubclass(MissingDependencyError, ImportError)
 
