@@ -21,6 +21,7 @@ from redres.objectives import JointLimitObjective, PostureObjective
 from redres.resolution import GradientProjectionScheme
 from redres.testing import command_violations
 
+WINDOW = 100  # cycles of the robot's success-rate window
 SETTLED = 1000  # cycles after which the tracking error is judged (the ramp is 0.5 s)
 
 
@@ -77,7 +78,10 @@ def main() -> int:
         result.update(
             cycles=log.steps,
             lost=int(log.extra["lost_cycles"].sum()),
-            success_min=float(log.extra["success_rate"][10:].min()) if log.steps > 10 else 1.0,
+            # the robot's rate is "the share of the last 100 control commands received"
+            # (libfranka's RobotState): its minimum once that window is full
+            success_min=float(log.extra["success_rate"][WINDOW:].min())
+            if log.steps > WINDOW else 1.0,
             error_settled_mm=float(1e3 * log.position_error[SETTLED : moving.stop].max())
             if moving.stop > SETTLED else None,
             refused=refused if mode != "torque" else 0,
