@@ -122,8 +122,17 @@ BENCHES = [
           "pytorch_kinematics' CPU batch IK (`pip install pytorch-kinematics`, a 4 GB "
           "install with torch: not in the bench extra), pose targets per second, every "
           "solution checked with Pinocchio's forward kinematics.", quick=["--quick"]),
+    Bench("analytic_ik", "analytic_ik.py", "Every IK solution at a given q7 (Panda, iiwa14)",
+          "`benchmarks/analytic_ik.py`: `rr.ik_all(robot, T, q7=...)` (the closed form of "
+          "`redres.ik.analytic`) next to GeoFIK (geofikpy) and frankik (He & Liu 2021) on the "
+          "same 1,000 random in-limit Panda poses at their own q7: time per call and per "
+          "solution, solutions found, how often the original configuration is among them, "
+          "the worst forward-kinematics error (Pinocchio), solutions holding NaN.",
+          quick=["--poses", "50", "--rounds", "1"], markdown=False),
     Bench("dynamics", "dynamics.py", "Operational-space control step (Panda)",
-          "`benchmarks/dynamics.py` (redres alone).", quick=["--rounds", "3"], markdown=False),
+          "`benchmarks/dynamics.py`: the compiled operational-space step next to the same "
+          "step on Pinocchio, and the pieces of a step (redres alone).",
+          quick=["--rounds", "3"], markdown=False),
 ]  # fmt: skip
 
 
