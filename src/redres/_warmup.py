@@ -118,7 +118,9 @@ def _f(ndim: int, dtype: type = float) -> np.ndarray:
     return np.zeros((1,) * ndim, dtype=dtype)
 
 
-def _hard_limits() -> None:
+def _hard_limits() -> tuple[str, ...] | None:
+    import importlib.util
+
     from .models import panda
     from .resolution import QPScheme, SNSScheme
 
@@ -129,7 +131,15 @@ def _hard_limits() -> None:
     # An SNS loop needs no more: it switches now. QPScheme's epilogue (in the same module)
     # compiles next; a QP loop waits for its own module, marked after it (QPScheme._prepare).
     _compile.groups()["hard limits"].mark(modules=["_kernels"])
+    if importlib.util.find_spec("qpsolvers") is None:  # said up front, not after minutes
+        from .errors import install_hint
+
+        print("redres: hard limits: QPScheme's kernels skipped, the qp extra is not "
+              f"installed ({install_hint('qp')}); SNSScheme's are compiled",
+              file=sys.stderr, flush=True)  # fmt: skip
+        return ("_kernels",)
     QPScheme(dt=1e-3).step(robot, q, J, np.zeros(6))
+    return None
 
 
 def _ik() -> None:
@@ -170,7 +180,9 @@ def _batch() -> None:
 
 #: Each kernel group's workload, by the group's name, in the order ``redres warmup`` runs
 #: them.
-WORKLOADS: dict[str, Callable[[], None]] = {
+#: A workload returns None, or the modules of its group it compiled when it had to leave
+#: some out (a missing extra): only those are marked cached.
+WORKLOADS: dict[str, Callable[[], tuple[str, ...] | None]] = {
     "linalg": _linalg,
     "derivatives": _derivatives,
     "chain": _chain,
@@ -293,8 +305,11 @@ def _marking(name: str) -> Callable[[], None]:
     def call() -> None:
         if _cached(name):
             return  # loaded from the cache on first use
-        WORKLOADS[name]()  # imports the group's owner, which declares it
-        _compile.groups()[name].mark(workload=True)
+        done = WORKLOADS[name]()  # imports the group's owner, which declares it
+        if done is None:
+            _compile.groups()[name].mark(workload=True)
+        else:
+            _compile.groups()[name].mark(modules=done)
 
     return call
 

@@ -234,3 +234,20 @@ def test_a_background_compile_that_fails_falls_back_to_compiling_on_first_use(
     assert "the background compilation failed (it exited with status 1" in err
     assert "numba cannot be imported" not in err
     assert out == {"compiled": True}
+
+
+def test_the_warm_up_skips_the_qp_kernels_up_front_without_the_qp_extra(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import importlib.util
+
+    from redres import _warmup
+    from redres.errors import install_hint
+
+    real = importlib.util.find_spec
+    hidden = {"qpsolvers"}
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name in hidden else real(name, *a))  # fmt: skip
+    assert _warmup.WORKLOADS["hard limits"]() == ("_kernels",)
+    said = capsys.readouterr().err
+    assert "QPScheme's kernels skipped" in said and install_hint("qp") in said

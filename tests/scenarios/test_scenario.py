@@ -324,3 +324,22 @@ def test_without_mujoco_the_mujoco_scenario_says_what_to_install(
     assert "panda_mujoco_circle" in listed and hint in listed
     assert main(["run", "panda_mujoco_circle", "--out", str(tmp_path / "r")]) == 2
     assert f"MuJoCo is not installed: {hint}" in capsys.readouterr().err
+
+
+def test_without_the_qp_extra_the_other_schemes_run_and_the_qp_row_says_why(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import json
+    import sys
+
+    monkeypatch.setitem(sys.modules, "qpsolvers", None)  # a plain install: the import fails
+    path = write(tmp_path, GOOD + '\n[[schemes]]\ntype = "qp"\n')
+    assert main(["run", str(path), "--json", "--out", str(tmp_path / "r")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert [r["scheme"] for r in out["runs"]] == ["pinv"]
+    (miss,) = out["skipped"]
+    assert miss["scenario"] == "tiny" and "qp" in miss["scheme"]
+    assert miss["reason"].endswith(install_hint("qp"))
+    assert main(["run", str(path), "--out", str(tmp_path / "t")]) == 0
+    table = capsys.readouterr().out
+    assert "not run: tiny" in table and install_hint("qp") in table

@@ -196,19 +196,30 @@ def run_scenarios(
     loud = not (quiet or as_json)
     _compile_for(specs, loud)
     runs: list[tuple[ScenarioSpec, RunLog]] = []
+    skipped: list[dict[str, str]] = []
     for spec in specs:
         if quick:
             spec.duration *= 0.05
         if loud:
             print(f"{spec.name}: {spec.description}", file=sys.stderr)
-        logs = run_scenario(spec, progress=None if loud else False, viewer=viewer, franka=franka)
+        missing: list[tuple[str, str]] = []
+        logs = run_scenario(spec, progress=None if loud else False, viewer=viewer,
+                            franka=franka, skipped=missing)  # fmt: skip
         runs += [(spec, log) for log in logs]
+        skipped += [{"scenario": spec.name, "scheme": label, "reason": why}
+                    for label, why in missing]  # fmt: skip
+    if not runs and skipped:
+        for miss in skipped:
+            print(f"redres: {miss['scenario']}, {miss['scheme']}: {miss['reason']}",
+                  file=sys.stderr)  # fmt: skip
+        return 2
     description = " ".join(f"{s.description}." for s in specs)
     report = _write_report(output.folder, runs, title, description, output.force)
     summaries = [summarise(spec.robot, log) for spec, log in runs]
     steps = 100 if quick else 1500
     if as_json:
-        payload: dict[str, Any] = {"report": str(report) if report else None, "runs": summaries}
+        payload: dict[str, Any] = {"report": str(report) if report else None, "runs": summaries,
+                                   "skipped": skipped}  # fmt: skip
         if examples:
             payload.update(examples=worked_examples(), compiled_loop=compiled_loop(steps))
         print(json.dumps(payload))
@@ -216,6 +227,8 @@ def run_scenarios(
         print(format_table(summaries))
         for line in warning_lines(summaries):
             print(line)
+        for miss in skipped:
+            print(f"not run: {miss['scenario']}, {miss['scheme']}: {miss['reason']}")
         if report is not None:
             print(f"\nreport: {report}")
     if after is not None:

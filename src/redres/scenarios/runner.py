@@ -16,6 +16,7 @@ import numpy as np
 
 from ..control import LiveView, RunLog, run
 from ..dynamics.simulate import simulate
+from ..errors import MissingDependencyError
 from ..objectives import ObstacleObjective
 from .spec import ScenarioSpec
 
@@ -82,12 +83,15 @@ def run_scenario(
     progress: bool | None = None,
     viewer: LiveView | None = None,
     franka: FrankaTarget | None = None,
+    skipped: list[tuple[str, str]] | None = None,
 ) -> list[RunLog]:
     """Run each scheme of ``spec`` from the same start; returns the logs in order. A
     ``viewer`` shows the rate-control runs live as they are computed (``rr.run``'s
     ``viewer=``; torque-control runs are shown once finished). ``franka``: on a Franka
     arm (:func:`redres.hardware.run_on_franka`), one scheme after the other from where the
-    robot stands."""
+    robot stands. ``skipped``: a scheme whose optional dependency is missing is left out,
+    with ``(label, message)`` appended here, instead of ending every run (without it the
+    ``MissingDependencyError`` propagates)."""
     extra = [ObstacleObjective(spec.obstacles)] if spec.obstacles else []
     logs = []
     if franka is not None:
@@ -104,14 +108,19 @@ def run_scenario(
     for s in spec.schemes:
         common: dict[str, Any] = {"dt": spec.dt, "duration": spec.duration, "q0": spec.q0,
                                   "label": s.label, "progress": progress}  # fmt: skip
-        if spec.plant == "mujoco":
-            logs.append(_on_mujoco(spec, s.build(), s.kind == "osc", common))
-        elif s.kind == "osc":
-            logs.append(simulate(spec.robot, s.build(), spec.trajectory, **common))
-        else:
-            logs.append(run(spec.robot, spec.task(), spec.trajectory, s.build(), gain=spec.gain,
-                            shaping=spec.shaping, log_objectives=extra, viewer=viewer,
-                            **common))  # fmt: skip
+        try:
+            if spec.plant == "mujoco":
+                logs.append(_on_mujoco(spec, s.build(), s.kind == "osc", common))
+            elif s.kind == "osc":
+                logs.append(simulate(spec.robot, s.build(), spec.trajectory, **common))
+            else:
+                logs.append(run(spec.robot, spec.task(), spec.trajectory, s.build(),
+                                gain=spec.gain, shaping=spec.shaping, log_objectives=extra,
+                                viewer=viewer, **common))  # fmt: skip
+        except MissingDependencyError as exc:
+            if skipped is None:
+                raise
+            skipped.append((s.label, str(exc)))
     return logs
 
 
