@@ -16,17 +16,8 @@ Command shaping (:mod:`redres.control.shaping`) is always on, started from the r
 last commanded velocity and acceleration. Time is the robot's (``readOnce``'s elapsed
 duration), so the trajectory runs in robot time whatever the load of the client machine.
 
-After a missed cycle (:class:`_Continuation`): the robot checks each command by backward
-differences against the commands it applied, and carries a cycle nobody answered on at
-frozen acceleration (reporting the carried-on command in ``q_d``, ``dq_d``, ``ddq_d``).
-A command that arrives late is dropped by the robot (Franka's documentation of the
-interface) but applied by franka-sim, which then differences the next command against it
-over the cycles between them; and a state read just after a late write may predate it.
-So the client compares each state with its own commands carried on at frozen acceleration:
-the robot continues our line (then the next command continues it, with zero jerk if the
-robot's history sits cycles behind), or it does not, and then the first such state after
-a write is not answered (the late command is either dropped or shows up in the next
-state) and the next one is taken as the robot's history. At the end the command ramps to
+After a missed cycle the client follows the robot's command history
+(:class:`redres.hardware.continuation.Continuation`). At the end the command ramps to
 rest within the limits and the motion is finished (the robot holds; its brakes are its
 own business). When the robot stops the motion itself — a lost connection, a limit, a
 reflex — :class:`~redres.errors.RobotStoppedError` names its reason and carries the run
@@ -61,6 +52,7 @@ from ..errors import (
 from ..models import menagerie, panda
 from ..resolution import Scheme
 from ..tasks import FrameTask
+from .continuation import DT, Continuation, State
 
 if TYPE_CHECKING:
     from ..control import Trajectory
@@ -68,12 +60,11 @@ if TYPE_CHECKING:
     from ..tasks import Task
 
 Mode = Literal["velocity", "position", "torque"]
-#: The Franka control period, s (``franka::kDeltaT``).
-DT = 1e-3
 #: The torque rate the Franka arms accept, N·m/s (``franka::kMaxTorqueRate``).
 TORQUE_RATE = 1000.0
 #: Fraction of the velocity, acceleration and jerk limits the commands keep in hand: room
-#: for the robot's state being single precision on the wire (:class:`_Continuation`).
+#: for the robot's state being single precision on the wire
+#: (:class:`~redres.hardware.continuation.Continuation`).
 SHAPING_MARGIN = 0.05
 #: The kernel groups a robot loop may call.
 WARM_GROUPS = ("linalg", "derivatives", "chain", "controller", "shaping", "dynamics", "hard limits")
@@ -110,122 +101,6 @@ def _along_z(d: float) -> FloatArray:
     return T
 
 
-class _State:
-    """What a cycle reads: measured ``q``, ``dq``; commanded ``q_d``, ``dq_d``,
-    ``ddq_d``; the robot's command success rate; elapsed robot time, s."""
-
-    __slots__ = ("ddq_d", "dq", "dq_d", "elapsed", "q", "q_d", "success")
-
-    def __init__(self, raw: Any, elapsed: float) -> None:
-        self.q, self.dq = np.array(raw.q), np.array(raw.dq)
-        self.q_d, self.dq_d = np.array(raw.q_d), np.array(raw.dq_d)
-        self.ddq_d = np.array(raw.ddq_d)
-        self.success = float(raw.control_command_success_rate)
-        self.elapsed = elapsed
-
-
-class _Continuation:
-    """The command history the robot differences our next command against, followed
-    across missed cycles (module docstring).
-
-    The robot checks the command signal — the joint velocity in velocity mode, the joint
-    position in position mode — by backward differences against the last command it
-    applied, over the cycles between them, and carries a cycle that brought no command on
-    at frozen acceleration (Franka's interface documentation: "keep acceleration constant
-    and integrate"). Each state reports that history, rounded to single precision on the
-    wire: ``dq_d``, ``ddq_d`` (velocity mode); ``q_d``, ``dq_d``, ``ddq_d`` (position mode).
-    :meth:`plan` finds it on one of our last commands carried on that way, ``i`` cycles on
-    (in double precision: a rounded ``q_d`` would be a jerk of 100 rad/s³), and so knows
-    the ``s`` cycles the next command is differenced over:
-
-    * on our last command, ``s = 1`` (every ordinary cycle, and a gap the robot carried our
-      command through): a shaped step from it;
-    * on our last command, ``s > 1`` (franka-sim applied our late command and carried it on
-      from there, the state ahead of its history): the zero-jerk continuation of that line,
-      whose differences over the ``s`` cycles are the line's own;
-    * on an earlier command, or nowhere, in the first state after a write: our last
-      command may have come late — dropped (the robot), or applied after this state went
-      out (franka-sim) — so this cycle is not answered and the next state tells which;
-    * on an earlier command otherwise: as on the last one; nowhere: the zero-jerk
-      continuation of the reported history (its rounding is then a jerk once, not twice).
-    """
-
-    #: Commands kept to find the robot's history on.
-    KEPT = 4
-    #: How far the reported history may be from our line and still be taken for it: single
-    #: precision on the wire (4 units in the last place), and what changes the jerk the
-    #: robot computes by at most ``JERK_SLACK`` (a fifth of what ``SHAPING_MARGIN`` keeps in hand).
-    RTOL, JERK_SLACK = 2.0**-22, 50.0
-
-    def __init__(self, position: bool, shaper: CommandShaper) -> None:
-        self.position, self.shaper = position, shaper
-        orders = (3, 2, 1) if position else (2, 1)  # value, derivatives: to the jerk in DT^k
-        self.atol = [self.JERK_SLACK * DT**k for k in orders]
-        self.sent: list[tuple[int, list[FloatArray]]] = []  # (tick, history), newest first
-        self.answered = False  # whether the last state read was answered
-
-    def _reported(self, state: _State) -> list[FloatArray]:
-        if self.position:
-            return [state.q_d, state.dq_d, state.ddq_d]
-        return [state.dq_d, state.ddq_d]
-
-    def _line(self, history: list[FloatArray], i: int) -> list[FloatArray]:
-        """``history`` carried on ``i`` cycles at frozen acceleration, as the robot does
-        (velocity, then position: ``v += a dt``, ``q += v dt``)."""
-        if not self.position:
-            return [history[0] + i * DT * history[1], history[1]]
-        q, qd, qdd = history
-        return [q + DT * (i * qd + i * (i + 1) / 2 * DT * qdd), qd + i * DT * qdd, qdd]
-
-    def _find(self, reported: list[FloatArray], tick: int) -> tuple[int, list[FloatArray], int]:
-        """Which of our commands the reported history continues: ``(j, history, s)``, ``j =
-        0`` the last, ``history`` the robot's in double precision, ``s`` the cycles from it
-        to ``tick``; ``j = -1`` and the reported history if none."""
-        for j, (sent, history) in enumerate(self.sent):
-            for i in range(tick - sent - 1, -1, -1):
-                line = self._line(history, i)
-                if all(np.all(np.abs(r - x) <= self.RTOL * np.abs(x) + tol)
-                       for r, x, tol in zip(reported, line, self.atol)):  # fmt: skip
-                    return j, line, tick - sent - i
-        return -1, reported, 1
-
-    def plan(self, state: _State, tick: int, q_c: FloatArray) -> tuple[str, FloatArray]:
-        """What to do with the state of robot tick ``tick``: ``("step", q_c)``, a shaped
-        step (the shaper set to the robot's history where it is not ours, and the position
-        command to integrate from); ``("hold", command)``, the zero-jerk continuation of
-        the robot's history; ``("skip", q_c)``, no command this cycle."""
-        if not self.sent:
-            return "step", q_c  # the first cycle: the shaper starts from the robot's state
-        j, history, cycles = self._find(self._reported(state), tick)
-        if j == 0 and cycles == 1 and tick - self.sent[0][0] == 1:
-            return "step", q_c  # the ordinary cycle: the robot applied our last command
-        if j != 0 and self.answered:
-            self.answered = False
-            return "skip", q_c
-        if j >= 0 and cycles == 1:
-            self.shaper.reset(*history[-2:])
-            return "step", history[0] if self.position else q_c
-        s = DT * cycles  # differenced over that many cycles: continue at frozen acceleration
-        if self.position:
-            qd = history[1] + s * history[2]
-            self.shaper.reset(qd, history[2])
-            return "hold", history[0] + s * qd
-        qd = history[0] + s * history[1]
-        self.shaper.reset(qd, history[1])
-        return "hold", qd
-
-    def wrote(self, tick: int, q_c: FloatArray) -> None:
-        """Our command answering the state of robot tick ``tick`` was sent; ``q_c`` the
-        position command (position mode)."""
-        qd, qdd = self.shaper.qd, self.shaper.qdd
-        if not self.sent:  # the robot takes the first command as a standstill
-            qd, qdd = (0.0 * qd if self.position else qd), 0.0 * qdd
-            self.shaper.reset(qd, qdd)
-        history = [q_c.copy(), qd, qdd] if self.position else [qd, qdd]
-        self.sent = [(tick, history), *self.sent[: self.KEPT - 1]]
-        self.answered = True
-
-
 class _Libfranka:
     """The robot through pylibfranka (one motion)."""
 
@@ -246,10 +121,10 @@ class _Libfranka:
             self.robot.automatic_error_recovery()  # after an earlier motion's reflex
         self.active: Any = None
 
-    def peek(self) -> _State:
-        return _State(self.robot.read_once(), 0.0)
+    def peek(self) -> State:
+        return State(self.robot.read_once(), 0.0)
 
-    def start(self, mode: Mode) -> _State:
+    def start(self, mode: Mode) -> State:
         pf, robot = self.pf, self.robot
         impedance = pf.ControllerMode.JointImpedance
         starts = {"velocity": lambda: robot.start_joint_velocity_control(impedance),
@@ -259,11 +134,11 @@ class _Libfranka:
         self.kind = {"velocity": pf.JointVelocities, "position": pf.JointPositions,
                      "torque": pf.Torques}[mode]  # fmt: skip
         raw, _ = self.active.readOnce()
-        return _State(raw, 0.0)
+        return State(raw, 0.0)
 
-    def read(self) -> _State:
+    def read(self) -> State:
         raw, duration = self.active.readOnce()
-        return _State(raw, duration.to_sec())
+        return State(raw, duration.to_sec())
 
     def write(self, command: FloatArray, finished: bool = False) -> None:
         out = self.kind(command.tolist())
@@ -287,18 +162,18 @@ class _Model:
     #: Every command arrives (a libfranka state's success rate).
     control_command_success_rate = 1.0
 
-    def _state(self, elapsed: float) -> _State:
-        return _State(self, elapsed)  # the model has the state's fields
+    def _state(self, elapsed: float) -> State:
+        return State(self, elapsed)  # the model has the state's fields
 
-    def peek(self) -> _State:
+    def peek(self) -> State:
         return self._state(0.0)
 
-    def start(self, mode: Mode) -> _State:
+    def start(self, mode: Mode) -> State:
         self.mode = mode
         self.plant.reset(self.q, self.dq)
         return self._state(0.0)
 
-    def read(self) -> _State:
+    def read(self) -> State:
         return self._state(DT)
 
     def write(self, command: FloatArray, finished: bool = False) -> None:
@@ -409,7 +284,7 @@ def run_on_franka(
     record = {"command": np.zeros((rows, robot.n)), "write_us": writing}
     q_c, tau_prev = state.q_d.copy(), np.zeros(robot.n)
     rate = TORQUE_RATE * (1.0 - MARGIN) * DT
-    follow = _Continuation(mode == "position", shaper)
+    follow = Continuation(mode == "position", shaper)
     t, k, tick, stopping, moving, unlogged = 0.0, 0, 0, False, 0, 0
     bar = analysis.progress_bar(steps, progress, f"franka {mode} {label or law.name}")
     collecting = gc.isenabled()
@@ -423,7 +298,7 @@ def run_on_franka(
             cycles = round(state.elapsed / DT)
             tick, missed = tick + cycles, max(cycles - 1, 0) + unlogged
             action, planned, unlogged = "step", q_c, 0
-            if not torque:  # where the robot's history is (_Continuation)
+            if not torque:  # where the robot's history is (Continuation)
                 action, planned = follow.plan(state, tick, q_c)
             if action == "skip":
                 unlogged = missed + 1  # counted with the next row's lost cycles
@@ -480,7 +355,7 @@ def run_on_franka(
 def _torque(
     law: TorqueLaw,
     robot: Robot,
-    state: _State,
+    state: State,
     path: Trajectory | None,
     t: float,
     previous: FloatArray,
