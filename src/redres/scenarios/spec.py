@@ -34,7 +34,7 @@ from .. import models
 from .._toml import Reader, load
 from ..control.analysis import run_steps
 from ..control.trajectories import Circle, FigureEight, Hold, Line, MinimumJerk, Trajectory
-from ..errors import RedresError, install_hint
+from ..errors import MissingDependencyError, RedresError, install_hint
 from ..linalg import AdaptiveDamping
 from ..objectives import (
     CapsuleObstacle,
@@ -264,13 +264,18 @@ class _SchemeReader(Reader):
             return make_inverse(None, damping, given.get("rcond"))
 
     def spec(self) -> SchemeSpec:
-        """The registered builder of the table's ``type``, run once now to validate."""
+        """The registered builder of the table's ``type``, run once now to validate (a
+        scheme whose optional dependency is missing is validated as far as it reads its
+        table; running it says what to install, :func:`~redres.scenarios.runner.run_scenario`)."""
         label, builders = self.string("label", self.type), scheme_types()
         if self.type not in builders:
             raise self.fail("type", f"unknown scheme {self.type!r}; use {', '.join(builders)}")
         builder = builders[self.type]
         with self.blame("type"):
-            builder(self)
+            try:
+                builder(self)
+            except MissingDependencyError:
+                pass
         self.done()
         return SchemeSpec(self.type, label, lambda: builder(self))
 
