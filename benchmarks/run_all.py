@@ -422,7 +422,12 @@ def main() -> int:
     parser.add_argument("--quick", action="store_true", help="small counts (a smoke test)")
     parser.add_argument("--out", type=Path, help="page to write (default: docs/benchmarks.md, "
                         "or build/benchmarks-quick.md with --quick)")  # fmt: skip
-    parser.add_argument("--timeout", type=float, default=900.0, help="per benchmark, s")
+    parser.add_argument(
+        "--timeout",
+        type=float,
+        default=2400.0,
+        help="per benchmark, s (first_use.py compiles every kernel group cold: about 20 min here)",
+    )
     args = parser.parse_args()
     out = args.out or (ROOT / "build" / "benchmarks-quick.md" if args.quick else PAGE)
     started, load_start, t0 = dt.datetime.now(dt.timezone.utc), load(), time.perf_counter()
