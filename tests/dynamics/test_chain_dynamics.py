@@ -157,3 +157,18 @@ def test_compiled_osc_step_names_bad_input(panda: rr.Robot) -> None:
         law.step(panda, panda.neutral(), np.full(7, np.nan))
     with pytest.raises(NonFiniteError, match="q contains NaN"):
         law.step(panda, np.full(7, np.inf), np.zeros(7))
+
+
+def test_settings_changed_between_runs_reach_the_compiled_step(panda: rr.Robot) -> None:
+    fast = OperationalSpaceController(objectives=[(PostureObjective(), 1.0)])
+    slow = OperationalSpaceController(objectives=[(PostureObjective(), 1.0)])
+    slow._compiled = (panda, None)
+    q, qd = panda.neutral() + 0.1, np.full(panda.n, 0.2)
+    fast.step(panda, q, qd)
+    for law in (fast, slow):
+        law.damping, law.null_law.kd = 0.05, 3.0
+        law.reset()
+    slow._compiled = (panda, None)
+    a, b = fast.step(panda, q, qd), slow.step(panda, q, qd)
+    assert a.info.damping == b.info.damping == 0.05
+    assert np.abs(a.tau - b.tau).max() < 1e-10 * max(1.0, float(np.abs(b.tau).max()))

@@ -13,10 +13,11 @@ In world axes, with ``p_j``, ``z_j`` the origin and axis of joint ``j`` and ``d`
 from the parent joint's origin (Siciliano et al., *Robotics*, 2009, §7.5, recursive
 Newton–Euler; Featherstone, *Rigid Body Dynamics Algorithms*, 2008, ch. 5–6):
 
-* **Velocities, and accelerations at ``q̈ = 0``**: ``ω_j = ω + z_j q̇_j``,
-  ``v_j = v + ω × d``, ``α_j = α + ω × z_j q̇_j``, ``a_j = a + α × d + ω × (ω × d)``
-  (a prismatic joint adds ``z_j q̇_j`` to ``v_j`` and ``2 ω × z_j q̇_j`` to ``a_j`` instead).
-  The frame's ``[a; α]`` is ``J̇ q̇`` of its world-aligned Jacobian.
+* **Angular velocities, and accelerations at ``q̈ = 0``**: ``ω_j = ω + z_j q̇_j``,
+  ``α_j = α + ω × z_j q̇_j``, ``a_j = a + α × d + ω × (ω × d)`` for the joint origin's
+  linear acceleration (a prismatic joint keeps ``ω``, ``α`` and adds ``2 ω × z_j q̇_j`` to
+  ``a_j``; the linear velocities enter only through these terms, so none is kept). The
+  frame's ``[a; α]`` is ``J̇ q̇`` of its world-aligned Jacobian.
 * **Bias** ``b = C q̇ + g`` (RNEA with ``q̈ = 0`` and the base accelerating at ``−g``): each
   body's force ``f = m a_c`` and moment ``I α + ω × I ω`` at its centre of mass, summed
   from the tip down; ``b_j = z_j · n_j`` (``z_j · f_j`` prismatic).
@@ -45,10 +46,10 @@ from ..robot._chain_codes import PRISMATIC
 from ..robot._chain_kernels import rotation_error
 from ._codes import OUT_ERROR, OUT_POSE, OUT_STATS, OUT_TARGET
 
-# Columns of the per-joint work array: world origin, axis, angular and linear velocity,
-# angular and linear acceleration at q̈ = 0, the rotation (row-major).
-_P, _Z, _W, _V, _AL, _A, _R = 0, 3, 6, 9, 12, 15, 18
-_WORK = 27
+# Columns of the per-joint work array: world origin, axis, angular velocity, angular and
+# linear acceleration at q̈ = 0, the rotation (row-major).
+_P, _Z, _W, _AL, _A, _R = 0, 3, 6, 9, 12, 15
+_WORK = 24
 
 
 @kernel
@@ -58,9 +59,9 @@ def _cross(a0, a1, a2, b0, b1, b2):
 
 @kernel
 def _forward(links, axes, kinds, q, qd, work, T):
-    """Joint frames, velocities and accelerations at ``q̈ = 0`` into ``work`` (k, 27), the
-    frame's pose into ``T``. Returns whether ``q`` and ``qd`` are finite, and ``[a; α]`` of
-    the frame origin (``J̇ q̇``) as a tuple."""
+    """Joint frames, angular velocities and accelerations at ``q̈ = 0`` into ``work``
+    (k, 24), the frame's pose into ``T``. Returns whether ``q`` and ``qd`` are finite, and
+    ``[a; α]`` of the frame origin (``J̇ q̇``) as a tuple."""
     bad = 0.0
     for x in q:
         bad += x * 0.0
@@ -70,7 +71,6 @@ def _forward(links, axes, kinds, q, qd, work, T):
     R = np.eye(3)
     p = np.zeros(3)
     w = np.zeros(3)
-    v = np.zeros(3)
     al = np.zeros(3)
     a = np.zeros(3)
     p_new = np.empty(3)
@@ -91,9 +91,6 @@ def _forward(links, axes, kinds, q, qd, work, T):
         c0, c1, c2 = _cross(w[0], w[1], w[2], d0, d1, d2)
         e0, e1, e2 = _cross(al[0], al[1], al[2], d0, d1, d2)
         f0, f1, f2 = _cross(w[0], w[1], w[2], c0, c1, c2)
-        v[0] += c0
-        v[1] += c1
-        v[2] += c2
         a[0] += e0 + f0
         a[1] += e1 + f1
         a[2] += e2 + f2
@@ -121,9 +118,6 @@ def _forward(links, axes, kinds, q, qd, work, T):
         r = qd[j]
         g0, g1, g2 = _cross(w[0], w[1], w[2], z0 * r, z1 * r, z2 * r)
         if kinds[j] == PRISMATIC:
-            v[0] += z0 * r
-            v[1] += z1 * r
-            v[2] += z2 * r
             a[0] += 2.0 * g0
             a[1] += 2.0 * g1
             a[2] += 2.0 * g2
@@ -137,7 +131,7 @@ def _forward(links, axes, kinds, q, qd, work, T):
         row = work[j]
         for i in range(3):
             row[_P + i], row[_Z + i] = p[i], (z0, z1, z2)[i]
-            row[_W + i], row[_V + i] = w[i], v[i]
+            row[_W + i] = w[i]
             row[_AL + i], row[_A + i] = al[i], a[i]
             for col in range(3):
                 row[_R + 3 * i + col] = R[i, col]

@@ -289,6 +289,12 @@ class OperationalSpaceController(ServoLaw):
             tau0 = tau0 + as_vector(self.null_torque(robot, q, qd), "null_torque()", robot.n)
         return tau0
 
+    def reset(self) -> None:
+        """Forget the reference, and the compiled step's copy of the settings (gains,
+        damping, objectives: it reads them again at the next step)."""
+        super().reset()
+        self._compiled = None
+
     def step(
         self, robot: Robot, q: FloatArray, qd: FloatArray, sample: Sample | None = None
     ) -> ControlStep:
@@ -298,7 +304,9 @@ class OperationalSpaceController(ServoLaw):
         projector, joint-space compensation, no ``null_torque`` and quadratic objectives
         (posture, joint limits), the step is one compiled call
         (:mod:`redres.dynamics.chain`); otherwise, and while that compiles behind,
-        Pinocchio's algorithms and NumPy compute the same torque."""
+        Pinocchio's algorithms and NumPy compute the same torque. The compiled step copies
+        the law's settings when it is built (first step on a robot, and after
+        :meth:`reset`): change them between runs, not within one."""
         if self._compiled is None or self._compiled[0] is not robot:
             self._compiled = (robot, _CompiledStep.build(self, robot))
         compiled = self._compiled[1]
