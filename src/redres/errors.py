@@ -9,13 +9,7 @@ know about redres.
 from __future__ import annotations
 
 import errno
-import json
 import os
-import shlex
-import sys
-from importlib import metadata
-from pathlib import Path
-from urllib.parse import unquote, urlparse
 
 __all__ = [
     "DHParameterError",
@@ -93,6 +87,9 @@ def install_hint(extra: str) -> str:
     otherwise it names the extra's own requirements, which pip finds on PyPI. Both run
     this environment's pip (``python -m pip``, with the interpreter as the user would type
     it)."""
+    import shlex
+    from importlib import metadata  # here: every redres import reads this module
+
     python = _shown_executable()
     checkout = _checkout()
     if checkout is not None:
@@ -111,6 +108,11 @@ def install_hint(extra: str) -> str:
 def _checkout() -> str | None:
     """The source folder redres is installed from in editable mode (shown relative to the
     working directory where it is inside it), or None."""
+    import json
+    from importlib import metadata
+    from pathlib import Path
+    from urllib.parse import unquote, urlparse
+
     try:
         text = metadata.distribution("redres").read_text("direct_url.json")
     except metadata.PackageNotFoundError:  # pragma: no cover
@@ -131,6 +133,9 @@ def _checkout() -> str | None:
 def _shown_executable() -> str:
     """``sys.executable`` relative to the working directory where it is inside it (a
     project's ``.venv/bin/python``), else ``python`` when that is the same interpreter."""
+    import sys
+    from pathlib import Path
+
     exe = Path(sys.executable)
     try:
         return f"./{exe.relative_to(Path.cwd())}" if exe.is_absolute() else str(exe)

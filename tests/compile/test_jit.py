@@ -299,3 +299,18 @@ def test_a_first_use_waits_for_what_its_module_imports() -> None:
     assert only_ik == figures["redres.ik._kernels"]
     declared = {m for g in _warmup.groups().values() for m in g.modules}
     assert declared == set(_cache.kernel_modules())  # every module has a figure
+
+
+def test_an_owner_without_numba_says_what_needs_it_and_what_to_do(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from redres.errors import MissingDependencyError
+    from redres.ik import analytic
+    from redres.robot import chain
+
+    for group in (analytic.KERNELS, chain.KERNELS):
+        monkeypatch.setattr(group, "module", lambda *a, **k: None)  # numba not importable
+    with pytest.raises(MissingDependencyError, match=r"^analytic IK: numba .* REDRES_DISABLE_JIT"):
+        analytic._module()
+    with pytest.raises(MissingDependencyError, match="or use Robot.fk and Robot.jacobian$"):
+        chain._module()

@@ -221,6 +221,28 @@ class KernelGroup:
         name = self._name(module)
         return _get(name, compiled=not plain and self.ready(name))
 
+    def required(
+        self,
+        what: str,
+        module: str | None = None,
+        *,
+        plain: bool = False,
+        otherwise: str = "set REDRES_DISABLE_JIT=1 to run them as plain Python",
+    ) -> ModuleType:
+        """:meth:`module`, for an owner that has no path without it: a
+        :class:`~redres.errors.MissingDependencyError` naming ``what`` (the owner's
+        feature) and ``otherwise`` (what the user can do instead) when numba cannot be
+        imported."""
+        found = self.module(module, plain=plain)
+        if found is None:
+            from ..errors import MissingDependencyError
+
+            raise MissingDependencyError(
+                f"{what}: numba (a dependency of redres) cannot be imported; reinstall it, "
+                f"or {otherwise}"
+            )
+        return found
+
     def compiled(self, module: str | None = None) -> ModuleType | None:
         """Kernel module ``module`` compiled, if it is :meth:`ready`; None while it compiles
         behind (the owner's own reference path answers) or when numba cannot be imported

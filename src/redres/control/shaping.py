@@ -56,7 +56,7 @@ import numpy as np
 
 from .. import _compile
 from .._validate import FloatArray, as_scalar, as_vector, real_array
-from ..errors import InvalidParameterError, MissingDependencyError, NonFiniteError, ShapeError
+from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 
 if TYPE_CHECKING:
     from ..robot import Robot
@@ -183,12 +183,7 @@ class CommandShaper:
     def _bind(self, u: FloatArray) -> None:
         """The kernel's entry point: compiled once it is ready, its plain-Python twin while
         it compiles behind (asked again each cycle until then)."""
-        module = KERNELS.module()
-        if module is None:
-            raise MissingDependencyError(
-                "command shaping needs numba (a dependency of redres), which cannot be "
-                "imported; reinstall it, or set REDRES_DISABLE_JIT=1 to run it as plain Python"
-            )
+        module = KERNELS.required("command shaping")
         # entry_point runs the kernel once: on copies, so that the state does not advance
         args = (u, self._aim, self.dt, self.synchronized, self._state.copy(), self._out.copy())
         self._kernel = _compile.entry_point(module.shape, args)

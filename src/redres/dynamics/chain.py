@@ -92,9 +92,9 @@ class ChainDynamics:
         n = self.n
         out = ChainTerms(np.empty((4, 4)), np.empty((6, n)), np.empty(6), np.empty((n, n)),
                          np.empty(n))  # fmt: skip
-        kernels = KERNELS.module()
-        if kernels is None:  # pragma: no cover - numba is a dependency
-            raise RuntimeError("redres' compiled dynamics need numba")
+        kernels = KERNELS.required(
+            "compiled dynamics", otherwise="use Robot.mass_matrix and Robot.bias"
+        )
         kernels.chain_dynamics(*self.arrays, qv, qdv, *out)  # q, qd checked finite above
         return out
 

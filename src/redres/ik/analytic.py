@@ -65,7 +65,6 @@ from .. import _compile
 from .._validate import FloatArray, as_scalar, as_transform
 from ..errors import (
     InvalidParameterError,
-    MissingDependencyError,
     NonFiniteError,
     RedresError,
     ShapeError,
@@ -444,13 +443,7 @@ def _refused(status: int, T: FloatArray, q7: float, t_name: str, q_name: str) ->
 
 
 def _module() -> Any:
-    module = KERNELS.module()
-    if module is None:
-        raise MissingDependencyError(
-            "analytic IK needs numba, which cannot be imported; install numba (a dependency "
-            "of redres) or set REDRES_DISABLE_JIT=1 for the plain-Python kernels"
-        )
-    return module
+    return KERNELS.required("analytic IK")
 
 
 _ENTRY: list[Any] = []

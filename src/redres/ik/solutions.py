@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from .._validate import FloatArray, as_scalar, as_transform
 from ..errors import InvalidParameterError, ShapeError
 from ..robot.chain import log3
+from ..tasks import wrap_angle
 from . import _analytic_codes as codes
 from .analytic import (
     AnalyticFlag,
@@ -73,7 +74,8 @@ def ik_all(
     The branch code of a ``q7`` solution is ``4 i4 + 2 iφ + is`` (elbow root, the root of
     the joint-5/6 condition, shoulder sign: :mod:`redres.ik.analytic`); of an
     ``arm_angle`` solution, the row of :data:`redres.ik.srs.BRANCHES` (the signs of
-    ``θ₂``, ``θ₄``, ``θ₆``: Shimizu's global configuration).
+    ``θ₂``, ``θ₄``, ``θ₆``: Shimizu's global configuration); there each solution has its
+    own ``q7`` (in ``q``), and the result's ``q7`` attribute is NaN.
 
     Raises:
         NotAnalyticError: the arm has no closed form at ``q7`` (the message says which
@@ -154,7 +156,7 @@ class SelfMotion:
         return np.array(out_v), q_all, np.array(out_b, dtype=np.int64)
 
     def _branch_at(self, value: float, branch: int) -> FloatArray | None:
-        kw = {"q7": value} if self.parameter == "q7" else {"arm_angle": _wrap(value)}
+        kw = {"q7": value} if self.parameter == "q7" else {"arm_angle": float(wrap_angle(value))}
         found = ik_all(self.robot, self.pose, frame=self.frame, **kw)
         assert isinstance(found, IKSolutions)
         hit = np.flatnonzero((found.branch == branch) & found.within_limits)
@@ -240,10 +242,6 @@ def _srs(robot: Robot, frame: str | None, quiet: bool = False) -> SRSArm | None:
     if arm is None and not quiet:
         SRSArm.from_robot(robot, frame)  # raises NotSRSError with its reason
     return arm
-
-
-def _wrap(x: float) -> float:
-    return (x + math.pi) % _TWO_PI - math.pi
 
 
 def _at_arm_angle(robot: Robot, poses: FloatArray, arm_angle: Any, frame: str | None

@@ -35,7 +35,6 @@ from .. import _compile
 from .._validate import FloatArray, as_transform, as_vector
 from ..errors import (
     InvalidParameterError,
-    MissingDependencyError,
     NonFiniteError,
     RedresError,
     ShapeError,
@@ -348,13 +347,9 @@ def _kind_codes() -> dict[str, int]:
 
 
 def _module() -> Any:
-    module = KERNELS.module()
-    if module is None:
-        raise MissingDependencyError(
-            "compiled chain kinematics need numba, which cannot be imported; install numba "
-            "(a dependency of redres) or use Robot.fk and Robot.jacobian"
-        )
-    return module
+    return KERNELS.required(
+        "compiled chain kinematics", otherwise="use Robot.fk and Robot.jacobian"
+    )
 
 
 _ENTRIES: dict[str, Any] = {}

@@ -6,7 +6,6 @@ from __future__ import annotations
 from types import ModuleType
 
 from ... import _compile
-from ...errors import MissingDependencyError
 
 #: Cold: a first SNS step 16-18 s (with the linear program); the QP's own kernels 4 s more.
 KERNELS = _compile.KernelGroup(
@@ -27,13 +26,7 @@ def kernels(name: str = "_kernels", *, plain: bool = False) -> ModuleType:
         MissingDependencyError: numba cannot be imported (the hard-limit schemes have no
             NumPy path; ``REDRES_DISABLE_JIT=1`` runs their kernels as plain Python).
     """
-    module = KERNELS.module(name, plain=plain)
-    if module is None:
-        raise MissingDependencyError(
-            "the hard-limit schemes need numba (a dependency of redres), which cannot be "
-            "imported; reinstall it, or set REDRES_DISABLE_JIT=1 to run them as plain Python"
-        )
-    return module
+    return KERNELS.required("the hard-limit schemes", name, plain=plain)
 
 
 def pending(*names: str) -> tuple[str, ...]:
