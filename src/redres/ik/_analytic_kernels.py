@@ -77,6 +77,20 @@ prange = parallel_range()
 TWO_PI = 2.0 * math.pi
 
 
+@kernel(inline=True)
+def _mv(M, x, y, z):
+    """``M[:3, :3] v``, for ``v = (x, y, z)``."""
+    return (M[0, 0] * x + M[0, 1] * y + M[0, 2] * z, M[1, 0] * x + M[1, 1] * y + M[1, 2] * z,
+            M[2, 0] * x + M[2, 1] * y + M[2, 2] * z)  # fmt: skip
+
+
+@kernel(inline=True)
+def _mtv(M, x, y, z):
+    """``M[:3, :3]ᵀ v``, for ``v = (x, y, z)``."""
+    return (M[0, 0] * x + M[1, 0] * y + M[2, 0] * z, M[0, 1] * x + M[1, 1] * y + M[2, 1] * z,
+            M[0, 2] * x + M[1, 2] * y + M[2, 2] * z)  # fmt: skip
+
+
 @kernel
 def _rot(ax, ay, az, c, s, x, y, z):
     """``Rot(a, θ) v`` (Rodrigues): ``v c + (a × v) s + a (a·v)(1 − c)``, ``c, s`` of θ."""
@@ -240,9 +254,7 @@ def solve_pose(links, axes, kinds, bounds, arm, T, q7, out, codes):
     wy = fy + R6[1, 0] * w0 + R6[1, 1] * w1 + R6[1, 2] * w2
     wz = fz + R6[2, 0] * w0 + R6[2, 1] * w1 + R6[2, 2] * w2
     a0, a1, a2 = axes[5, 0], axes[5, 1], axes[5, 2]
-    z6x = R6[0, 0] * a0 + R6[0, 1] * a1 + R6[0, 2] * a2
-    z6y = R6[1, 0] * a0 + R6[1, 1] * a1 + R6[1, 2] * a2
-    z6z = R6[2, 0] * a0 + R6[2, 1] * a1 + R6[2, 2] * a2
+    z6x, z6y, z6z = _mv(R6, a0, a1, a2)
     vx, vy, vz, dist = _unit(wx - arm[S], wy - arm[S + 1], wz - arm[S + 2])
     # 2. the elbow: A cos q4 + B sin q4 = (K − d²)/2 − P
     K, P, A, B = arm[ELBOW], arm[ELBOW + 1], arm[ELBOW + 2], arm[ELBOW + 3]
@@ -270,12 +282,8 @@ def solve_pose(links, axes, kinds, bounds, arm, T, q7, out, codes):
         p0, p1, p2 = _rot(e0, e1, e2, c4, s4, arm[W4], arm[W4 + 1], arm[W4 + 2])
         p0, p1, p2 = p0 - arm[SP], p1 - arm[SP + 1], p2 - arm[SP + 2]
         g0, g1, g2 = _rot(e0, e1, e2, c4, s4, arm[Z5], arm[Z5 + 1], arm[Z5 + 2])
-        v3x = X3[0, 0] * p0 + X3[0, 1] * p1 + X3[0, 2] * p2
-        v3y = X3[1, 0] * p0 + X3[1, 1] * p1 + X3[1, 2] * p2
-        v3z = X3[2, 0] * p0 + X3[2, 1] * p1 + X3[2, 2] * p2
-        u3x = X3[0, 0] * g0 + X3[0, 1] * g1 + X3[0, 2] * g2
-        u3y = X3[1, 0] * g0 + X3[1, 1] * g1 + X3[1, 2] * g2
-        u3z = X3[2, 0] * g0 + X3[2, 1] * g1 + X3[2, 2] * g2
+        v3x, v3y, v3z = _mv(X3, p0, p1, p2)
+        u3x, u3y, u3z = _mv(X3, g0, g1, g2)
         hx, hy, hz, length3 = _unit(v3x, v3y, v3z)
         if length3 < SINGULAR_TOL:
             hx, hy, hz = 0.0, 0.0, 1.0
@@ -382,14 +390,8 @@ def solve_many(links, axes, kinds, bounds, arm, T, q7, out, codes, summary):
 @kernel
 def _to_base(X0, R3, x, y, z):
     """``R_X0ᵀ R3 v``: a vector of frame 3 in the placement frame of joint 1."""
-    w0 = R3[0, 0] * x + R3[0, 1] * y + R3[0, 2] * z
-    w1 = R3[1, 0] * x + R3[1, 1] * y + R3[1, 2] * z
-    w2 = R3[2, 0] * x + R3[2, 1] * y + R3[2, 2] * z
-    return (
-        X0[0, 0] * w0 + X0[1, 0] * w1 + X0[2, 0] * w2,
-        X0[0, 1] * w0 + X0[1, 1] * w1 + X0[2, 1] * w2,
-        X0[0, 2] * w0 + X0[1, 2] * w1 + X0[2, 2] * w2,
-    )
+    w0, w1, w2 = _mv(R3, x, y, z)
+    return _mtv(X0, w0, w1, w2)
 
 
 @kernel
@@ -397,25 +399,15 @@ def _wrist(X3, X4, axes, arm, R3, R6, c4, s4, u3x, u3y, u3z, z6x, z6y, z6z):
     """``(q5, q6)`` (subproblem 1 each): ``q6`` turns
     ``R6ᵀ z5`` into ``R_X5ᵀ a5`` about ``a6``; ``q5`` turns ``R_X5 a6`` into
     ``(R4 R_X4)ᵀ z6`` about ``a5`` (joint axes 1-based here)."""
-    z5x = R3[0, 0] * u3x + R3[0, 1] * u3y + R3[0, 2] * u3z
-    z5y = R3[1, 0] * u3x + R3[1, 1] * u3y + R3[1, 2] * u3z
-    z5z = R3[2, 0] * u3x + R3[2, 1] * u3y + R3[2, 2] * u3z
-    l0 = R6[0, 0] * z5x + R6[1, 0] * z5y + R6[2, 0] * z5z
-    l1 = R6[0, 1] * z5x + R6[1, 1] * z5y + R6[2, 1] * z5z
-    l2 = R6[0, 2] * z5x + R6[1, 2] * z5y + R6[2, 2] * z5z
+    z5x, z5y, z5z = _mv(R3, u3x, u3y, u3z)
+    l0, l1, l2 = _mtv(R6, z5x, z5y, z5z)
     q6 = _angle(axes[5, 0], axes[5, 1], axes[5, 2], l0, l1, l2,
                        arm[BTA4], arm[BTA4 + 1], arm[BTA4 + 2])  # fmt: skip
     # (R4 R_X4)ᵀ z6 = R_X4ᵀ Rot(a4, −q4) R_X3ᵀ R3ᵀ z6
-    g0 = R3[0, 0] * z6x + R3[1, 0] * z6y + R3[2, 0] * z6z
-    g1 = R3[0, 1] * z6x + R3[1, 1] * z6y + R3[2, 1] * z6z
-    g2 = R3[0, 2] * z6x + R3[1, 2] * z6y + R3[2, 2] * z6z
-    h0 = X3[0, 0] * g0 + X3[1, 0] * g1 + X3[2, 0] * g2
-    h1 = X3[0, 1] * g0 + X3[1, 1] * g1 + X3[2, 1] * g2
-    h2 = X3[0, 2] * g0 + X3[1, 2] * g1 + X3[2, 2] * g2
+    g0, g1, g2 = _mtv(R3, z6x, z6y, z6z)
+    h0, h1, h2 = _mtv(X3, g0, g1, g2)
     h0, h1, h2 = _rot(axes[3, 0], axes[3, 1], axes[3, 2], c4, -s4, h0, h1, h2)
-    m0 = X4[0, 0] * h0 + X4[1, 0] * h1 + X4[2, 0] * h2
-    m1 = X4[0, 1] * h0 + X4[1, 1] * h1 + X4[2, 1] * h2
-    m2 = X4[0, 2] * h0 + X4[1, 2] * h1 + X4[2, 2] * h2
+    m0, m1, m2 = _mtv(X4, h0, h1, h2)
     q5 = _angle(axes[4, 0], axes[4, 1], axes[4, 2], arm[BA5], arm[BA5 + 1], arm[BA5 + 2],
                 m0, m1, m2)  # fmt: skip
     return q5, q6
