@@ -63,6 +63,14 @@ def test_ik_all_refuses_what_it_cannot_answer() -> None:
         rr.ik_all(panda, T, arm_angle=0.2)
     with pytest.raises(NonFiniteError, match="q7"):
         rr.ik_all(panda, T, q7=float("nan"))
+    with pytest.raises(InvalidParameterError, match="parameter must be 'q7' or 'arm_angle'"):
+        rr.self_motion(panda, T, parameter="q4")  # type: ignore[arg-type]
+    with pytest.raises(NotSRSError):
+        rr.self_motion(panda, T, parameter="arm_angle")
+    motion = rr.self_motion(panda, T, parameter="q7")
+    for bad in (0.0, float("nan"), -3.0):
+        with pytest.raises((InvalidParameterError, NonFiniteError), match="per_radian"):
+            motion.sample(bad)
 
 
 def _inside(intervals: tuple, x: float, tol: float = 0.0) -> bool:

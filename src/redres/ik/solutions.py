@@ -140,6 +140,7 @@ class SelfMotion:
         values about ``per_radian`` per rad (at least its two ends moved inward by
         1e-9 rad). Returns ``(values (K,), q (K, 7), branch (K,))``, every ``q`` within
         the limits."""
+        per_radian = as_scalar(per_radian, "per_radian", minimum=0.0, strict=True)
         out_v: list[float] = []
         out_q: list[FloatArray] = []
         out_b: list[int] = []
