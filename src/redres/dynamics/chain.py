@@ -24,8 +24,9 @@ if TYPE_CHECKING:
 
 __all__ = ["ChainDynamics", "ChainTerms"]
 
-#: The compiled torque step. Cold: about 20 s with linalg and the chain cached.
-KERNELS = _compile.KernelGroup("dynamics", ("redres.dynamics._kernels",), cold_seconds=20.0)
+#: The compiled torque step. Cold: a first operational-space step 19.4 s in all with the
+#: linalg and chain kernels it calls (empty cache, load 0.7); warm 0.7 s.
+KERNELS = _compile.KernelGroup("dynamics", ("redres.dynamics._kernels",), cold_seconds=5.0)
 
 
 class ChainTerms(NamedTuple):
