@@ -25,9 +25,12 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["Reader", "ScenarioBuilder", "ScenarioParams", "load", "tomllib"]
+__all__ = ["LIMIT_KEYS", "Reader", "ScenarioBuilder", "ScenarioParams", "load", "tomllib"]
 
 _T = TypeVar("_T")
+
+#: The limits a ``[robot]`` table of a scenario or sweep spec may set (:meth:`Reader.joint_limits`).
+LIMIT_KEYS = ("qd_max", "qdd_max", "qddd_max", "tau_max")
 
 
 def load(path: str | Path, what: str, error: type[RedresError]) -> dict[str, Any]:
@@ -178,6 +181,22 @@ class Reader:
         if not isinstance(value, bool):
             raise self.fail(key, f"expected true or false, got {value!r}")
         return value
+
+    def joint_limits(self, n: int) -> dict[str, Any]:
+        """The rate and torque limits a ``[robot]`` table may set (:data:`LIMIT_KEYS`), each
+        a positive number for every joint or ``n`` of them (rad/s, rad/s², rad/s³, N·m),
+        as keywords of :meth:`redres.Robot.with_limits`."""
+        out = {}
+        for key in LIMIT_KEYS:
+            if key not in self.table:
+                self.used.add(key)
+                continue
+            kind = "vector" if isinstance(self.table[key], list) else "number"
+            value = np.broadcast_to(self.get(key, kind, size=n), (n,)).astype(float)
+            if not (value > 0).all():
+                raise self.fail(key, f"must be > 0 for every joint; got {short_repr(value)}")
+            out[key] = value
+        return out
 
     def sub(self, key: str) -> Reader:
         """The reader of the sub-table ``[key]`` (empty when absent)."""

@@ -14,6 +14,7 @@ import tomllib
 import redres as rr
 from redres.cli import main
 from redres.control import FigureEight
+from redres.scenarios.runner import run_scenario
 from redres.scenarios.spec import ScenarioError, load_scenario, parse_scenario
 
 MJCF = """
@@ -135,3 +136,57 @@ def test_the_figure_eights_ramp_is_read(tmp_path: Path) -> None:
 def test_a_negative_ramp_is_refused_at_its_key(tmp_path: Path) -> None:
     with pytest.raises(ScenarioError, match=r"\[trajectory\].*ramp"):
         parse_scenario(tomllib.loads(EIGHT.format(ramp=-0.5)), "eight.toml", tmp_path)
+
+
+MENAGERIE_STYLE = """
+name = "arm3_limits"
+[robot]
+mjcf = "fixtures/arm3_menagerie.xml"
+qd_max = [2.0, 2.0, 3.0]
+qdd_max = 40.0
+[trajectory]
+type = "line"
+end = [0.45, 0.05, 0.5]
+duration = 0.2
+[run]
+dt = 0.001
+[[schemes]]
+type = "dls"
+"""
+
+
+def test_a_menagerie_style_file_robot_runs_under_the_limits_its_files_set(
+    tmp_path: Path, fixtures_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Torque limits from the MJCF's actuators, velocity and acceleration limits from the
+    scenario: the robot carries them, and the table's ratio is measured against them."""
+    shutil.copytree(fixtures_dir, tmp_path / "fixtures")
+    path = tmp_path / "limits.toml"
+    path.write_text(MENAGERIE_STYLE)
+    spec = load_scenario(path)
+    urdf = rr.Robot.from_urdf(fixtures_dir / "arm3.urdf")  # the same arm, limits in the URDF
+    np.testing.assert_array_equal(spec.robot.tau_max, urdf.tau_max)  # [50, 50, 20] N·m
+    np.testing.assert_array_equal(spec.robot.qd_max, [2.0, 2.0, 3.0])
+    np.testing.assert_array_equal(spec.robot.qdd_max, [40.0, 40.0, 40.0])
+    assert main(["run", str(path), "--json", "--out", str(tmp_path / "out")]) == 0
+    run = json.loads(capsys.readouterr().out)["runs"][0]
+    (log,) = run_scenario(spec, progress=False)
+    expected = float(np.max(np.abs(log.qd) / spec.robot.qd_max))
+    assert run["peak_speed_ratio"] == pytest.approx(expected, rel=1e-12) and expected > 0
+
+
+@pytest.mark.parametrize(
+    ("line", "message"),
+    [
+        ("qd_max = [2.0, 2.0]", r"\[robot\]\.qd_max: expected 3 numbers"),
+        ("qd_max = 0.0", r"\[robot\]\.qd_max: must be > 0 for every joint"),
+        ("tau_max = 60.0", r"\[robot\]: tau_max\[2\] = 60 exceeds the robot's own limit 20"),
+        ('qd_max = "fast"', r"\[robot\]\.qd_max: expected a number"),
+    ],
+)
+def test_limit_mistakes_name_the_key(
+    tmp_path: Path, fixtures_dir: Path, line: str, message: str
+) -> None:
+    text = MENAGERIE_STYLE.replace("qd_max = [2.0, 2.0, 3.0]\nqdd_max = 40.0", line)
+    with pytest.raises(ScenarioError, match=message):
+        parse_scenario(tomllib.loads(text), "s.toml", fixtures_dir.parent)

@@ -5,11 +5,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from redres.cli import main
 
-from .helpers import write_spec
+from .helpers import SMALL_MAP, write_spec
 
 
 def test_list(capsys: pytest.CaptureFixture[str]) -> None:
@@ -40,3 +41,27 @@ def test_run_resume_and_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert len(errors) == 1 and "seed was 7, the spec gives 8" in errors[0]
     assert main(["sweep", str(spec)]) == 2
     assert "give a spec and --out" in capsys.readouterr().err
+
+
+def test_a_sweep_of_an_mjcf_arm_equals_the_same_arm_by_name(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`redres sweep` maps a Menagerie MJCF file (with limits set in the spec) and finds
+    what it finds for the same file loaded by name: the file's text reaches the workers
+    whole."""
+    from redres import sweeps
+    from redres.models import menagerie_path
+
+    (tmp_path / "fr3.xml").write_text(menagerie_path("fr3").read_text())
+    maps = {}
+    for name, robot in (("file", 'mjcf = "fr3.xml"'), ("named", 'menagerie = "fr3"')):
+        spec = tmp_path / f"{name}.toml"
+        spec.write_text(SMALL_MAP.replace('model = "panda"', f"{robot}\nqd_max = 2.0"))
+        out = tmp_path / name
+        assert main(["sweep", str(spec), "--out", str(out), "--workers", "1", "--json"]) == 0
+        assert json.loads(capsys.readouterr().out)["queries"] > 0
+        maps[name] = sweeps.load(out)
+    reachable = maps["file"]["reachable"]
+    assert reachable.any()
+    for field in ("reachable", "manipulability", "margin"):
+        np.testing.assert_array_equal(maps["file"][field], maps["named"][field])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from redres import sweeps
@@ -81,3 +82,31 @@ def test_urdf_robot(tmp_path: Path, fixtures_dir: Path) -> None:
     assert len(identity["urdf_sha256"]) == 64 and identity["tip"] == "panda_hand"
     (tmp_path / "arm.urdf").write_text(urdf + "<!-- edited -->\n")
     assert sweeps.load_spec(path).settings()["robot"]["urdf_sha256"] != identity["urdf_sha256"]
+
+
+def test_mjcf_and_menagerie_robots_with_limits(tmp_path: Path) -> None:
+    """An MJCF file travels as its text, a Menagerie arm as its name; both with the limits
+    the spec sets, recorded in the manifest's robot identity."""
+    from redres.models import menagerie_path
+
+    text = menagerie_path("fr3").read_text()
+    (tmp_path / "fr3.xml").write_text(text)
+    limits = "qd_max = [2.0, 2.0, 2.0, 2.0, 2.5, 2.5, 2.5]\nqdd_max = 10.0"
+    path = tmp_path / "mjcf.toml"
+    path.write_text(SMALL_MAP.replace('model = "panda"', f'mjcf = "fr3.xml"\n{limits}'))
+    spec = sweeps.load_spec(path)
+    identity = spec.settings()["robot"]
+    assert spec.robot.mjcf == text and identity["label"] == "fr3.xml"
+    assert identity["limits"] == {"qd_max": [2.0] * 4 + [2.5] * 3, "qdd_max": [10.0] * 7}
+    robot = spec.robot.build()
+    np.testing.assert_array_equal(robot.qd_max, [2.0] * 4 + [2.5] * 3)
+    np.testing.assert_array_equal(robot.tau_max, [87.0] * 4 + [12.0] * 3)  # the file's
+    path.write_text(SMALL_MAP.replace('model = "panda"', f'menagerie = "fr3"\n{limits}'))
+    named = sweeps.load_spec(path).settings()["robot"]
+    assert named["menagerie"] == "fr3" and named["model_sha256"] == identity["model_sha256"]
+    path.write_text(SMALL_MAP.replace('model = "panda"', 'mjcf = "fr3.xml"\nmodel = "panda"'))
+    with pytest.raises(SweepSpecError, match=r"\[robot\]\.mjcf: give exactly one of .* and mjcf"):
+        sweeps.load_spec(path)
+    path.write_text(SMALL_MAP.replace('model = "panda"', 'mjcf = "fr3.xml"\nqd_max = [1.0]'))
+    with pytest.raises(SweepSpecError, match=r"\[robot\]\.qd_max: expected 7 numbers"):
+        sweeps.load_spec(path)

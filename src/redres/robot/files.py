@@ -208,8 +208,12 @@ class RobotFiles:
         through Pinocchio's MJCF parser, with the tip and locking rules of
         :meth:`from_urdf`. A keyframe named ``home`` becomes :meth:`neutral`.
 
-        MJCF has no joint velocity limits: ``qd_max`` is ``inf`` until set with
-        :meth:`with_limits`.
+        Torque limits are read as MuJoCo reads them: each joint's actuators' ``forcerange``
+        times their ``gear``, capped by the joint's ``actuatorfrcrange``, through default
+        classes (:mod:`redres.robot.mjcf`); a hinge without a range gets
+        ``continuous_limits``. MJCF has no joint velocity limits: ``qd_max`` is ``inf``
+        until set with :meth:`with_limits` (or ``qd_max =`` in a scenario's or sweep's
+        ``[robot]``).
 
         Raises:
             ModelFileNotFoundError: the file does not exist.

@@ -7,6 +7,19 @@ every body below it, and of a root body with a joint, are kept.
 :func:`keep_root_placements` puts them back, computed from the file as MuJoCo reads it
 (``pos`` and one of ``quat``, ``axisangle``, ``euler``, ``xyaxes``, ``zaxis``, with the
 compiler's ``angle`` and ``eulerseq``; MuJoCo's XML reference, "body").
+
+Pinocchio's parser reads a joint's ``actuatorfrcrange`` (not always through the right
+default class) but not the ``forcerange`` of the actuators that drive it, which is where
+most Menagerie arms keep their torque limits (``<general joint="joint1"
+forcerange="-87 87"/>``, often through a default class).
+:func:`torque_limits` reads both, resolving default classes as MuJoCo does (an element's
+``class``, else the ``childclass`` of its nearest body, else ``main``; a class inherits
+every attribute its own element does not set from its parent class; an actuator's default
+is shared by every actuator type). An actuator's force acts on its joint through ``gear``,
+so the joint's limit is ``|gear| · max(|lo|, |hi|)``, summed over the actuators on the
+joint and capped by the joint's own ``actuatorfrcrange``; a joint without either has
+none (``inf``). A file that includes another (``<include>``) is read as written: the
+included file's actuators are not seen.
 """
 
 from __future__ import annotations
@@ -18,6 +31,11 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import URDFError
+
+#: The actuator elements of ``<actuator>`` and of a default class (MuJoCo's XML reference,
+#: "actuator"); the defaults of each are the one actuator default of their class.
+_ACTUATORS = ("general", "motor", "position", "velocity", "intvelocity", "damper",
+              "cylinder", "muscle", "adhesion")  # fmt: skip
 
 _AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]),
          "z": np.array([0.0, 0.0, 1.0])}  # fmt: skip
@@ -89,3 +107,97 @@ def _rotation(body: ET.Element, radian: bool, sequence: str, label: str) -> np.n
             return np.eye(3) if z[2] > 0 else np.diag([1.0, -1.0, -1.0])
         return np.asarray(pin.exp3(axis / s * math.atan2(s, z[2])))
     return np.eye(3)
+
+
+def torque_limits(root: ET.Element, label: str) -> dict[str, float]:
+    """Each joint's torque limit from the MJCF ``root`` (module docstring), N·m, for the
+    joints that have one (by joint name)."""
+    classes = _default_classes(root)
+    joint_cap: dict[str, float] = {}
+    for cls, joint in _with_class(root.find("worldbody"), "main"):
+        name = joint.get("name")
+        limited = _attribute(joint, "actuatorfrclimited", cls, classes, "joint", "auto")
+        text = _attribute(joint, "actuatorfrcrange", cls, classes, "joint")
+        if name is not None and text is not None and limited != "false":
+            joint_cap[name] = _bound(text, f"joint {name!r} actuatorfrcrange", label)
+    driven: dict[str, float] = {}
+    for section in root.iter("actuator"):
+        for actuator in section:
+            target = actuator.get("joint")
+            if actuator.tag not in _ACTUATORS or target is None:
+                continue  # a tendon, site or body actuator: no single joint to limit
+            cls = actuator.get("class", "main")
+            limited = _attribute(actuator, "forcelimited", cls, classes, "actuator", "auto")
+            text = _attribute(actuator, "forcerange", cls, classes, "actuator")
+            if text is None or limited == "false":
+                continue
+            what = f"actuator on joint {target!r} forcerange"
+            gear = (_attribute(actuator, "gear", cls, classes, "actuator") or "1").split()
+            ratio = abs(float(gear[0])) if gear else 1.0
+            driven[target] = driven.get(target, 0.0) + ratio * _bound(text, what, label)
+    limits = dict(driven)
+    for name, cap in joint_cap.items():
+        limits[name] = min(cap, limits.get(name, math.inf))
+    return limits
+
+
+def _bound(text: str, what: str, label: str) -> float:
+    values = [float(v) for v in text.split()]
+    if len(values) != 2 or not all(math.isfinite(v) for v in values):
+        raise URDFError(f"{label}: {what} needs two finite numbers; got {text!r}")
+    return max(abs(values[0]), abs(values[1]))
+
+
+def _default_classes(root: ET.Element) -> dict[str, tuple[ET.Element, str | None]]:
+    """Every ``<default>`` by class name (the top one is ``main``), with its parent's."""
+    classes: dict[str, tuple[ET.Element, str | None]] = {}
+
+    def visit(default: ET.Element, parent: str | None) -> None:
+        name = default.get("class", "main" if parent is None else None)
+        if name is None:
+            return  # a nested default without a class is an error in MuJoCo; skip it
+        classes[name] = (default, parent)
+        for child in default.findall("default"):
+            visit(child, name)
+
+    for top in root.findall("default"):
+        visit(top, None)
+    return classes
+
+
+def _with_class(body: ET.Element | None, inherited: str) -> list[tuple[str, ET.Element]]:
+    """Every ``<joint>`` under ``body`` with the class it takes when it names none."""
+    if body is None:
+        return []
+    found = []
+    childclass = body.get("childclass", inherited)
+    for child in body:
+        if child.tag == "joint":
+            found.append((childclass, child))
+        elif child.tag == "body":
+            found.extend(_with_class(child, childclass))
+    return found
+
+
+def _attribute(
+    element: ET.Element,
+    key: str,
+    inherited: str,
+    classes: dict[str, tuple[ET.Element, str | None]],
+    kind: str,
+    default: str | None = None,
+) -> str | None:
+    """``key`` of ``element``, else of its class's defaults (its own ``class``, else
+    ``inherited``) and their parents'. ``kind``: ``"joint"`` or ``"actuator"``."""
+    value = element.get(key)
+    if value is not None:
+        return value
+    name: str | None = element.get("class", inherited)
+    tags = ("joint",) if kind == "joint" else _ACTUATORS
+    while name is not None and name in classes:
+        table, parent = classes[name]
+        for child in table:
+            if child.tag in tags and child.get(key) is not None:
+                return child.get(key)
+        name = parent
+    return default

@@ -22,7 +22,7 @@ import pinocchio as pin
 from .._validate import MAX_LENGTH, MAX_MASS, short_repr
 from ..errors import ModelFileNotFoundError, URDFError, describe_os_error, shown_path
 from .dh import MAX_JOINTS
-from .mjcf import keep_root_placements
+from .mjcf import keep_root_placements, torque_limits
 
 # Pinocchio's unbounded revolute joints (nq = 2: cos, sin) and their bounded twins.
 _BOUNDED = {
@@ -173,6 +173,8 @@ def load_model(
     full, collision, visual = _full_model(source, geometry, root)
     if full.nv == 0:
         raise URDFError(f"{label}: the {source.kind.upper()} has no movable joint")
+    if source.kind == "mjcf":
+        _file_limits(full, torque_limits(root, label), continuous_limits)
     return reduce_to_chain(full, tip, locked, continuous_limits, label, collision, visual)
 
 
@@ -221,6 +223,30 @@ def reduce_to_chain(
         model = _bound_continuous_joints(model, continuous_limits, file)
         reference = None  # cos/sin coordinates: not a configuration of the bounded model
     return LoadedModel(model, tip_name, collision, visual, reference)
+
+
+def _file_limits(
+    model: pin.Model, torques: Mapping[str, float], continuous_limits: tuple[float, float]
+) -> None:
+    """An MJCF's limits as MuJoCo reads them, put into ``model``: the torque limits of its
+    actuators (:func:`.mjcf.torque_limits`, in place of Pinocchio's), and ``continuous_limits`` for
+    a hinge without a range (MuJoCo's unlimited joint; Pinocchio leaves it at ±inf)."""
+    lo, hi = float(continuous_limits[0]), float(continuous_limits[1])
+    if not (lo < hi):
+        raise URDFError(f"continuous_limits must satisfy low < high; got {continuous_limits}")
+    q_lo, q_hi = np.array(model.lowerPositionLimit), np.array(model.upperPositionLimit)
+    effort = np.array(model.effortLimit)
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        if joint.nq != 1 or joint.nv != 1:
+            continue
+        i, v = joint.idx_q, joint.idx_v
+        revolute = joint.shortname().startswith(("JointModelR", "JointModelRevolute"))
+        if revolute and not (np.isfinite(q_lo[i]) or np.isfinite(q_hi[i])):
+            q_lo[i], q_hi[i] = lo, hi
+        effort[v] = torques.get(str(model.names[j]), math.inf)
+    model.lowerPositionLimit, model.upperPositionLimit = q_lo, q_hi
+    model.effortLimit = effort
 
 
 def _reference(model: pin.Model) -> np.ndarray | None:

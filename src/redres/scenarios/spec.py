@@ -121,6 +121,10 @@ def _robot(r: Reader, base: Path) -> tuple[Robot, np.ndarray, Path | None]:
         if tip not in robot.frames():
             raise r.fail("tip", f"unknown frame {tip!r}; frames: {', '.join(robot.frames())}")
         robot = robot.derived(tip=tip)
+    limits = r.joint_limits(robot.n)
+    if limits:
+        with r.blame(None):  # the message names the limit
+            robot = robot.with_limits(**limits)
     q0 = r.get("q0", "vector", None, size=robot.n)
     if q0 is None:
         q0 = robot.neutral()

@@ -1,16 +1,18 @@
-"""The robot of a sweep, as workers receive it: a built-in model name or URDF text.
+"""The robot of a sweep, as workers receive it: a built-in model name, a MuJoCo Menagerie
+arm's name, or the text of a URDF or MJCF file, with the limits the spec sets.
 
 Workers (other processes, other machines) rebuild the :class:`~redres.robot.Robot` from
 this description and keep it for the process (:meth:`RobotSource.build`), so a job
 carries a few kilobytes instead of a pickled model, and each worker owns its data.
-:meth:`RobotSource.identity` is what the manifest records: the built-in name or the
-URDF's SHA-256, and a digest of the kinematic model the solver sees (the joint
-placements, axes and limits of the chain), so that a sweep never resumes on a robot
-that differs from the one it began with.
+:meth:`RobotSource.identity` is what the manifest records: the built-in or Menagerie
+name or the file's SHA-256, the limits the spec sets, and a digest of the kinematic
+model the solver sees (the joint placements, axes and limits of the chain), so that a
+sweep never resumes on a robot that differs from the one it began with.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import os
 import tempfile
@@ -26,9 +28,13 @@ if TYPE_CHECKING:
     from .._toml import Reader
     from ..robot import Robot
 
-__all__ = ["RobotSource", "model_digest"]
+__all__ = ["SOURCES", "RobotSource", "model_digest"]
 
 _BUILT: dict[RobotSource, Robot] = {}  # per process: the robot of each source
+
+
+#: The ``[robot]`` keys that name where the robot comes from (exactly one is given).
+SOURCES = ("model", "menagerie", "urdf", "mjcf")
 
 
 @dataclass(frozen=True)
@@ -37,10 +43,15 @@ class RobotSource:
 
     Attributes:
         model: a built-in name (:func:`redres.models.names`), or None.
-        urdf: the URDF text, or None (exactly one of ``model`` and ``urdf``).
-        tip: the chain's tip frame of a URDF (None: its only end).
+        menagerie: a MuJoCo Menagerie arm (:func:`redres.models.menagerie`), or None.
+        urdf: the URDF text, or None.
+        mjcf: the MJCF text, or None (exactly one of the four is given). A file's meshes
+            stay behind: a sweep's file robot has its kinematics, limits and inertias.
+        tip: the chain's tip frame of a file or Menagerie robot (None: its only end).
         frame: the frame the sweep places (None: the robot's tip).
-        label: how people name it (the model name or the URDF file name).
+        label: how people name it (the model name or the file name).
+        limits: the limits the spec sets (``qd_max``, ...; :data:`redres._toml.LIMIT_KEYS`),
+            as ``(key, values)`` pairs for :meth:`redres.Robot.with_limits`.
     """
 
     model: str | None = None
@@ -48,45 +59,64 @@ class RobotSource:
     tip: str | None = None
     frame: str | None = None
     label: str = ""
+    mjcf: str | None = None
+    menagerie: str | None = None
+    limits: tuple[tuple[str, tuple[float, ...]], ...] = ()
 
     @classmethod
     def from_table(cls, r: Reader, base: Path) -> RobotSource:
-        """The ``[robot]`` table of a spec: ``model = "panda"`` or ``urdf = "arm.urdf"``
-        (relative to the spec's folder) with ``tip``; optional ``frame``."""
+        """The ``[robot]`` table of a spec: ``model = "panda"``, ``menagerie = "fr3"``,
+        ``urdf = "arm.urdf"`` or ``mjcf = "arm.xml"`` (a path relative to the spec's
+        folder) with ``tip``; optional ``frame`` and limits (``qd_max = 2.0``, ...)."""
         from .. import models
 
-        model = r.get("model", "string", None)
-        path = r.get("urdf", "string", None)
+        given = {key: r.get(key, "string", None) for key in SOURCES}
+        named = [key for key, value in given.items() if value is not None]
         tip, frame = r.get("tip", "string", None), r.get("frame", "string", None)
-        r.done()
-        if (model is None) == (path is None):
+        if len(named) != 1:
             raise r.fail(
-                "model", 'give exactly one of model = "<built-in name>" or urdf = "<path>"'
+                named[1] if len(named) > 1 else "model",
+                'give exactly one of model = "<built-in name>", menagerie = "<arm>", urdf = '
+                '"<path>" or mjcf = "<path>"' + (f"; got {' and '.join(named)}" if named else ""),
             )
-        if model is not None:
-            if model not in models.names():
-                raise r.fail("model", f"unknown robot {model!r}; built-in robots: "
+        key = named[0]
+        value = given[key]
+        assert value is not None
+        if key == "model":
+            if value not in models.names():
+                raise r.fail("model", f"unknown robot {value!r}; built-in robots: "
                              f"{', '.join(models.names())}")  # fmt: skip
             if tip is not None:
-                raise r.fail("tip", "tip applies to a urdf; use frame = ... for a built-in")
-            source = cls(model=model, frame=frame, label=model)
+                raise r.fail("tip", "tip applies to a file robot; use frame = ... for a built-in")
+            source = cls(model=value, frame=frame, label=value)
+        elif key == "menagerie":
+            source = cls(menagerie=value, tip=tip, frame=frame, label=value)
         else:
-            file = base / path
+            file = base / value
             try:
                 text = file.read_text(encoding="utf-8")
             except (OSError, UnicodeDecodeError) as exc:
                 why = describe_os_error(exc) if isinstance(exc, OSError) else "not UTF-8 text"
-                raise r.fail("urdf", f"cannot read {shown_path(file)}: {why}") from None
-            source = cls(urdf=text, tip=tip, frame=frame, label=file.name)
-        with r.blame("frame" if frame else ("model" if model else "urdf")):
+                raise r.fail(key, f"cannot read {shown_path(file)}: {why}") from None
+            source = cls(tip=tip, frame=frame, label=file.name, **{key: text})
+        with r.blame(key):
             robot = source.build()
+        limits = r.joint_limits(robot.n)
+        r.done()
+        if limits:
+            pairs = tuple((k, tuple(float(x) for x in v)) for k, v in limits.items())
+            source = dataclasses.replace(source, limits=pairs)
+            with r.blame(None):  # the message names the limit
+                robot = source.build()
+        with r.blame("frame" if frame else key):
             robot.frame_id(frame)
             robot.chain(frame)  # a sweep needs the compiled serial-chain kinematics
         return source
 
     def build(self) -> Robot:
-        """The robot, built once per process (URDF text through a temporary file, parsed
-        without executing anything: :meth:`redres.Robot.from_urdf`)."""
+        """The robot, built once per process (file text through a temporary file, parsed
+        without executing anything: :meth:`redres.Robot.from_urdf`,
+        :meth:`~redres.Robot.from_mjcf`), under the spec's limits."""
         found = _BUILT.get(self)
         if found is not None:
             return found
@@ -95,15 +125,22 @@ class RobotSource:
 
         if self.model is not None:
             robot = models.load(self.model)
+        elif self.menagerie is not None:
+            robot = models.menagerie(self.menagerie, tip=self.tip)
         else:
-            assert self.urdf is not None
-            handle, name = tempfile.mkstemp(suffix=".urdf", prefix="redres-sweep-")
+            text, suffix = (self.urdf, ".urdf") if self.urdf is not None else (self.mjcf, ".xml")
+            assert text is not None
+            load = Robot.from_urdf if self.urdf is not None else Robot.from_mjcf
+            handle, name = tempfile.mkstemp(suffix=suffix, prefix="redres-sweep-")
             try:
                 with os.fdopen(handle, "w", encoding="utf-8") as f:
-                    f.write(self.urdf)
-                robot = Robot.from_urdf(name, tip=self.tip, name=Path(self.label).stem)
+                    f.write(text)
+                robot = load(name, tip=self.tip, name=Path(self.label).stem)
             finally:
                 os.unlink(name)
+        if self.limits:
+            limits: dict[str, Any] = {k: np.array(v) for k, v in self.limits}
+            robot = robot.with_limits(**limits)
         _BUILT[self] = robot
         return robot
 
@@ -112,10 +149,17 @@ class RobotSource:
         out: dict[str, Any] = {"label": self.label, "frame": self.frame}
         if self.model is not None:
             out["model"] = self.model
-        else:
-            assert self.urdf is not None
-            out["urdf_sha256"] = hashlib.sha256(self.urdf.encode()).hexdigest()
+        elif self.menagerie is not None:
+            out["menagerie"] = self.menagerie
             out["tip"] = self.tip
+        else:
+            key = "urdf" if self.urdf is not None else "mjcf"
+            text = self.urdf if self.urdf is not None else self.mjcf
+            assert text is not None
+            out[f"{key}_sha256"] = hashlib.sha256(text.encode()).hexdigest()
+            out["tip"] = self.tip
+        if self.limits:
+            out["limits"] = {k: list(v) for k, v in self.limits}
         out["model_sha256"] = model_digest(self.build(), self.frame)
         return out
 

@@ -13,7 +13,7 @@ Layout::
     seed = 0                     # shard k draws from numpy.random.default_rng([seed, k])
     shard_size = 10000           # queries per shard, >= 10000 unless small_shards = true
 
-    [robot]                      # model = "<built-in>" or urdf = "<path>" (+ tip)
+    [robot]                      # model, menagerie, urdf or mjcf (+ tip, frame, qd_max, ...)
     model = "panda"
 
     [solver]                     # the IK settings of redres.batch.ik (kinds that solve IK)
