@@ -143,11 +143,11 @@ def test_minimum_clearance_is_over_the_whole_run(obstacle_run: tuple) -> None:
     every = [objective.min_distance(robot, q) for q in log.q]
     assert summary["min_obstacle_clearance_m"] == pytest.approx(min(every), abs=1e-12)
     assert summary["min_obstacle_clearance_m"] <= log.objectives["obstacle_distance_m"][-1]
-    assert "clearance mm" in format_table([summary])
+    assert "clear" in format_table([summary])
     assert "min obstacle clearance" in table_html([summary])
     assert log.summary() == summary  # the run's own summary carries it
     plain = {k: v for k, v in summary.items() if k != "min_obstacle_clearance_m"}
-    assert "clearance mm" not in format_table([plain])  # no obstacles: no column
+    assert "clear" not in format_table([plain])  # no obstacles: no column
     assert "min obstacle clearance" not in table_html([plain])
 
 

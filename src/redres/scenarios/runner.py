@@ -8,6 +8,7 @@ line each.
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
@@ -49,18 +50,22 @@ def warning_lines(summaries: Sequence[dict[str, Any]]) -> list[str]:
     ]
 
 
+#: The table's columns: summary key, header (a line break splits it in two, so that no
+#: column is wider than its numbers), format.
 COLUMNS = (
     ("robot", "robot", "{}"),
     ("label", "scheme", "{}"),
-    ("max_position_error_m", "max err mm", "{:.4f}"),
-    ("rms_position_error_m", "rms err mm", "{:.4f}"),
-    ("min_joint_limit_margin_rad", "min margin rad", "{:+.3f}"),
-    ("min_sigma", "min sigma", "{:.3f}"),
-    ("min_obstacle_clearance_m", "clearance mm", "{:+.1f}"),
-    ("peak_speed_ratio", "peak qd/qd_max", "{:.2f}"),
-    ("path_length_rad", "path rad", "{:.2f}"),
-    ("step_time_us_median", "step us", "{:.1f}"),
+    ("max_position_error_m", "max err\nmm", "{:.4f}"),
+    ("rms_position_error_m", "rms err\nmm", "{:.4f}"),
+    ("min_joint_limit_margin_rad", "min\nmargin\nrad", "{:+.3f}"),
+    ("min_sigma", "min\nsigma", "{:.3f}"),
+    ("min_obstacle_clearance_m", "min\nclear\nmm", "{:+.1f}"),
+    ("peak_speed_ratio", "peak\nqd/\nqd_max", "{:.2f}"),
+    ("path_length_rad", "path\nrad", "{:.2f}"),
+    ("step_time_us_median", "step\nus", "{:.1f}"),
 )
+#: Scheme labels longer than this go on to a second line (the table fits 100 columns).
+LABEL_WIDTH = 28
 _MM = {"max_position_error_m", "rms_position_error_m", "min_obstacle_clearance_m"}
 _OPTIONAL = {"min_obstacle_clearance_m"}  # shown when a run has it
 
@@ -138,16 +143,46 @@ def _on_mujoco(spec: ScenarioSpec, law: Any, torque: bool, common: dict[str, Any
 
 
 def aligned_table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    """``rows`` of text under ``headers``, in left-aligned columns below a rule."""
-    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(headers)]
-    lines = ["  ".join(h.ljust(w) for h, w in zip(headers, widths))]
+    """``rows`` of text under ``headers``, in left-aligned columns below a rule. A header
+    or a cell may hold line breaks: its lines stack in its column (a header's lines are
+    aligned to the bottom, a row's cells to the top)."""
+    split_headers = [h.split("\n") for h in headers]
+    split_rows = [[c.split("\n") for c in r] for r in rows]
+    widths = [
+        max(max(map(len, h)), *(max(map(len, r[i])) for r in split_rows))
+        for i, h in enumerate(split_headers)
+    ]
+
+    def block(cells: list[list[str]], bottom: bool) -> list[str]:
+        height = max(map(len, cells))
+        padded = [([""] * (height - len(c)) + c) if bottom else (c + [""] * (height - len(c)))
+                  for c in cells]  # fmt: skip
+        return ["  ".join(p[k].ljust(w) for p, w in zip(padded, widths)).rstrip()
+                for k in range(height)]  # fmt: skip
+
+    lines = block(split_headers, bottom=True)
     lines.append("  ".join("-" * w for w in widths))
-    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
-    return "\n".join(line.rstrip() for line in lines)
+    for r in split_rows:
+        lines += block(r, bottom=False)
+    return "\n".join(lines)
+
+
+def _wrapped(label: str) -> str:
+    """``label`` in lines of :data:`LABEL_WIDTH`, continuation lines indented; broken after
+    its first colon when that gives two lines (``gradient projection:`` / ``joint
+    limits``)."""
+    if len(label) <= LABEL_WIDTH:
+        return label
+    head, colon, rest = label.partition(": ")
+    if colon and len(head) < LABEL_WIDTH and len(rest) <= LABEL_WIDTH - 2:
+        return f"{head}:\n  {rest}"
+    first, *more = textwrap.wrap(label, LABEL_WIDTH)
+    return "\n  ".join([first, *textwrap.wrap(" ".join(more), LABEL_WIDTH - 2)])
 
 
 def format_table(summaries: Sequence[dict[str, Any]]) -> str:
-    """The comparison table as aligned text."""
+    """The comparison table as aligned text, within 100 columns for labels of up to
+    :data:`LABEL_WIDTH` characters (a longer one is wrapped)."""
     columns = [c for c in COLUMNS if c[0] not in _OPTIONAL or any(c[0] in s for s in summaries)]
     rows = []
     for s in summaries:
@@ -156,6 +191,9 @@ def format_table(summaries: Sequence[dict[str, Any]]) -> str:
             value = s.get(key, "")
             if key in _MM and isinstance(value, float):
                 value = value * 1e3
-            row.append(fmt.format(value) if value not in ("", None) else "-")
+            text = fmt.format(value) if value not in ("", None) else "-"
+            if key == "label":
+                text = _wrapped(text)
+            row.append(text)
         rows.append(row)
     return aligned_table([title for _, title, _ in columns], rows)
