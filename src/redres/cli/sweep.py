@@ -37,6 +37,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
                    help="array store of a new sweep (default: zarr if installed)")  # fmt: skip
     p.add_argument("--reuleaux", metavar="FILE.h5",
                    help="then export the capability map in Reuleaux's HDF5 layout")  # fmt: skip
+    p.add_argument("--rows", metavar="FILE.npz|FILE.csv",
+                   help="then export an IK dataset as training rows (pose, solution)")  # fmt: skip
     p.add_argument("--html", metavar="FILE.html",
                    help="then write the sweep's page: a map's 3D view, the ranked bases, "
                    "the scheme statistics")  # fmt: skip
@@ -66,6 +68,9 @@ def main(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         print(f"redres sweep: error: --workers must be >= 1; got {args.workers}", file=sys.stderr)
         return 2
+    if args.rows and Path(args.rows).suffix.lower() not in (".npz", ".csv"):
+        print(f"redres sweep: error: --rows writes .npz or .csv; got {args.rows}", file=sys.stderr)
+        return 2
     from ..sweeps.engine import run
 
     target = args.spec
@@ -77,6 +82,10 @@ def main(args: argparse.Namespace) -> int:
         from ..sweeps.kinds.reuleaux import export_reuleaux
 
         result["reuleaux"] = str(export_reuleaux(args.out, args.reuleaux))
+    if args.rows:
+        from ..sweeps.kinds.ikdata import export_rows
+
+        result["rows"] = str(export_rows(args.out, args.rows))
     if args.html:
         from ..report.sweep_page import write_html
 
@@ -91,6 +100,8 @@ def main(args: argparse.Namespace) -> int:
               f"{report.workers} workers)")  # fmt: skip
         if args.reuleaux:
             print(f"Reuleaux map: {result['reuleaux']}")
+        if args.rows:
+            print(f"training rows: {result['rows']}")
         if args.html:
             print(f"page: {result['html']}")
     return 0

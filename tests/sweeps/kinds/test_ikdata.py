@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+import pytest
 
 import redres as rr
 from redres import sweeps
@@ -59,3 +60,61 @@ def test_distinct() -> None:
     np.testing.assert_array_equal(out[0, :2], [a, b])
     np.testing.assert_array_equal(out[1, :3], [b, a, b + 2e-3])
     assert np.isnan(out[0, 2:]).all() and np.isnan(out[1, 3]).all()
+
+
+def test_training_rows_pair_each_solution_with_its_pose(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`redres sweep ... --rows`: one row per (pose, distinct solution), the pose as
+    position and a unit quaternion (w first, w >= 0); oracle: Pinocchio's FK of the row's
+    q gives the row's pose; the .npz and .csv hold the same numbers."""
+    from redres.cli import main
+    from redres.sweeps.kinds.ikdata import export_rows, training_rows
+
+    (tmp_path / "ik.toml").write_text(SPEC)
+    out, npz, csv = tmp_path / "out", tmp_path / "rows.npz", tmp_path / "rows.csv"
+    args = ["sweep", str(tmp_path / "ik.toml"), "--out", str(out), "--workers", "1"]
+    assert main([*args, "--quiet", "--rows", str(npz)]) == 0
+    assert f"training rows: {npz}" in capsys.readouterr().out
+    data = sweeps.load(out)
+    rows = np.load(npz)
+    assert len(rows["q"]) == int(data["count"].sum()) and rows["pose"].shape[1] == 7
+    assert list(rows["columns"]) == ["x", "y", "z", "qw", "qx", "qy", "qz",
+                                     *(f"q{j}" for j in range(1, 8))]  # fmt: skip
+    robot = rr.models.iiwa14()
+    for pose, q, i in zip(rows["pose"], rows["q"], rows["pose_index"]):
+        T = robot.fk(q)
+        assert np.linalg.norm(T[:3, 3] - pose[:3]) <= 1e-6  # the solver's tolerance
+        w, x, y, z = pose[3:]
+        assert w >= 0 and abs(w * w + x * x + y * y + z * z - 1) < 1e-12
+        R = pin.Quaternion(w, x, y, z).matrix()
+        np.testing.assert_allclose(R, data["pose"][i][:3, :3], atol=1e-12)
+        assert np.linalg.norm(pin.log3(R.T @ T[:3, :3])) <= 1e-5 + 1e-9
+    export_rows(out, csv)
+    table = np.loadtxt(csv, delimiter=",", skiprows=1)
+    np.testing.assert_array_equal(table[:, :7], rows["pose"])  # 17 digits: exact
+    np.testing.assert_array_equal(table[:, 7:14], rows["q"])
+    np.testing.assert_array_equal(table[:, 14], rows["pose_index"])
+    true = training_rows(out, which="true")
+    np.testing.assert_array_equal(true.q, data["q_true"])
+    np.testing.assert_array_equal(true.pose_index, np.arange(50))
+    assert main([*args, "--rows", str(tmp_path / "rows.h5")]) == 2
+    assert "--rows writes .npz or .csv" in capsys.readouterr().err
+
+
+def test_training_rows_refuse_another_kind_and_skip_unfinished_shards(tmp_path: Path) -> None:
+    from redres.errors import InvalidParameterError
+    from redres.sweeps.folder import MANIFEST
+    from redres.sweeps.kinds.ikdata import training_rows
+
+    from ..helpers import write_spec
+
+    (tmp_path / "ik.toml").write_text(SPEC)
+    sweeps.run(tmp_path / "ik.toml", tmp_path / "out", workers=1, progress=False)
+    (tmp_path / "out" / MANIFEST / "000001.json").unlink()  # shard 1 (poses 20-39) unfinished
+    rows = training_rows(tmp_path / "out", which="true")
+    assert rows.pose_index.tolist() == [*range(20), *range(40, 50)]
+    spec = write_spec(tmp_path)
+    sweeps.run(spec, tmp_path / "map", workers=1, progress=False)
+    with pytest.raises(InvalidParameterError, match="holds a capability sweep"):
+        training_rows(tmp_path / "map")

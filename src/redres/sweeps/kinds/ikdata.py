@@ -11,25 +11,37 @@ converged attempts; attempts that end within ``distinct_tol`` (rad, largest join
 difference) of an earlier solution count once. Stored per pose: ``q_true``, ``pose``
 (4x4), ``solutions`` (NaN-padded, in the order found), ``count`` (distinct solutions)
 and ``attempts`` (attempts spent).
+
+For training, :func:`training_rows` turns a dataset into rows, one per (pose, solution)
+pair, as IKFlow-style samplers read them: ``pose`` ``[x, y, z, qw, qx, qy, qz]`` (m; a
+unit quaternion with ``qw >= 0``) and ``q`` (rad), with ``pose_index`` back to the
+dataset's pose; :func:`export_rows` writes them to ``.npz`` or ``.csv``
+(``redres sweep SPEC --out DIR --rows FILE``).
 """
 
 from __future__ import annotations
 
+import os
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from ... import batch
+from ...errors import InvalidParameterError, shown_path
 from ..kind import Field, Kind, Plan, ShardJob
+from ..results import SweepData, load
+from .reuleaux import quaternions
 
 if TYPE_CHECKING:
     from ..._toml import Reader
     from ...robot import Robot
     from ..kind import SweepSpec
 
-__all__ = ["IK_DATASET", "IKDatasetParams", "distinct"]
+__all__ = ["IK_DATASET", "IKDatasetParams", "TrainingRows", "distinct", "export_rows",
+           "training_rows"]  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -110,6 +122,103 @@ def distinct(solutions: np.ndarray, found: np.ndarray, tol: float) -> tuple[np.n
         out[rows, kept[rows]] = candidate[rows]
         kept[rows] += 1
     return out, kept
+
+
+@dataclass(frozen=True)
+class TrainingRows:
+    """An IK dataset as training rows (module docstring), ``M`` of them.
+
+    Attributes:
+        pose: ``(M, 7)``: ``x, y, z`` (m), ``qw, qx, qy, qz`` (``qw >= 0``).
+        q: ``(M, n)``, rad: a solution of that pose (or the configuration it was made from).
+        pose_index: ``(M,)``: the dataset's pose each row belongs to.
+        columns: the names of the ``pose`` and ``q`` columns, in order.
+    """
+
+    pose: np.ndarray
+    q: np.ndarray
+    pose_index: np.ndarray
+    columns: tuple[str, ...]
+
+
+def training_rows(
+    source: SweepData | str | Path, *, which: Literal["solutions", "true"] = "solutions"
+) -> TrainingRows:
+    """The rows of the IK dataset ``source`` (loaded, or its sweep folder): one per
+    distinct solution of each pose (``which="solutions"``), or one per pose with the
+    configuration it was made from (``"true"``). Only finished shards give rows.
+
+    Raises:
+        InvalidParameterError: ``source`` is not an IK dataset, or an unknown ``which``.
+    """
+    data = source if isinstance(source, SweepData) else load(source)
+    if data.kind != IK_DATASET.name:
+        raise InvalidParameterError(
+            f"{shown_path(data.folder)} holds a {data.kind} sweep; training rows come "
+            f"from an {IK_DATASET.name} sweep"
+        )
+    if which not in ("solutions", "true"):
+        raise InvalidParameterError(f"which must be 'solutions' or 'true'; got {which!r}")
+    shard = int(data.header["shard_units"])
+    units = int(data.header["units"])
+    done = np.zeros(units, dtype=bool)
+    for k in data.finished:
+        done[k * shard : (k + 1) * shard] = True
+    poses = data["pose"]
+    if which == "true":
+        index = np.flatnonzero(done)
+        q = data["q_true"][index]
+    else:
+        solutions, count = data["solutions"], data["count"]
+        slot = np.arange(solutions.shape[1])
+        keep = (slot[None, :] < count[:, None]) & done[:, None]
+        index, s = np.nonzero(keep)
+        q = solutions[index, s]
+    T = poses[index]
+    xyzw = quaternions(T[:, :3, :3]) if len(T) else np.empty((0, 4))
+    pose = np.column_stack((T[:, :3, 3], xyzw[:, 3], xyzw[:, :3]))
+    n = q.shape[1] if q.ndim == 2 else data["q_true"].shape[1]
+    columns = ("x", "y", "z", "qw", "qx", "qy", "qz", *(f"q{j + 1}" for j in range(n)))
+    return TrainingRows(pose, q.reshape(len(index), n), index.astype(np.int64), columns)
+
+
+def export_rows(
+    source: SweepData | str | Path,
+    path: str | Path,
+    *,
+    which: Literal["solutions", "true"] = "solutions",
+) -> Path:
+    """Write :func:`training_rows` of ``source`` to ``path``: ``.npz`` (arrays ``pose``,
+    ``q``, ``pose_index``, ``columns``) or ``.csv`` (a header of the column names and
+    ``pose_index``, then one row per line, every float to 17 significant digits). Written
+    to a temporary file and renamed, so a reader never sees half a file. Returns the path.
+
+    Raises:
+        InvalidParameterError: another suffix (or as :func:`training_rows`).
+    """
+    target = Path(path)
+    suffix = target.suffix.lower()
+    if suffix not in (".npz", ".csv"):
+        raise InvalidParameterError(
+            f"training rows are written as .npz or .csv; got {shown_path(target)}"
+        )
+    rows = training_rows(source, which=which)
+    handle, temp = tempfile.mkstemp(suffix=suffix, dir=target.parent or None,
+                                    prefix=f".{target.name}.")  # fmt: skip
+    try:
+        with os.fdopen(handle, "wb") as f:
+            if suffix == ".npz":
+                np.savez(f, pose=rows.pose, q=rows.q, pose_index=rows.pose_index,
+                         columns=np.array(rows.columns))  # fmt: skip
+            else:
+                table = np.column_stack((rows.pose, rows.q, rows.pose_index))
+                np.savetxt(f, table, fmt=["%.17g"] * len(rows.columns) + ["%d"], delimiter=",",
+                           header=",".join((*rows.columns, "pose_index")), comments="")  # fmt: skip
+        os.replace(temp, target)
+    except BaseException:
+        os.unlink(temp)
+        raise
+    return target
 
 
 IK_DATASET = Kind(
