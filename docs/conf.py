@@ -18,10 +18,13 @@ module constant, a type alias) to plain code text; a name that exists nowhere is
 
 from __future__ import annotations
 
+import atexit
 import builtins
 import collections.abc
 import os
+import shutil
 import sys
+import tempfile
 import typing
 import urllib.request
 from concurrent.futures import ThreadPoolExecutor
@@ -41,6 +44,17 @@ os.environ.pop("MPLBACKEND", None)
 # shortens them all to N control steps.
 if os.environ.get("REDRES_DOCS_STEPS"):
     os.environ["REDRES_EXAMPLE_STEPS"] = os.environ["REDRES_DOCS_STEPS"]
+# The notebooks' kernels talk to the build over local TCP, and each kernel used to print
+# a warning about it ("Kernel is running over TCP without encryption"): nine lines of
+# noise per build. Their IPython profile, in a folder of this build, keeps the kernels'
+# log to errors and writes no history.
+_PROFILE = Path(tempfile.mkdtemp(prefix="redres-docs-ipython-"))
+(_PROFILE / "profile_default").mkdir()
+(_PROFILE / "profile_default" / "ipython_kernel_config.py").write_text(
+    'c.IPKernelApp.log_level = "ERROR"\nc.HistoryManager.enabled = False\n'
+)
+os.environ["IPYTHONDIR"] = str(_PROFILE)
+atexit.register(shutil.rmtree, _PROFILE, ignore_errors=True)
 
 from sphinx.ext.napoleon.docstring import GoogleDocstring  # noqa: E402
 from sphinx.util.inspect import TypeAliasForwardRef  # noqa: E402
@@ -188,6 +202,8 @@ nb_merge_streams = True
 # Every numbered example runs at build time. Examples whose file name contains "_slow"
 # run only with REDRES_DOCS_ALL=1 (none is that slow today).
 _RUN = r"/\d\d_.*\.py" if os.environ.get("REDRES_DOCS_ALL") else r"/\d\d_(?!.*_slow).*\.py"
+for _stale in (HERE / "sg_execution_times.rst", HERE / "auto_examples" / "sg_execution_times.rst"):
+    _stale.unlink(missing_ok=True)  # written by earlier builds, before the option below
 sphinx_gallery_conf = {
     "examples_dirs": "../examples",
     "gallery_dirs": "auto_examples",
@@ -201,4 +217,7 @@ sphinx_gallery_conf = {
     "show_memory": False,
     "capture_repr": (),
     "min_reported_time": 1,
+    # Its execution-times pages load jQuery and DataTables from CDNs: the site must work
+    # offline (each example's page still gives its running time).
+    "write_computation_times": False,
 }

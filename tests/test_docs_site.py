@@ -108,3 +108,17 @@ def test_every_public_name_has_an_api_page() -> None:
         if not pages or not all((SITE / page).is_file() for page in pages):
             missing.append(path)
     assert not missing, f"public names without an API page: {missing}"
+
+
+def test_the_site_loads_no_script_or_stylesheet_from_another_host() -> None:
+    """The site works offline: no page pulls a script or a stylesheet from a CDN (the
+    gallery's execution-times pages did: jQuery and DataTables)."""
+    if not (SITE / "index.html").is_file():
+        if os.environ.get("REDRES_DOCS_REQUIRED"):
+            pytest.fail(f"no built site at {SITE}; `make docs` builds it")
+        pytest.skip("the documentation site is not built (make docs)")
+    remote = re.compile(r"""<(?:script[^>]*\ssrc|link[^>]*\shref)=["'](?:https?:)?//""")
+    pages = sorted(SITE.rglob("*.html"))
+    assert len(pages) > 100  # the whole site, not an empty folder
+    found = [str(p.relative_to(SITE)) for p in pages if remote.search(p.read_text("utf-8"))]
+    assert not found, f"pages loading from another host: {found}"

@@ -1,15 +1,17 @@
-"""The sweep kinds, by the name a spec gives (``kind = "capability"``)."""
+"""The sweep kinds, by the name a spec gives (``kind = "capability"``), and their modules:
+each kind's parameters, its typed view of a finished sweep and its exports."""
 
 from __future__ import annotations
 
 from ..kind import Kind
+from . import capability, ikdata, placement, redundancy, reuleaux, schemes
 from .capability import CAPABILITY
 from .ikdata import IK_DATASET
 from .placement import BASE_PLACEMENT
 from .redundancy import REDUNDANCY_MAP
 from .schemes import SCHEME_STATISTICS
 
-__all__ = ["KINDS"]
+__all__ = ["KINDS", "capability", "ikdata", "placement", "redundancy", "reuleaux", "schemes"]
 
 #: Every sweep kind by name, in the order ``redres sweep --list`` shows them.
 KINDS: dict[str, Kind] = {

@@ -228,6 +228,7 @@ def table(out: str | Path) -> str:
     return aligned_table(headers, rows)
 
 
+#: The sweep kind ``scheme_statistics``: each scheme of a scenario over random starts.
 SCHEME_STATISTICS = Kind(
     "scheme_statistics",
     "scheme statistics: random circles and lines x the schemes of a scenario",
