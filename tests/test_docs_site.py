@@ -122,3 +122,22 @@ def test_the_site_loads_no_script_or_stylesheet_from_another_host() -> None:
     assert len(pages) > 100  # the whole site, not an empty folder
     found = [str(p.relative_to(SITE)) for p in pages if remote.search(p.read_text("utf-8"))]
     assert not found, f"pages loading from another host: {found}"
+
+
+def test_user_guide_pages_show_the_guide_in_their_sidebar() -> None:
+    """Every user-guide page lists the guide's pages in its left sidebar (it was empty
+    when the pages hung off the root), the viewer among them."""
+    guide = SITE / "user_guide.html"
+    if not guide.is_file():
+        if os.environ.get("REDRES_DOCS_REQUIRED"):
+            pytest.fail(f"no built site at {SITE}; `make docs` builds it")
+        pytest.skip("the documentation site is not built (make docs)")
+    pages = re.findall(r'<li class="toctree-l1"><a class="reference internal" href="([a-z_]+)\.html"',
+                       guide.read_text("utf-8"))  # fmt: skip
+    assert {"models", "sweeps", "viewer", "report"} <= set(pages), pages
+    for name in pages:
+        html = (SITE / f"{name}.html").read_text("utf-8")
+        nav = html[html.index("bd-sidenav") :]
+        nav = nav[: nav.index("</ul>")]
+        links = set(re.findall(r'href="([a-z_]+)\.html"', nav))
+        assert len(links) >= len(pages) - 1, (name, links)  # all but itself ("#")

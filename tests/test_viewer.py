@@ -216,3 +216,33 @@ def test_chromium_scrubs_a_finished_run_with_the_slider(viewer, tmp_path: Path) 
         assert settle(page, 0)
         problems = [m for m in page.console if m[0] in ("error", "exception", "assert")]
     assert problems == []
+
+
+def test_a_moving_obstacle_is_drawn_where_the_loop_says(viewer) -> None:  # type: ignore[no-untyped-def]
+    """`push(q, obstacles=...)` moves the obstacles' scene nodes (the gallery's approaching
+    ball, watched live); a capsule of a new shape is drawn anew; a wrong count is refused."""
+    q = viewer.robot.neutral()
+    ball = SphereObstacle([0.4, 0.0, 0.5], 0.06, "ball")
+    pole = CapsuleObstacle([0.2, -0.3, 0.0], [0.2, -0.3, 0.8], 0.03, "pole")
+    viewer.push(q, obstacles=[ball, pole])
+    node_ball, node_pole = viewer._obstacle_nodes
+    assert _wait(lambda: np.allclose(node_ball.position, ball.center))
+    assert _wait(lambda: np.allclose(node_pole.position, pole.a))
+    np.testing.assert_allclose(viewer._obstacle_shapes[1], [0.0, 0.0, 0.8, 0.03])
+    assert "ball at (0.4000, 0.0000, 0.5000)" in viewer._obstacle_status.content
+    with pytest.raises(rr.errors.InvalidParameterError, match="draws 2 obstacles"):
+        viewer.push(q, obstacles=[ball])
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="needs Debian's chromium")
+def test_chromium_shows_the_obstacle_where_it_was_pushed(viewer, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    from _chromium import live_page
+
+    pole = CapsuleObstacle([0.5, -0.3, 0.0], [0.5, -0.3, 0.6], 0.03, "pole")
+    ball = SphereObstacle([0.35, -0.05, 0.45], 0.06, "ball")
+    viewer.push(viewer.robot.neutral(), obstacles=[ball, pole])
+    assert _wait(lambda: np.allclose(viewer._obstacle_nodes[0].position, ball.center))
+    done = 'document.body.innerText.includes("ball at (0.3500") && document.querySelector("canvas")'
+    text, console = live_page(viewer.url, tmp_path / "profile", done, seconds=90.0)
+    assert "ball at (0.3500, -0.0500, 0.4500)" in text, text[-2000:]
+    assert [m for m in console if m[0] in ("error", "exception", "assert")] == []

@@ -1,5 +1,5 @@
-"""A live 3D viewer in the browser, on viser (the ``viewer`` extra: ``pip install
-'redres[viewer]'``).
+"""A live 3D viewer in the browser, on viser (the ``viewer`` extra; from a checkout:
+``pip install -e '.[viewer]'``).
 
 >>> viewer = rr.view(robot, obstacles=[ball])          # doctest: +SKIP
 >>> for k in range(steps):                             # doctest: +SKIP
@@ -14,7 +14,9 @@ latest one at most ``rate`` times a second, so a loop is never slowed by the vie
 when the browser lags, intermediate configurations are dropped, never queued.
 :meth:`Viewer.show_runs` adds finished runs with a drop-down, a time slider to scrub them
 and a play button. Each link is one scene node whose pose is updated: its meshes are sent
-once. The configuration shown is also written in the side panel (``q = [...]``), which
+once; so is each obstacle's, whose node :meth:`Viewer.push` moves when a loop passes the
+obstacles where they are now (``push(q, obstacles=[ball(t)])``). The configuration shown
+is also written in the side panel (``q = [...]``, and each obstacle's place), which
 automated checks read.
 """
 
@@ -100,10 +102,12 @@ class Viewer:
         self._pending: FloatArray | None = None
         self._target: FloatArray | None = None
         self._shown: FloatArray | None = None
+        self._moved: list[Obstacle] | None = None
         self._stop = threading.Event()
         self._runs: list[RunLog] = []
         self._slider: Any = None
         self._build_scene(list(obstacles))
+        self._place(list(obstacles))  # the side panel names each obstacle and its place
         self.push(robot.neutral())
         self._send(robot.neutral(), None)
         self._thread = threading.Thread(target=self._sender, name="redres-viewer", daemon=True)
@@ -126,13 +130,29 @@ class Viewer:
         """The configuration last sent to the browser."""
         return None if self._shown is None else self._shown.copy()
 
-    def push(self, q: Any, target: Any = None) -> None:
+    def push(self, q: Any, target: Any = None, obstacles: Sequence[Obstacle] | None = None) -> None:
         """Show configuration ``q`` (shape ``(n,)``) and, optionally, a target pose (4x4) or
-        position (3,), soon: returns at once; only the latest push is sent."""
+        position (3,), and the viewer's obstacles where they are now (``obstacles``: as
+        many as it was built with, in the same order: a moving ball is drawn where the loop
+        says it is), soon: returns at once; only the latest push is sent.
+
+        Raises:
+            InvalidParameterError: ``obstacles`` of another count than the viewer's.
+        """
         qv = np.array(as_vector(q, "q", self.robot.n), dtype=float)
         tv = None if target is None else np.array(target, dtype=float)
+        moved = None
+        if obstacles is not None:
+            moved = list(obstacles)
+            if len(moved) != len(self._obstacles):
+                raise InvalidParameterError(
+                    f"obstacles: the viewer draws {len(self._obstacles)} obstacles; push "
+                    f"them all, in the order it was built with (got {len(moved)})"
+                )
         with self._lock:
             self._pending, self._target = qv, tv if tv is not None else self._target
+            if moved is not None:
+                self._moved = moved
 
     def show_runs(self, runs: Sequence[RunLog]) -> None:
         """Add finished runs of this robot: a drop-down to pick one, a time slider to
@@ -197,8 +217,40 @@ class Viewer:
         while not self._stop.wait(period):
             with self._lock:
                 q, target, self._pending = self._pending, self._target, None
+                moved, self._moved = self._moved, None
+            if moved is not None:
+                self._place(moved)
             if q is not None:
                 self._send(q, target)
+
+    def _place(self, obstacles: list[Obstacle]) -> None:
+        """Move the obstacles' scene nodes to ``obstacles`` (a new shape is drawn anew)."""
+        from .report.scene3d import OBSTACLE_COLOUR
+
+        with self.server.atomic():
+            lines = []
+            for i, obs in enumerate(obstacles):
+                anchor, shape = _obstacle_shape(obs)
+                node = self._obstacle_nodes[i]
+                node.position = tuple(float(x) for x in anchor)
+                if not np.allclose(shape, self._obstacle_shapes[i], rtol=0.0, atol=1e-12):
+                    self._obstacle_meshes[i].remove()
+                    self._obstacle_meshes[i] = self._add_shape(node.name, shape, OBSTACLE_COLOUR)
+                    self._obstacle_shapes[i] = shape
+                lines.append(f"{obs.name} at (" + ", ".join(f"{x:.4f}" for x in anchor) + ")")
+            self._obstacles = obstacles
+            self._obstacle_status.content = "; ".join(lines)
+
+    def _add_shape(self, node: str, shape: FloatArray, colour: str) -> Any:
+        """An obstacle's mesh under ``node``: a capsule from the node's origin to
+        ``shape[:3]`` of radius ``shape[3]``."""
+        from .report.scene3d import capsule_mesh
+
+        vertices, faces = capsule_mesh(np.zeros(3), shape[:3], max(float(shape[3]), 0.005))
+        return self.server.scene.add_mesh_simple(
+            f"{node}/shape", vertices=vertices.astype(np.float32),
+            faces=faces.astype(np.uint32), color=_rgb(colour), opacity=0.6,
+        )  # fmt: skip
 
     def _frames(self) -> list[str]:
         if self.geometry == "meshes":
@@ -208,7 +260,6 @@ class Viewer:
         return []
 
     def _build_scene(self, obstacles: list[Obstacle]) -> None:
-        from .objectives import SphereObstacle
         from .report.scene3d import CAPSULE_COLOUR, OBSTACLE_COLOUR, capsule_mesh
 
         scene = self.server.scene
@@ -241,15 +292,23 @@ class Viewer:
         if self.geometry == "lines":
             self._arm = scene.add_line_segments("/robot/arm", points=np.zeros((1, 2, 3)),
                                                 colors=(31, 119, 180), thickness=0.008)  # fmt: skip
+        self._obstacles = obstacles
+        self._obstacle_nodes: list[Any] = []
+        self._obstacle_meshes: list[Any] = []
+        self._obstacle_shapes: list[FloatArray] = []
         for i, obs in enumerate(obstacles):
-            a, b = (obs.center, obs.center) if isinstance(obs, SphereObstacle) else (obs.a, obs.b)
-            vertices, faces = capsule_mesh(a, b, max(obs.radius, 0.005))
-            add_mesh(f"/obstacles/{i}_{obs.name}", vertices, faces, OBSTACLE_COLOUR, opacity=0.6)
+            anchor, shape = _obstacle_shape(obs)
+            node = scene.add_frame(f"/obstacles/{i}_{obs.name}", show_axes=False,
+                                   position=tuple(float(x) for x in anchor))  # fmt: skip
+            self._obstacle_nodes.append(node)
+            self._obstacle_meshes.append(self._add_shape(node.name, shape, OBSTACLE_COLOUR))
+            self._obstacle_shapes.append(shape)
         self._tool = scene.add_frame("/tool", axes_length=0.08, axes_radius=0.004)
         self._goal = scene.add_icosphere("/target", radius=0.012, color=(214, 39, 40),
                                          visible=False)  # fmt: skip
         self._paths: list[Any] = []
         self._status = self.server.gui.add_markdown("q = ")
+        self._obstacle_status = self.server.gui.add_markdown("")
 
     def _draw_paths(self, log: RunLog) -> None:
         for handle in self._paths:
@@ -286,6 +345,17 @@ class Viewer:
                 self._goal.visible = True
             self._status.content = "q = [" + ", ".join(f"{x:.4f}" for x in q) + "]"
         self._shown = q
+
+
+def _obstacle_shape(obstacle: Obstacle) -> tuple[FloatArray, FloatArray]:
+    """Where an obstacle's scene node sits (a sphere's centre, a capsule's end ``a``) and
+    its shape relative to it: ``(b − a, radius)``."""
+    from .objectives import SphereObstacle
+
+    if isinstance(obstacle, SphereObstacle):
+        return np.asarray(obstacle.center, dtype=float), np.array([0.0, 0.0, 0.0, obstacle.radius])
+    a = np.asarray(obstacle.a, dtype=float)
+    return a, np.append(np.asarray(obstacle.b, dtype=float) - a, obstacle.radius)
 
 
 def view(robot: Robot, **kwargs: Any) -> Viewer:
