@@ -132,8 +132,8 @@ def test_user_guide_pages_show_the_guide_in_their_sidebar() -> None:
         if os.environ.get("REDRES_DOCS_REQUIRED"):
             pytest.fail(f"no built site at {SITE}; `make docs` builds it")
         pytest.skip("the documentation site is not built (make docs)")
-    pages = re.findall(r'<li class="toctree-l1"><a class="reference internal" href="([a-z_]+)\.html"',
-                       guide.read_text("utf-8"))  # fmt: skip
+    entry = r'<li class="toctree-l1"><a class="reference internal" href="([a-z_]+)\.html"'
+    pages = re.findall(entry, guide.read_text("utf-8"))
     assert {"models", "sweeps", "viewer", "report"} <= set(pages), pages
     for name in pages:
         html = (SITE / f"{name}.html").read_text("utf-8")
