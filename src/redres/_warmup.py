@@ -15,13 +15,15 @@ ends, so that the process that started it switches to the compiled path group by
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
+import shutil
 import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -247,8 +249,9 @@ def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: in
     Args:
         groups: names of kernel groups (``"linalg"``, ``"derivatives"``, ``"chain"``,
             ``"controller"``, ``"hard limits"``, ``"ik"``, ``"batch"``); default all.
-        quiet: print nothing (else one line per group on standard error: what it
-            compiled and how long it took).
+        quiet: print nothing (else, for each group that compiles, what it is for, about
+            how long it takes, its progress every few seconds and the time it took, on
+            standard error; a cached group prints nothing).
         jobs: processes to compile in (``2``: the hard-limit group, the longest, in a
             second process while this one compiles the rest).
 
@@ -270,26 +273,95 @@ def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: in
     finally:
         _compile.quiet(False)
     if side is not None:
-        if side.wait() != 0:
-            raise RuntimeError(f"redres: the warm-up process failed (status {side.returncode})")
-        if not quiet:
-            print(f"redres: hard limits: {time.perf_counter() - start:.1f} s (second process)",
-                  file=sys.stderr, flush=True)  # fmt: skip
+        with _progress("hard limits", quiet) as announced:  # still compiling: say so
+            status = side.wait()
+        if status != 0:
+            raise RuntimeError(f"redres: the warm-up process failed (status {status})")
+        if announced:
+            print(f"redres: compiled {_words('hard limits')} in a second process, "
+                  f"{time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)  # fmt: skip
     return time.perf_counter() - start
 
 
+#: What each kernel group computes, in a user's words (the warm-up's progress lines).
+GROUP_WORDS = {
+    "linalg": "inverses and projectors",
+    "derivatives": "Jacobian derivatives",
+    "chain": "forward kinematics",
+    "controller": "the 1 kHz controller",
+    "shaping": "command shaping",
+    "dynamics": "the torque-control step",
+    "hard limits": "the hard-limit schemes (SNS, QP)",
+    "ik": "inverse kinematics",
+    "analytic ik": "closed-form inverse kinematics",
+    "batch": "batched kinematics and IK",
+}
+
+#: Seconds between progress lines while a group compiles (a log without a terminal
+#: gets a line at this pace; a terminal sees one line updated in place).
+TICK = 5.0
+
+
 def timed(tasks: Sequence[tuple[str, Callable[[], object]]], *, quiet: bool = False) -> float:
-    """Run warm-up calls (``(label, call)`` pairs that compile what they touch), printing
-    what each compiled and how long it took unless ``quiet``; returns the total, s."""
+    """Run warm-up calls (``(label, call)`` pairs that compile what they touch); returns the
+    total, s. Unless ``quiet``, a call still running after a second (it compiles: a cached
+    group loads faster) is announced on standard error with what it is for and about how
+    long it takes, followed every :data:`TICK` seconds by how long it has run, and closed
+    with the time it took; a cached group prints nothing."""
     total = 0.0
     for label, call in tasks:
         begin = time.perf_counter()
-        call()
+        with _progress(label, quiet) as announced:
+            call()
         seconds = time.perf_counter() - begin
         total += seconds
-        if not quiet:
-            print(f"redres: {label}: {seconds:.1f} s", file=sys.stderr, flush=True)
+        if announced:
+            print(f"redres: compiled {_words(label)} in {seconds:.1f} s (cached for later runs)",
+                  file=sys.stderr, flush=True)  # fmt: skip
     return total
+
+
+def _words(label: str) -> str:
+    return f"{GROUP_WORDS[label]} ({label})" if label in GROUP_WORDS else label
+
+
+@contextlib.contextmanager
+def _progress(label: str, quiet: bool) -> Iterator[list[bool]]:
+    """While the body runs: after a second, a line saying what compiles and about how
+    long; then every :data:`TICK` seconds how long it has run (in place on a terminal,
+    new lines in a log). Yields a list that holds True once the line is out."""
+    announced: list[bool] = []
+    if quiet:
+        yield announced
+        return
+    stop = threading.Event()
+    terminal = sys.stderr.isatty() and shutil.get_terminal_size((0, 0)).columns > 0
+    start = time.perf_counter()
+
+    def tick() -> None:
+        if stop.wait(1.0):
+            return
+        group = _compile.groups().get(label)  # declared by now: the workload imported it
+        estimate = group.cold_estimate() if group is not None else 0.0
+        about = f"about {estimate:.0f} s on one core" if estimate >= 1 else ""
+        print(f"redres: compiling {_words(label)} for its first use"
+              + (f", {about}" if about else "") + "...", file=sys.stderr, flush=True)  # fmt: skip
+        announced.append(True)
+        while not stop.wait(TICK):
+            elapsed = f"redres:   ... {time.perf_counter() - start:.0f} s"
+            line = elapsed + (f" of {about}" if about else "")
+            print(f"\r{line}" if terminal else line, end="" if terminal else "\n",
+                  file=sys.stderr, flush=True)  # fmt: skip
+
+    thread = threading.Thread(target=tick, name="redres-warmup-progress", daemon=True)
+    thread.start()
+    try:
+        yield announced
+    finally:
+        stop.set()
+        thread.join()
+        if terminal and time.perf_counter() - start >= 1.0 + TICK:
+            print(file=sys.stderr, flush=True)  # end the line updated in place
 
 
 def _side_process(names: list[str]) -> subprocess.Popen[bytes] | None:

@@ -16,6 +16,7 @@ import shutil
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
@@ -231,17 +232,28 @@ def test_without_a_writable_cache_the_kernels_compile_in_memory() -> None:
     assert out == ["None", "0.5"]
 
 
-def test_warmup_runs_each_call_and_says_how_long_it_took(
-    capsys: pytest.CaptureFixture[str],
+def test_warmup_says_what_compiles_and_how_far_and_nothing_when_cached(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """A call still running after a second is announced in a user's words, then ticks every
+    TICK seconds (new lines: the test's standard error is not a terminal), then says how
+    long it took; a call done at once (a cached group) prints nothing."""
+    monkeypatch.setattr(_warmup, "TICK", 0.2)
     calls: list[str] = []
     total = _warmup.timed(
-        [("first", lambda: calls.append("a")), ("second", lambda: calls.append("b"))]
+        [
+            ("linalg", lambda: (calls.append("a"), time.sleep(1.7))),
+            ("chain", lambda: calls.append("b")),
+        ]
     )
-    assert calls == ["a", "b"] and total >= 0.0
+    assert calls == ["a", "b"] and total >= 1.7
     err = capsys.readouterr().err.splitlines()
-    assert [line.split(":")[:2] for line in err] == [["redres", " first"], ["redres", " second"]]
-    assert _warmup.timed([("quiet", lambda: None)], quiet=True) >= 0.0
+    assert err[0].startswith("redres: compiling inverses and projectors (linalg) for its first use")
+    ticks = [line for line in err if line.startswith("redres:   ... ")]
+    assert len(ticks) >= 2 and all(line.split()[2].isdigit() for line in ticks)
+    assert err[-1].startswith("redres: compiled inverses and projectors (linalg) in 1.")
+    assert len(err) == 2 + len(ticks)  # nothing about the cached "chain"
+    assert _warmup.timed([("quiet", lambda: time.sleep(1.2))], quiet=True) >= 1.2
     assert capsys.readouterr().err == ""
 
 

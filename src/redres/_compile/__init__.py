@@ -278,6 +278,11 @@ class KernelGroup:
         """Whether every module of the group is compiled into the cache at this stamp."""
         return all(map(cached, self.modules))
 
+    def cold_estimate(self) -> float:
+        """Roughly how long compiling what of the group is not cached takes now, s (its
+        modules and the kernels of other groups they call; 0 when cached)."""
+        return _estimates.cold_seconds(_FIGURES, self.modules, cached)
+
     def mark(
         self,
         *,

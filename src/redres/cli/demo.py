@@ -147,12 +147,29 @@ def _write_report(
         return None
 
 
+def _run_done() -> Callable[[RunLog], None]:
+    """A line on standard error as each run ends, where no progress bar shows (standard
+    error is not a terminal: a CI log), so that a log never goes quiet for long."""
+    last = [time.perf_counter()]
+
+    def done(log: RunLog) -> None:
+        now = time.perf_counter()
+        if not sys.stderr.isatty():
+            print(f"  {log.label or log.scheme}: {log.steps:,} steps in {now - last[0]:.1f} s",
+                  file=sys.stderr, flush=True)  # fmt: skip
+        last[0] = now
+
+    return done
+
+
 def _compile_for(specs: Sequence[ScenarioSpec], loud: bool) -> None:
     """Compile what the runs need before they are timed (on a cold cache they would
     otherwise run, and be timed, on the reference path while it compiles behind)."""
     groups = ["linalg", "derivatives", "chain", "controller"]
     if any(s.kind in ("qp", "sns") for spec in specs for s in spec.schemes):
         groups.append("hard limits")
+    if any(s.kind == "osc" for spec in specs for s in spec.schemes):
+        groups.append("dynamics")
     warmup(groups, quiet=not loud)
 
 
@@ -204,7 +221,8 @@ def run_scenarios(
             print(f"{spec.name}: {spec.description}", file=sys.stderr)
         missing: list[tuple[str, str]] = []
         logs = run_scenario(spec, progress=None if loud else False, viewer=viewer,
-                            franka=franka, skipped=missing)  # fmt: skip
+                            franka=franka, skipped=missing,
+                            after_each=_run_done() if loud else None)  # fmt: skip
         runs += [(spec, log) for log in logs]
         skipped += [{"scenario": spec.name, "scheme": label, "reason": why}
                     for label, why in missing]  # fmt: skip

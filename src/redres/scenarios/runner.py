@@ -9,7 +9,7 @@ line each.
 from __future__ import annotations
 
 import textwrap
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
@@ -89,6 +89,7 @@ def run_scenario(
     viewer: LiveView | None = None,
     franka: FrankaTarget | None = None,
     skipped: list[tuple[str, str]] | None = None,
+    after_each: Callable[[RunLog], None] | None = None,
 ) -> list[RunLog]:
     """Run each scheme of ``spec`` from the same start; returns the logs in order. A
     ``viewer`` shows the rate-control runs live as they are computed (``rr.run``'s
@@ -96,7 +97,8 @@ def run_scenario(
     arm (:func:`redres.hardware.run_on_franka`), one scheme after the other from where the
     robot stands. ``skipped``: a scheme whose optional dependency is missing is left out,
     with ``(label, message)`` appended here, instead of ending every run (without it the
-    ``MissingDependencyError`` propagates)."""
+    ``MissingDependencyError`` propagates). ``after_each``: called with each run's log as
+    soon as it is done (a command's progress lines)."""
     extra = [ObstacleObjective(spec.obstacles)] if spec.obstacles else []
     logs = []
     if franka is not None:
@@ -126,6 +128,9 @@ def run_scenario(
             if skipped is None:
                 raise
             skipped.append((s.label, str(exc)))
+            continue
+        if after_each is not None:
+            after_each(logs[-1])
     return logs
 
 
