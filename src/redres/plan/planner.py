@@ -68,8 +68,9 @@ if TYPE_CHECKING:
 
 __all__ = ["KERNELS", "OBJECTIVES", "PathPlan", "PlanStats", "plan_path", "solve_grid"]
 
-#: The DP kernels (:mod:`redres.plan._kernels`).
-KERNELS = _compile.KernelGroup("plan", ("redres.plan._kernels",), cold_seconds=8.0)
+#: The DP kernels (:mod:`redres.plan._kernels`). Cold (2026-12-07, 2 shared cores, load
+#: 3.0): a first 2-sample plan 4.3, 4.6, 8.5 s on an empty cache; warm 0.7, 0.7, 1.2 s.
+KERNELS = _compile.KernelGroup("plan", ("redres.plan._kernels",), cold_seconds=5.0)
 
 Objective = Literal["joint_limit_margin", "manipulability", "path_length"]
 OBJECTIVES = ("joint_limit_margin", "manipulability", "path_length")
