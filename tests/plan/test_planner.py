@@ -144,3 +144,12 @@ def test_objectives_and_bad_input() -> None:
         plan_path(robot, path, dt=0.1, resolution=12, objective=lambda q: q)
     with pytest.raises(InvalidParameterError, match="qd_max"):
         plan_path(robot, path, dt=0.1, resolution=12, qd_max=0.0)
+
+
+def test_last_sample_infeasible() -> None:
+    q = np.zeros((5, 2, 2, 3))
+    feasible = np.ones((5, 2, 2), dtype=bool)
+    feasible[4] = False
+    plan = solve_grid(planar(), _grid(q, feasible), dt=0.1, qd_max=1.0)
+    assert not plan.feasible and plan.stats.first_infeasible == 4
+    assert plan.stats.reachable_nodes == 16

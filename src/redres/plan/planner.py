@@ -77,9 +77,9 @@ OBJECTIVES = ("joint_limit_margin", "manipulability", "path_length")
 #: How far ``q0`` may be from its node on the grid, rad (it is on the grid by
 #: construction: the parameter's values are shifted to its value).
 Q0_TOL = 1e-6
-#: A grid with fewer candidate pairs than this runs through the kernels' plain-Python
+#: A grid with at most this many feasible nodes runs through the kernels' plain-Python
 #: twin while they compile behind; a larger one waits for the compilation.
-_PLAIN_PAIRS = 200_000
+_PLAIN_NODES = 20_000
 
 
 @dataclass(frozen=True)
@@ -303,7 +303,7 @@ def _solve(
     per_sample = feasible.reshape(K, -1).sum(axis=1).astype(np.int64)
     offsets = np.concatenate(([0], np.cumsum(per_sample))).astype(np.int64)
     M = len(q)
-    kernels = _kernels(M, delta)
+    kernels = _kernels(M)
     order, keys = np.empty(M, np.int64), np.empty(M)
     key = np.empty(K, np.int64)
     kernels.sort_samples(q, offsets, delta, order, keys, key)
@@ -320,8 +320,8 @@ def _solve(
     kernels.backward(q, offsets, order, keys, key, delta, reached, ends)
     on = reached & ends
     components = kernels.components(q, offsets, order, keys, key, delta, on, np.empty(M, np.int64))
-    reached_per = np.add.reduceat(reached, offsets[:-1]) if M else np.zeros(K, np.int64)
-    reached_per = np.where(per_sample > 0, reached_per, 0)
+    sample = np.repeat(np.arange(K), per_sample)  # each node's sample
+    reached_per = np.bincount(sample[reached], minlength=K)
     first_infeasible = _first(per_sample == 0)
     first_unreachable = None if first_infeasible is not None else _first(reached_per == 0)
     last = np.arange(offsets[K - 1], offsets[K])
@@ -415,15 +415,15 @@ def _manipulability(robot: Robot, q: FloatArray, frame: str | None) -> FloatArra
     return out
 
 
-def _kernels(pairs_hint: int, delta: FloatArray) -> Any:
-    """The kernel module: compiled, or its plain twin for a small grid while it compiles
-    behind; a large grid waits for the compilation (:func:`redres._compile.warm`)."""
+def _kernels(nodes: int) -> Any:
+    """The kernel module: compiled, or its plain-Python twin for a grid of at most
+    :data:`_PLAIN_NODES` feasible nodes while it compiles behind; a larger grid waits for
+    the compilation (:func:`redres._compile.warm`: minutes of plain Python saved)."""
     module = KERNELS.compiled()
     if module is not None:
         return module
-    if _compile.enabled() and pairs_hint * 8 > _PLAIN_PAIRS:
+    if _compile.enabled() and nodes > _PLAIN_NODES:
         _compile.warm(("plan",))
-        return KERNELS.required("the path planner")
     return KERNELS.required("the path planner")
 
 
