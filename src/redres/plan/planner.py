@@ -49,6 +49,7 @@ per node instead of thousands.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -286,87 +287,93 @@ def _solve(
 ) -> PathPlan:
     began = time.perf_counter()
     K, P, B = grid.shape
-    n = robot.n
     limit = robot.qd_max if qd_max is None else as_gains(qd_max, "qd_max")
-    limit = np.array(np.broadcast_to(limit, (n,)), dtype=np.float64)
+    limit = np.array(np.broadcast_to(limit, (robot.n,)), dtype=np.float64)
     if not (limit > 0).all():
         raise InvalidParameterError(f"qd_max must be positive (rad/s); got {limit}")
-    delta = np.ascontiguousarray(limit * dt)
+    index, q, per_sample = _nodes(grid, start)
+    M = len(q)
+    kernels = _kernels(M)
+    graph = _graph(kernels, q, per_sample, np.ascontiguousarray(limit * dt))
+    bottleneck = objective == "joint_limit_margin"
+    margin = np.minimum(q - robot.q_min, robot.q_max - q).min(axis=1) if M else np.zeros(0)
+    value, edge = _node_values(robot, q, objective, margin, graph[1], dt, frame)
+    best, parent = np.empty(M), np.empty(M, np.int64)
+    reached, ends, counts = np.empty(M, np.bool_), np.empty(M, np.bool_), np.zeros(2, np.int64)
+    kernels.forward(*graph, np.ones(M, np.bool_), value, bottleneck, edge, best, parent, reached,
+                    counts)  # fmt: skip
+    kernels.backward(*graph, reached, ends)
+    on = reached & ends  # the nodes on some complete admissible path
+    components = kernels.components(*graph, on, np.empty(M, np.int64))
+    reached_per = np.bincount(np.repeat(np.arange(K), per_sample)[reached], minlength=K)
+    first_infeasible = _first(per_sample == 0)
+    stats = PlanStats(
+        nodes=K * P * B, feasible_nodes=M, feasible_per_sample=per_sample,
+        reachable_nodes=int(reached_per.sum()), traversable_nodes=int(on.sum()),
+        pairs_checked=int(counts[0]), transitions=int(counts[1]),
+        components=int(components), first_infeasible=first_infeasible,
+        first_unreachable=None if first_infeasible is not None else _first(reached_per == 0),
+        seconds_grid=seconds_grid, seconds_dp=0.0,
+    )  # fmt: skip
+    name = objective if isinstance(objective, str) else getattr(objective, "__name__", "cost")
+    last = np.arange(graph[1][K - 1], graph[1][K])
+    last = last[reached[last]]
+    if len(last) == 0 or first_infeasible is not None:
+        stats = dataclasses.replace(stats, seconds_dp=time.perf_counter() - began)
+        nan, none = np.full((K, robot.n), np.nan), np.full(K, -1, np.int64)
+        return PathPlan(nan, grid.t, math.nan, name, False, grid.parameter, nan[:, 0].copy(),
+                        none, math.nan, math.nan, dt, limit, stats, grid)  # fmt: skip
+    if bottleneck:
+        optimum = float(best[last].max())
+        # among the max-min paths, the shortest: the additive DP over the nodes >= optimum
+        kernels.forward(*graph, on & (margin >= optimum), np.zeros(M), False, 1.0, best, parent,
+                        reached, np.zeros(2, np.int64))  # fmt: skip
+        last = last[reached[last]]
+    rows = np.empty(K, np.int64)
+    rows[K - 1] = last[np.argmin(best[last])]
+    for k in range(K - 1, 0, -1):
+        rows[k - 1] = parent[rows[k]]
+    if not bottleneck:
+        optimum = float(best[rows[K - 1]])
+        optimum = -optimum if objective == "manipulability" else optimum
+    stats = dataclasses.replace(stats, seconds_dp=time.perf_counter() - began)
+    flat = index[rows]  # rows of the dense grid (k, p, b)
+    path_q = q[rows].copy()
+    return PathPlan(
+        path_q, grid.t, optimum, name, True, grid.parameter,
+        grid.values[np.arange(K), (flat // B) % P], (flat % B).astype(np.int64),
+        float(margin[rows].min()), float(np.sum(np.linalg.norm(np.diff(path_q, axis=0), axis=1))),
+        dt, limit, stats, grid,
+    )  # fmt: skip
+
+
+def _nodes(
+    grid: PathGrid, start: tuple[int, int] | None
+) -> tuple[NDArray[np.int64], FloatArray, NDArray[np.int64]]:
+    """The feasible nodes, sample by sample (only ``start`` on the first sample, if
+    given): their rows in the dense grid ``(M,)``, configurations ``(M, n)``, and how
+    many each sample has ``(K,)``."""
+    K = grid.shape[0]
     feasible = grid.feasible
     if start is not None:
         feasible = feasible.copy()
         keep = feasible[0, start[0], start[1]]
         feasible[0] = False
         feasible[0, start[0], start[1]] = keep
-    index = np.flatnonzero(feasible.reshape(-1))  # node rows, sample by sample
-    q = np.ascontiguousarray(grid.q.reshape(-1, n)[index])
-    per_sample = feasible.reshape(K, -1).sum(axis=1).astype(np.int64)
+    index = np.flatnonzero(feasible.reshape(-1))
+    q = np.ascontiguousarray(grid.q.reshape(-1, grid.q.shape[-1])[index])
+    return index, q, feasible.reshape(K, -1).sum(axis=1).astype(np.int64)
+
+
+def _graph(kernels: Any, q: FloatArray, per_sample: NDArray[np.int64], delta: FloatArray
+           ) -> tuple[Any, ...]:  # fmt: skip
+    """The arguments every pass of :mod:`redres.plan._kernels` starts with: ``(q, start,
+    order, keys, key, delta)``, the nodes sorted per sample."""
     offsets = np.concatenate(([0], np.cumsum(per_sample))).astype(np.int64)
-    M = len(q)
-    kernels = _kernels(M)
-    order, keys = np.empty(M, np.int64), np.empty(M)
-    key = np.empty(K, np.int64)
+    order, keys = np.empty(len(q), np.int64), np.empty(len(q))
+    key = np.empty(len(per_sample), np.int64)
     kernels.sort_samples(q, offsets, delta, order, keys, key)
-    name = objective if isinstance(objective, str) else getattr(objective, "__name__", "cost")
-    bottleneck = objective == "joint_limit_margin"
-    margin = np.minimum(q - robot.q_min, robot.q_max - q).min(axis=1) if M else np.zeros(0)
-    value, edge = _node_values(robot, q, objective, margin, offsets, dt, frame)
-    active = np.ones(M, dtype=np.bool_)
-    best, parent = np.empty(M), np.empty(M, np.int64)
-    reached, counts = np.empty(M, np.bool_), np.zeros(2, np.int64)
-    kernels.forward(q, offsets, order, keys, key, delta, active, value, bottleneck, edge,
-                    best, parent, reached, counts)  # fmt: skip
-    ends = np.empty(M, np.bool_)
-    kernels.backward(q, offsets, order, keys, key, delta, reached, ends)
-    on = reached & ends
-    components = kernels.components(q, offsets, order, keys, key, delta, on, np.empty(M, np.int64))
-    sample = np.repeat(np.arange(K), per_sample)  # each node's sample
-    reached_per = np.bincount(sample[reached], minlength=K)
-    first_infeasible = _first(per_sample == 0)
-    first_unreachable = None if first_infeasible is not None else _first(reached_per == 0)
-    last = np.arange(offsets[K - 1], offsets[K])
-    last = last[reached[last]]
-    ok = len(last) > 0 and first_infeasible is None
-    rows = np.full(K, -1, np.int64)
-    optimum = math.nan
-    if ok:
-        if bottleneck:
-            optimum = float(best[last].max())
-            # among the max-min paths, the shortest: the additive DP over nodes >= optimum
-            active = reached & ends & (margin >= optimum)
-            kernels.forward(q, offsets, order, keys, key, delta, active, np.zeros(M), False,
-                            1.0, best, parent, reached, np.zeros(2, np.int64))  # fmt: skip
-            last = last[reached[last]]
-            end = int(last[np.argmin(best[last])])
-        else:
-            end = int(last[np.argmin(best[last])])
-            optimum = float(best[end])
-            if objective == "manipulability":
-                optimum = -optimum
-        rows[K - 1] = end
-        for k in range(K - 1, 0, -1):
-            rows[k - 1] = parent[rows[k]]
-    seconds_dp = time.perf_counter() - began
-    stats = PlanStats(
-        nodes=K * P * B, feasible_nodes=M, feasible_per_sample=per_sample,
-        reachable_nodes=int(reached_per.sum()), traversable_nodes=int(on.sum()),
-        pairs_checked=int(counts[0]), transitions=int(counts[1]), components=int(components),
-        first_infeasible=first_infeasible, first_unreachable=first_unreachable,
-        seconds_grid=seconds_grid, seconds_dp=seconds_dp,
-    )  # fmt: skip
-    if not ok:
-        nan = np.full((K, n), np.nan)
-        return PathPlan(nan, grid.t, math.nan, name, False, grid.parameter, nan[:, 0].copy(),
-                        rows, math.nan, math.nan, dt, limit, stats, grid)  # fmt: skip
-    flat = index[rows]  # rows of the dense grid (k, p, b)
-    p_idx, b_idx = (flat // B) % P, flat % B
-    path_q = q[rows].copy()
-    steps = np.diff(path_q, axis=0)
-    return PathPlan(
-        path_q, grid.t, optimum, name, True, grid.parameter, grid.values[np.arange(K), p_idx],
-        b_idx.astype(np.int64), float(margin[rows].min()),
-        float(np.sum(np.linalg.norm(steps, axis=1))), dt, limit, stats, grid,
-    )  # fmt: skip
+    return q, offsets, order, keys, key, delta
 
 
 def _node_values(
