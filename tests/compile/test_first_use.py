@@ -174,7 +174,8 @@ def test_warmup_fills_the_cache_so_that_a_second_process_compiles_nothing(
     lines = first.stderr.splitlines()
     groups = {line.split(":")[1].strip() for line in lines[:-1]}
     assert groups == {"linalg", "derivatives", "chain", "controller", "shaping", "dynamics",
-                      "hard limits", "ik", "analytic ik", "batch"}, first.stderr  # fmt: skip
+                      "hard limits", "ik", "analytic ik", "batch", "plan"}, (
+                          first.stderr)  # fmt: skip
     assert lines[-1].startswith("redres: warm-up done in"), first.stderr
     out, err = _run(
         textwrap.dedent("""
