@@ -153,3 +153,23 @@ def test_last_sample_infeasible() -> None:
     plan = solve_grid(planar(), _grid(q, feasible), dt=0.1, qd_max=1.0)
     assert not plan.feasible and plan.stats.first_infeasible == 4
     assert plan.stats.reachable_nodes == 16
+
+
+def test_dt_defaults_for_a_trajectory_and_one_sample_is_a_plan() -> None:
+    robot = rr.models.iiwa14()
+    path = Circle(robot.fk(Q_IIWA), 0.1, 2.0, normal=(1.0, 0.0, 0.0), turns=0.1)
+    plan = plan_path(robot, path, resolution=12)
+    assert plan.dt == 0.01 and len(plan.q) == 21 and plan.feasible
+    # a turn in 0.2 s (3 m/s) is too fast for the velocity limits from the first step on
+    fast = plan_path(robot, Circle(robot.fk(Q_IIWA), 0.1, 0.2, normal=(1.0, 0.0, 0.0)),
+                     resolution=12)  # fmt: skip
+    assert not fast.feasible and fast.stats.first_unreachable == 1
+    with pytest.raises(InvalidParameterError, match="dt is required for poses"):
+        plan_path(robot, robot.fk(Q_IIWA)[None], resolution=12)
+    one = plan_path(robot, robot.fk(Q_IIWA)[None], dt=0.1, resolution=12)
+    assert one.feasible and one.q.shape == (1, 7) and one.path_length == 0.0
+    assert (
+        one.objective
+        == one.min_margin
+        == max(robot.joint_limit_margin(q).min() for q in one.grid.q[0][one.grid.feasible[0]])
+    )

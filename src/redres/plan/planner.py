@@ -40,6 +40,12 @@ connected components under the transitions are the pieces of the feasible region
 robot cannot move between along this path (:attr:`PlanStats.components`): a local
 scheme stays in the piece it starts in.
 
+Execution. :meth:`PathPlan.at` interpolates the plan linearly between samples: within
+the joint limits and ``qd_max`` by construction. A :class:`~redres.control.Controller`
+tracks it with the path as its frame task and the plan's ``q(t)`` as a posture level
+below it (``PriorityScheme([PostureTask(...)])``, ``q_ref`` set each period: see
+``examples/18_global_plan.py``).
+
 The transition check over all pairs of consecutive samples' nodes is the hot loop
 (``(P·B)²`` pairs per sample); :mod:`redres.plan._kernels` searches, for each node, only
 the window of the next sample's nodes sorted by the joint that separates them best,
@@ -61,13 +67,14 @@ from numpy.typing import NDArray
 
 from .. import _compile
 from .._validate import FloatArray, as_gains, as_scalar, as_vector
+from ..control.trajectories import Trajectory
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from .grid import Parameter, PathGrid, build_grid, parameter_values, path_poses
 
 if TYPE_CHECKING:
     from ..robot import Robot
 
-__all__ = ["KERNELS", "OBJECTIVES", "PathPlan", "PlanStats", "plan_path", "solve_grid"]
+__all__ = ["DT", "KERNELS", "OBJECTIVES", "PathPlan", "PlanStats", "plan_path", "solve_grid"]
 
 #: The DP kernels (:mod:`redres.plan._kernels`). Cold (2026-12-07, 2 shared cores, load
 #: 3.0): a first 2-sample plan 4.3, 4.6, 8.5 s on an empty cache; warm 0.7, 0.7, 1.2 s.
@@ -75,6 +82,8 @@ KERNELS = _compile.KernelGroup("plan", ("redres.plan._kernels",), cold_seconds=5
 
 Objective = Literal["joint_limit_margin", "manipulability", "path_length"]
 OBJECTIVES = ("joint_limit_margin", "manipulability", "path_length")
+#: The default time between the samples of a trajectory, s.
+DT = 0.01
 #: How far ``q0`` may be from its node on the grid, rad (it is on the grid by
 #: construction: the parameter's values are shifted to its value).
 Q0_TOL = 1e-6
@@ -184,7 +193,7 @@ def plan_path(
     robot: Robot,
     path: Any,
     *,
-    dt: float,
+    dt: float | None = None,
     parameter: Parameter | None = None,
     resolution: int = 90,
     objective: Objective | Callable[[FloatArray], Any] = "joint_limit_margin",
@@ -199,7 +208,8 @@ def plan_path(
         robot: a 7R arm with a closed form (:mod:`redres.plan.grid`).
         path: a :class:`~redres.control.trajectories.Trajectory` (sampled at ``t = k·dt``
             up to its duration) or poses of ``frame`` ``(K, 4, 4)`` (``t = k·dt``).
-        dt: s between samples (> 0): with ``qd_max`` it bounds each step.
+        dt: s between samples (> 0): with ``qd_max`` it bounds each step. Default
+            :data:`DT` for a trajectory; required for poses.
         parameter: ``"arm_angle"`` (S-R-S arms; the default there) or ``"q7"`` (the
             default otherwise).
         resolution: parameter values per sample (≥ 2): over the circle for the arm
@@ -234,6 +244,13 @@ def plan_path(
             f"resolution must be an integer >= 2 (parameter values per sample); got {resolution!r}"
         )
     _check_objective(objective)
+    if dt is None:
+        if not isinstance(path, Trajectory):
+            raise InvalidParameterError(
+                "dt is required for poses (K, 4, 4): the time between them, s, which with "
+                "qd_max bounds each step"
+            )
+        dt = DT
     began = time.perf_counter()
     poses, t = path_poses(path, dt)
     anchor = start = None
