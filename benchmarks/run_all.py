@@ -129,6 +129,12 @@ BENCHES = [
           "solution, solutions found, how often the original configuration is among them, "
           "the worst forward-kinematics error (Pinocchio), solutions holding NaN.",
           quick=["--poses", "50", "--rounds", "1"], markdown=False),
+    Bench("plan", "plan.py", "Global planning by dynamic programming: time against grid size",
+          "`benchmarks/plan.py`: `rr.plan_path` on the Panda joint-limit circle (q7, from the "
+          "scenario's q0) and the iiwa14 figure eight (arm angle), K samples x P parameter "
+          "values x 8 branches, max-min joint-limit margin: the grid (closed-form IK), the "
+          "DP and the whole call on one thread, the grid on all cores; pairs tested after "
+          "the pruning against every feasible pair.", quick=["--quick", "--rounds", "1"]),
     Bench("dynamics", "dynamics.py", "Operational-space control step (Panda)",
           "`benchmarks/dynamics.py`: the compiled operational-space step next to the same "
           "step on Pinocchio, and the pieces of a step (redres alone).",

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from .control import Controller, run
     from .errors import RedresError
     from .ik.solutions import ik_all, self_motion
+    from .plan import PathPlan, plan_path
     from .viewer import Viewer, view
 
 from ._version import __version__
@@ -35,6 +36,7 @@ from ._version import __version__
 _LAZY: dict[str, str] = dict.fromkeys(("Controller", "run"), ".control") | {
     "RedresError": ".errors", "warmup": "._warmup", "Viewer": ".viewer", "view": ".viewer",
     "ik_all": ".ik.solutions", "self_motion": ".ik.solutions",
+    "plan_path": ".plan", "PathPlan": ".plan",
 }  # fmt: skip
 _SUBMODULES = frozenset(
     {"batch", "control", "dynamics", "errors", "hardware", "linalg", "models", "objectives",
@@ -60,6 +62,7 @@ __all__ = [
     "Controller",
     "DHLink",
     "IKResult",
+    "PathPlan",
     "RedresError",
     "Robot",
     "Viewer",
@@ -74,6 +77,7 @@ __all__ = [
     "linalg",
     "models",
     "objectives",
+    "plan_path",
     "resolution",
     "run",
     "self_motion",

@@ -180,6 +180,15 @@ def _batch() -> None:
     batch.ik(robot, batch.fk(robot, q), max_restarts=1)
 
 
+def _plan() -> None:
+    from .models import iiwa14
+    from .plan import plan_path
+
+    robot = iiwa14()
+    T = robot.fk(robot.neutral())
+    plan_path(robot, np.stack((T, T)), dt=0.1, resolution=4)
+
+
 #: Each kernel group's workload, by the group's name, in the order ``redres warmup`` runs
 #: them.
 #: A workload returns None, or the modules of its group it compiled when it had to leave
@@ -195,12 +204,13 @@ WORKLOADS: dict[str, Callable[[], tuple[str, ...] | None]] = {
     "ik": _ik,
     "analytic ik": _analytic_ik,
     "batch": _batch,
+    "plan": _plan,
 }
 
 
 def groups() -> dict[str, _compile.KernelGroup]:
     """Every kernel group, by name (importing their owners declares them)."""
-    from . import batch, control, dynamics, ik, linalg  # noqa: F401
+    from . import batch, control, dynamics, ik, linalg, plan  # noqa: F401
     from .ik import analytic  # noqa: F401
     from .resolution import hard_limits  # noqa: F401
     from .robot import chain, derivatives  # noqa: F401
@@ -248,7 +258,8 @@ def warmup(groups: Sequence[str] | None = None, *, quiet: bool = False, jobs: in
 
     Args:
         groups: names of kernel groups (``"linalg"``, ``"derivatives"``, ``"chain"``,
-            ``"controller"``, ``"hard limits"``, ``"ik"``, ``"batch"``); default all.
+            ``"controller"``, ``"shaping"``, ``"dynamics"``, ``"hard limits"``, ``"ik"``,
+            ``"analytic ik"``, ``"batch"``, ``"plan"``); default all.
         quiet: print nothing (else, for each group that compiles, what it is for, about
             how long it takes, its progress every few seconds and the time it took, on
             standard error; a cached group prints nothing).
@@ -295,6 +306,7 @@ GROUP_WORDS = {
     "ik": "inverse kinematics",
     "analytic ik": "closed-form inverse kinematics",
     "batch": "batched kinematics and IK",
+    "plan": "path planning by dynamic programming",
 }
 
 #: Seconds between progress lines while a group compiles (a log without a terminal

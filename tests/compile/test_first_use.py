@@ -164,6 +164,10 @@ def test_opting_out_compiles_on_the_callers_path(tmp_path: Path) -> None:
     assert not list(tmp_path.glob("compiling-*"))  # no background process
 
 
+GROUPS = ("linalg", "derivatives", "chain", "controller", "shaping", "dynamics", "hard limits",
+          "ik", "analytic ik", "batch", "plan")  # fmt: skip
+
+
 def test_warmup_fills_the_cache_so_that_a_second_process_compiles_nothing(
     tmp_path: Path,
 ) -> None:
@@ -178,8 +182,7 @@ def test_warmup_fills_the_cache_so_that_a_second_process_compiles_nothing(
     closed = set(re.findall(r"redres: compiled .* \((.+?)\) in", first.stderr))
     assert announced == closed and "linalg" in closed, first.stderr  # (hard limits: a second
     # process, announced only if this one has to wait for it)
-    assert closed <= {"linalg", "derivatives", "chain", "controller", "shaping", "dynamics",
-                      "hard limits", "ik", "analytic ik", "batch"}, first.stderr  # fmt: skip
+    assert closed <= set(GROUPS), first.stderr
     assert lines[-1].startswith("redres: warm-up done in"), first.stderr
     out, err = _run(
         textwrap.dedent("""

@@ -1,0 +1,192 @@
+"""Compiled dynamic programming over the nodes of a path's grid (internal).
+
+Entry points and their call tree::
+
+    sort_samples(q, start, delta, order, keys, key)
+        per sample, the joint that separates its nodes best (``key``), and its nodes in
+        order of that joint (``order``, ``keys``)
+    forward(q, start, order, keys, key, delta, active, value, bottleneck, edge_weight,
+            best, parent, reached, counts)
+        _window, _allowed: the DP recursion (redres.plan.planner docstring)
+    backward(q, start, order, keys, key, delta, active, ends)
+        _window, _allowed: which nodes lead to the last sample
+    components(q, start, order, keys, key, delta, on, root) -> count
+        _window, _allowed, _find: union-find over the transitions between ``on`` nodes
+
+The nodes of sample ``k`` are the rows ``start[k]:start[k + 1]`` of ``q`` ``(M, n)``.
+A transition from node ``i`` (sample ``k``) to node ``j`` (sample ``k + 1``) is allowed
+when ``|q[j] − q[i]| ≤ delta`` joint by joint. Pruning, exact: every allowed ``j`` has
+``|q[j, s] − q[i, s]| ≤ delta[s]`` for the joint ``s = key[k + 1]``, so the nodes of
+sample ``k + 1``, sorted by that joint, are searched in that window only (a binary search,
+then a scan); ``s`` is the joint whose spread over the sample's nodes is the largest
+multiple of its ``delta`` (the fewest candidates when the nodes spread evenly).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._compile import kernel
+
+
+@kernel
+def sort_samples(q, start, delta, order, keys, key):
+    """Fill ``key`` ``(K,)`` (the joint each sample is sorted by), ``order`` ``(M,)`` (node
+    rows, sample by sample, in increasing value of that joint) and ``keys`` ``(M,)``
+    (those values)."""
+    n = q.shape[1]
+    for k in range(len(start) - 1):
+        a, b = start[k], start[k + 1]
+        best, score = 0, -1.0
+        if b > a:
+            for j in range(n):
+                lo, hi = q[a, j], q[a, j]
+                for i in range(a + 1, b):
+                    lo = min(lo, q[i, j])
+                    hi = max(hi, q[i, j])
+                # delta 0: any spread separates perfectly; delta inf: nothing does
+                s = (hi - lo) / delta[j] if delta[j] > 0.0 else math.inf
+                if s > score:
+                    best, score = j, s
+        key[k] = best
+        idx = np.argsort(q[a:b, best], kind="mergesort")
+        for i in range(b - a):
+            order[a + i] = a + idx[i]
+            keys[a + i] = q[a + idx[i], best]
+
+
+@kernel(inline=True)
+def _allowed(q, i, j, delta):
+    """Whether ``|q[j] − q[i]| ≤ delta`` for every joint."""
+    for c in range(q.shape[1]):
+        if abs(q[j, c] - q[i, c]) > delta[c]:
+            return False
+    return True
+
+
+@kernel(inline=True)
+def _window(keys, a, b, x, d):
+    """Rows ``[lo, hi)`` of the sorted ``keys[a:b]`` within ``[x − d, x + d]``."""
+    lo = a + np.searchsorted(keys[a:b], x - d, side="left")
+    hi = a + np.searchsorted(keys[a:b], x + d, side="right")
+    return lo, hi
+
+
+@kernel
+def forward(q, start, order, keys, key, delta, active, value, bottleneck, edge_weight,
+            best, parent, reached, counts):  # fmt: skip
+    """The DP from the first sample to the last over the ``active`` nodes.
+
+    ``bottleneck``: ``best[j] = max over allowed i of min(best[i], value[j])`` (the
+    largest smallest ``value`` of a path ending at ``j``); else ``best[j] = min over
+    allowed i of (best[i] + edge_weight·‖q[j] − q[i]‖) + value[j]``. A tie keeps the
+    first predecessor in row order. ``parent[j]``: that predecessor (−1 on the first
+    sample or where ``j`` is not ``reached``). ``counts``: pairs inside the windows,
+    allowed transitions among them.
+    """
+    K = len(start) - 1
+    for m in range(q.shape[0]):
+        parent[m] = -1
+        reached[m] = False
+        best[m] = -math.inf if bottleneck else math.inf
+    for i in range(start[0], start[1]):
+        if active[i]:
+            reached[i] = True
+            best[i] = value[i]
+    for k in range(K - 1):
+        a1, b1 = start[k + 1], start[k + 2]
+        s = key[k + 1]
+        for i in range(start[k], start[k + 1]):
+            if not reached[i]:
+                continue
+            lo, hi = _window(keys, a1, b1, q[i, s], delta[s])
+            for p in range(lo, hi):
+                j = order[p]
+                if not active[j]:
+                    continue
+                counts[0] += 1
+                if not _allowed(q, i, j, delta):
+                    continue
+                counts[1] += 1
+                if bottleneck:
+                    cand = min(best[i], value[j])
+                    if cand > best[j] or not reached[j]:
+                        best[j], parent[j], reached[j] = cand, i, True
+                else:
+                    step = 0.0
+                    if edge_weight != 0.0:
+                        ss = 0.0
+                        for c in range(q.shape[1]):
+                            d = q[j, c] - q[i, c]
+                            ss += d * d
+                        step = edge_weight * math.sqrt(ss)
+                    cand = (best[i] + step) + value[j]
+                    if cand < best[j] or not reached[j]:
+                        best[j], parent[j], reached[j] = cand, i, True
+
+
+@kernel
+def backward(q, start, order, keys, key, delta, active, ends):
+    """``ends[i]``: an allowed path through ``active`` nodes leads from ``i`` to the last
+    sample."""
+    K = len(start) - 1
+    for m in range(q.shape[0]):
+        ends[m] = False
+    for i in range(start[K - 1], start[K]):
+        ends[i] = active[i]
+    for k in range(K - 2, -1, -1):
+        a1, b1 = start[k + 1], start[k + 2]
+        s = key[k + 1]
+        for i in range(start[k], start[k + 1]):
+            if not active[i]:
+                continue
+            lo, hi = _window(keys, a1, b1, q[i, s], delta[s])
+            for p in range(lo, hi):
+                j = order[p]
+                if ends[j] and _allowed(q, i, j, delta):
+                    ends[i] = True
+                    break
+
+
+@kernel(inline=True)
+def _find(root, a):
+    """The representative of ``a`` (path halving)."""
+    while root[a] != a:
+        root[a] = root[root[a]]
+        a = root[a]
+    return a
+
+
+@kernel
+def components(q, start, order, keys, key, delta, on, root):
+    """The connected components of the graph of the ``on`` nodes and the allowed
+    transitions between them (edges taken both ways): ``root[m]`` the representative of
+    node ``m``'s component; returns how many components meet the first sample."""
+    K = len(start) - 1
+    M = q.shape[0]
+    for m in range(M):
+        root[m] = m
+    for k in range(K - 1):
+        a1, b1 = start[k + 1], start[k + 2]
+        s = key[k + 1]
+        for i in range(start[k], start[k + 1]):
+            if not on[i]:
+                continue
+            lo, hi = _window(keys, a1, b1, q[i, s], delta[s])
+            for p in range(lo, hi):
+                j = order[p]
+                if on[j] and _allowed(q, i, j, delta):
+                    ri, rj = _find(root, i), _find(root, j)
+                    if ri != rj:
+                        root[max(ri, rj)] = min(ri, rj)
+    for m in range(M):
+        root[m] = _find(root, m)
+    seen = np.zeros(M, dtype=np.bool_)
+    count = 0
+    for i in range(start[0], start[1]):
+        if on[i] and not seen[root[i]]:
+            seen[root[i]] = True
+            count += 1
+    return count
