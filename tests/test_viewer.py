@@ -226,10 +226,11 @@ def test_a_moving_obstacle_is_drawn_where_the_loop_says(viewer) -> None:  # type
     pole = CapsuleObstacle([0.2, -0.3, 0.0], [0.2, -0.3, 0.8], 0.03, "pole")
     viewer.push(q, obstacles=[ball, pole])
     node_ball, node_pole = viewer._obstacle_nodes
-    assert _wait(lambda: np.allclose(node_ball.position, ball.center))
-    assert _wait(lambda: np.allclose(node_pole.position, pole.a))
+    # the side panel's line is written last: once it names the new place, all is placed
+    assert _wait(lambda: "ball at (0.4000, 0.0000, 0.5000)" in viewer._obstacle_status.content)
+    np.testing.assert_allclose(node_ball.position, ball.center)
+    np.testing.assert_allclose(node_pole.position, pole.a)
     np.testing.assert_allclose(viewer._obstacle_shapes[1], [0.0, 0.0, 0.8, 0.03])
-    assert "ball at (0.4000, 0.0000, 0.5000)" in viewer._obstacle_status.content
     with pytest.raises(rr.errors.InvalidParameterError, match="draws 2 obstacles"):
         viewer.push(q, obstacles=[ball])
 
