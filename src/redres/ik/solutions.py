@@ -100,8 +100,8 @@ def ik_all(
     count = int(single.count[0])
     return IKSolutions(
         count, AnalyticFlag(int(single.flags[0])), math.nan,
-        *_buffers(single.q[0], single.branch[0], single.within_limits[0],
-                  single.position_error[0], single.rotation_error[0]),
+        _buffer(single.q[0], single.branch[0], single.within_limits[0],
+                single.position_error[0], single.rotation_error[0]),
     )  # fmt: skip
 
 
@@ -285,12 +285,13 @@ def _at_arm_angle(robot: Robot, poses: FloatArray, arm_angle: Any, frame: str | 
                             count, flags)  # fmt: skip
 
 
-def _buffers(q: FloatArray, branch: Any, within: Any, pos: FloatArray, rot: FloatArray
-             ) -> tuple[FloatArray, NDArray[np.int64]]:  # fmt: skip
-    """The kernel's buffer layout (:mod:`redres.ik._analytic_codes`) of one pose's rows."""
-    values = np.zeros((codes.MAX_SOLUTIONS, codes.N_VALUES))
-    found = np.zeros((codes.MAX_SOLUTIONS, codes.N_CODES), dtype=np.int64)
-    values[:, : codes.N_JOINTS] = q
-    values[:, codes.POSITION_ERROR], values[:, codes.ROTATION_ERROR] = pos, rot
-    found[:, codes.BRANCH], found[:, codes.WITHIN] = branch, within
-    return values, found
+def _buffer(q: FloatArray, branch: Any, within: Any, pos: FloatArray, rot: FloatArray
+            ) -> FloatArray:  # fmt: skip
+    """The kernel's buffer layout (:mod:`redres.ik._analytic_codes`) of one pose's rows,
+    FK errors filled."""
+    values = np.zeros((codes.N_ROWS, codes.N_VALUES))
+    rows = values[: codes.MAX_SOLUTIONS]
+    rows[:, : codes.N_JOINTS] = q
+    rows[:, codes.POSITION_ERROR], rows[:, codes.ROTATION_ERROR] = pos, rot
+    rows[:, codes.BRANCH], rows[:, codes.WITHIN] = branch, within
+    return values
