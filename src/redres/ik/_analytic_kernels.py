@@ -112,6 +112,7 @@ from ._analytic_codes import (
 prange = parallel_range()
 PI = math.pi
 TWO_PI = 2.0 * math.pi
+INV_TWO_PI = 1.0 / TWO_PI
 
 
 @kernel(inline=True)
@@ -178,10 +179,9 @@ def _rot(ax, ay, az, c, s, x, y, z):
 
 @kernel(inline=True)
 def _wrap(x):
-    """``x`` moved by a multiple of 2π into ``[−π, π)``."""
-    if -PI <= x < PI:
-        return x
-    return x - TWO_PI * math.floor((x + PI) / TWO_PI)
+    """``x`` moved by a multiple of 2π into ``[−π, π)`` (to rounding at the ends; no
+    branch: the angles wrapped are mostly inside already)."""
+    return x - TWO_PI * math.floor(x * INV_TWO_PI + 0.5)
 
 
 @kernel
@@ -246,7 +246,7 @@ def _base(arm, x, y, z):
             arm[X0 + 2] * x + arm[X0 + 5] * y + arm[X0 + 8] * z)  # fmt: skip
 
 
-@kernel
+@kernel(nogil=False)  # called from Python, about a microsecond
 def solve_pose(arm, T, q7, out):
     """Every solution of pose ``T`` at ``q7`` (module docstring) into ``out``; returns
     ``count + (flags << FLAG_SHIFT)``, or a negative status (``_analytic_codes``)."""
@@ -452,12 +452,12 @@ def _joint(arm, row, j, x):
     where that fits, into ``row[j]``; returns whether it is within them."""
     lo, hi = arm[LO + j] - LIMIT_TOL, arm[HI + j] + LIMIT_TOL
     x = _wrap(x)
-    if x < lo and x + TWO_PI <= hi:
+    if x + TWO_PI <= hi and x < lo:  # the first test is false for limits inside (−π, π)
         x += TWO_PI
-    elif x > hi and x - TWO_PI >= lo:
+    elif x - TWO_PI >= lo and x > hi:
         x -= TWO_PI
     row[j] = x
-    return lo <= x <= hi
+    return (lo <= x) & (x <= hi)
 
 
 @kernel

@@ -126,13 +126,14 @@ class AnalyticArm:
     wrist: FloatArray
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True, eq=False)
 class IKSolutions:
     """Every solution of one pose at one ``q7`` (``count`` of them, ``0 ≤ count ≤ 8``).
 
     The arrays are views of the kernel's buffer, made on access (a call returns before
     slicing them: most callers read two or three). The FK errors are computed on first
-    access (the chain's compiled FK of each solution, once).
+    access (the chain's compiled FK of each solution, once). Read-only by convention:
+    not frozen, because a frozen dataclass costs a call a fifth more to make.
 
     Attributes:
         count: how many solutions.
@@ -155,10 +156,11 @@ class IKSolutions:
     q7: float
     values: FloatArray = dataclasses.field(repr=False)
     arm: AnalyticArm | None = dataclasses.field(default=None, repr=False)
+    _filled: bool = dataclasses.field(default=False, init=False, repr=False)
 
     @property
     def q(self) -> FloatArray:
-        return self.values[: self.count, : codes.N_JOINTS]
+        return self.values[_Q_ROWS[self.count]]
 
     @property
     def branch(self) -> NDArray[np.int64]:
@@ -189,12 +191,12 @@ class IKSolutions:
         return self.count
 
     def _checked(self) -> FloatArray:
-        """The buffer, with the FK errors filled (on the first call: the dataclass is
-        frozen, its buffer is not; two threads racing here write the same values)."""
+        """The buffer, with the FK errors filled (on the first call; two threads racing
+        here write the same values)."""
         arm = self.arm
-        if arm is not None and "_filled" not in self.__dict__:
+        if arm is not None and not self._filled:
             _errors(arm.links, arm.axes, arm.kinds, self.values, self.count)
-            self.__dict__["_filled"] = True
+            self._filled = True
         return self.values
 
 
@@ -442,10 +444,7 @@ def at_q7(robot: Robot, T: Any, *, q7: float, frame: str | None = None) -> IKSol
     code = _solve(arm.arm, T, x, out)
     if code < 0:
         _refused(code, T, x, "T", "q7")
-    result = _new(IKSolutions)  # the frozen dataclass without its __init__
-    result.__dict__.update(count=code & codes.COUNT_MASK, flags=_FLAGS[code >> codes.FLAG_SHIFT],
-                           q7=x, values=out, arm=arm)  # fmt: skip
-    return result
+    return IKSolutions(code & _COUNT_MASK, _FLAGS[code >> _FLAG_SHIFT], x, out, arm)
 
 
 def at_q7_batch(robot: Robot, T: Any, q7: Any, *, frame: str | None = None) -> IKSolutionsBatch:
@@ -485,8 +484,10 @@ def at_q7_batch(robot: Robot, T: Any, q7: Any, *, frame: str | None = None) -> I
 
 _F64 = np.dtype(np.float64)
 _BUFFER = (codes.N_ROWS, codes.N_VALUES)
+_COUNT_MASK, _FLAG_SHIFT = codes.COUNT_MASK, codes.FLAG_SHIFT
 _empty = np.empty
-_new = object.__new__
+#: ``values[_Q_ROWS[count]]``: the joints of the solutions (a key made once per count).
+_Q_ROWS = [(slice(0, k), slice(0, codes.N_JOINTS)) for k in range(codes.MAX_SOLUTIONS + 1)]
 _FLAGS = [AnalyticFlag(i) for i in range(2 * max(AnalyticFlag))]
 
 
