@@ -110,6 +110,26 @@ TWIN = 120
 LO, HI = 121, 128  # joint limits, rad (7 each)
 N_ARM = 135
 
+# Slots of the packed constants of an S-R-S arm (:class:`redres.ik.srs.SRSArm`, whose
+# docstring derives them) for ``solve_arm_angle``: the same length, the limits in the
+# same slots ``LO``, ``HI``.
+SRS_RF, SRS_PF = 0, 9  # the frame's placement in frame 7: rotation (3x3), origin (m)
+SRS_W7 = 12  # the wrist point in frame 7, m
+SRS_S = 15  # the shoulder point, world, m
+SRS_K, SRS_P, SRS_INV_H, SRS_STRAIGHT = 18, 19, 20, 21  # elbow law; the stretched q4, rad
+SRS_RL3, SRS_PL3 = 22, 31  # joint 4's placement in frame 3: rotation, origin (m)
+SRS_A4 = 34  # the elbow axis
+SRS_W4, SRS_S3 = 37, 40  # the wrist point in frame 4, the shoulder point in frame 3, m
+SRS_ELBOW_POINT = 43  # the elbow point, m, in frame 4 (SRS_ELBOW_FRAME 1.0) or frame 3
+SRS_ELBOW_FRAME = 46
+SRS_REFERENCE = 47  # the arm angle's reference direction (unit)
+SRS_LS, SRS_RS, SRS_SIGMA_S = 50, 59, 68  # the shoulder's Euler basis (L, Rʳ, σ)
+SRS_LW, SRS_RW, SRS_SIGMA_W = 69, 78, 87  # the wrist's
+#: The elbow reaches to this (|x| ≤ 1 + it), and the arm angle is defined above these
+#: (the elbow's offset from S → W, m; the lever of the reference, per m² of |W − S|²):
+#: the tolerances of :meth:`redres.ik.srs.SRSPoses.build`.
+SRS_REACH_TOL, SRS_OFFSET_TOL, SRS_LEVER_TOL = 1e-12, 1e-9, 1e-9
+
 #: A pose's 3x3 block must be a rotation to this tolerance (max |RᵀR − I| entry), its
 #: last row ``[0, 0, 0, 1]`` to :data:`HOMOGENEOUS_TOL` (the checks of ``as_transform``).
 ROTATION_TOL = 1e-6

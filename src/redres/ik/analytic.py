@@ -521,28 +521,48 @@ def _module() -> Any:
     return KERNELS.required("analytic IK")
 
 
-def _solve_first(*args: Any) -> int:
-    """``solve_pose(*args)`` through its native entry point for these types, made at the
-    first call (:func:`redres._compile.entry_point`) and kept as :data:`_solve`, or
-    through the plain-Python twin while the kernels compile behind (not kept: the
-    compiled kernel takes over when ready)."""
-    global _solve
+def _native(name: str, args: tuple[Any, ...]) -> tuple[Any, Callable[..., Any] | None]:
+    """Kernel ``name`` run on ``args``, and its native entry point for these types, made
+    at the first call (:func:`redres._compile.entry_point`); no entry point (``None``)
+    while the kernels compile behind: the plain-Python twin answers, and the compiled
+    kernel takes over when ready. The kernels are idempotent: running one twice writes
+    the same values."""
     module = _module()
+    kernel = getattr(module, name)
     if not _compile.is_compiled(module):
-        return module.solve_pose(*args)  # type: ignore[no-any-return]
-    _solve = _compile.entry_point(module.solve_pose, args)
-    return _solve(*args)  # type: ignore[no-any-return]
+        return kernel(*args), None
+    entry = _compile.entry_point(kernel, args)
+    return entry(*args), entry
+
+
+def _solve_first(*args: Any) -> int:
+    """``solve_pose(*args)``, and :data:`_solve` its entry point from now on."""
+    global _solve
+    code, entry = _native("solve_pose", args)
+    if entry is not None:
+        _solve = entry
+    return int(code)
+
+
+def _solve_srs_first(*args: Any) -> int:
+    """``solve_arm_angle(*args)``, and :data:`solve_srs` its entry point from now on."""
+    global solve_srs
+    code, entry = _native("solve_arm_angle", args)
+    if entry is not None:
+        solve_srs = entry
+    return int(code)
 
 
 def _errors_first(*args: Any) -> None:
-    """``errors(*args)``, as :func:`_solve_first` for ``solve_pose``."""
+    """``errors(*args)``, and :data:`_errors` its entry point from now on."""
     global _errors
-    module = _module()
-    if not _compile.is_compiled(module):
-        module.errors(*args)
-        return
-    _errors = _compile.entry_point(module.errors, args)
+    _, entry = _native("errors", args)
+    if entry is not None:
+        _errors = entry
 
 
 _solve: Callable[..., int] = _solve_first
 _errors: Callable[..., None] = _errors_first
+#: ``solve_arm_angle(srs, T, phi, out)`` (for :mod:`.solutions`): the S-R-S closed form
+#: at one arm angle, compiled.
+solve_srs: Callable[..., int] = _solve_srs_first
