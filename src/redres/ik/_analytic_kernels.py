@@ -3,7 +3,7 @@
 Entry points and their call tree::
 
     solve_pose(arm, T, q7, out) -> count + (flags << FLAG_SHIFT), or a negative status
-        _is_pose, _frame6, _unit, _perpendicular, _angle, _shoulder, _emit -> _joint, _wrap
+        _is_pose, _frame6, _unit, _perpendicular, _angle, _limit, _shoulder -> _emit
     errors(links, axes, kinds, out, count)
         robot._chain_kernels.fk (each solution's own FK error against the pose in ``out``)
     solve_many(arm, links, axes, kinds, T, q7, out, summary)
@@ -329,11 +329,12 @@ def solve_pose(arm, T, q7, out):
     bvx, bvy, bvz = _base(arm, vx, vy, vz)
     bnx, bny, bnz = _base(arm, nx, ny, nz)
     bmx, bmy, bmz = _base(arm, mx, my, mz)
+    ok7 = (arm[LO + 6] - LIMIT_TOL <= q7) & (q7 <= arm[HI + 6] + LIMIT_TOL)
     count = 0
     all_flags = 0
     for i4 in range(n4):
         sign4 = 1.0 if i4 == 0 else -1.0
-        q4 = _wrap(arm[DELTA] + sign4 * spread4)
+        x4, ok4 = _limit(arm, 3, arm[DELTA] + sign4 * spread4)
         c4 = arm[COS_DELTA] * x - sign4 * arm[SIN_DELTA] * root4
         s4 = arm[SIN_DELTA] * x + sign4 * arm[COS_DELTA] * root4
         # 3. S → W (v3, direction ĥ) and the joint-5 axis (u3) in frame 3
@@ -414,8 +415,10 @@ def solve_pose(arm, T, q7, out):
                 ch * bvz + cn * fz + cm * gz,
             )
             branch = 4 * i4 + 2 * i_phi
-            count = _shoulder(arm, tx, ty, tz, kx, ky, kz, q4, q5, q6, q7, branch, flags4,
-                              out, count)  # fmt: skip
+            x5, ok5 = _limit(arm, 4, q5)
+            x6, ok6 = _limit(arm, 5, q6)
+            rest = (x4, x5, x6, q7, ok4 & ok5 & ok6 & ok7)
+            count = _shoulder(arm, tx, ty, tz, kx, ky, kz, rest, branch, flags4, out, count)
     if count == 0:
         return UNREACHABLE << FLAG_SHIFT
     for r in range(count):
@@ -424,7 +427,7 @@ def solve_pose(arm, T, q7, out):
 
 
 @kernel
-def _shoulder(arm, tx, ty, tz, wx, wy, wz, q4, q5, q6, q7, branch, flags, out, count):
+def _shoulder(arm, tx, ty, tz, wx, wy, wz, rest, branch, flags, out, count):
     """The shoulder's solutions, ``Rot(k1, q1) Rot(k2, q2) Rot(k3, q3) k3 = t`` and
     ``… m3 = w`` (subproblem 2, two signs, then subproblem 1), emitted into ``out``
     from row ``count``; returns the new count."""
@@ -466,39 +469,46 @@ def _shoulder(arm, tx, ty, tz, wx, wy, wz, q4, q5, q6, q7, branch, flags, out, c
             sigma = 1.0 if k1x * ox + k1y * oy + k1z * oz > 0.0 else -1.0
             a1, a3 = 0.5 * sigma * q3, 0.5 * q3
             f |= SHOULDER_SINGULAR
-        _emit(arm, out[count], a1, q2, a3, q4, q5, q6, q7, branch + i_sh, f, False)
+        _emit(arm, out[count], a1, q2, a3, rest, branch + i_sh, f)
         count += 1
     return count
 
 
 @kernel(inline=True)
-def _joint(arm, row, j, x):
+def _limit(arm, j, x):
     """Joint ``j`` at ``x``, wrapped into ``[−π, π)`` and moved by 2π into its limits
-    where that fits, into ``row[j]``; returns whether it is within them."""
+    where that fits; returns ``(x, whether it is within them)``."""
     lo, hi = arm[LO + j] - LIMIT_TOL, arm[HI + j] + LIMIT_TOL
     x = _wrap(x)
     if x + TWO_PI <= hi and x < lo:  # the first test is false for limits inside (−π, π)
         x += TWO_PI
     elif x - TWO_PI >= lo and x > hi:
         x -= TWO_PI
-    row[j] = x
-    return (lo <= x) & (x <= hi)
+    return x, (lo <= x) & (x <= hi)
 
 
 @kernel
-def _emit(arm, row, q1, q2, q3, q4, q5, q6, q7, branch, flags, wrap7):
-    """One solution into ``row``: joints, branch, flags, within the limits; ``q7`` as
-    given, or, with ``wrap7``, like the others."""
-    within = _joint(arm, row, 0, q1) & _joint(arm, row, 1, q2) & _joint(arm, row, 2, q3)
-    within &= _joint(arm, row, 3, q4) & _joint(arm, row, 4, q5) & _joint(arm, row, 5, q6)
-    if wrap7:
-        within &= _joint(arm, row, 6, q7)
-    else:
-        row[6] = q7
-        within &= arm[LO + 6] - LIMIT_TOL <= q7 <= arm[HI + 6] + LIMIT_TOL
+def _group(arm, j, t1, t2, t3):
+    """:func:`_limit` of joints ``j … j + 2``: ``(x1, x2, x3, all within)``."""
+    x1, ok1 = _limit(arm, j, t1)
+    x2, ok2 = _limit(arm, j + 1, t2)
+    x3, ok3 = _limit(arm, j + 2, t3)
+    return x1, x2, x3, ok1 & ok2 & ok3
+
+
+@kernel
+def _emit(arm, row, q1, q2, q3, rest, branch, flags):
+    """One solution into ``row``: joints 1-3 (limited here), ``rest``: ``(q4, q5, q6, q7,
+    whether they are within the limits)`` (limited once for the solutions sharing them),
+    branch, flags, within the limits."""
+    x1, ok1 = _limit(arm, 0, q1)
+    x2, ok2 = _limit(arm, 1, q2)
+    x3, ok3 = _limit(arm, 2, q3)
+    row[0], row[1], row[2] = x1, x2, x3
+    row[3], row[4], row[5], row[6] = rest[0], rest[1], rest[2], rest[3]
     row[BRANCH] = branch
     row[FLAGS] = flags
-    row[WITHIN] = 1.0 if within else 0.0
+    row[WITHIN] = 1.0 if ok1 & ok2 & ok3 & rest[4] else 0.0
 
 
 @kernel(nogil=False)  # called from Python, under a microsecond per solution
@@ -685,18 +695,27 @@ def solve_arm_angle(srs, T, phi, out):
     q4b = PI - ((PI - (srs[SRS_STRAIGHT] - bend)) % TWO_PI)
     ok_a, a1, a2, a3, a5, a6, a7 = _srs_joints(srs, q4a, R7, h, f, g)
     ok_b, b1, b2, b3, b5, b6, b7 = _srs_joints(srs, q4b, R7, h, f, g)
+    # each group of three joints limited once (g = ±1), then combined into branches
+    ga = (_limit(srs, 3, q4a), _group(srs, 0, a1, a2, a3),
+          _group(srs, 0, _flip(a1), -a2, _flip(a3)), _group(srs, 4, a5, a6, a7),
+          _group(srs, 4, _flip(a5), -a6, _flip(a7)))  # fmt: skip
+    gb = (_limit(srs, 3, q4b), _group(srs, 0, b1, b2, b3),
+          _group(srs, 0, _flip(b1), -b2, _flip(b3)), _group(srs, 4, b5, b6, b7),
+          _group(srs, 4, _flip(b5), -b6, _flip(b7)))  # fmt: skip
     count = 0
     for b in range(8):
         i2, e, i6 = b >> 2, (b >> 1) & 1, b & 1
         if not (ok_a if e == 0 else ok_b):
             continue
-        t1, t2, t3 = (a1, a2, a3) if e == 0 else (b1, b2, b3)
-        t5, t6, t7 = (a5, a6, a7) if e == 0 else (b5, b6, b7)
-        if i2 == 1:
-            t1, t2, t3 = _flip(t1), -t2, _flip(t3)
-        if i6 == 1:
-            t5, t6, t7 = _flip(t5), -t6, _flip(t7)
-        _emit(srs, out[count], t1, t2, t3, q4a if e == 0 else q4b, t5, t6, t7, b, 0, True)
+        G = ga if e == 0 else gb
+        S = G[1] if i2 == 0 else G[2]
+        W = G[3] if i6 == 0 else G[4]
+        row = out[count]
+        row[0], row[1], row[2], row[3] = S[0], S[1], S[2], G[0][0]
+        row[4], row[5], row[6] = W[0], W[1], W[2]
+        row[BRANCH] = b
+        row[FLAGS] = 0.0
+        row[WITHIN] = 1.0 if S[3] and G[0][1] and W[3] else 0.0
         count += 1
     if count == 0:
         return UNREACHABLE << FLAG_SHIFT

@@ -433,7 +433,7 @@ def at_q7(robot: Robot, T: Any, *, q7: float, frame: str | None = None) -> IKSol
     """
     global _LAST
     ref, last_frame, arm = _LAST
-    if ref() is not robot or last_frame != frame:
+    if arm is None or ref() is not robot or last_frame != frame:
         arm = analytic_arm(robot, frame)
         _LAST = (weakref.ref(robot), frame, arm)
     # the entry point takes a C-contiguous float64 2-D array (its shape: the kernel checks)

@@ -116,20 +116,21 @@ def at_arm_angle(robot: Robot, T: Any, *, arm_angle: float, frame: str | None = 
         ShapeError, NonFiniteError: a bad pose or arm angle (named).
     """
     global _LAST_SRS
-    ref, last_frame, srs, checker = _LAST_SRS
-    if ref() is not robot or last_frame != frame:
+    ref, last_frame, constants, checker = _LAST_SRS
+    if constants is None or ref() is not robot or last_frame != frame:
         srs = _srs(robot, frame)
         assert srs is not None
+        constants = srs.constants
         try:
             checker = analytic_arm(robot, frame)
         except NotAnalyticError:  # pragma: no cover - an S-R-S arm has the q7 structure
             checker = None
-        _LAST_SRS = (weakref.ref(robot), frame, srs, checker)
+        _LAST_SRS = (weakref.ref(robot), frame, constants, checker)
     if type(T) is not np.ndarray or T.dtype is not _F64 or T.strides != (32, 8):
         T = np.array(as_transform(T, "T"), dtype=np.float64, order="C")
     phi = arm_angle if type(arm_angle) is float else as_scalar(arm_angle, "arm_angle")
     out = np.empty((codes.N_ROWS, codes.N_VALUES))
-    code = analytic.solve_srs(srs.constants, T, phi, out)
+    code = analytic.solve_srs(constants, T, phi, out)
     if code < 0:
         analytic._refused(code, T, phi, "T", "arm_angle")
     count = code & codes.COUNT_MASK
@@ -142,9 +143,9 @@ def at_arm_angle(robot: Robot, T: Any, *, arm_angle: float, frame: str | None = 
 
 _F64 = np.dtype(np.float64)
 _FLAGS = [AnalyticFlag(i) for i in range(2 * max(AnalyticFlag))]
-#: The S-R-S arm of the last call of :func:`at_arm_angle`: (robot, frame, arm, the arm's
-#: q7 constants whose chain gives the FK errors).
-_LAST_SRS: tuple[Callable[[], Robot | None], str | None, SRSArm | None, Any] = (
+#: The S-R-S arm of the last call of :func:`at_arm_angle`: (robot, frame, its packed
+#: constants, its q7 constants, whose chain gives the FK errors).
+_LAST_SRS: tuple[Callable[[], Robot | None], str | None, FloatArray | None, Any] = (
     lambda: None,
     None,
     None,
