@@ -114,6 +114,9 @@ def test_batch_equals_single_calls_bit_for_bit_at_any_thread_count() -> None:
         assert k == one.count[i]
         assert np.array_equal(single.q, one.q[i, :k])
         assert np.array_equal(single.branch, one.branch[i, :k])
+        # the single call's FK errors (on first access) are the batch kernel's
+        assert np.array_equal(single.position_error, one.position_error[i, :k])
+        assert np.array_equal(single.rotation_error, one.rotation_error[i, :k])
     assert (one.branch[np.arange(8)[None, :] >= one.count[:, None]] == -1).all()
 
 

@@ -44,6 +44,20 @@ rotation about ``S → W`` (one of the continuum), an unreachable pose (no solut
 ``UNREACHABLE``). Each joint is moved by 2π into its limits where that fits;
 ``within_limits`` tells which solutions lie inside them (to 1e-12 rad).
 
+**Speed.** What depends on the arm alone is computed once per arm (:func:`_constants`):
+frame 6 as a fixed combination of three matrices in ``cos q7``, ``sin q7``; ``S → W``,
+the joint-5 axis and ``q5``'s reference vectors in frame 3 as ``c0 + cos q4 cc + sin q4
+cs``. ``cos q4``, ``sin q4`` and ``cos φ``, ``sin φ`` come from the sum formulas and
+``√(1 − x²)``, ``q5`` and ``q6`` as ``atan2`` of dot products linear in ``cos φ``,
+``sin φ``. Where axes 1 and 2 are perpendicular and axes 1 and 3 parallel at the zero
+configuration (to :data:`~redres.ik._analytic_codes.TWIN_TOL`: the Panda, FR3, iiwa14,
+srs7), the second shoulder solution is the first turned: ``Rot(k1, q1 + π) Rot(k2, −q2)
+Rot(k3, q3 + π) = Rot(k1, q1) Rot(k2, q2) Rot(k1, π) Rot(k3, π) Rot(k3, q3)`` because
+``Rot(k1, π) Rot(k2, θ) = Rot(k2, −θ) Rot(k1, π)`` for ``k1 ⊥ k2``, and ``Rot(k1, π)
+Rot(k3, π) = I`` for ``k3 = ±k1`` (tested against the general subproblem 2). A single
+call's FK errors are computed on first access (:class:`IKSolutions`), the batch's in
+its kernel.
+
 The structure is detected from the robot's serial chain to the frame
 (:func:`analytic_arm`) to :data:`STRUCTURE_TOL`; an arm without it raises
 :class:`NotAnalyticError` naming the failed test (``rr.ik`` solves any arm numerically).

@@ -129,12 +129,12 @@ def at_arm_angle(robot: Robot, T: Any, *, arm_angle: float, frame: str | None = 
     if type(T) is not np.ndarray or T.dtype is not _F64 or T.strides != (32, 8):
         T = np.array(as_transform(T, "T"), dtype=np.float64, order="C")
     phi = arm_angle if type(arm_angle) is float else as_scalar(arm_angle, "arm_angle")
-    out = np.empty((codes.N_ROWS, codes.N_VALUES))
+    out = _empty(_BUFFER)
     code = analytic.solve_srs(constants, T, phi, out)
     if code < 0:
         analytic._refused(code, T, phi, "T", "arm_angle")
-    count = code & codes.COUNT_MASK
-    found = IKSolutions(count, _FLAGS[code >> codes.FLAG_SHIFT], math.nan, out, checker)
+    count = code & _COUNT_MASK
+    found = IKSolutions(count, _FLAGS[code >> _FLAG_SHIFT], _NAN, out, checker)
     if checker is None:  # pragma: no cover
         links, axes, kinds = robot.chain(frame).arrays
         analytic._errors(links, axes, kinds, out, count)
@@ -143,6 +143,9 @@ def at_arm_angle(robot: Robot, T: Any, *, arm_angle: float, frame: str | None = 
 
 _F64 = np.dtype(np.float64)
 _FLAGS = [AnalyticFlag(i) for i in range(2 * max(AnalyticFlag))]
+_BUFFER = (codes.N_ROWS, codes.N_VALUES)
+_COUNT_MASK, _FLAG_SHIFT, _NAN = codes.COUNT_MASK, codes.FLAG_SHIFT, math.nan
+_empty = np.empty
 #: The S-R-S arm of the last call of :func:`at_arm_angle`: (robot, frame, its packed
 #: constants, its q7 constants, whose chain gives the FK errors).
 _LAST_SRS: tuple[Callable[[], Robot | None], str | None, FloatArray | None, Any] = (
