@@ -102,9 +102,11 @@ __all__ = [
     "at_q7_batch",
 ]
 
-#: The analytic kernels. Cold (2026-12-07, 2 shared cores, load 4.7): a first ``at_q7``
-#: 21.5 s with the chain kernels (4.5 s of it), the batch form 2.4 s more; warm 1.0 s.
-KERNELS = _compile.KernelGroup("analytic ik", ("redres.ik._analytic_kernels",), cold_seconds=17.0)
+#: The analytic kernels. Cold (2026-12-07, 2 shared cores, load 3.1, empty cache,
+#: foreground): a first ``at_q7`` 6.6 s (no chain kernel on its path), its first FK
+#: errors 2.4 s more (with the chain's FK), the batch form 1.7 s more, the arm-angle form
+#: (``at_arm_angle``) 3.0 s more; warm 0.6 s.
+KERNELS = _compile.KernelGroup("analytic ik", ("redres.ik._analytic_kernels",), cold_seconds=12.0)
 
 #: Tolerance of the structure tests, m for distances between axes, and for the sines
 #: of angles between axes that must not be parallel.
