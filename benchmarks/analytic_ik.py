@@ -12,10 +12,16 @@ library's own input form, prepared outside the timing: a 4x4 array for redres, l
 for geofik, the flange's pose for frankik, whose IK takes the flange although its FK
 gives the TCP; solutions out; each call timed alone, rounds interleaved between the
 libraries),
-the time per solution (all calls / all solutions), the solutions per pose, the share of
+the time per solution (the median call over the mean solutions per pose: robust to the
+machine's noise, as the median), the solutions per pose, the share of
 poses whose original configuration is among the solutions (to 1e-6 rad), and the worst
 FK error of any solution (redres' Pinocchio FK). redres' batch form is timed per pose
-on all threads and on one. The iiwa14 (to its flange) is timed for redres alone.
+on all threads and on one, after every single call is timed (its FK errors computed in
+the kernel, for every solution; a single call's on first access, not timed). The
+iiwa14 (to its flange) is timed for redres alone, at ``q7`` and, an S-R-S arm, at the
+arm angle of the configuration
+(``rr.ik_all(robot, T, arm_angle=...)``'s single-pose path, ``at_arm_angle``: the
+compiled closed form of ``redres.ik.srs``).
 
 Peers: ``geofikpy`` (GeoFIK, ``franka_ik_q7``: up to 8 solutions), ``frankik``
 (``ik_full``: up to 4, those within the Panda's limits), ``ik-geo`` (its Python package
@@ -40,6 +46,7 @@ import pinocchio as pin
 import redres as rr
 from redres import _compile
 from redres.ik.analytic import at_q7, at_q7_batch
+from redres.ik.solutions import at_arm_angle
 
 #: (prepare: T -> the library's own input, solve: (input, q7) -> solutions (k, 7)).
 Solver = tuple[Callable[[np.ndarray], Any], Callable[[Any, float], np.ndarray]]
@@ -129,13 +136,41 @@ def _time(solver: Callable[[Any, float], object], T: list, q7: list, rounds: int
     return np.asarray(out) / 1e3
 
 
+def _batch_rows(robot: rr.Robot, name: str, q: np.ndarray, T: np.ndarray, count: int,
+                results: dict) -> None:  # fmt: skip
+    """The batch form's rows (all threads, one thread) into ``results``."""
+    for threads in (None, 1):
+        previous = _compile.threads(threads)
+        try:
+            at_q7_batch(robot, T, q[:, 6])
+            reps = []
+            for _ in range(5):
+                t0 = time.perf_counter()
+                batch = at_q7_batch(robot, T, q[:, 6])
+                reps.append((time.perf_counter() - t0) / count * 1e6)
+        finally:
+            _compile.threads(previous)
+        label = f"redres at_q7_batch ({'all' if threads is None else 1} threads)"
+        rows = np.arange(8)[None, :] < batch.count[:, None]
+        near = np.abs((batch.q - q[:, None] + np.pi) % (2 * np.pi) - np.pi).max(axis=2)
+        found = float((np.where(rows, near, np.inf).min(axis=1) < 1e-6).mean())
+        qual = {
+            "solutions": float(batch.count.mean()), "found": found, "nan": 0,
+            "p": float(batch.position_error.max()), "r": float(batch.rotation_error.max()),
+            "total": int(batch.count.sum()),
+        }  # fmt: skip
+        median = float(np.median(reps))
+        results[(name, label)] = (median, median / qual["solutions"], qual)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=1000)
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
-    results = {}
+    results: dict[tuple[str, str], tuple[float, float, dict]] = {}
     missing: dict[str, str] = {}
+    poses: dict[str, tuple[rr.Robot, np.ndarray, np.ndarray]] = {}
     for name in ("panda", "iiwa14"):
         robot = rr.models.load(name)
         rng = np.random.default_rng(0)
@@ -145,58 +180,55 @@ def main() -> None:
         contenders: dict[str, Solver] = {
             "redres at_q7": (lambda T: T, lambda pose, x, robot=robot: at_q7(robot, pose, q7=x).q)
         }
+        params = {k: q7 for k in ("redres at_q7", "geofikpy", "frankik")}
+        if name == "iiwa14":  # the arm angle of each configuration: its own parameter
+            label = "redres at_arm_angle (arm angle)"
+            params[label] = [float(x) for x in rr.tasks.ArmAngleTask().values(robot, q)]
+            contenders[label] = (
+                lambda T: T,
+                lambda pose, x, robot=robot: at_arm_angle(robot, pose, arm_angle=x).q,
+            )
         if name == "panda":
             _check_frames(robot, rng)
             solvers, missing = _peers(robot)
             contenders.update(solvers)
         inputs = {k: [prepare(pose) for pose in T] for k, (prepare, _) in contenders.items()}
-        sols = {k: [f(i, x) for i, x in zip(inputs[k], q7)] for k, (_, f) in contenders.items()}
+        sols = {
+            k: [f(i, x) for i, x in zip(inputs[k], params[k])] for k, (_, f) in contenders.items()
+        }
         times: dict[str, list[np.ndarray]] = {k: [] for k in contenders}
         for _ in range(args.rounds):  # interleaved: machine noise hits all alike
             for k, (_, f) in contenders.items():
-                times[k].append(_time(f, inputs[k], q7, 1))
+                times[k].append(_time(f, inputs[k], params[k], 1))
         for k in contenders:
             t = np.concatenate(times[k])
             qual = _quality(robot, q, T, sols[k])
-            per_solution = t.sum() / max(qual["total"] * args.rounds, 1)
-            results[(name, k)] = (float(np.median(t)), per_solution, qual)
-        for threads in (None, 1):
-            previous = _compile.threads(threads)
-            try:
-                at_q7_batch(robot, T, q[:, 6])
-                reps = []
-                for _ in range(5):
-                    t0 = time.perf_counter()
-                    batch = at_q7_batch(robot, T, q[:, 6])
-                    reps.append((time.perf_counter() - t0) / args.poses * 1e6)
-            finally:
-                _compile.threads(previous)
-            label = f"redres at_q7_batch ({'all' if threads is None else 1} threads)"
-            rows = np.arange(8)[None, :] < batch.count[:, None]
-            near = np.abs((batch.q - q[:, None] + np.pi) % (2 * np.pi) - np.pi).max(axis=2)
-            found = float((np.where(rows, near, np.inf).min(axis=1) < 1e-6).mean())
-            qual = {
-                "solutions": float(batch.count.mean()), "found": found, "nan": 0,
-                "p": float(batch.position_error.max()), "r": float(batch.rotation_error.max()),
-                "total": int(batch.count.sum()),
-            }  # fmt: skip
-            results[(name, label)] = (float(np.median(reps)), np.nan, qual)
+            median = float(np.median(t))
+            results[(name, k)] = (median, median / max(qual["solutions"], 1e-300), qual)
+        poses[name] = (robot, q, T)
+    # the batches after every per-call timing: their threads (OpenMP, spinning for a
+    # while after a parallel region) would compete with the single calls
+    for name, (robot, q, T) in poses.items():
+        _batch_rows(robot, name, q, T, args.poses, results)
     load = os.getloadavg()
-    print(f"# analytic IK at given q7, {args.poses} random in-limit poses (seed 0), "
-          f"Panda to its hand TCP, iiwa14 to its flange")  # fmt: skip
+    print(f"# analytic IK at given q7 (iiwa14 also at its arm angle), {args.poses} random "
+          f"in-limit poses (seed 0), Panda to its hand TCP, iiwa14 to its flange")  # fmt: skip
     print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}, numba threads "
           f"{_compile.threads(None)}")  # fmt: skip
     print(f"{'arm':7} {'solver':34} {'µs/call':>8} {'µs/sol':>7} {'sols':>5} {'orig %':>7} "
           f"{'worst m':>9} {'worst rad':>9} {'NaN sols':>8}")  # fmt: skip
-    for (arm, k), (median, per_sol, qual) in results.items():
-        per = "" if np.isnan(per_sol) else f"{per_sol:7.2f}"
+    for (arm, k), (median, per_sol, qual) in sorted(
+        results.items(), key=lambda r: r[0][0] != "panda"
+    ):
+        per = f"{per_sol:7.2f}"
         print(f"{arm:7} {k:34} {median:8.2f} {per:>7} {qual['solutions']:5.2f} "
               f"{100 * qual['found']:7.1f} {qual['p']:9.1e} {qual['r']:9.1e} "
               f"{qual['nan']:8d}")  # fmt: skip
     for k, why in missing.items():
         print(f"# {k}: {why}")
     print("# batch rows: µs per pose (median of 5 calls over all poses), FK errors the kernel's;")
+    print("# at_arm_angle: the iiwa14 (S-R-S) at the arm angle instead of q7, compiled closed form")
     print("# sols: finite solutions per pose; NaN sols: solutions holding NaN (left out)")
 
 

@@ -154,13 +154,16 @@ def _ik() -> None:
 
 def _analytic_ik() -> None:
     from .ik.analytic import at_q7, at_q7_batch
-    from .models import panda
+    from .ik.solutions import at_arm_angle
+    from .models import iiwa14, panda
 
     robot = panda()
     q = robot.neutral()
     T = robot.fk(q)
-    at_q7(robot, T, q7=float(q[6]))
+    at_q7(robot, T, q7=float(q[6])).residual  # noqa: B018 - the FK errors' kernel
     at_q7_batch(robot, T[None], q[6:])
+    srs = iiwa14()
+    at_arm_angle(srs, srs.fk(srs.neutral()), arm_angle=0.0)
 
 
 def _batch() -> None:

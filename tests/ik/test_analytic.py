@@ -13,6 +13,7 @@ import pinocchio as pin
 import pytest
 
 import redres as rr
+from redres.ik import _analytic_codes as codes
 from redres.ik import analytic
 from redres.ik._analytic_codes import AnalyticFlag
 from redres.ik.analytic import NotAnalyticError, analytic_arm, at_q7, at_q7_batch
@@ -113,22 +114,48 @@ def test_batch_equals_single_calls_bit_for_bit_at_any_thread_count() -> None:
         assert k == one.count[i]
         assert np.array_equal(single.q, one.q[i, :k])
         assert np.array_equal(single.branch, one.branch[i, :k])
+        # the single call's FK errors (on first access) are the batch kernel's
+        assert np.array_equal(single.position_error, one.position_error[i, :k])
+        assert np.array_equal(single.rotation_error, one.rotation_error[i, :k])
     assert (one.branch[np.arange(8)[None, :] >= one.count[:, None]] == -1).all()
 
 
-def test_plain_python_twin_gives_the_same_solutions() -> None:
-    robot = rr.models.iiwa14()
+@pytest.mark.parametrize("name", ["panda", "iiwa14"])
+def test_plain_python_twin_gives_the_same_solutions(name: str) -> None:
+    robot = ARMS[name]()
     arm = analytic_arm(robot)
     plain = analytic.KERNELS.module(plain=True)
     q, T = _poses(robot, 5, 7)
     for x, pose in zip(q, T):
         ref = at_q7(robot, pose, q7=float(x[6]))
-        out, codes = np.zeros((8, 9)), np.zeros((8, 3), dtype=np.int64)
-        status, count, flags = plain.solve_pose(arm.links, arm.axes, arm.kinds, arm.bounds,
-                                                arm.arm, pose, float(x[6]), out, codes)  # fmt: skip
-        assert (status, count, flags) == (0, len(ref), int(ref.flags))
+        out = np.zeros((codes.N_ROWS, codes.N_VALUES))
+        code = plain.solve_pose(arm.arm, pose, float(x[6]), out)
+        count = code & codes.COUNT_MASK
+        assert (count, code >> codes.FLAG_SHIFT) == (len(ref), int(ref.flags))
+        plain.errors(arm.links, arm.axes, arm.kinds, out, count)
         assert np.allclose(out[:count, :7], ref.q, atol=1e-12, rtol=0.0)
-        assert np.array_equal(codes[:count, 0], ref.branch)
+        assert np.array_equal(out[:count, codes.BRANCH], ref.branch)
+        assert np.allclose(out[:count, codes.POSITION_ERROR], ref.position_error, atol=1e-14)
+
+
+@pytest.mark.parametrize("name", sorted(ARMS))
+def test_the_turned_shoulder_solution_equals_the_general_one(name: str) -> None:
+    """Where the shoulder's axes allow it (slot TWIN), the second shoulder solution is
+    the first turned; the general subproblem 2 (TWIN off) gives the same solutions."""
+    robot = ARMS[name]()
+    arm = analytic_arm(robot)
+    assert arm.arm[codes.TWIN] == 1.0  # all four arms: k1 ⊥ k2, k3 = ±k1
+    general = arm.arm.copy()
+    general[codes.TWIN] = 0.0
+    module = analytic.KERNELS.module()
+    q, T = _poses(robot, 50, 8)
+    for x, pose in zip(q, T):
+        ref = at_q7(robot, pose, q7=float(x[6]))
+        out = np.zeros((codes.N_ROWS, codes.N_VALUES))
+        code = module.solve_pose(general, pose, float(x[6]), out)
+        assert code & codes.COUNT_MASK == len(ref)
+        assert np.abs(_wrapped(out[: len(ref), :7] - ref.q)).max() < 1e-12
+        assert np.array_equal(out[: len(ref), codes.BRANCH], ref.branch)
 
 
 # ---------------------------------------------------------------------- special cases
@@ -154,10 +181,7 @@ def test_shoulder_singularity_is_flagged() -> None:
 
 def test_stretched_elbow_is_flagged() -> None:
     robot = rr.models.iiwa14()
-    from redres.ik._analytic_codes import ELBOW
-
-    _, _, A, B = analytic_arm(robot).arm[ELBOW : ELBOW + 4]
-    q4 = math.atan2(B, A)  # the extreme of |W − S| in q4: a double root
+    q4 = analytic_arm(robot).arm[codes.DELTA]  # the extreme of |W − S| in q4: a double root
     q = np.array([0.3, 0.5, -0.2, q4, 0.4, -0.6, 0.7])
     found = at_q7(robot, robot.fk(q), q7=q[6])
     _check_finite(found)

@@ -128,3 +128,52 @@ def test_the_two_parametrisations_agree_on_an_srs_arm() -> None:
         for x in configs:
             phi = float(task.values(robot, x[None])[0])
             assert _inside(union, phi, 1e-9) or _inside(union, phi + 2 * np.pi, 1e-9)
+
+
+def test_compiled_arm_angle_form_equals_the_numpy_one() -> None:
+    """One pose at an arm angle (the compiled closed form, rr.ik_all's single-pose path)
+    against the batch form (srs.py on NumPy): the same solutions, branches and limit
+    tests; every solution meets the pose by Pinocchio's FK; the plain-Python twin of the
+    kernel agrees."""
+    import pinocchio as pin
+
+    from redres.ik import _analytic_codes as codes
+    from redres.ik import analytic
+    from redres.ik.solutions import _srs, at_arm_angle
+
+    robot = rr.models.iiwa14()
+    task = rr.tasks.ArmAngleTask()
+    rng = np.random.default_rng(4)
+    qs = _in_limits(robot, rng, 200)
+    T = np.array([robot.fk(q) for q in qs])
+    phis = task.values(robot, qs) + rng.uniform(-0.5, 0.5, len(qs))  # not only the own angle
+    batch = rr.ik_all(robot, T, arm_angle=phis)
+    data = robot.model.createData()
+    plain = analytic.KERNELS.module(plain=True)
+    srs = _srs(robot, None)
+    for i in range(len(qs)):
+        one = at_arm_angle(robot, T[i], arm_angle=float(phis[i]))
+        k = one.count
+        assert k == batch.count[i] and np.isnan(one.q7)
+        # near a spherical group's singularity (sin q2 or sin q6 small) the two orders
+        # of rounding part as eps / sin: compare to that
+        weak = np.minimum(np.abs(np.sin(one.q[:, 1])), np.abs(np.sin(one.q[:, 5])))
+        assert (np.abs(one.q - batch.q[i, :k]).max(axis=1) < 1e-13 / weak).all()
+        assert np.array_equal(one.branch, batch.branch[i, :k])
+        assert np.array_equal(one.within_limits, batch.within_limits[i, :k])
+        assert (one.residual < 1e-10).all()  # the chain's FK, on first access
+        for x in one.q:
+            pin.framesForwardKinematics(robot.model, data, x)
+            M = data.oMf[robot.frame_id(None)]
+            assert np.linalg.norm(M.translation - T[i, :3, 3]) < 1e-10
+            assert np.linalg.norm(pin.log3(T[i, :3, :3].T @ M.rotation)) < 1e-10
+        if i < 5:
+            out = np.zeros((codes.N_ROWS, codes.N_VALUES))
+            code = plain.solve_arm_angle(srs.constants, T[i], float(phis[i]), out)
+            assert code & codes.COUNT_MASK == k
+            assert (np.abs(out[:k, :7] - one.q).max(axis=1) < 1e-13 / weak).all()
+    with pytest.raises(NonFiniteError, match="arm_angle"):
+        at_arm_angle(robot, T[0], arm_angle=float("inf"))
+    far = T[0].copy()
+    far[:3, 3] += 5.0
+    assert at_arm_angle(robot, far, arm_angle=0.0).count == 0

@@ -2,30 +2,36 @@
 
 Entry points and their call tree::
 
-    solve_pose(links, axes, kinds, bounds, arm, T, q7, out, codes) -> (status, count, flags)
-        _is_pose, _frame6, _rot, _angle, _unit, _perpendicular, _wrist, _to_base, _emit
-        _emit -> _wrap, _column_dot, robot._chain_kernels.fk (the solution's own FK error)
-    solve_many(links, axes, kinds, bounds, arm, T, q7, out, codes, summary)
-        solve_pose over a parallel range of poses (each pose independent: results do not
-        depend on the thread count)
+    solve_pose(arm, T, q7, out) -> count + (flags << FLAG_SHIFT), or a negative status
+        _is_pose, _frame6, _unit, _perpendicular, _angle, _limit, _shoulder -> _emit
+    errors(links, axes, kinds, out, count)
+        robot._chain_kernels.fk (each solution's own FK error against the pose in ``out``)
+    solve_many(arm, links, axes, kinds, T, q7, out, summary)
+        solve_pose and errors over a parallel range of poses (each pose independent:
+        results do not depend on the thread count)
 
-``links, axes, kinds`` are :attr:`redres.robot.SerialChain.arrays` of the 7 joints and
-the frame; ``bounds`` ``(2, 7)`` the joint limits; ``arm`` the constants of
-:mod:`._analytic_codes` (slots ``S``, ``W6`` …); ``T`` the frame's pose ``(4, 4)``;
-``out`` ``(8, N_VALUES)`` and ``codes`` ``(8, N_CODES)`` int64 receive the solutions
-(joints, FK errors; branch, flags, within the limits). The derivation is in
-:mod:`redres.ik.analytic`; the steps, with ``Rot(a, θ)`` Rodrigues' rotation:
+``arm`` holds the arm's constants (slots of :mod:`._analytic_codes`, derived in
+:func:`redres.ik.analytic._build`); ``links, axes, kinds`` are
+:attr:`redres.robot.SerialChain.arrays` of the 7 joints and the frame; ``T`` the frame's
+pose ``(4, 4)``; ``out`` ``(N_ROWS, N_VALUES)`` receives the solutions (joints, FK
+errors, branch, flags, within the limits) and, in its last row, the pose. The
+derivation is in :mod:`redres.ik.analytic`; the steps, with ``Rot(a, θ)`` Rodrigues'
+rotation:
 
-1. ``F6 = T · links[7]⁻¹ · Rot(a7, q7)ᵀ · links[6]⁻¹``; the wrist point
-   ``W = F6 ∘ w6`` and the joint-6 axis ``z6 = R6 a6``.
-2. ``|W − S|² = K − 2 (P + A cos q4 + B sin q4)``: ``q4 = atan2(B, A) ± acos(x)``.
-3. For each ``q4``, ``S → W`` in frame 3 (``v3``) and the joint-5 axis there (``u3``):
-   ``R3 = Rot(ŵ, φ) R3⁰`` with ``R3⁰ v̂3 = ŵ`` and ``R3⁰ u3⊥ ∥ z6⊥`` (the parts normal
-   to the line), so that ``z5 · z6 = (z6·ŵ)(u3·v̂3) + |u3⊥||z6⊥| cos φ = cos γ``:
-   ``φ = ± acos(...)``.
-4. For each ``R3``, the shoulder ``Rot(k1, q1) Rot(k2, q2) Rot(k3, q3) = R_X0ᵀ R3 Cᵀ``
-   (Paden–Kahan subproblem 2 on the axis ``k3``, two signs; subproblem 1 for ``q3``),
-   then ``q5``, ``q6`` (subproblem 1 each, unique).
+1. ``R6 = R_T R(X7)ᵀ Rot(a7, −q7) R(X6)ᵀ``, a fixed combination of three constant
+   matrices with ``cos q7``, ``sin q7``; the wrist point ``W``, the joint-6 axis ``z6``.
+2. ``|W − S|² = K − 2P − 2H cos(q4 − δ)``: ``q4 = δ ± acos(x)``; ``cos q4``, ``sin q4`` by
+   the sum formulas (no further trigonometry).
+3. For each ``q4``, ``S → W`` in frame 3 (``v3``) and the joint-5 axis there (``u3``), each
+   ``c0 + cos q4 cc + sin q4 cs``: ``R3 = v̂ ĥᵀ + f n3ᵀ + b m3ᵀ`` with ``f = cos φ n + sin φ m``,
+   ``b = cos φ m − sin φ n`` (``[v̂, n, m]`` fixed by the pose, ``[ĥ, n3, m3]`` by ``q4``),
+   and ``cos φ`` from the 5/6 condition, ``sin φ = ±√(1 − cos² φ)``.
+4. ``q5``, ``q6`` (subproblem 1 each) as ``atan2`` of dot products that are linear in
+   ``cos φ``, ``sin φ`` with coefficients computed once per pose or per ``q4``; the
+   shoulder (subproblem 2 on the axis ``k3``, two signs; subproblem 1 for ``q3``) from
+   ``t = R(X0)ᵀ R3 a3`` and ``R(X0)ᵀ R3 Cᵀ m3``, built the same way. When the shoulder's
+   axes allow it (slot ``TWIN``) the second sign is the first turned,
+   ``(q1 + π, −q2, q3 + π)``.
 """
 
 from __future__ import annotations
@@ -37,80 +43,114 @@ import numpy as np
 from .._compile import kernel, parallel_range
 from ..robot._chain_kernels import fk
 from ._analytic_codes import (
-    BA5,
+    A3,
+    A6,
     BAD_POSE,
     BAD_Q7,
     BRANCH,
     BRANCHES_MERGED,
-    BTA4,
+    COS_DELTA,
     COS_GAMMA,
-    ELBOW,
+    D7,
+    DELTA,
     ELBOW_STRETCHED,
+    FLAG_SHIFT,
     FLAGS,
+    HI,
     HOMOGENEOUS_TOL,
+    INV_H,
     K1,
+    K1XK2,
     K2,
     K3,
+    K12,
+    K23,
+    K_ELBOW,
     LIMIT_TOL,
+    LO,
+    M0,
     M3,
     M3C,
+    MAX_SOLUTIONS,
+    MC,
     MERGE_TOL,
-    N_JOINTS,
+    MS,
+    N_VALUES,
+    P5C,
+    P5S,
+    P6,
+    P50,
+    P_ELBOW,
+    POSE,
     POSITION_ERROR,
+    Q5C,
+    Q5S,
+    Q6,
+    Q50,
     REACH_TOL,
     ROTATION_ERROR,
     ROTATION_TOL,
     SELF_MOTION,
     SHOULDER_SINGULAR,
+    SIN_DELTA,
     SINGULAR_TOL,
     SOLVED,
-    SP,
+    SRS_A4,
+    SRS_ELBOW_FRAME,
+    SRS_ELBOW_POINT,
+    SRS_INV_H,
+    SRS_K,
+    SRS_LEVER_TOL,
+    SRS_LS,
+    SRS_LW,
+    SRS_OFFSET_TOL,
+    SRS_P,
+    SRS_PF,
+    SRS_PL3,
+    SRS_REACH_TOL,
+    SRS_REFERENCE,
+    SRS_RF,
+    SRS_RL3,
+    SRS_RS,
+    SRS_RW,
+    SRS_S,
+    SRS_S3,
+    SRS_SIGMA_S,
+    SRS_SIGMA_W,
+    SRS_STRAIGHT,
+    SRS_W4,
+    SRS_W7,
+    TWIN,
+    U0,
+    UC,
     UNREACHABLE,
-    W4,
-    W6,
+    US,
+    V0,
+    VC,
+    VS,
+    WE,
     WITHIN,
-    Z5,
+    X0,
     S,
 )
 
 prange = parallel_range()
+PI = math.pi
 TWO_PI = 2.0 * math.pi
+INV_TWO_PI = 1.0 / TWO_PI
 
 
 @kernel(inline=True)
-def _mv(M, x, y, z):
-    """``M[:3, :3] v``, for ``v = (x, y, z)``."""
-    return (M[0, 0] * x + M[0, 1] * y + M[0, 2] * z, M[1, 0] * x + M[1, 1] * y + M[1, 2] * z,
-            M[2, 0] * x + M[2, 1] * y + M[2, 2] * z)  # fmt: skip
+def _dot(arm, i, x, y, z):
+    """``arm[i : i + 3] · v``, for ``v = (x, y, z)``."""
+    return arm[i] * x + arm[i + 1] * y + arm[i + 2] * z
 
 
 @kernel(inline=True)
-def _mtv(M, x, y, z):
-    """``M[:3, :3]ᵀ v``, for ``v = (x, y, z)``."""
-    return (M[0, 0] * x + M[1, 0] * y + M[2, 0] * z, M[0, 1] * x + M[1, 1] * y + M[2, 1] * z,
-            M[0, 2] * x + M[1, 2] * y + M[2, 2] * z)  # fmt: skip
-
-
-@kernel
-def _rot(ax, ay, az, c, s, x, y, z):
-    """``Rot(a, θ) v`` (Rodrigues): ``v c + (a × v) s + a (a·v)(1 − c)``, ``c, s`` of θ."""
-    d = (ax * x + ay * y + az * z) * (1.0 - c)
-    return (
-        x * c + (ay * z - az * y) * s + ax * d,
-        y * c + (az * x - ax * z) * s + ay * d,
-        z * c + (ax * y - ay * x) * s + az * d,
-    )
-
-
-@kernel
-def _angle(kx, ky, kz, ux, uy, uz, wx, wy, wz):
-    """The angle of the rotation about the unit ``k`` that takes ``u`` to ``w`` (equal
-    components along ``k``): Paden–Kahan subproblem 1, ``atan2(k·(u × w), u·w − (k·u)(k·w))``
-    (finite always: 0 when a perpendicular part vanishes)."""
-    cx, cy, cz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
-    along = (kx * ux + ky * uy + kz * uz) * (kx * wx + ky * wy + kz * wz)
-    dot = ux * wx + uy * wy + uz * wz - along
-    return math.atan2(kx * cx + ky * cy + kz * cz, dot)
+def _combo(arm, i0, ic, i_s, c, s):
+    """``arm[i0:] + c arm[ic:] + s arm[i_s:]``, three entries from each slot."""
+    return (arm[i0] + c * arm[ic] + s * arm[i_s], arm[i0 + 1] + c * arm[ic + 1] + s * arm[i_s + 1],
+            arm[i0 + 2] + c * arm[ic + 2] + s * arm[i_s + 2])  # fmt: skip
 
 
 @kernel
@@ -137,15 +177,44 @@ def _perpendicular(x, y, z):
 
 
 @kernel
+def _angle(kx, ky, kz, ux, uy, uz, wx, wy, wz):
+    """The rotation about the unit ``k`` that takes ``u`` to ``w`` (equal components
+    along ``k``): Paden–Kahan subproblem 1, ``θ = atan2(k·(u × w), u·w − (k·u)(k·w))``.
+    Returns ``(θ, cos θ, sin θ)`` (``(0, 1, 0)`` when a perpendicular part vanishes)."""
+    cx, cy, cz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
+    along = (kx * ux + ky * uy + kz * uz) * (kx * wx + ky * wy + kz * wz)
+    x = ux * wx + uy * wy + uz * wz - along
+    y = kx * cx + ky * cy + kz * cz
+    r = math.sqrt(x * x + y * y)
+    if r == 0.0:
+        return 0.0, 1.0, 0.0
+    return math.atan2(y, x), x / r, y / r
+
+
+@kernel
+def _rot(ax, ay, az, c, s, x, y, z):
+    """``Rot(a, θ) v`` (Rodrigues): ``v c + (a × v) s + a (a·v)(1 − c)``, ``c, s`` of θ."""
+    d = (ax * x + ay * y + az * z) * (1.0 - c)
+    return (
+        x * c + (ay * z - az * y) * s + ax * d,
+        y * c + (az * x - ax * z) * s + ay * d,
+        z * c + (ax * y - ay * x) * s + az * d,
+    )
+
+
+@kernel(inline=True)
 def _wrap(x):
-    """``x`` moved by a multiple of 2π into ``[−π, π)``."""
-    return x - TWO_PI * math.floor((x + math.pi) / TWO_PI)
+    """``x`` moved by a multiple of 2π into ``[−π, π)`` (to rounding at the ends; no
+    branch: the angles wrapped are mostly inside already)."""
+    return x - TWO_PI * math.floor(x * INV_TWO_PI + 0.5)
 
 
 @kernel
 def _is_pose(T):
-    """Whether ``T`` is finite, its last row ``[0, 0, 0, 1]`` (to ``HOMOGENEOUS_TOL``) and
-    its 3x3 block a proper rotation (to ``ROTATION_TOL``)."""
+    """Whether ``T`` is 4x4, finite, its last row ``[0, 0, 0, 1]`` (to
+    ``HOMOGENEOUS_TOL``) and its 3x3 block a proper rotation (to ``ROTATION_TOL``)."""
+    if T.shape[0] != 4 or T.shape[1] != 4:
+        return False
     total = 0.0
     for i in range(4):
         for j in range(4):
@@ -168,134 +237,118 @@ def _is_pose(T):
 
 
 @kernel
-def _frame6(links, axes, T, q7, R6):
-    """``R6`` (3x3) <- the orientation of frame 6, and returns its origin: ``F7 = T ·
-    links[7]⁻¹``, ``F6 = F7 · Rot(a7, q7)ᵀ · links[6]⁻¹``."""
-    X6, X7 = links[6], links[7]
-    ax, ay, az = axes[6, 0], axes[6, 1], axes[6, 2]
-    c, s = math.cos(q7), math.sin(q7)
-    p7x, p7y, p7z = T[0, 3], T[1, 3], T[2, 3]
-    for i in range(3):  # row i of R7 = R_T R_X7ᵀ, then of R7 Rot(a7, q7)ᵀ = (Rot r_i)ᵀ
-        r0 = T[i, 0] * X7[0, 0] + T[i, 1] * X7[0, 1] + T[i, 2] * X7[0, 2]
-        r1 = T[i, 0] * X7[1, 0] + T[i, 1] * X7[1, 1] + T[i, 2] * X7[1, 2]
-        r2 = T[i, 0] * X7[2, 0] + T[i, 1] * X7[2, 1] + T[i, 2] * X7[2, 2]
-        shift = r0 * X7[0, 3] + r1 * X7[1, 3] + r2 * X7[2, 3]
-        if i == 0:
-            p7x -= shift
-        elif i == 1:
-            p7y -= shift
-        else:
-            p7z -= shift
-        y0, y1, y2 = _rot(ax, ay, az, c, s, r0, r1, r2)
-        for j in range(3):  # R6 = Y R_X6ᵀ
-            R6[i, j] = y0 * X6[j, 0] + y1 * X6[j, 1] + y2 * X6[j, 2]
-    px = p7x - (R6[0, 0] * X6[0, 3] + R6[0, 1] * X6[1, 3] + R6[0, 2] * X6[2, 3])
-    py = p7y - (R6[1, 0] * X6[0, 3] + R6[1, 1] * X6[1, 3] + R6[1, 2] * X6[2, 3])
-    pz = p7z - (R6[2, 0] * X6[0, 3] + R6[2, 1] * X6[1, 3] + R6[2, 2] * X6[2, 3])
-    return px, py, pz
-
-
-@kernel
-def _emit(links, axes, kinds, bounds, T, q7, q1, q2, q3, q4, q5, q6, branch, flags, row, code,
-          scratch):  # fmt: skip
-    """Solution ``q1 … q6`` and ``q7`` into ``row`` (each joint moved by 2π into its
-    limits where that fits), its FK error, branch, flags and limit test into ``code``."""
-    within = 1
-    for j in range(N_JOINTS):
-        lo, hi = bounds[0, j] - LIMIT_TOL, bounds[1, j] + LIMIT_TOL
-        if j == N_JOINTS - 1:
-            x = q7
-        else:
-            x = _wrap(q1 if j == 0 else q2 if j == 1 else q3 if j == 2 else q4 if j == 3
-                      else q5 if j == 4 else q6)  # fmt: skip
-            if x < lo and x + TWO_PI <= hi:
-                x += TWO_PI
-            elif x > hi and x - TWO_PI >= lo:
-                x -= TWO_PI
-        if not lo <= x <= hi:
-            within = 0
-        row[j] = x
-    fk(links, axes, kinds, row, scratch)
-    dx, dy, dz = scratch[0, 3] - T[0, 3], scratch[1, 3] - T[1, 3], scratch[2, 3] - T[2, 3]
-    row[POSITION_ERROR] = math.sqrt(dx * dx + dy * dy + dz * dz)
-    # angle of E = R_Tᵀ R: atan2(|vee(E − Eᵀ)| / 2, (tr E − 1) / 2), accurate at every angle
-    wx = _column_dot(T, scratch, 2, 1) - _column_dot(T, scratch, 1, 2)
-    wy = _column_dot(T, scratch, 0, 2) - _column_dot(T, scratch, 2, 0)
-    wz = _column_dot(T, scratch, 1, 0) - _column_dot(T, scratch, 0, 1)
-    trace = _column_dot(T, scratch, 0, 0) + _column_dot(T, scratch, 1, 1)
-    trace += _column_dot(T, scratch, 2, 2)
-    half_sine = 0.5 * math.sqrt(wx * wx + wy * wy + wz * wz)
-    row[ROTATION_ERROR] = math.atan2(half_sine, 0.5 * (trace - 1.0))
-    code[BRANCH] = branch
-    code[FLAGS] = flags
-    code[WITHIN] = within
+def _frame6(arm, T, c7, s7):
+    """``R6 = R_T (M0 + c7 MC + s7 MS)``, row by row (9 values)."""
+    m0, m1, m2 = _combo(arm, M0, MC, MS, c7, s7)
+    m3, m4, m5 = _combo(arm, M0 + 3, MC + 3, MS + 3, c7, s7)
+    m6, m7, m8 = _combo(arm, M0 + 6, MC + 6, MS + 6, c7, s7)
+    return (
+        T[0, 0] * m0 + T[0, 1] * m3 + T[0, 2] * m6,
+        T[0, 0] * m1 + T[0, 1] * m4 + T[0, 2] * m7,
+        T[0, 0] * m2 + T[0, 1] * m5 + T[0, 2] * m8,
+        T[1, 0] * m0 + T[1, 1] * m3 + T[1, 2] * m6,
+        T[1, 0] * m1 + T[1, 1] * m4 + T[1, 2] * m7,
+        T[1, 0] * m2 + T[1, 1] * m5 + T[1, 2] * m8,
+        T[2, 0] * m0 + T[2, 1] * m3 + T[2, 2] * m6,
+        T[2, 0] * m1 + T[2, 1] * m4 + T[2, 2] * m7,
+        T[2, 0] * m2 + T[2, 1] * m5 + T[2, 2] * m8,
+    )
 
 
 @kernel(inline=True)
-def _column_dot(A, B, i, j):
-    """Column ``i`` of ``A[:3, :3]`` dotted with column ``j`` of ``B[:3, :3]``: ``(AᵀB)[i, j]``."""
-    return A[0, i] * B[0, j] + A[1, i] * B[1, j] + A[2, i] * B[2, j]
+def _apply(R, arm, i):
+    """``R arm[i : i + 3]`` for ``R`` a 9-tuple, row by row."""
+    x, y, z = arm[i], arm[i + 1], arm[i + 2]
+    return (R[0] * x + R[1] * y + R[2] * z, R[3] * x + R[4] * y + R[5] * z,
+            R[6] * x + R[7] * y + R[8] * z)  # fmt: skip
 
 
-@kernel
-def solve_pose(links, axes, kinds, bounds, arm, T, q7, out, codes):
-    """Every solution of pose ``T`` at ``q7`` (module docstring) into ``out`` and
-    ``codes``; returns ``(status, count, flags)`` (``_analytic_codes``)."""
+@kernel(inline=True)
+def _base(arm, x, y, z):
+    """``R(X0)ᵀ v``: a world vector in the placement frame of joint 1."""
+    return (arm[X0] * x + arm[X0 + 3] * y + arm[X0 + 6] * z,
+            arm[X0 + 1] * x + arm[X0 + 4] * y + arm[X0 + 7] * z,
+            arm[X0 + 2] * x + arm[X0 + 5] * y + arm[X0 + 8] * z)  # fmt: skip
+
+
+@kernel(nogil=False)  # called from Python, about a microsecond
+def solve_pose(arm, T, q7, out):
+    """Every solution of pose ``T`` at ``q7`` (module docstring) into ``out``; returns
+    ``count + (flags << FLAG_SHIFT)``, or a negative status (``_analytic_codes``)."""
     if not _is_pose(T):
-        return BAD_POSE, 0, 0
+        return BAD_POSE
     if not math.isfinite(q7):
-        return BAD_Q7, 0, 0
-    work = np.empty((3, 4, 4))  # one allocation: the FK's pose, R6, R3 (3x3 blocks)
-    scratch, R6, R3 = work[0], work[1], work[2]
+        return BAD_Q7
+    for i in range(3):  # the pose, for the FK errors
+        for j in range(4):
+            out[POSE, 4 * i + j] = T[i, j]
     # 1. frame 6, the wrist point W, the joint-6 axis z6
-    fx, fy, fz = _frame6(links, axes, T, q7, R6)
-    w0, w1, w2 = arm[W6], arm[W6 + 1], arm[W6 + 2]
-    wx = fx + R6[0, 0] * w0 + R6[0, 1] * w1 + R6[0, 2] * w2
-    wy = fy + R6[1, 0] * w0 + R6[1, 1] * w1 + R6[1, 2] * w2
-    wz = fz + R6[2, 0] * w0 + R6[2, 1] * w1 + R6[2, 2] * w2
-    a0, a1, a2 = axes[5, 0], axes[5, 1], axes[5, 2]
-    z6x, z6y, z6z = _mv(R6, a0, a1, a2)
+    R6 = _frame6(arm, T, math.cos(q7), math.sin(q7))
+    e0, e1, e2 = _apply(R6, arm, WE)
+    wx = T[0, 3] + T[0, 0] * arm[D7] + T[0, 1] * arm[D7 + 1] + T[0, 2] * arm[D7 + 2] + e0
+    wy = T[1, 3] + T[1, 0] * arm[D7] + T[1, 1] * arm[D7 + 1] + T[1, 2] * arm[D7 + 2] + e1
+    wz = T[2, 3] + T[2, 0] * arm[D7] + T[2, 1] * arm[D7 + 1] + T[2, 2] * arm[D7 + 2] + e2
+    z6x, z6y, z6z = _apply(R6, arm, A6)
     vx, vy, vz, dist = _unit(wx - arm[S], wy - arm[S + 1], wz - arm[S + 2])
-    # 2. the elbow: A cos q4 + B sin q4 = (K − d²)/2 − P
-    K, P, A, B = arm[ELBOW], arm[ELBOW + 1], arm[ELBOW + 2], arm[ELBOW + 3]
-    x = ((K - dist * dist) / 2.0 - P) / math.hypot(A, B)
+    # 2. the elbow: cos(q4 − δ) = x
+    x = ((arm[K_ELBOW] - dist * dist) / 2.0 - arm[P_ELBOW]) * arm[INV_H]
     if abs(x) > 1.0 + REACH_TOL:
-        return SOLVED, 0, UNREACHABLE
+        return UNREACHABLE << FLAG_SHIFT
     pose_flags = 0
     n4 = 2
     if 1.0 - abs(x) < MERGE_TOL:  # a double root: the two elbow solutions are one
         n4 = 1
         pose_flags |= ELBOW_STRETCHED
-    spread4 = math.acos(min(1.0, max(-1.0, x)))
-    centre4 = math.atan2(B, A)
+    x = min(1.0, max(-1.0, x))
+    spread4 = math.acos(x)
+    root4 = math.sqrt((1.0 - x) * (1.0 + x))  # sin of spread4
     if dist < SINGULAR_TOL:  # W at S: any direction maps onto it; pick one
         vx, vy, vz = 0.0, 0.0, 1.0
         pose_flags |= SELF_MOTION
-    X3, X0 = links[3], links[0]
-    e0, e1, e2 = axes[3, 0], axes[3, 1], axes[3, 2]
+    # the pose's frame [v̂, n, m] about S → W: n along the part of z6 normal to it
+    z_along = z6x * vx + z6y * vy + z6z * vz
+    nx, ny, nz, nzp = _unit(z6x - z_along * vx, z6y - z_along * vy, z6z - z_along * vz)
+    if nzp < SINGULAR_TOL:
+        nx, ny, nz = _perpendicular(vx, vy, vz)
+    mx, my, mz = vy * nz - vz * ny, vz * nx - vx * nz, vx * ny - vy * nx
+    zn, zm = z6x * nx + z6y * ny + z6z * nz, z6x * mx + z6y * my + z6z * mz
+    # q6's two vectors (world) dotted with v̂, n, m
+    p0, p1, p2 = _apply(R6, arm, P6)
+    g0, g1, g2 = _apply(R6, arm, Q6)
+    pv, pn, pm = (
+        p0 * vx + p1 * vy + p2 * vz,
+        p0 * nx + p1 * ny + p2 * nz,
+        p0 * mx + p1 * my + p2 * mz,
+    )
+    gv, gn, gm = (
+        g0 * vx + g1 * vy + g2 * vz,
+        g0 * nx + g1 * ny + g2 * nz,
+        g0 * mx + g1 * my + g2 * mz,
+    )
+    # v̂, n, m in the placement frame of joint 1 (the shoulder's)
+    bvx, bvy, bvz = _base(arm, vx, vy, vz)
+    bnx, bny, bnz = _base(arm, nx, ny, nz)
+    bmx, bmy, bmz = _base(arm, mx, my, mz)
+    ok7 = (arm[LO + 6] - LIMIT_TOL <= q7) & (q7 <= arm[HI + 6] + LIMIT_TOL)
     count = 0
     all_flags = 0
     for i4 in range(n4):
-        q4 = _wrap(centre4 + spread4 if i4 == 0 else centre4 - spread4)
-        c4, s4 = math.cos(q4), math.sin(q4)
-        # 3. S → W (v3) and the joint-5 axis (u3) in frame 3
-        p0, p1, p2 = _rot(e0, e1, e2, c4, s4, arm[W4], arm[W4 + 1], arm[W4 + 2])
-        p0, p1, p2 = p0 - arm[SP], p1 - arm[SP + 1], p2 - arm[SP + 2]
-        g0, g1, g2 = _rot(e0, e1, e2, c4, s4, arm[Z5], arm[Z5 + 1], arm[Z5 + 2])
-        v3x, v3y, v3z = _mv(X3, p0, p1, p2)
-        u3x, u3y, u3z = _mv(X3, g0, g1, g2)
-        hx, hy, hz, length3 = _unit(v3x, v3y, v3z)
+        sign4 = 1.0 if i4 == 0 else -1.0
+        x4, ok4 = _limit(arm, 3, arm[DELTA] + sign4 * spread4)
+        c4 = arm[COS_DELTA] * x - sign4 * arm[SIN_DELTA] * root4
+        s4 = arm[SIN_DELTA] * x + sign4 * arm[COS_DELTA] * root4
+        # 3. S → W (v3, direction ĥ) and the joint-5 axis (u3) in frame 3
+        h0, h1, h2 = _combo(arm, V0, VC, VS, c4, s4)
+        u0, u1, u2 = _combo(arm, U0, UC, US, c4, s4)
+        hx, hy, hz, length3 = _unit(h0, h1, h2)
         if length3 < SINGULAR_TOL:
             hx, hy, hz = 0.0, 0.0, 1.0
-        # parts of u3 and z6 along the line S → W and normal to it
-        u_along = u3x * hx + u3y * hy + u3z * hz
-        n3x, n3y, n3z, nu = _unit(u3x - u_along * hx, u3y - u_along * hy, u3z - u_along * hz)
-        z_along = z6x * vx + z6y * vy + z6z * vz
-        nx, ny, nz, nzp = _unit(z6x - z_along * vx, z6y - z_along * vy, z6z - z_along * vz)
-        rhs = arm[COS_GAMMA] - z_along * u_along
+        uh = u0 * hx + u1 * hy + u2 * hz
+        n3x, n3y, n3z, nu = _unit(u0 - uh * hx, u1 - uh * hy, u2 - uh * hz)
+        rhs = arm[COS_GAMMA] - z_along * uh
         flags4 = pose_flags
         n_phi = 2
-        spread = 0.0
+        cp, sp = 1.0, 0.0
         if nu * nzp < SINGULAR_TOL:  # the condition does not involve φ
             if abs(rhs) > math.sqrt(SINGULAR_TOL):
                 continue  # nor holds: no solution at this q4
@@ -303,8 +356,6 @@ def solve_pose(links, axes, kinds, bounds, arm, T, q7, out, codes):
             flags4 |= SELF_MOTION
             if nu < SINGULAR_TOL:
                 n3x, n3y, n3z = _perpendicular(hx, hy, hz)
-            if nzp < SINGULAR_TOL:
-                nx, ny, nz = _perpendicular(vx, vy, vz)
         else:
             y = rhs / (nu * nzp)
             if abs(y) > 1.0 + REACH_TOL:
@@ -312,102 +363,360 @@ def solve_pose(links, axes, kinds, bounds, arm, T, q7, out, codes):
             if 1.0 - abs(y) < MERGE_TOL:
                 n_phi = 1
                 flags4 |= BRANCHES_MERGED
-            spread = math.acos(min(1.0, max(-1.0, y)))
-        # right-handed frames [ĥ, n3, m3] (frame 3) and [v̂, n, m] (world)
+            cp = min(1.0, max(-1.0, y))
+            sp = math.sqrt((1.0 - cp) * (1.0 + cp))
         m3x, m3y, m3z = hy * n3z - hz * n3y, hz * n3x - hx * n3z, hx * n3y - hy * n3x
-        mx, my, mz = vy * nz - vz * ny, vz * nx - vx * nz, vx * ny - vy * nx
+        un, um = u0 * n3x + u1 * n3y + u2 * n3z, u0 * m3x + u1 * m3y + u2 * m3z
+        # q5's two vectors in frame 3 (for this q4) dotted with ĥ, n3, m3
+        a0, a1, a2 = _combo(arm, P50, P5C, P5S, c4, s4)
+        b0, b1, b2 = _combo(arm, Q50, Q5C, Q5S, c4, s4)
+        ah, an, am = (
+            a0 * hx + a1 * hy + a2 * hz,
+            a0 * n3x + a1 * n3y + a2 * n3z,
+            a0 * m3x + a1 * m3y + a2 * m3z,
+        )
+        bh, bn, bm = (
+            b0 * hx + b1 * hy + b2 * hz,
+            b0 * n3x + b1 * n3y + b2 * n3z,
+            b0 * m3x + b1 * m3y + b2 * m3z,
+        )
+        # the shoulder's two frame-3 vectors (a3, Cᵀ m3) dotted with ĥ, n3, m3
+        th, tn, tm = (
+            _dot(arm, A3, hx, hy, hz),
+            _dot(arm, A3, n3x, n3y, n3z),
+            _dot(arm, A3, m3x, m3y, m3z),
+        )
+        ch, cn, cm = (
+            _dot(arm, M3C, hx, hy, hz),
+            _dot(arm, M3C, n3x, n3y, n3z),
+            _dot(arm, M3C, m3x, m3y, m3z),
+        )
         for i_phi in range(n_phi):
-            phi = spread if i_phi == 0 else -spread
-            cp, sp = math.cos(phi), math.sin(phi)
-            # R3 = v̂ ĥᵀ + (c n + s m) n3ᵀ + (c m − s n) m3ᵀ  (R3 ĥ = v̂, Rot(v̂, φ) on n)
-            f0, f1, f2 = cp * nx + sp * mx, cp * ny + sp * my, cp * nz + sp * mz
-            b0, b1, b2 = cp * mx - sp * nx, cp * my - sp * ny, cp * mz - sp * nz
-            for i in range(3):
-                vi = vx if i == 0 else (vy if i == 1 else vz)
-                fi = f0 if i == 0 else (f1 if i == 1 else f2)
-                bi = b0 if i == 0 else (b1 if i == 1 else b2)
-                R3[i, 0] = vi * hx + fi * n3x + bi * m3x
-                R3[i, 1] = vi * hy + fi * n3y + bi * m3y
-                R3[i, 2] = vi * hz + fi * n3z + bi * m3z
-            q5, q6 = _wrist(X3, links[4], axes, arm, R3, R6, c4, s4, u3x, u3y, u3z, z6x, z6y, z6z)
-            # 4. the shoulder: t = R_X0ᵀ R3 a3 (axis 3), h = R_X0ᵀ R3 Cᵀ m
-            tx, ty, tz = _to_base(X0, R3, axes[2, 0], axes[2, 1], axes[2, 2])
-            hmx, hmy, hmz = _to_base(X0, R3, arm[M3C], arm[M3C + 1], arm[M3C + 2])
-            k1x, k1y, k1z = arm[K1], arm[K1 + 1], arm[K1 + 2]
-            k2x, k2y, k2z = arm[K2], arm[K2 + 1], arm[K2 + 2]
-            k3x, k3y, k3z = arm[K3], arm[K3 + 1], arm[K3 + 2]
-            # subproblem 2: c = x k1 + y k2 ± z (k1 × k2), with k1·c = k1·t, k2·c = k2·k3
-            k12 = k1x * k2x + k1y * k2y + k1z * k2z
-            b23 = k2x * k3x + k2y * k3y + k2z * k3z
-            b1t = k1x * tx + k1y * ty + k1z * tz
-            den = 1.0 - k12 * k12
-            xs, ys = (b1t - k12 * b23) / den, (b23 - k12 * b1t) / den
-            z2 = (1.0 - xs * xs - ys * ys - 2.0 * xs * ys * k12) / den
-            if z2 < -REACH_TOL:
-                continue  # this shoulder cannot point axis 3 along t
-            zs = math.sqrt(max(z2, 0.0))
-            cx, cy, cz = k1y * k2z - k1z * k2y, k1z * k2x - k1x * k2z, k1x * k2y - k1y * k2x
-            sx, sy, sz = k1y * tz - k1z * ty, k1z * tx - k1x * tz, k1x * ty - k1y * tx
-            singular = math.sqrt(sx * sx + sy * sy + sz * sz) < SINGULAR_TOL
-            for i_sh in range(1 if singular else 2):
-                sign = zs if i_sh == 0 else -zs
-                ox = xs * k1x + ys * k2x + sign * cx
-                oy = xs * k1y + ys * k2y + sign * cy
-                oz = xs * k1z + ys * k2z + sign * cz
-                q2 = _angle(k2x, k2y, k2z, k3x, k3y, k3z, ox, oy, oz)
-                q1 = 0.0 if singular else _angle(k1x, k1y, k1z, ox, oy, oz, tx, ty, tz)
-                # Rot(k3, q3) m = Rot(k2, −q2) Rot(k1, −q1) h
-                r0, r1, r2 = _rot(k1x, k1y, k1z, math.cos(q1), -math.sin(q1), hmx, hmy, hmz)
-                r0, r1, r2 = _rot(k2x, k2y, k2z, math.cos(q2), -math.sin(q2), r0, r1, r2)
-                q3 = _angle(k3x, k3y, k3z, arm[M3], arm[M3 + 1], arm[M3 + 2], r0, r1, r2)
-                flags = flags4
-                if singular:  # only q1 + σ q3 is fixed (c = σ k1): split it evenly
-                    sigma = 1.0 if k1x * ox + k1y * oy + k1z * oz > 0.0 else -1.0
-                    q1, q3 = 0.5 * sigma * q3, 0.5 * q3
-                    flags |= SHOULDER_SINGULAR
-                branch = 4 * i4 + 2 * i_phi + i_sh
-                _emit(links, axes, kinds, bounds, T, q7, q1, q2, q3, q4, q5, q6, branch, flags,
-                      out[count], codes[count], scratch)  # fmt: skip
-                all_flags |= flags
-                count += 1
+            s = sp if i_phi == 0 else -sp
+            # R3 = v̂ ĥᵀ + f n3ᵀ + b m3ᵀ, f = c n + s m, b = c m − s n (R3 ĥ = v̂)
+            # q6: z5 = R3 u3 = uh v̂ + un f + um b
+            pf, pb = cp * pn + s * pm, cp * pm - s * pn
+            gf, gb = cp * gn + s * gm, cp * gm - s * gn
+            q6 = math.atan2(uh * pv + un * pf + um * pb, uh * gv + un * gf + um * gb)
+            # q5: R3ᵀ z6 = z_along ĥ + (f·z6) n3 + (b·z6) m3
+            zf, zb = cp * zn + s * zm, cp * zm - s * zn
+            q5 = math.atan2(z_along * ah + zf * an + zb * am, z_along * bh + zf * bn + zb * bm)
+            # 4. the shoulder: t = R(X0)ᵀ R3 a3, w = R(X0)ᵀ R3 Cᵀ m3
+            fx, fy, fz = cp * bnx + s * bmx, cp * bny + s * bmy, cp * bnz + s * bmz
+            gx, gy, gz = cp * bmx - s * bnx, cp * bmy - s * bny, cp * bmz - s * bnz
+            tx, ty, tz = (
+                th * bvx + tn * fx + tm * gx,
+                th * bvy + tn * fy + tm * gy,
+                th * bvz + tn * fz + tm * gz,
+            )
+            kx, ky, kz = (
+                ch * bvx + cn * fx + cm * gx,
+                ch * bvy + cn * fy + cm * gy,
+                ch * bvz + cn * fz + cm * gz,
+            )
+            branch = 4 * i4 + 2 * i_phi
+            x5, ok5 = _limit(arm, 4, q5)
+            x6, ok6 = _limit(arm, 5, q6)
+            rest = (x4, x5, x6, q7, ok4 & ok5 & ok6 & ok7)
+            count = _shoulder(arm, tx, ty, tz, kx, ky, kz, rest, branch, flags4, out, count)
     if count == 0:
-        all_flags |= UNREACHABLE
-    return SOLVED, count, all_flags
+        return UNREACHABLE << FLAG_SHIFT
+    for r in range(count):
+        all_flags |= int(out[r, FLAGS])
+    return count | all_flags << FLAG_SHIFT
+
+
+@kernel
+def _shoulder(arm, tx, ty, tz, wx, wy, wz, rest, branch, flags, out, count):
+    """The shoulder's solutions, ``Rot(k1, q1) Rot(k2, q2) Rot(k3, q3) k3 = t`` and
+    ``… m3 = w`` (subproblem 2, two signs, then subproblem 1), emitted into ``out``
+    from row ``count``; returns the new count."""
+    k1x, k1y, k1z = arm[K1], arm[K1 + 1], arm[K1 + 2]
+    k2x, k2y, k2z = arm[K2], arm[K2 + 1], arm[K2 + 2]
+    k3x, k3y, k3z = arm[K3], arm[K3 + 1], arm[K3 + 2]
+    # subproblem 2: o = x k1 + y k2 ± z (k1 × k2), with k1·o = k1·t, k2·o = k2·k3
+    k12, b23 = arm[K12], arm[K23]
+    b1t = k1x * tx + k1y * ty + k1z * tz
+    den = 1.0 - k12 * k12
+    xs, ys = (b1t - k12 * b23) / den, (b23 - k12 * b1t) / den
+    z2 = (1.0 - xs * xs - ys * ys - 2.0 * xs * ys * k12) / den
+    if z2 < -REACH_TOL:
+        return count  # this shoulder cannot point axis 3 along t
+    zs = math.sqrt(max(z2, 0.0))
+    sx, sy, sz = k1y * tz - k1z * ty, k1z * tx - k1x * tz, k1x * ty - k1y * tx
+    singular = math.sqrt(sx * sx + sy * sy + sz * sz) < SINGULAR_TOL
+    q1 = q2 = q3 = 0.0
+    ox = oy = oz = 0.0
+    for i_sh in range(1 if singular else 2):
+        if i_sh == 1 and arm[TWIN] == 1.0:  # the first solution turned (module docstring)
+            q1, q2, q3 = q1 + PI, -q2, q3 + PI
+        else:
+            sign = zs if i_sh == 0 else -zs
+            ox = xs * k1x + ys * k2x + sign * arm[K1XK2]
+            oy = xs * k1y + ys * k2y + sign * arm[K1XK2 + 1]
+            oz = xs * k1z + ys * k2z + sign * arm[K1XK2 + 2]
+            q2, c2, s2 = _angle(k2x, k2y, k2z, k3x, k3y, k3z, ox, oy, oz)
+            q1, c1, s1 = 0.0, 1.0, 0.0
+            if not singular:
+                q1, c1, s1 = _angle(k1x, k1y, k1z, ox, oy, oz, tx, ty, tz)
+            # Rot(k3, q3) m3 = Rot(k2, −q2) Rot(k1, −q1) w
+            r0, r1, r2 = _rot(k1x, k1y, k1z, c1, -s1, wx, wy, wz)
+            r0, r1, r2 = _rot(k2x, k2y, k2z, c2, -s2, r0, r1, r2)
+            q3 = _angle(k3x, k3y, k3z, arm[M3], arm[M3 + 1], arm[M3 + 2], r0, r1, r2)[0]
+        f = flags
+        a1, a3 = q1, q3
+        if singular:  # only q1 + σ q3 is fixed (o = σ k1): split it evenly
+            sigma = 1.0 if k1x * ox + k1y * oy + k1z * oz > 0.0 else -1.0
+            a1, a3 = 0.5 * sigma * q3, 0.5 * q3
+            f |= SHOULDER_SINGULAR
+        _emit(arm, out[count], a1, q2, a3, rest, branch + i_sh, f)
+        count += 1
+    return count
+
+
+@kernel(inline=True)
+def _limit(arm, j, x):
+    """Joint ``j`` at ``x``, wrapped into ``[−π, π)`` and moved by 2π into its limits
+    where that fits; returns ``(x, whether it is within them)``."""
+    lo, hi = arm[LO + j] - LIMIT_TOL, arm[HI + j] + LIMIT_TOL
+    x = _wrap(x)
+    if x + TWO_PI <= hi and x < lo:  # the first test is false for limits inside (−π, π)
+        x += TWO_PI
+    elif x - TWO_PI >= lo and x > hi:
+        x -= TWO_PI
+    return x, (lo <= x) & (x <= hi)
+
+
+@kernel
+def _group(arm, j, t1, t2, t3):
+    """:func:`_limit` of joints ``j … j + 2``: ``(x1, x2, x3, all within)``."""
+    x1, ok1 = _limit(arm, j, t1)
+    x2, ok2 = _limit(arm, j + 1, t2)
+    x3, ok3 = _limit(arm, j + 2, t3)
+    return x1, x2, x3, ok1 & ok2 & ok3
+
+
+@kernel
+def _emit(arm, row, q1, q2, q3, rest, branch, flags):
+    """One solution into ``row``: joints 1-3 (limited here), ``rest``: ``(q4, q5, q6, q7,
+    whether they are within the limits)`` (limited once for the solutions sharing them),
+    branch, flags, within the limits."""
+    x1, ok1 = _limit(arm, 0, q1)
+    x2, ok2 = _limit(arm, 1, q2)
+    x3, ok3 = _limit(arm, 2, q3)
+    row[0], row[1], row[2] = x1, x2, x3
+    row[3], row[4], row[5], row[6] = rest[0], rest[1], rest[2], rest[3]
+    row[BRANCH] = branch
+    row[FLAGS] = flags
+    row[WITHIN] = 1.0 if ok1 & ok2 & ok3 & rest[4] else 0.0
+
+
+@kernel(nogil=False)  # called from Python, under a microsecond per solution
+def errors(links, axes, kinds, out, count):
+    """The FK errors of solutions ``0 … count − 1`` of ``out`` against its pose row:
+    position (m) and rotation angle (rad) into their columns (the chain's own FK)."""
+    F = np.empty((4, 4))
+    P = out[POSE]
+    for r in range(count):
+        row = out[r]
+        fk(links, axes, kinds, row, F)
+        dx, dy, dz = F[0, 3] - P[3], F[1, 3] - P[7], F[2, 3] - P[11]
+        row[POSITION_ERROR] = math.sqrt(dx * dx + dy * dy + dz * dz)
+        # the angle of E = R_Tᵀ R: atan2(|vee(E − Eᵀ)| / 2, (tr E − 1) / 2), accurate at
+        # every angle
+        wx = _pose_dot(P, F, 2, 1) - _pose_dot(P, F, 1, 2)
+        wy = _pose_dot(P, F, 0, 2) - _pose_dot(P, F, 2, 0)
+        wz = _pose_dot(P, F, 1, 0) - _pose_dot(P, F, 0, 1)
+        trace = _pose_dot(P, F, 0, 0) + _pose_dot(P, F, 1, 1) + _pose_dot(P, F, 2, 2)
+        half_sine = 0.5 * math.sqrt(wx * wx + wy * wy + wz * wz)
+        row[ROTATION_ERROR] = math.atan2(half_sine, 0.5 * (trace - 1.0))
+
+
+@kernel(inline=True)
+def _pose_dot(P, F, i, j):
+    """Column ``i`` of the pose row's rotation (``P``: ``T[:3, :4]`` row by row) dotted
+    with column ``j`` of ``F[:3, :3]``: ``(R_Tᵀ R_F)[i, j]``."""
+    return P[i] * F[0, j] + P[4 + i] * F[1, j] + P[8 + i] * F[2, j]
 
 
 @kernel(parallel=True)
-def solve_many(links, axes, kinds, bounds, arm, T, q7, out, codes, summary):
-    """:func:`solve_pose` for poses ``T[i]`` ``(N, 4, 4)`` at ``q7[i]`` into ``out[i]``,
-    ``codes[i]``; ``summary[i]`` <- ``(status, count, flags)``."""
+def solve_many(arm, links, axes, kinds, T, q7, out, summary):
+    """:func:`solve_pose` and :func:`errors` for poses ``T[i]`` ``(N, 4, 4)`` at
+    ``q7[i]`` into ``out[i]``, rows past the count padded (zeros, branch −1);
+    ``summary[i]`` <- ``(status, count, flags)``."""
     for i in prange(T.shape[0]):
-        status, count, flags = solve_pose(links, axes, kinds, bounds, arm, T[i], q7[i], out[i],
-                                          codes[i])  # fmt: skip
+        code = solve_pose(arm, T[i], q7[i], out[i])
+        count, flags, status = 0, 0, code
+        if code >= 0:
+            count, flags, status = code & ((1 << FLAG_SHIFT) - 1), code >> FLAG_SHIFT, SOLVED
+            errors(links, axes, kinds, out[i], count)
+        for r in range(count, MAX_SOLUTIONS):
+            for j in range(N_VALUES):
+                out[i, r, j] = 0.0
+            out[i, r, BRANCH] = -1.0
         summary[i, 0] = status
         summary[i, 1] = count
         summary[i, 2] = flags
 
 
-@kernel
-def _to_base(X0, R3, x, y, z):
-    """``R_X0ᵀ R3 v``: a vector of frame 3 in the placement frame of joint 1."""
-    w0, w1, w2 = _mv(R3, x, y, z)
-    return _mtv(X0, w0, w1, w2)
+# ---------------------------------------------------------------------- arm angle
+# The S-R-S closed form of :mod:`redres.ik.srs` at one arm angle (its module docstring,
+# steps 1-3): ``R3 = Rot(ŵ, φ) R3⁰``; the shoulder's ``M = Lᵀ R3 Rʳ`` and the wrist's
+# ``M = Lᵀ (R3 Q4)ᵀ R7 Rʳ`` give three joints each, ``θ₁ = atan2(g M₁₂, g M₀₂)``,
+# ``θ₂ = g acos M₂₂``, ``θ₃ = σ atan2(g M₂₁, −g M₂₀)`` (0-based entries); ``g = −1`` turns
+# both atan2 by π.
+
+
+@kernel(inline=True)
+def _matrix(arm, i):
+    """The 3x3 matrix in slots ``i … i + 8``, row by row, as a 9-tuple."""
+    return (arm[i], arm[i + 1], arm[i + 2], arm[i + 3], arm[i + 4], arm[i + 5], arm[i + 6],
+            arm[i + 7], arm[i + 8])  # fmt: skip
+
+
+@kernel(inline=True)
+def _tr(A):
+    """The transpose of a 9-tuple matrix."""
+    return (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])
 
 
 @kernel
-def _wrist(X3, X4, axes, arm, R3, R6, c4, s4, u3x, u3y, u3z, z6x, z6y, z6z):
-    """``(q5, q6)`` (subproblem 1 each): ``q6`` turns
-    ``R6ᵀ z5`` into ``R_X5ᵀ a5`` about ``a6``; ``q5`` turns ``R_X5 a6`` into
-    ``(R4 R_X4)ᵀ z6`` about ``a5`` (joint axes 1-based here)."""
-    z5x, z5y, z5z = _mv(R3, u3x, u3y, u3z)
-    l0, l1, l2 = _mtv(R6, z5x, z5y, z5z)
-    q6 = _angle(axes[5, 0], axes[5, 1], axes[5, 2], l0, l1, l2,
-                       arm[BTA4], arm[BTA4 + 1], arm[BTA4 + 2])  # fmt: skip
-    # (R4 R_X4)ᵀ z6 = R_X4ᵀ Rot(a4, −q4) R_X3ᵀ R3ᵀ z6
-    g0, g1, g2 = _mtv(R3, z6x, z6y, z6z)
-    h0, h1, h2 = _mtv(X3, g0, g1, g2)
-    h0, h1, h2 = _rot(axes[3, 0], axes[3, 1], axes[3, 2], c4, -s4, h0, h1, h2)
-    m0, m1, m2 = _mtv(X4, h0, h1, h2)
-    q5 = _angle(axes[4, 0], axes[4, 1], axes[4, 2], arm[BA5], arm[BA5 + 1], arm[BA5 + 2],
-                m0, m1, m2)  # fmt: skip
-    return q5, q6
+def _mul(A, B):
+    """``A B`` of 9-tuple matrices (row by row)."""
+    return (
+        A[0] * B[0] + A[1] * B[3] + A[2] * B[6],
+        A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
+        A[0] * B[2] + A[1] * B[5] + A[2] * B[8],
+        A[3] * B[0] + A[4] * B[3] + A[5] * B[6],
+        A[3] * B[1] + A[4] * B[4] + A[5] * B[7],
+        A[3] * B[2] + A[4] * B[5] + A[5] * B[8],
+        A[6] * B[0] + A[7] * B[3] + A[8] * B[6],
+        A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
+        A[6] * B[2] + A[7] * B[5] + A[8] * B[8],
+    )
+
+
+@kernel
+def _euler(M, sigma):
+    """``(θ₁, θ₂, θ₃)`` of ``M`` for ``g = +1`` (the ``g = −1`` angles: the first and third
+    turned by π, the second negated)."""
+    t1 = math.atan2(M[5], M[2])
+    t2 = math.acos(min(1.0, max(-1.0, M[8])))
+    t3 = sigma * math.atan2(M[7], -M[6])
+    return t1, t2, t3
+
+
+@kernel
+def _srs_joints(srs, q4, R7, h, f, g):
+    """``(valid, θ₁, θ₂, θ₃, θ₅, θ₆, θ₇)`` (``g = +1``) at elbow angle ``q4``, with
+    ``R3 = ŵ x_locᵀ + f y_locᵀ + g z_locᵀ`` (``h = ŵ``); not valid when the elbow point is
+    on the line ``S → W`` (the arm angle is not defined)."""
+    c4, s4 = math.cos(q4), math.sin(q4)
+    # Q4 = R(L3) Rot(a4, q4), column by column from Rodrigues
+    a0, a1, a2 = srs[SRS_A4], srs[SRS_A4 + 1], srs[SRS_A4 + 2]
+    e0 = _rot(a0, a1, a2, c4, s4, 1.0, 0.0, 0.0)
+    e1 = _rot(a0, a1, a2, c4, s4, 0.0, 1.0, 0.0)
+    e2 = _rot(a0, a1, a2, c4, s4, 0.0, 0.0, 1.0)
+    Q4 = _mul(
+        _matrix(srs, SRS_RL3), (e0[0], e1[0], e2[0], e0[1], e1[1], e2[1], e0[2], e1[2], e2[2])
+    )
+    u0, u1, u2 = _apply(Q4, srs, SRS_W4)
+    u0 += srs[SRS_PL3] - srs[SRS_S3]
+    u1 += srs[SRS_PL3 + 1] - srs[SRS_S3 + 1]
+    u2 += srs[SRS_PL3 + 2] - srs[SRS_S3 + 2]
+    if srs[SRS_ELBOW_FRAME] == 1.0:
+        p0, p1, p2 = _apply(Q4, srs, SRS_ELBOW_POINT)
+        p0, p1, p2 = p0 + srs[SRS_PL3], p1 + srs[SRS_PL3 + 1], p2 + srs[SRS_PL3 + 2]
+    else:
+        p0, p1, p2 = srs[SRS_ELBOW_POINT], srs[SRS_ELBOW_POINT + 1], srs[SRS_ELBOW_POINT + 2]
+    p0, p1, p2 = p0 - srs[SRS_S3], p1 - srs[SRS_S3 + 1], p2 - srs[SRS_S3 + 2]
+    lx, ly, lz, _ = _unit(u0, u1, u2)
+    along = p0 * lx + p1 * ly + p2 * lz
+    mx, my, mz, offset = _unit(p0 - along * lx, p1 - along * ly, p2 - along * lz)
+    if not offset > SRS_OFFSET_TOL:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    nx, ny, nz = ly * mz - lz * my, lz * mx - lx * mz, lx * my - ly * mx
+    R3 = (h[0] * lx + f[0] * mx + g[0] * nx, h[0] * ly + f[0] * my + g[0] * ny,
+          h[0] * lz + f[0] * mz + g[0] * nz, h[1] * lx + f[1] * mx + g[1] * nx,
+          h[1] * ly + f[1] * my + g[1] * ny, h[1] * lz + f[1] * mz + g[1] * nz,
+          h[2] * lx + f[2] * mx + g[2] * nx, h[2] * ly + f[2] * my + g[2] * ny,
+          h[2] * lz + f[2] * mz + g[2] * nz)  # fmt: skip
+    shoulder = _mul(_mul(_tr(_matrix(srs, SRS_LS)), R3), _matrix(srs, SRS_RS))
+    wrist = _mul(_tr(_mul(R3, Q4)), _mul(R7, _matrix(srs, SRS_RW)))
+    wrist = _mul(_tr(_matrix(srs, SRS_LW)), wrist)
+    t1, t2, t3 = _euler(shoulder, srs[SRS_SIGMA_S])
+    t5, t6, t7 = _euler(wrist, srs[SRS_SIGMA_W])
+    return True, t1, t2, t3, t5, t6, t7
+
+
+@kernel(inline=True)
+def _flip(t):
+    """``atan2(−y, −x)`` from ``t = atan2(y, x)``."""
+    return t - math.copysign(PI, t)
+
+
+@kernel(nogil=False)  # called from Python, under a microsecond
+def solve_arm_angle(srs, T, phi, out):
+    """Every solution of pose ``T`` at arm angle ``phi`` (rad) of an S-R-S arm (constants
+    ``srs``, slots ``SRS_*``) into ``out``, in branch order ``4 i₂ + 2 i₄ + i₆``
+    (:data:`redres.ik.srs.BRANCHES`); returns as :func:`solve_pose`."""
+    if not _is_pose(T):
+        return BAD_POSE
+    if not math.isfinite(phi):
+        return BAD_Q7
+    for i in range(3):
+        for j in range(4):
+            out[POSE, 4 * i + j] = T[i, j]
+    RT = (T[0, 0], T[0, 1], T[0, 2], T[1, 0], T[1, 1], T[1, 2], T[2, 0], T[2, 1], T[2, 2])
+    R7 = _mul(RT, _tr(_matrix(srs, SRS_RF)))
+    f0, f1, f2 = _apply(R7, srs, SRS_PF)
+    w0, w1, w2 = _apply(R7, srs, SRS_W7)
+    wvx = T[0, 3] - f0 + w0 - srs[SRS_S]
+    wvy = T[1, 3] - f1 + w1 - srs[SRS_S + 1]
+    wvz = T[2, 3] - f2 + w2 - srs[SRS_S + 2]
+    hx, hy, hz, d = _unit(wvx, wvy, wvz)
+    x = ((srs[SRS_K] - d * d) / 2.0 - srs[SRS_P]) * srs[SRS_INV_H]
+    if abs(x) > 1.0 + SRS_REACH_TOL:
+        return UNREACHABLE << FLAG_SHIFT
+    bend = math.acos(min(1.0, max(-1.0, -x)))
+    # the world frame of the arm angle: ŵ, the reference's lever (ŵ × r) × ŵ, their cross
+    rx, ry, rz = srs[SRS_REFERENCE], srs[SRS_REFERENCE + 1], srs[SRS_REFERENCE + 2]
+    ax, ay, az = wvy * rz - wvz * ry, wvz * rx - wvx * rz, wvx * ry - wvy * rx
+    yx, yy, yz, lever = _unit(ay * wvz - az * wvy, az * wvx - ax * wvz, ax * wvy - ay * wvx)
+    if not lever > SRS_LEVER_TOL * d * d:
+        return UNREACHABLE << FLAG_SHIFT
+    zx, zy, zz = hy * yz - hz * yy, hz * yx - hx * yz, hx * yy - hy * yx
+    c, s = math.cos(phi), math.sin(phi)
+    # R3 = Rot(ŵ, φ) R3⁰ = ŵ x_locᵀ + (c y + s z) y_locᵀ + (c z − s y) z_locᵀ
+    fx, fy, fz = c * yx + s * zx, c * yy + s * zy, c * yz + s * zz
+    gx, gy, gz = c * zx - s * yx, c * zy - s * yy, c * zz - s * yz
+    h, f, g = (hx, hy, hz), (fx, fy, fz), (gx, gy, gz)
+    q4a = PI - ((PI - (srs[SRS_STRAIGHT] + bend)) % TWO_PI)
+    q4b = PI - ((PI - (srs[SRS_STRAIGHT] - bend)) % TWO_PI)
+    ok_a, a1, a2, a3, a5, a6, a7 = _srs_joints(srs, q4a, R7, h, f, g)
+    ok_b, b1, b2, b3, b5, b6, b7 = _srs_joints(srs, q4b, R7, h, f, g)
+    # each group of three joints limited once (g = ±1), then combined into branches
+    ga = (_limit(srs, 3, q4a), _group(srs, 0, a1, a2, a3),
+          _group(srs, 0, _flip(a1), -a2, _flip(a3)), _group(srs, 4, a5, a6, a7),
+          _group(srs, 4, _flip(a5), -a6, _flip(a7)))  # fmt: skip
+    gb = (_limit(srs, 3, q4b), _group(srs, 0, b1, b2, b3),
+          _group(srs, 0, _flip(b1), -b2, _flip(b3)), _group(srs, 4, b5, b6, b7),
+          _group(srs, 4, _flip(b5), -b6, _flip(b7)))  # fmt: skip
+    count = 0
+    for b in range(8):
+        i2, e, i6 = b >> 2, (b >> 1) & 1, b & 1
+        if not (ok_a if e == 0 else ok_b):
+            continue
+        G = ga if e == 0 else gb
+        S = G[1] if i2 == 0 else G[2]
+        W = G[3] if i6 == 0 else G[4]
+        row = out[count]
+        row[0], row[1], row[2], row[3] = S[0], S[1], S[2], G[0][0]
+        row[4], row[5], row[6] = W[0], W[1], W[2]
+        row[BRANCH] = b
+        row[FLAGS] = 0.0
+        row[WITHIN] = 1.0 if S[3] and G[0][1] and W[3] else 0.0
+        count += 1
+    if count == 0:
+        return UNREACHABLE << FLAG_SHIFT
+    return count

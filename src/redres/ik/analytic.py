@@ -44,6 +44,20 @@ rotation about ``S → W`` (one of the continuum), an unreachable pose (no solut
 ``UNREACHABLE``). Each joint is moved by 2π into its limits where that fits;
 ``within_limits`` tells which solutions lie inside them (to 1e-12 rad).
 
+**Speed.** What depends on the arm alone is computed once per arm (:func:`_constants`):
+frame 6 as a fixed combination of three matrices in ``cos q7``, ``sin q7``; ``S → W``,
+the joint-5 axis and ``q5``'s reference vectors in frame 3 as ``c0 + cos q4 cc + sin q4
+cs``. ``cos q4``, ``sin q4`` and ``cos φ``, ``sin φ`` come from the sum formulas and
+``√(1 − x²)``, ``q5`` and ``q6`` as ``atan2`` of dot products linear in ``cos φ``,
+``sin φ``. Where axes 1 and 2 are perpendicular and axes 1 and 3 parallel at the zero
+configuration (to :data:`~redres.ik._analytic_codes.TWIN_TOL`: the Panda, FR3, iiwa14,
+srs7), the second shoulder solution is the first turned: ``Rot(k1, q1 + π) Rot(k2, −q2)
+Rot(k3, q3 + π) = Rot(k1, q1) Rot(k2, q2) Rot(k1, π) Rot(k3, π) Rot(k3, q3)`` because
+``Rot(k1, π) Rot(k2, θ) = Rot(k2, −θ) Rot(k1, π)`` for ``k1 ⊥ k2``, and ``Rot(k1, π)
+Rot(k3, π) = I`` for ``k3 = ±k1`` (tested against the general subproblem 2). A single
+call's FK errors are computed on first access (:class:`IKSolutions`), the batch's in
+its kernel.
+
 The structure is detected from the robot's serial chain to the frame
 (:func:`analytic_arm`) to :data:`STRUCTURE_TOL`; an arm without it raises
 :class:`NotAnalyticError` naming the failed test (``rr.ik`` solves any arm numerically).
@@ -54,6 +68,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
@@ -87,9 +102,11 @@ __all__ = [
     "at_q7_batch",
 ]
 
-#: The analytic kernels. Cold (2026-12-07, 2 shared cores, load 4.7): a first ``at_q7``
-#: 21.5 s with the chain kernels (4.5 s of it), the batch form 2.4 s more; warm 1.0 s.
-KERNELS = _compile.KernelGroup("analytic ik", ("redres.ik._analytic_kernels",), cold_seconds=17.0)
+#: The analytic kernels. Cold (2026-12-07, 2 shared cores, load 3.1, empty cache,
+#: foreground): a first ``at_q7`` 6.6 s (no chain kernel on its path), its first FK
+#: errors 2.4 s more (with the chain's FK), the batch form 1.7 s more, the arm-angle form
+#: (``at_arm_angle``) 3.0 s more; warm 0.6 s.
+KERNELS = _compile.KernelGroup("analytic ik", ("redres.ik._analytic_kernels",), cold_seconds=12.0)
 
 #: Tolerance of the structure tests, m for distances between axes, and for the sines
 #: of angles between axes that must not be parallel.
@@ -125,12 +142,14 @@ class AnalyticArm:
     wrist: FloatArray
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True, eq=False)
 class IKSolutions:
     """Every solution of one pose at one ``q7`` (``count`` of them, ``0 ≤ count ≤ 8``).
 
-    The arrays are views of the kernel's buffers, made on access (a call returns before
-    slicing them: most callers read two or three).
+    The arrays are views of the kernel's buffer, made on access (a call returns before
+    slicing them: most callers read two or three). The FK errors are computed on first
+    access (the chain's compiled FK of each solution, once). Read-only by convention:
+    not frozen, because a frozen dataclass costs a call a fifth more to make.
 
     Attributes:
         count: how many solutions.
@@ -139,48 +158,62 @@ class IKSolutions:
         q: the configurations, ``(count, 7)``, rad.
         branch: each one's branch code ``4 i4 + 2 iφ + is`` (module docstring).
         within_limits: whether each is within the joint limits.
-        position_error: its FK position error (the kernel's own FK), m.
+        position_error: its FK position error (the chain's compiled FK), m.
         rotation_error: its FK rotation error (angle), rad.
         residual: ``max(position_error m, rotation_error rad)``.
         solution_flags: what is special about each (:class:`AnalyticFlag` bits).
+        values: the buffer, ``(N_ROWS, N_VALUES)`` (:mod:`redres.ik._analytic_codes`).
+        arm: the arm solved, whose chain gives the FK errors on first access; ``None``
+            when ``values`` holds them already.
     """
 
     count: int
     flags: AnalyticFlag
     q7: float
-    values: FloatArray = dataclasses.field(repr=False)  # (8, N_VALUES) kernel buffer
-    codes: NDArray[np.int64] = dataclasses.field(repr=False)  # (8, N_CODES) kernel buffer
+    values: FloatArray = dataclasses.field(repr=False)
+    arm: AnalyticArm | None = dataclasses.field(default=None, repr=False)
+    _filled: bool = dataclasses.field(default=False, init=False, repr=False)
 
     @property
     def q(self) -> FloatArray:
-        return self.values[: self.count, : codes.N_JOINTS]
+        return self.values[_Q_ROWS[self.count]]
 
     @property
     def branch(self) -> NDArray[np.int64]:
-        return self.codes[: self.count, codes.BRANCH]
+        return self.values[: self.count, codes.BRANCH].astype(np.int64)
 
     @property
     def within_limits(self) -> NDArray[np.bool_]:
-        return self.codes[: self.count, codes.WITHIN] == 1
+        return self.values[: self.count, codes.WITHIN] == 1.0
 
     @property
     def position_error(self) -> FloatArray:
-        return self.values[: self.count, codes.POSITION_ERROR]
+        return self._checked()[: self.count, codes.POSITION_ERROR]
 
     @property
     def rotation_error(self) -> FloatArray:
-        return self.values[: self.count, codes.ROTATION_ERROR]
+        return self._checked()[: self.count, codes.ROTATION_ERROR]
 
     @property
     def residual(self) -> FloatArray:
-        return np.maximum(self.position_error, self.rotation_error)
+        values = self._checked()[: self.count]
+        return np.maximum(values[:, codes.POSITION_ERROR], values[:, codes.ROTATION_ERROR])
 
     @property
     def solution_flags(self) -> NDArray[np.int64]:
-        return self.codes[: self.count, codes.FLAGS]
+        return self.values[: self.count, codes.FLAGS].astype(np.int64)
 
     def __len__(self) -> int:
         return self.count
+
+    def _checked(self) -> FloatArray:
+        """The buffer, with the FK errors filled (on the first call; two threads racing
+        here write the same values)."""
+        arm = self.arm
+        if arm is not None and not self._filled:
+            _errors(arm.links, arm.axes, arm.kinds, self.values, self.count)
+            self._filled = True
+        return self.values
 
 
 @dataclass(frozen=True)
@@ -214,7 +247,11 @@ class IKSolutionsBatch:
 _ARMS: WeakKeyDictionary[Robot, dict[str | None, AnalyticArm]] = WeakKeyDictionary()
 #: The arm of the last single-pose call: (robot, frame, arm) (a weak-dict lookup costs
 #: a tenth of a call).
-_LAST: list[tuple[weakref.ref[Robot], str | None, AnalyticArm] | None] = [None]
+_LAST: tuple[Callable[[], Robot | None], str | None, AnalyticArm | None] = (
+    lambda: None,
+    None,
+    None,
+)
 
 
 def analytic_arm(robot: Robot, frame: str | None = None) -> AnalyticArm:
@@ -277,23 +314,79 @@ def _build(robot: Robot, frame: str | None) -> AnalyticArm:
     A, B = float(s_prime @ w4) - P, float(s_prime @ np.cross(a, w4))
     if math.hypot(A, B) < STRUCTURE_TOL:
         _refuse(where, "joint 4 does not change the distance between the shoulder and the wrist")
-    C = R[1] @ R[2]
-    k3 = C @ axes[2]
-    m3 = _normal(k3)
-    arm = np.zeros(codes.N_ARM)
-    for slot, value in (
-        (codes.S, links[0][:, :3] @ s1 + links[0][:, 3]), (codes.W6, w6), (codes.SP, s_prime),
-        (codes.W4, w4), (codes.Z5, R[4] @ axes[4]), (codes.K1, axes[0]),
-        (codes.K2, R[1] @ axes[1]), (codes.K3, k3), (codes.M3, m3), (codes.M3C, C.T @ m3),
-        (codes.BA5, R[5] @ axes[5]), (codes.BTA4, R[5].T @ axes[4]),
-        (codes.ELBOW, (K, P, A, B)), (codes.COS_GAMMA, axes[4] @ R[5] @ axes[5]),
-    ):  # fmt: skip
-        value = np.atleast_1d(value)
-        arm[slot : slot + len(value)] = value
+    arm = _constants(R, p, axes, w6, w4, s_prime, (K, P, A, B))
+    arm[codes.S : codes.S + 3] = links[0][:, :3] @ s1 + links[0][:, 3]
+    arm[codes.LO : codes.LO + 7], arm[codes.HI : codes.HI + 7] = robot.q_min, robot.q_max
     bounds = np.ascontiguousarray(np.stack((robot.q_min, robot.q_max)), dtype=np.float64)
     for array in (arm, bounds):
         array.flags.writeable = False
     return AnalyticArm(name, links, axes, kinds, bounds, arm, arm[codes.S : codes.S + 3], w6)
+
+
+def _constants(
+    R: list[FloatArray],
+    p: list[FloatArray],
+    axes: FloatArray,
+    w6: FloatArray,
+    w4: FloatArray,
+    s_prime: FloatArray,
+    elbow: tuple[float, float, float, float],
+) -> FloatArray:
+    """The kernel's constants (slots of :mod:`._analytic_codes`, but ``S`` and the
+    limits): ``R``, ``p`` the placements' rotations and origins, ``axes`` the joint
+    axes, ``w6``, ``w4`` the wrist point in frames 6 and 4, ``s_prime`` the shoulder
+    point in joint 4's placement frame, ``elbow`` ``(K, P, A, B)``."""
+    arm = np.zeros(codes.N_ARM)
+
+    def put(slot: int, value: Any) -> None:
+        value = np.ravel(value)
+        arm[slot : slot + len(value)] = value
+
+    def turning(a: FloatArray, v: FloatArray, frame: FloatArray, slots: tuple[int, ...]) -> None:
+        """``frame Rot(a, θ) v = c0 + cos θ cc + sin θ cs`` (Rodrigues) into ``slots``."""
+        along = (a @ v) * a
+        for slot, value in zip(slots, (along, v - along, np.cross(a, v))):
+            put(slot, frame @ value)
+
+    a7, a4, a5, a6 = axes[6], axes[3], axes[4], axes[5]
+    outer = np.outer(a7, a7)
+    put(codes.M0, R[7].T @ outer @ R[6].T)  # R(X7)ᵀ Rot(a7, −q7) R(X6)ᵀ
+    put(codes.MC, R[7].T @ (np.eye(3) - outer) @ R[6].T)
+    put(codes.MS, -R[7].T @ _skew(a7) @ R[6].T)
+    put(codes.D7, -R[7].T @ p[7])
+    put(codes.WE, w6 - p[6])
+    put(codes.A6, a6)
+    K, P, A, B = elbow
+    H = math.hypot(A, B)
+    put(codes.K_ELBOW, (K, P, 1.0 / H, math.atan2(B, A), A / H, B / H))
+    turning(a4, w4, R[3], (codes.V0, codes.VC, codes.VS))
+    arm[codes.V0 : codes.V0 + 3] -= R[3] @ s_prime
+    turning(a4, R[4] @ a5, R[3], (codes.U0, codes.UC, codes.US))
+    ba5 = R[5] @ a6  # the joint-6 axis in frame 5: q5 turns it onto (R4 R(X4))ᵀ z6
+    turning(a4, R[4] @ np.cross(a5, ba5), R[3], (codes.P50, codes.P5C, codes.P5S))
+    turning(a4, R[4] @ (ba5 - (a5 @ ba5) * a5), R[3], (codes.Q50, codes.Q5C, codes.Q5S))
+    bta4 = R[5].T @ a5  # the joint-5 axis in frame 6: q6 turns R6ᵀ z5 onto it
+    put(codes.P6, np.cross(bta4, a6))
+    put(codes.Q6, bta4 - (a6 @ bta4) * a6)
+    put(codes.COS_GAMMA, a5 @ ba5)
+    C = R[1] @ R[2]
+    k1, k2, k3 = axes[0], R[1] @ axes[1], C @ axes[2]
+    m3 = _normal(k3)
+    put(codes.X0, R[0])
+    put(codes.A3, axes[2])
+    put(codes.M3C, C.T @ m3)
+    for slot, value in ((codes.K1, k1), (codes.K2, k2), (codes.K3, k3), (codes.M3, m3),
+                        (codes.K1XK2, np.cross(k1, k2))):  # fmt: skip
+        put(slot, value)
+    put(codes.K12, (k1 @ k2, k2 @ k3))
+    twin = abs(k1 @ k2) < codes.TWIN_TOL and np.linalg.norm(np.cross(k1, k3)) < codes.TWIN_TOL
+    arm[codes.TWIN] = 1.0 if twin else 0.0
+    return arm
+
+
+def _skew(v: FloatArray) -> FloatArray:
+    """``[v]×``: ``[v]× x = v × x``."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def _refuse(where: str, why: str) -> None:
@@ -346,39 +439,34 @@ def at_q7(robot: Robot, T: Any, *, q7: float, frame: str | None = None) -> IKSol
         frame: the frame (default: the robot's tip).
 
     Returns:
-        The :class:`IKSolutions` (none, with ``UNREACHABLE``, when out of reach).
+        The :class:`IKSolutions` (none, with ``UNREACHABLE``, when out of reach). Each
+        call has its own buffer.
 
     Raises:
         NotAnalyticError: the arm lacks the structure (the message says why).
         ShapeError: ``T`` is not a 4x4 homogeneous transform with a rotation block.
         NonFiniteError: ``T`` or ``q7`` holds NaN or infinity.
     """
-    last = _LAST[0]
-    if last is not None and last[0]() is robot and last[1] == frame:
-        arm = last[2]
-    else:
+    global _LAST
+    ref, last_frame, arm = _LAST
+    if arm is None or ref() is not robot or last_frame != frame:
         arm = analytic_arm(robot, frame)
-        _LAST[0] = (weakref.ref(robot), frame, arm)
-    if not (type(T) is np.ndarray and T.dtype == _F64 and T.shape == (4, 4)
-            and T.flags.c_contiguous):  # fmt: skip
-        T = np.array(_pose(T, "T"), dtype=np.float64, order="C")  # checked again in the kernel
+        _LAST = (weakref.ref(robot), frame, arm)
+    # the entry point takes a C-contiguous float64 2-D array (its shape: the kernel checks)
+    if type(T) is not np.ndarray or T.dtype is not _F64 or T.strides != (32, 8):
+        T = np.array(_pose(T, "T"), dtype=np.float64, order="C")
     x = q7 if type(q7) is float else _q7(q7)
-    out = np.empty((codes.MAX_SOLUTIONS, codes.N_VALUES))
-    found = np.empty((codes.MAX_SOLUTIONS, codes.N_CODES), dtype=np.int64)
-    solve = _ENTRY[0] if _ENTRY else _solve_pose
-    status, count, flags = solve(arm.links, arm.axes, arm.kinds, arm.bounds, arm.arm,
-                                          T, x, out, found)  # fmt: skip
-    if status != codes.SOLVED:
-        _refused(status, T, x, "T", "q7")
-    result = object.__new__(IKSolutions)  # the frozen dataclass without its __init__
-    result.__dict__.update(count=count, flags=_FLAGS[flags], q7=x, values=out, codes=found)
-    return result
+    out = _empty(_BUFFER)
+    code = _solve(arm.arm, T, x, out)
+    if code < 0:
+        _refused(code, T, x, "T", "q7")
+    return IKSolutions(code & _COUNT_MASK, _FLAGS[code >> _FLAG_SHIFT], x, out, arm)
 
 
 def at_q7_batch(robot: Robot, T: Any, q7: Any, *, frame: str | None = None) -> IKSolutionsBatch:
     """:func:`at_q7` for ``N`` poses ``T`` ``(N, 4, 4)`` at ``q7`` ``(N,)`` (or one value
     for all), rad, on every core (numba's threads; each pose is independent, so results do
-    not depend on the thread count).
+    not depend on the thread count). The FK errors are computed here, for every solution.
 
     Raises:
         NotAnalyticError, ShapeError, NonFiniteError: as :func:`at_q7` (the message names
@@ -390,29 +478,32 @@ def at_q7_batch(robot: Robot, T: Any, q7: Any, *, frame: str | None = None) -> I
         raise ShapeError(f"T must have shape (N, 4, 4); got shape {poses.shape}")
     n = poses.shape[0]
     values = np.ascontiguousarray(np.broadcast_to(np.asarray(q7, dtype=np.float64), (n,)))
-    out = np.zeros((n, codes.MAX_SOLUTIONS, codes.N_VALUES))
-    found = np.zeros((n, codes.MAX_SOLUTIONS, codes.N_CODES), dtype=np.int64)
-    found[:, :, codes.BRANCH] = -1
+    out = np.empty((n, *_BUFFER))
     summary = np.zeros((n, 3), dtype=np.int64)
-    _module().solve_many(arm.links, arm.axes, arm.kinds, arm.bounds, arm.arm, poses, values,
-                         out, found, summary)  # fmt: skip
+    _module().solve_many(arm.arm, arm.links, arm.axes, arm.kinds, poses, values, out, summary)
     bad = np.flatnonzero(summary[:, 0] != codes.SOLVED)
     if len(bad):
         i = int(bad[0])
         _refused(int(summary[i, 0]), poses[i], float(values[i]), f"T[{i}]", f"q7[{i}]")
+    rows = out[:, : codes.MAX_SOLUTIONS]
     return IKSolutionsBatch(
-        q=out[:, :, : codes.N_JOINTS],
-        branch=found[:, :, codes.BRANCH],
-        within_limits=found[:, :, codes.WITHIN] == 1,
-        position_error=out[:, :, codes.POSITION_ERROR],
-        rotation_error=out[:, :, codes.ROTATION_ERROR],
-        solution_flags=found[:, :, codes.FLAGS],
+        q=rows[:, :, : codes.N_JOINTS],
+        branch=rows[:, :, codes.BRANCH].astype(np.int64),
+        within_limits=rows[:, :, codes.WITHIN] == 1.0,
+        position_error=rows[:, :, codes.POSITION_ERROR],
+        rotation_error=rows[:, :, codes.ROTATION_ERROR],
+        solution_flags=rows[:, :, codes.FLAGS].astype(np.int64),
         count=summary[:, 1].copy(),
         flags=summary[:, 2].copy(),
     )
 
 
 _F64 = np.dtype(np.float64)
+_BUFFER = (codes.N_ROWS, codes.N_VALUES)
+_COUNT_MASK, _FLAG_SHIFT = codes.COUNT_MASK, codes.FLAG_SHIFT
+_empty = np.empty
+#: ``values[_Q_ROWS[count]]``: the joints of the solutions (a key made once per count).
+_Q_ROWS = [(slice(0, k), slice(0, codes.N_JOINTS)) for k in range(codes.MAX_SOLUTIONS + 1)]
 _FLAGS = [AnalyticFlag(i) for i in range(2 * max(AnalyticFlag))]
 
 
@@ -446,16 +537,48 @@ def _module() -> Any:
     return KERNELS.required("analytic IK")
 
 
-_ENTRY: list[Any] = []
-
-
-def _solve_pose(*args: Any) -> tuple[int, int, int]:
-    """``solve_pose(*args)`` through its native entry point for these types, made at the
-    first call (:func:`redres._compile.entry_point`), or through the plain-Python twin
-    while the kernels compile behind (not kept: the compiled kernel takes over when
-    ready)."""
+def _native(name: str, args: tuple[Any, ...]) -> tuple[Any, Callable[..., Any] | None]:
+    """Kernel ``name`` run on ``args``, and its native entry point for these types, made
+    at the first call (:func:`redres._compile.entry_point`); no entry point (``None``)
+    while the kernels compile behind: the plain-Python twin answers, and the compiled
+    kernel takes over when ready. The kernels are idempotent: running one twice writes
+    the same values."""
     module = _module()
+    kernel = getattr(module, name)
     if not _compile.is_compiled(module):
-        return module.solve_pose(*args)  # type: ignore[no-any-return]
-    _ENTRY.append(_compile.entry_point(module.solve_pose, args))
-    return _ENTRY[0](*args)  # type: ignore[no-any-return]
+        return kernel(*args), None
+    entry = _compile.entry_point(kernel, args)
+    return entry(*args), entry
+
+
+def _solve_first(*args: Any) -> int:
+    """``solve_pose(*args)``, and :data:`_solve` its entry point from now on."""
+    global _solve
+    code, entry = _native("solve_pose", args)
+    if entry is not None:
+        _solve = entry
+    return int(code)
+
+
+def _solve_srs_first(*args: Any) -> int:
+    """``solve_arm_angle(*args)``, and :data:`solve_srs` its entry point from now on."""
+    global solve_srs
+    code, entry = _native("solve_arm_angle", args)
+    if entry is not None:
+        solve_srs = entry
+    return int(code)
+
+
+def _errors_first(*args: Any) -> None:
+    """``errors(*args)``, and :data:`_errors` its entry point from now on."""
+    global _errors
+    _, entry = _native("errors", args)
+    if entry is not None:
+        _errors = entry
+
+
+_solve: Callable[..., int] = _solve_first
+_errors: Callable[..., None] = _errors_first
+#: ``solve_arm_angle(srs, T, phi, out)`` (for :mod:`.solutions`): the S-R-S closed form
+#: at one arm angle, compiled.
+solve_srs: Callable[..., int] = _solve_srs_first

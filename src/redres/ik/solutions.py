@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -31,10 +32,12 @@ from ..errors import InvalidParameterError, ShapeError
 from ..robot.chain import log3
 from ..tasks import wrap_angle
 from . import _analytic_codes as codes
+from . import analytic
 from .analytic import (
     AnalyticFlag,
     IKSolutions,
     IKSolutionsBatch,
+    NotAnalyticError,
     analytic_arm,
     at_q7,
     at_q7_batch,
@@ -45,7 +48,7 @@ from .srs import SRSArm
 if TYPE_CHECKING:
     from ..robot import Robot
 
-__all__ = ["SelfMotion", "ik_all", "self_motion"]
+__all__ = ["SelfMotion", "at_arm_angle", "ik_all", "self_motion"]
 
 Parameter = Literal["q7", "arm_angle"]
 #: Grid of :func:`self_motion` along ``q7`` (points over the joint's range) and the width
@@ -96,13 +99,61 @@ def ik_all(
         return _at_arm_angle(robot, poses, arm_angle, frame)
     if q7 is not None:
         return at_q7(robot, T, q7=q7, frame=frame)
-    single = _at_arm_angle(robot, as_transform(T, "T")[None], arm_angle, frame)
-    count = int(single.count[0])
-    return IKSolutions(
-        count, AnalyticFlag(int(single.flags[0])), math.nan,
-        *_buffers(single.q[0], single.branch[0], single.within_limits[0],
-                  single.position_error[0], single.rotation_error[0]),
-    )  # fmt: skip
+    return at_arm_angle(robot, T, arm_angle=arm_angle, frame=frame)
+
+
+def at_arm_angle(robot: Robot, T: Any, *, arm_angle: float, frame: str | None = None
+                 ) -> IKSolutions:  # fmt: skip
+    """Every configuration of an S-R-S arm that puts ``frame`` at ``T`` (4x4) at the arm
+    angle ``arm_angle`` (rad), by the compiled closed form of :mod:`redres.ik.srs`
+    (``rr.ik_all(robot, T, arm_angle=...)`` for one pose): up to eight, in branch order
+    (the row of :data:`redres.ik.srs.BRANCHES`), each joint moved by 2π into its limits
+    where that fits; the result's ``q7`` is NaN (each solution has its own, in ``q``);
+    FK errors computed on first access.
+
+    Raises:
+        NotSRSError: the arm is not S-R-S.
+        ShapeError, NonFiniteError: a bad pose or arm angle (named).
+    """
+    global _LAST_SRS
+    ref, last_frame, constants, checker = _LAST_SRS
+    if constants is None or ref() is not robot or last_frame != frame:
+        srs = _srs(robot, frame)
+        assert srs is not None
+        constants = srs.constants
+        try:
+            checker = analytic_arm(robot, frame)
+        except NotAnalyticError:  # pragma: no cover - an S-R-S arm has the q7 structure
+            checker = None
+        _LAST_SRS = (weakref.ref(robot), frame, constants, checker)
+    if type(T) is not np.ndarray or T.dtype is not _F64 or T.strides != (32, 8):
+        T = np.array(as_transform(T, "T"), dtype=np.float64, order="C")
+    phi = arm_angle if type(arm_angle) is float else as_scalar(arm_angle, "arm_angle")
+    out = _empty(_BUFFER)
+    code = analytic.solve_srs(constants, T, phi, out)
+    if code < 0:
+        analytic._refused(code, T, phi, "T", "arm_angle")
+    count = code & _COUNT_MASK
+    found = IKSolutions(count, _FLAGS[code >> _FLAG_SHIFT], _NAN, out, checker)
+    if checker is None:  # pragma: no cover
+        links, axes, kinds = robot.chain(frame).arrays
+        analytic._errors(links, axes, kinds, out, count)
+    return found
+
+
+_F64 = np.dtype(np.float64)
+_FLAGS = [AnalyticFlag(i) for i in range(2 * max(AnalyticFlag))]
+_BUFFER = (codes.N_ROWS, codes.N_VALUES)
+_COUNT_MASK, _FLAG_SHIFT, _NAN = codes.COUNT_MASK, codes.FLAG_SHIFT, math.nan
+_empty = np.empty
+#: The S-R-S arm of the last call of :func:`at_arm_angle`: (robot, frame, its packed
+#: constants, its q7 constants, whose chain gives the FK errors).
+_LAST_SRS: tuple[Callable[[], Robot | None], str | None, FloatArray | None, Any] = (
+    lambda: None,
+    None,
+    None,
+    None,
+)
 
 
 @dataclass(frozen=True)
@@ -267,7 +318,10 @@ def _at_arm_angle(robot: Robot, poses: FloatArray, arm_angle: Any, frame: str | 
     for b in range(8):
         qb = solved.joints(phi[:, None], b)[:, 0]  # (N, 7), NaN where there is none
         ok = np.isfinite(qb).all(axis=1)
-        qb = np.where(qb < lo, qb + _TWO_PI, np.where(qb > hi, qb - _TWO_PI, qb))
+        # as the kernels: into [−π, π), then moved by 2π into the limits where that fits
+        qb = qb - _TWO_PI * np.floor(qb * (1.0 / _TWO_PI) + 0.5)
+        up, down = (qb < lo) & (qb + _TWO_PI <= hi), (qb > hi) & (qb - _TWO_PI >= lo)
+        qb = np.where(up, qb + _TWO_PI, np.where(down, qb - _TWO_PI, qb))
         for i in map(int, np.flatnonzero(ok)):
             k = int(count[i])
             q[i, k], branch[i, k] = qb[i], b
@@ -283,14 +337,3 @@ def _at_arm_angle(robot: Robot, poses: FloatArray, arm_angle: Any, frame: str | 
     flags = np.where(count == 0, int(AnalyticFlag.UNREACHABLE), 0).astype(np.int64)
     return IKSolutionsBatch(q, branch, within, pos_err, rot_err, np.zeros((n, 8), np.int64),
                             count, flags)  # fmt: skip
-
-
-def _buffers(q: FloatArray, branch: Any, within: Any, pos: FloatArray, rot: FloatArray
-             ) -> tuple[FloatArray, NDArray[np.int64]]:  # fmt: skip
-    """The kernel's buffer layout (:mod:`redres.ik._analytic_codes`) of one pose's rows."""
-    values = np.zeros((codes.MAX_SOLUTIONS, codes.N_VALUES))
-    found = np.zeros((codes.MAX_SOLUTIONS, codes.N_CODES), dtype=np.int64)
-    values[:, : codes.N_JOINTS] = q
-    values[:, codes.POSITION_ERROR], values[:, codes.ROTATION_ERROR] = pos, rot
-    found[:, codes.BRANCH], found[:, codes.WITHIN] = branch, within
-    return values, found

@@ -47,6 +47,7 @@ angle is undefined there: such a pose is reported with no arm angle).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -54,6 +55,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import RedresError
+from . import _analytic_codes as codes
 from .arcs import Arc, from_arcs, linear_cuts, runs
 
 if TYPE_CHECKING:
@@ -191,6 +193,34 @@ class SRSArm:
             v / np.linalg.norm(v), seen["S"][0], s3, w4, seen["w7"][0], ke - 1, le,
             _euler_basis(links, axes, 0), _euler_basis(links, axes, 4), elbow,
         )  # fmt: skip
+
+    @functools.cached_property
+    def constants(self) -> np.ndarray:
+        """The packed constants of the compiled form (``solve_arm_angle`` of
+        :mod:`redres.ik._analytic_kernels`; slots ``SRS_*`` of
+        :mod:`redres.ik._analytic_codes`), read-only."""
+        out = np.zeros(codes.N_ARM)
+        K, P, A, B = self.elbow_law
+        Lf, L3 = self.links[7], self.links[3]
+        for slot, value in (
+            (codes.SRS_RF, Lf[:, :3]), (codes.SRS_PF, Lf[:, 3]), (codes.SRS_W7, self.w7),
+            (codes.SRS_S, self.shoulder),
+            (codes.SRS_K, (K, P, 1.0 / math.hypot(A, B), math.atan2(B, A) + math.pi)),
+            (codes.SRS_RL3, L3[:, :3]), (codes.SRS_PL3, L3[:, 3]), (codes.SRS_A4, self.axes[3]),
+            (codes.SRS_W4, self.w4), (codes.SRS_S3, self.s3),
+            (codes.SRS_ELBOW_POINT, self.elbow_local),
+            (codes.SRS_ELBOW_FRAME, 1.0 if self.elbow_frame == 3 else 0.0),
+            (codes.SRS_REFERENCE, self.reference),
+            (codes.SRS_LS, self.shoulder_euler[0]), (codes.SRS_RS, self.shoulder_euler[1]),
+            (codes.SRS_SIGMA_S, self.shoulder_euler[2]),
+            (codes.SRS_LW, self.wrist_euler[0]), (codes.SRS_RW, self.wrist_euler[1]),
+            (codes.SRS_SIGMA_W, self.wrist_euler[2]),
+            (codes.LO, self.q_min), (codes.HI, self.q_max),
+        ):  # fmt: skip
+            flat = np.ravel(value)
+            out[slot : slot + len(flat)] = flat
+        out.flags.writeable = False
+        return out
 
     def poses(self, T: np.ndarray) -> SRSPoses:
         """The closed form's coefficients for poses ``T`` ``(N, 4, 4)`` of the frame."""
