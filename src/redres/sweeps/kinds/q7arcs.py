@@ -230,22 +230,22 @@ def merged(lo: np.ndarray, hi: np.ndarray, owner: np.ndarray, owners: int, slots
     """
     order = np.lexsort((lo, owner))
     lo, hi, owner = lo[order], hi[order], owner[order]
-    shift = 8.0 * owner  # the sets apart: pieces lie in [-π, π]
+    shift = 8.0 * owner  # the sets apart (pieces lie in [-π, π]), to find where they join
     reach = np.maximum.accumulate(hi + shift) - shift if len(hi) else hi
     start = np.ones(len(lo), dtype=bool)
     start[1:] = (owner[1:] != owner[:-1]) | (lo[1:] > reach[:-1])
     begin = np.flatnonzero(start)
-    end = np.append(begin[1:], len(lo)) - 1
-    keep = reach[end] > lo[begin]
-    begin, end = begin[keep], end[keep]
+    top = np.maximum.reduceat(hi, begin) if len(begin) else hi  # exact, unlike `reach`
+    keep = top > lo[begin]
+    begin, top = begin[keep], top[keep]
     who = owner[begin]
     rank = np.arange(len(begin)) - np.searchsorted(who, who)
     out = np.full((owners, slots, 2), np.nan)
     fits = rank < slots
     out[who[fits], rank[fits], 0] = lo[begin[fits]]
-    out[who[fits], rank[fits], 1] = reach[end[fits]]
+    out[who[fits], rank[fits], 1] = top[fits]
     count = np.bincount(who, minlength=owners).astype(np.int64)
-    width = np.bincount(who, weights=reach[end] - lo[begin], minlength=owners)
+    width = np.bincount(who, weights=top - lo[begin], minlength=owners)
     return out, count, width
 
 
