@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ... import batch
+from ... import _compile, batch
 from ...ik.analytic import analytic_arm, at_q7_batch
 from ...tasks.arm_angle import ArmAngleTask, arm_angles
 
@@ -62,6 +62,7 @@ _EXTRA = 3  # samples between a fold and its grid value
 _JUMP = 0.5  # rad: a joint's move between samples above which the step is halved
 _LEVELS = 3  # halvings at most
 _CHUNK = 256  # poses per pass
+_SMALL = 4096  # evaluations below which one thread is faster than a parallel launch
 _TWO_PI = 2.0 * math.pi
 
 
@@ -170,7 +171,14 @@ class _Solver:
     def all_branches(self, T: np.ndarray, q7: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every branch: configurations ``(M, 8, 7)`` (NaN: no such branch), and whether
         each is within the limits ``(M, 8)``."""
-        found = at_q7_batch(self.robot, T, q7, frame=self.frame)
+        if len(q7) < _SMALL:  # a parallel launch waits for its slowest thread
+            previous = _compile.threads(1)
+            try:
+                found = at_q7_batch(self.robot, T, q7, frame=self.frame)
+            finally:
+                _compile.threads(previous)
+        else:
+            found = at_q7_batch(self.robot, T, q7, frame=self.frame)
         q = np.full((len(q7), 8, 7), np.nan)
         inside = np.zeros((len(q7), 8), dtype=bool)
         rows, slots = np.nonzero(found.branch >= 0)
