@@ -1,28 +1,33 @@
-"""``rr.ik`` on an arm with a closed form: the answer of :mod:`redres.ik.analytic` first.
+"""``rr.ik`` on an arm with a closed form: its answer before any random restart.
 
 On the arms :func:`~redres.ik.analytic.analytic_arm` accepts (a spherical shoulder and
-axes 5 and 6 meeting: Panda, FR3, iiwa14, srs7) a full-pose target is solved in closed
-form where that is quicker than the iteration:
+axes 5 and 6 meeting: Panda, FR3, iiwa14, srs7), when the iteration's first attempt from
+``q0`` fails on a full-pose target (no preference), the closed form answers before the
+random restarts (each as long as a first attempt, and most of the tail of the solve
+time; on the reference path, which iterates on Pinocchio in milliseconds, before the
+iteration):
 
-1. before any iteration, at the first guess's own ``q7`` (``q0[6]``): every solution
-   (:func:`~redres.ik.analytic.at_q7`, exact to about 1e-13, about 6 µs); of those within
-   the joint limits the nearest to ``q0`` (Euclidean, rad) is the answer;
-2. if none is within the limits there, the iteration's first attempt from ``q0`` (most
-   targets converge in it, in tens of µs);
-3. if that fails, before its random restarts (each as long as the first attempt, and
-   most of the tail of the solve time): the same as step 1 at up to :data:`Q7_TRIES`
-   other values of ``q7``, evenly spread over its range, nearest to ``q0[6]`` first;
-4. if still none, the restarts as without the closed form. An answer whose residual
+1. at ``q0``'s own last joint ``q7 = q0[6]``, every solution
+   (:func:`~redres.ik.analytic.at_q7`, exact to about 1e-13); of those within the joint
+   limits the nearest to ``q0`` (Euclidean, rad) is the answer;
+2. if none is within the limits there, the same at :data:`Q7_TRIES` other values of
+   ``q7``, evenly spread over its range, nearest to ``q0[6]`` first;
+3. if still none, the restarts as without the closed form. An answer whose residual
    (the kernel's own forward kinematics) is above ``tol_position`` (m) or
    ``tol_orientation`` (rad) is not taken.
 
+Why not before the first attempt: one :func:`~redres.ik.analytic.at_q7` call costs as
+much as most converging first attempts (measured 2026-12-07: 5-9 µs in its kernel,
+about as much around it, against 25-35 µs for a whole compiled solve), and half the
+random targets have no solution within the limits at ``q0[6]``; so taken first it
+raised the median time and lowered none (docs/priority_and_ik.md).
+
 The answer is clipped into the limits (``within_limits`` allows 1e-12 rad) and returned
-with ``iterations = 0``, ``restarts = 0`` and a message naming the ``q7`` used. It is a
-solution near ``q0`` in ``q7`` and then in joint space — not always the one the
-iteration from ``q0`` would reach (that one lies on the self-motion through whichever
-basin ``q0`` is in). ``rr.ik(..., analytic=False)`` skips this step; preferences
+with ``iterations`` of the first attempt, no restart, and a message naming the ``q7``
+used. It is a solution near ``q0`` in ``q7`` and then in joint space — not the one a
+restart would have found. ``rr.ik(..., analytic=False)`` skips it; preferences
 (``q_preferred``, ``arm_angle``) and position-only targets skip it too, as do processes
-whose analytic kernels are still compiling behind (the iteration answers meanwhile).
+whose analytic kernels are still compiling behind.
 """
 
 from __future__ import annotations
@@ -84,8 +89,6 @@ def closed_form_solution(
     tol_position: float,
     tol_orientation: float,
     start: float,
-    *,
-    spread: bool = False,
 ) -> IKResult | None:
     """The closed-form answer (module docstring), or None to iterate instead.
 
@@ -95,8 +98,6 @@ def closed_form_solution(
         q0: the first guess, ``(7,)``, rad.
         tol_position, tol_orientation: the tolerances, m and rad.
         start: ``time.perf_counter()`` at the start of the solve.
-        spread: at the :data:`Q7_TRIES` other values of ``q7`` (step 2) instead of
-            ``q0[6]`` (step 1).
     """
     found = _arm(robot, frame)
     if found is None:
@@ -106,8 +107,7 @@ def closed_form_solution(
     q7 = float(q0[6])
     if not math.isfinite(q7):
         return None
-    values = others[np.argsort(np.abs(others - q7))].tolist() if spread else (q7,)
-    for value in values:
+    for value in (q7, *others[np.argsort(np.abs(others - q7))].tolist()):
         try:
             solutions = at_q7(robot, target, q7=value, frame=frame)
         except RedresError:  # not a finite homogeneous transform: the iteration says why

@@ -163,10 +163,10 @@ def ik(
         preference_tol: with a preference, the joint change (rad, max-norm) below which
             the preference has settled.
         analytic: on an arm with a closed form (:mod:`redres.ik.analytic`: Panda, FR3,
-            iiwa14, srs7), answer a full-pose target without a preference by the closed
-            form first (:mod:`redres.ik.closed`: the within-limits solution nearest
-            ``q0`` at ``q0``'s last joint, or at a few other values of it), iterating
-            only when there is none; False: iterate always.
+            iiwa14, srs7), when the first attempt from ``q0`` fails on a full-pose
+            target without a preference, take the closed form's within-limits solution
+            nearest ``q0`` (at ``q0``'s last joint, or at a few other values of it)
+            before any random restart (:mod:`redres.ik.closed`); False: iterate only.
 
     Returns:
         The :class:`IKResult`.
@@ -199,19 +199,16 @@ def ik(
         q_start = q0  # checked in the kernel (finite), for the message below if not
     else:
         q_start = as_vector(q0, "q0", robot.n)
-    shortcut: Callable[[bool], IKResult | None] | None = None
+    shortcut: Callable[[], IKResult | None] | None = None
     if analytic and q_pref is None and arm_angle is None and covered(robot, frame):
         pose = None if position_only else target if raw else _full_pose(spec)
         if pose is not None:
             guess = q_start
 
-            def shortcut(spread: bool) -> IKResult | None:
+            def shortcut() -> IKResult | None:
                 return closed_form_solution(robot, frame, pose, guess, options.tol_position,
-                                            options.tol_orientation, start, spread=spread)  # fmt: skip
+                                            options.tol_orientation, start)  # fmt: skip
 
-            closed = shortcut(False)
-            if closed is not None:
-                return closed
     if compiled is not None and (raw or spec is not None):
         problem = _problem(target if raw else spec, packed, q_pref)
         rows = 3 if position_only or (spec is not None and spec[1] is None) else 6
@@ -228,8 +225,8 @@ def ik(
             q_start, False, 0, 0, math.inf, math.inf, time.perf_counter() - start,
             "target contains NaN or infinity: nothing to solve",
         )  # fmt: skip
-    if shortcut is not None:
-        closed = shortcut(True)
+    if shortcut is not None:  # before the iteration on Pinocchio (milliseconds)
+        closed = shortcut()
         if closed is not None:
             return closed
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
@@ -451,12 +448,12 @@ def _solve_compiled(
     deadline: float,
     seed: int | np.random.Generator | None,
     start: float,
-    shortcut: Callable[[bool], IKResult | None] | None = None,
+    shortcut: Callable[[], IKResult | None] | None = None,
 ) -> IKResult | None:
     """The attempts in the kernel, the clock read between calls; None when
     the kernel refuses the start (not finite) or the target (not a finite homogeneous
-    transform). ``shortcut(True)``: the closed form's answer, asked for after the first
-    attempt fails (:mod:`redres.ik.closed`, step 3)."""
+    transform). ``shortcut()``: the closed form's answer, asked for after the first
+    attempt fails, before the restarts (:mod:`redres.ik.closed`)."""
     entry, arguments = compiled
     n = q.shape[0]
     io = np.empty(2 * n + layout.N_STATE)
@@ -479,8 +476,9 @@ def _solve_compiled(
         if status < 0:
             return None
         if made == 1 and shortcut is not None:
-            closed = shortcut(True)
+            closed = shortcut()
             if closed is not None:
+                object.__setattr__(closed, "iterations", iterations)  # the first attempt's
                 return closed
         timeout = clock() > deadline
         if timeout or made > options.max_restarts:
