@@ -325,7 +325,8 @@ def main() -> int:
     if args.quick:
         args.targets = 100
     warnings.simplefilter("ignore")  # rtb's and ikpy's deprecation notices
-    rr.warmup(["linalg", "chain", "ik", "analytic ik"], quiet=True)  # compiled before timing, not behind
+    # compiled before timing, not behind
+    rr.warmup(["linalg", "chain", "ik", "analytic ik"], quiet=True)
     rows: list[dict[str, Any]] = []
     with TemporaryDirectory() as tmp:
         for name in args.arms:

@@ -296,8 +296,11 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help="also the full Panda map")
     parser.add_argument("--no-small", action="store_true", help="skip the small measurements")
-    parser.add_argument("--redundancy", action="store_true",
-                        help="the Panda's redundancy map: trace against the closed form")
+    parser.add_argument(
+        "--redundancy",
+        action="store_true",
+        help="the Panda's redundancy map: trace against the closed form",
+    )
     parser.add_argument("--json", help="write the figures to this file")
     args = parser.parse_args()
     rr.warmup(["linalg", "batch", "ik", "analytic ik"], quiet=True)

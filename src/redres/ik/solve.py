@@ -200,14 +200,15 @@ def ik(
     else:
         q_start = as_vector(q0, "q0", robot.n)
     shortcut: Callable[[], IKResult | None] | None = None
-    if analytic and q_pref is None and arm_angle is None and covered(robot, frame):
-        pose = None if position_only else target if raw else _full_pose(spec)
-        if pose is not None:
-            guess = q_start
+    if analytic and q_pref is None and arm_angle is None and not position_only:
+        guess = q_start
 
-            def shortcut() -> IKResult | None:
-                return closed_form_solution(robot, frame, pose, guess, options.tol_position,
-                                            options.tol_orientation, start)  # fmt: skip
+        def shortcut() -> IKResult | None:  # asked only when an attempt has failed
+            pose = target if raw else _full_pose(spec)
+            if pose is None or not covered(robot, frame):
+                return None
+            return closed_form_solution(robot, frame, pose, guess, options.tol_position,
+                                        options.tol_orientation, start)  # fmt: skip
 
     if compiled is not None and (raw or spec is not None):
         problem = _problem(target if raw else spec, packed, q_pref)

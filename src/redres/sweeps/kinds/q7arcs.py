@@ -100,7 +100,7 @@ class Q7Arcs:
         out["union"], out["union_count"], out["total_width"] = union
         return out
 
-    def components(self) -> list[list[tuple[float, float]]]:
+    def components(self) -> list[list[list[tuple[float, float]]]]:
         """Per pose, the arm-angle pieces (``[-π, π]``, merged) of each connected piece of
         the manifold within the limits (runs joined at folds): what a trace from one of
         its configurations visits."""
@@ -115,13 +115,13 @@ class Q7Arcs:
         for a, b in self.links:
             parent[root(int(a))] = root(int(b))
         roots = np.array([root(i) for i in range(len(self.pose))], dtype=np.int64)
-        out: list[list[tuple[float, float]]] = [[] for _ in range(self.poses)]
+        out: list[list[list[tuple[float, float]]]] = [[] for _ in range(self.poses)]
         for r in np.unique(roots):
             lo, hi, owner = _pieces(self.lo[roots == r], self.hi[roots == r],
                                     np.zeros(int((roots == r).sum()), dtype=np.int64))  # fmt: skip
             parts, count, _ = merged(lo, hi, owner, 1, 2 * len(lo) + 2)
-            out[int(self.pose[r])].append([(float(a), float(b)) for a, b in parts[0, :count[0]]])
-        return out  # type: ignore[return-value]
+            out[int(self.pose[r])].append([(float(a), float(b)) for a, b in parts[0, : count[0]]])
+        return out
 
 
 def q7_arcs(
@@ -141,17 +141,20 @@ def q7_arcs(
     task = ArmAngleTask(*points, reference=(0.0, 0.0, 1.0) if reference is None else reference)
     solver = _Solver(robot, frame, task)
     poses = np.ascontiguousarray(T, dtype=np.float64).reshape(-1, 4, 4)
-    parts = [_chunk(solver, poses[s : s + _CHUNK], grid) for s in range(0, len(poses), _CHUNK)]
+    starts = range(0, len(poses), _CHUNK)
+    parts = [_chunk(solver, poses[s : s + _CHUNK], grid) for s in starts]
+    if not parts:
+        empty = np.zeros(0, dtype=np.int64)
+        return Q7Arcs(empty, empty, np.zeros(0), np.zeros(0), np.zeros((0, 2)),
+                      np.zeros((0, 2), dtype=np.int64), 0)  # fmt: skip
     offsets = np.cumsum([0] + [len(p.pose) for p in parts])
     return Q7Arcs(
-        pose=np.concatenate([p.pose + s for p, s in zip(parts, range(0, len(poses), _CHUNK))]
-                            or [np.zeros(0, np.int64)]),  # fmt: skip
-        branch=np.concatenate([p.branch for p in parts] or [np.zeros(0, np.int64)]),
-        lo=np.concatenate([p.lo for p in parts] or [np.zeros(0)]),
-        hi=np.concatenate([p.hi for p in parts] or [np.zeros(0)]),
-        q7=np.concatenate([p.q7 for p in parts] or [np.zeros((0, 2))]),
-        links=np.concatenate([p.links + o for p, o in zip(parts, offsets)]
-                             or [np.zeros((0, 2), np.int64)]),  # fmt: skip
+        pose=np.concatenate([p.pose + s for p, s in zip(parts, starts)]),
+        branch=np.concatenate([p.branch for p in parts]),
+        lo=np.concatenate([p.lo for p in parts]),
+        hi=np.concatenate([p.hi for p in parts]),
+        q7=np.concatenate([p.q7 for p in parts]),
+        links=np.concatenate([p.links + o for p, o in zip(parts, offsets)]),
         poses=len(poses),
     )
 
@@ -165,8 +168,9 @@ class _Solver:
         arm = analytic_arm(robot, frame)
         self.q_min, self.q_max = arm.bounds
         self.centre = (self.q_min + self.q_max) / 2.0
-        lo, hi = arm.bounds[:, 6]
-        self.range = (lo, hi) if math.isfinite(lo) and math.isfinite(hi) else (-math.pi, math.pi)
+        lo, hi = float(arm.bounds[0, 6]), float(arm.bounds[1, 6])
+        finite = math.isfinite(lo) and math.isfinite(hi)
+        self.range: tuple[float, float] = (lo, hi) if finite else (-math.pi, math.pi)
 
     def all_branches(self, T: np.ndarray, q7: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every branch: configurations ``(M, 8, 7)`` (NaN: no such branch), and whether
@@ -289,7 +293,7 @@ class _Samples:
 def _chunk(solver: _Solver, T: np.ndarray, grid: int) -> Q7Arcs:
     """:func:`q7_arcs` of at most :data:`_CHUNK` poses."""
     count = len(T)
-    g = np.linspace(*solver.range, grid)
+    g = np.linspace(solver.range[0], solver.range[1], grid)
     q, inside = solver.all_branches(np.repeat(T, grid, axis=0), np.tile(g, count))
     q = q.reshape(count, grid, 8, 7).transpose(0, 2, 1, 3)  # (N, 8, G, 7)
     inside = inside.reshape(count, grid, 8).transpose(0, 2, 1)

@@ -50,8 +50,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ... import _compile, batch
-from ...ik.arcs import Arc, merge, pack, pieces, width
 from ...ik.analytic import NotAnalyticError, analytic_arm
+from ...ik.arcs import Arc, merge, pack, pieces, width
 from ...ik.srs import BRANCHES, NotSRSError, SRSArm
 from ..kind import Field, Kind, Plan, ShardJob
 from .grid import grid_bounds, occupancy, read_grid_source, voxel_poses
