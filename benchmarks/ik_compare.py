@@ -18,6 +18,8 @@ configurations, else the run aborts). Every library gets the same harness:
   - redres ``ik(..., q0=start, max_restarts=0)`` (100 iterations, stall detection);
   - redres with its own restarts, as a user calls it: ``ik(..., q0=start, seed=k,
     timeout_s=time left)`` (restarts from its own seeded draws, inside the budget);
+  - redres without the closed form (``analytic=False``: the iteration alone; the two rows
+    above use the closed form first on these arms, :mod:`redres.ik.closed`);
   - TRAC-IK (``pytracik``, the C++ library: KDL Newton and SQP in two threads, random
     restarts inside its own timeout, set to the time limit), ``Speed``, ``epsilon=1e-7``;
   - robotics-toolbox ``ik_LM`` (Levenberg–Marquardt, Chan's damping, C++), ``ilimit=30``,
@@ -84,11 +86,12 @@ def solved(robot: rr.Robot, frame: str, q: np.ndarray, T: np.ndarray) -> bool:
     return 2.0 * math.asin(min(chord, 1.0)) <= TOL_ORIENTATION
 
 
-def redres_attempt(name: str, robot: rr.Robot) -> Attempt:
+def redres_attempt(name: str, robot: rr.Robot, analytic: bool = True) -> Attempt:
     frame = peers.TIP_FRAME[name]
 
     def attempt(T: np.ndarray, start: np.ndarray, left: float) -> np.ndarray:
-        return ik(robot, T, frame, q0=start, max_restarts=0, timeout_s=max(left, 1e-6)).q
+        return ik(robot, T, frame, q0=start, max_restarts=0, timeout_s=max(left, 1e-6),
+                  analytic=analytic).q  # fmt: skip
 
     return attempt
 
@@ -267,6 +270,7 @@ def contenders(
     makers: dict[str, Callable[[], Attempt | None]] = {
         "redres": lambda: redres_attempt(name, robot),
         "redres (own restarts)": lambda: redres_own_attempt(name, robot),
+        "redres (iteration only)": lambda: redres_attempt(name, robot, analytic=False),
         "TRAC-IK (pytracik)": lambda: tracik_attempt(name, robot, tmp, limit),
         "robotics-toolbox ik_LM": lambda: rtb_attempt(name, robot, tmp),
         "KDL ChainIkSolverPos_NR_JL": lambda: kdl_attempt(name, robot),
@@ -321,7 +325,8 @@ def main() -> int:
     if args.quick:
         args.targets = 100
     warnings.simplefilter("ignore")  # rtb's and ikpy's deprecation notices
-    rr.warmup(["linalg", "chain", "ik"], quiet=True)  # compiled before timing, not behind
+    # compiled before timing, not behind
+    rr.warmup(["linalg", "chain", "ik", "analytic ik"], quiet=True)
     rows: list[dict[str, Any]] = []
     with TemporaryDirectory() as tmp:
         for name in args.arms:

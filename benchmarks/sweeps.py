@@ -4,6 +4,7 @@
     .venv/bin/python benchmarks/sweeps.py --full         # also the full Panda map (minutes)
     .venv/bin/python benchmarks/sweeps.py --full --no-small   # the full map alone
     .venv/bin/python benchmarks/sweeps.py --json PATH
+    .venv/bin/python benchmarks/sweeps.py --redundancy --no-small   # Panda: trace vs closed form
 
 Measures, each in a fresh temporary folder, after a warm-up (compiled kernels cached):
 
@@ -24,6 +25,14 @@ Measures, each in a fresh temporary folder, after a warm-up (compiled kernels ca
   storage) on all cores; how many of its unreachable queries a solve with 50 restarts
   finds after all (the cost of the bounded budget); and how many of 200,000 fresh
   forward-kinematics samples land in a voxel the sampling skipped (the cost of the bet).
+
+* **the Panda's redundancy map, traced and by the closed form at q7** (``--redundancy``):
+  the same 200 random poses (seed 1, one shard, in-process) by ``method = "trace"`` (2
+  manifolds, as above) and by ``method = "closed_form"`` (:mod:`redres.sweeps.kinds.q7arcs`),
+  timed in the same run, then the closed form alone on 2,000 poses (one shard); and the
+  agreement: each traced arc against the connected piece of the closed form's
+  self-motion with the same number of pieces and the nearest ends (within 1e-3 rad
+  counts as agreeing).
 
 Every figure is one run (the sweeps take seconds to minutes; repeat to see the spread);
 the load average before and after is printed with them.
@@ -192,6 +201,65 @@ poses = {json.dumps([[float(x) for x in p] for p in poses])}
     return out
 
 
+PANDA_MAP = """
+kind = "redundancy_map"
+seed = 1
+shard_size = {poses}
+small_shards = true
+[robot]
+model = "panda"
+[redundancy_map]
+poses = {poses}
+method = "{method}"
+manifolds = 2
+"""
+
+
+def redundancy_comparison(folder: Path) -> dict[str, object]:
+    """The Panda's redundancy map traced and by the closed form at q7 (module docstring)."""
+    from redres.sweeps.kinds.q7arcs import q7_arcs
+
+    cores = os.cpu_count() or 1
+    out: dict[str, object] = {"load_before": load()}
+    rates = {}
+    for method, poses in (("trace", 200), ("closed_form", 200), ("closed_form", 2000)):
+        spec = write(folder, f"panda-{method}-{poses}.toml",
+                     PANDA_MAP.format(poses=poses, method=method))  # fmt: skip
+        report = timed_run(spec, folder / f"panda-{method}-{poses}", workers=1)
+        rates[f"{method} {poses}"] = report.queries / report.seconds
+    out["poses_per_s_in_process"] = {k: round(v, 1) for k, v in rates.items()}
+    out["poses_per_s_per_core"] = {k: round(v / cores, 1) for k, v in rates.items()}
+    out["ratio_200"] = round(rates["closed_form 200"] / rates["trace 200"], 1)
+    out["ratio_2000"] = round(rates["closed_form 2000"] / rates["trace 200"], 1)
+    traced = sweeps.load_redundancy_map(folder / "panda-trace-200")
+    closed = sweeps.load_redundancy_map(folder / "panda-closed_form-200")
+    assert closed.method == "closed_form_q7" and np.array_equal(traced.pose, closed.pose)
+    components = q7_arcs(rr.models.panda(), traced.pose).components()
+    gaps = []
+    for i in range(len(traced.pose)):
+        for slot in range(traced.count.shape[1]):
+            if traced.count[i, slot] == 0:
+                continue
+            arc = [tuple(p) for p in traced.intervals[i, slot, : traced.count[i, slot]]]
+            best = np.inf
+            for comp in components[i]:
+                if len(comp) == len(arc):
+                    gap = max(abs(a - b) for pa, pb in zip(arc, comp) for a, b in zip(pa, pb))
+                    best = min(best, gap)
+            gaps.append(best)
+    g = np.array(gaps)
+    ok = g < 1e-3
+    out["traced_arcs"] = len(g)
+    out["agreeing_within_1e-3"] = int(ok.sum())
+    out["largest_difference_agreeing"] = float(g[ok].max()) if ok.any() else None
+    # the trace's lower bound: the arm angles it finds, over the closed form's
+    out["union_widths_traced_over_closed"] = round(
+        float(traced.total_width.sum() / closed.total_width.sum()), 3
+    )
+    out["load_after"] = load()
+    return out
+
+
 def full_map(folder: Path) -> dict[str, object]:
     spec = sweeps.builtin_specs()["panda_capability"]
     before = load()
@@ -228,13 +296,20 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help="also the full Panda map")
     parser.add_argument("--no-small", action="store_true", help="skip the small measurements")
+    parser.add_argument(
+        "--redundancy",
+        action="store_true",
+        help="the Panda's redundancy map: trace against the closed form",
+    )
     parser.add_argument("--json", help="write the figures to this file")
     args = parser.parse_args()
-    rr.warmup(["linalg", "batch", "ik"], quiet=True)
+    rr.warmup(["linalg", "batch", "ik", "analytic ik"], quiet=True)
     result: dict[str, object] = {"load_before": load()}
     with tempfile.TemporaryDirectory() as tmp:
         if not args.no_small:
             result["small"] = small_measurements(Path(tmp))
+        if args.redundancy:
+            result["redundancy"] = redundancy_comparison(Path(tmp))
         if args.full:
             result["full"] = full_map(Path(tmp))
     result["load_after"] = load()

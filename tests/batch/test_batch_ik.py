@@ -32,9 +32,9 @@ def test_items_equal_rr_ik(name: str, builtin_robots: dict, rng: np.random.Gener
     keys = rng.integers(0, 2**62, len(T))
     result = batch.ik(robot, T, q0=q0, keys=keys, **SETTINGS)
     assert result.converged[1::3].mean() > 0.7 and not result.converged[::3].any()
-    for i in range(len(T)):
+    for i in range(len(T)):  # the iteration alone (analytic=False)
         single = rr.ik(robot, T[i], q0=q0[i], seed=int(keys[i]), timeout_s=None,
-                       **SETTINGS)  # fmt: skip
+                       analytic=False, **SETTINGS)  # fmt: skip
         assert single.converged == result.converged[i], i
         assert single.restarts == result.restarts[i] and single.iterations == result.iterations[i]
         assert np.array_equal(single.q, result.q[i]), (i, single.q - result.q[i])

@@ -172,10 +172,10 @@ def test_programming_errors_raise(builtin_robots: dict) -> None:
 def test_seeded_restarts_are_reproducible(builtin_robots: dict) -> None:
     robot = builtin_robots["panda"]
     T = robot.fk(robot.random_configuration(np.random.default_rng(11)))
-    runs = [ik(robot, T, max_iterations=4, seed=s, timeout_s=NO_TIMEOUT) for s in (7, 7)]
-    gens = [ik(robot, T, max_iterations=4, seed=np.random.default_rng(7), timeout_s=NO_TIMEOUT)
-            for _ in range(2)]  # fmt: skip
-    other = ik(robot, T, max_iterations=4, seed=8, timeout_s=NO_TIMEOUT)
+    kw = {"max_iterations": 4, "timeout_s": NO_TIMEOUT, "analytic": False}  # restarts
+    runs = [ik(robot, T, seed=s, **kw) for s in (7, 7)]
+    gens = [ik(robot, T, seed=np.random.default_rng(7), **kw) for _ in range(2)]
+    other = ik(robot, T, seed=8, **kw)
     assert runs[0].restarts > 0  # four iterations per attempt force restarts
     assert np.array_equal(runs[0].q, runs[1].q) and np.array_equal(gens[0].q, gens[1].q)
     assert runs[0].iterations == runs[1].iterations and gens[0].iterations == gens[1].iterations

@@ -80,6 +80,7 @@ import dataclasses
 import math
 import secrets
 import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
 
@@ -90,6 +91,7 @@ from .._validate import FloatArray, as_scalar, as_seed, as_vector
 from ..errors import InvalidParameterError
 from ..linalg import AdaptiveDamping, rate_step
 from . import _layout as layout
+from .closed import closed_form_solution, covered
 from .options import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target, limit_arrays
 from .reference import ReferenceSolver
 
@@ -124,6 +126,7 @@ def ik(
     damping: AdaptiveDamping | None = None,
     patience: int = 10,
     preference_tol: float = 1e-5,
+    analytic: bool = True,
 ) -> IKResult:
     """Joint configuration that puts ``frame`` at ``target`` (see the module docstring).
 
@@ -159,6 +162,11 @@ def ik(
         patience: iterations over which the error must halve before a restart (>= 1).
         preference_tol: with a preference, the joint change (rad, max-norm) below which
             the preference has settled.
+        analytic: on an arm with a closed form (:mod:`redres.ik.analytic`: Panda, FR3,
+            iiwa14, srs7), when the first attempt from ``q0`` fails on a full-pose
+            target without a preference, take the closed form's within-limits solution
+            nearest ``q0`` (at ``q0``'s last joint, or at a few other values of it)
+            before any random restart (:mod:`redres.ik.closed`); False: iterate only.
 
     Returns:
         The :class:`IKResult`.
@@ -191,11 +199,22 @@ def ik(
         q_start = q0  # checked in the kernel (finite), for the message below if not
     else:
         q_start = as_vector(q0, "q0", robot.n)
+    shortcut: Callable[[], IKResult | None] | None = None
+    if analytic and q_pref is None and arm_angle is None and not position_only:
+        guess = q_start
+
+        def shortcut() -> IKResult | None:  # asked only when an attempt has failed
+            pose = target if raw else _full_pose(spec)
+            if pose is None or not covered(robot, frame):
+                return None
+            return closed_form_solution(robot, frame, pose, guess, options.tol_position,
+                                        options.tol_orientation, start)  # fmt: skip
+
     if compiled is not None and (raw or spec is not None):
         problem = _problem(target if raw else spec, packed, q_pref)
         rows = 3 if position_only or (spec is not None and spec[1] is None) else 6
         result = _solve_compiled(compiled, problem, rows, q_start, q_pref is not None,
-                                 options, start + timeout, seed, start)  # fmt: skip
+                                 options, start + timeout, seed, start, shortcut)  # fmt: skip
         if result is not None:
             return result
         if q0 is not None:
@@ -207,6 +226,10 @@ def ik(
             q_start, False, 0, 0, math.inf, math.inf, time.perf_counter() - start,
             "target contains NaN or infinity: nothing to solve",
         )  # fmt: skip
+    if shortcut is not None:  # before the iteration on Pinocchio (milliseconds)
+        closed = shortcut()
+        if closed is not None:
+            return closed
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     options = dataclasses.replace(options, timeout_s=timeout)
     if arm_angle is not None:
@@ -362,6 +385,15 @@ def _warm_arguments() -> tuple[Any, ...]:
     return (*chain, limits, problem, io, 6, False, 0, 0, 1, 1)
 
 
+def _full_pose(spec: tuple[FloatArray, FloatArray | None] | None) -> FloatArray | None:
+    """The 4x4 pose of a parsed full-pose target (None: position only, or not finite)."""
+    if spec is None or spec[1] is None:
+        return None
+    T = _EYE4.copy()
+    T[:3, :3], T[:3, 3] = spec[1], spec[0]
+    return T
+
+
 def _is_float_vector(value: Any, n: int) -> bool:
     return type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (n,)
 
@@ -417,10 +449,12 @@ def _solve_compiled(
     deadline: float,
     seed: int | np.random.Generator | None,
     start: float,
+    shortcut: Callable[[], IKResult | None] | None = None,
 ) -> IKResult | None:
     """The attempts in the kernel, the clock read between calls; None when
     the kernel refuses the start (not finite) or the target (not a finite homogeneous
-    transform)."""
+    transform). ``shortcut()``: the closed form's answer, asked for after the first
+    attempt fails, before the restarts (:mod:`redres.ik.closed`)."""
     entry, arguments = compiled
     n = q.shape[0]
     io = np.empty(2 * n + layout.N_STATE)
@@ -442,6 +476,11 @@ def _solve_compiled(
                            clock() - start, "converged" + note)  # fmt: skip
         if status < 0:
             return None
+        if made == 1 and shortcut is not None:
+            closed = shortcut()
+            if closed is not None:
+                object.__setattr__(closed, "iterations", iterations)  # the first attempt's
+                return closed
         timeout = clock() > deadline
         if timeout or made > options.max_restarts:
             break

@@ -268,7 +268,7 @@ def test_sweep_closed_form(tmp_path: Path) -> None:
 
 
 def test_sweep_trace_panda(tmp_path: Path) -> None:
-    (tmp_path / "r.toml").write_text(SPEC.format(model="panda", poses=6, method="auto"))
+    (tmp_path / "r.toml").write_text(SPEC.format(model="panda", poses=6, method="trace"))
     sweeps.run(tmp_path / "r.toml", tmp_path / "out", workers=1, progress=False)
     m = sweeps.load_redundancy_map(tmp_path / "out")
     assert m.method == "trace" and m.intervals.shape == (6, 2, 8, 2)
@@ -278,10 +278,21 @@ def test_sweep_trace_panda(tmp_path: Path) -> None:
     assert (m.width[:, 0] > 0).all()
 
 
-def test_closed_form_refused_on_panda(tmp_path: Path) -> None:
-    (tmp_path / "r.toml").write_text(SPEC.format(model="panda", poses=6, method="closed_form"))
+def test_closed_form_refused_without_one() -> None:
+    """``method = "closed_form"`` on an arm with neither closed form says why; ``auto``
+    traces it."""
+    from redres.sweeps.kinds.redundancy import RedundancyParams, _method
+
+    links = [{"a": 0.1 * (j % 3), "alpha": 1.0 + 0.2 * j, "d": 0.2, "theta": 0.0,
+              "joint": "revolute"} for j in range(7)]  # fmt: skip
+    robot = rr.Robot.from_dh(links, convention="modified")
+    points = ("link2", "link4", "link6")
     with pytest.raises(NotSRSError):
-        sweeps.run(tmp_path / "r.toml", tmp_path / "out", workers=1, progress=False)
+        _method(RedundancyParams(method="closed_form", points=points), robot, None)
+    assert _method(RedundancyParams(method="auto", points=points), robot, None) == "trace"
+    panda = rr.models.panda()
+    assert _method(RedundancyParams(method="closed_form"), panda, None) == "closed_form_q7"
+    assert _method(RedundancyParams(method="trace"), panda, None) == "trace"
 
 
 def test_builtin_spec_listed() -> None:

@@ -12,12 +12,18 @@ A unit of the sweep is one pose of the frame, from one of two sources:
   ``directions``, ``rolls``, ``fk_samples``, ``dilation``).
 
 The arm angle is the library's (:class:`redres.tasks.ArmAngleTask` of the ``points``
-frames about ``reference``): the quantity the augmented-Jacobian scheme controls. Two
-methods (``method = "auto"`` takes the first when the arm is an S-R-S arm):
+frames about ``reference``): the quantity the augmented-Jacobian scheme controls. Three
+methods (``method = "auto"`` or ``"closed_form"`` take the first the arm allows; the
+stored ``method`` says which):
 
 * ``closed_form`` (:mod:`redres.ik.srs`, Shimizu et al. 2008): for each of the eight
   global configurations (:data:`~redres.ik.srs.BRANCHES`, slot ``b``), the exact arcs
   of arm angles within the limits;
+* ``closed_form_q7`` (arms :func:`redres.ik.analytic.analytic_arm` accepts that are not
+  S-R-S: the Panda, FR3; :mod:`redres.sweeps.kinds.q7arcs`): the self-motion along
+  ``q7`` by the closed form, branch by branch (slot ``b`` the branch of code ``b``,
+  table ``branches`` its bits ``(i4, iφ, is)``), its arm angles per stretch within the
+  limits;
 * ``trace`` (:mod:`redres.sweeps.kinds.selfmotion`): up to ``manifolds`` IK solutions per pose
   (``q_true`` first, then :func:`redres.batch.ik` from random guesses under the
   ``[solver]`` budget, distinct to 1e-3 rad), each traced along its self-motion manifold;
@@ -35,19 +41,23 @@ direction ended, :data:`~redres.sweeps.kinds.selfmotion.LIMIT` ..., -1 for an em
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ... import batch
+from ... import _compile, batch
+from ...ik.analytic import NotAnalyticError, analytic_arm
 from ...ik.arcs import Arc, merge, pack, pieces, width
 from ...ik.srs import BRANCHES, NotSRSError, SRSArm
 from ..kind import Field, Kind, Plan, ShardJob
 from .grid import grid_bounds, occupancy, read_grid_source, voxel_poses
 from .ikdata import distinct
 from .orientations import directions, frames
+from .q7arcs import q7_arcs
 from .selfmotion import trace
 
 if TYPE_CHECKING:
@@ -71,7 +81,8 @@ class RedundancyParams:
         margin: draw ``q_true`` this far inside the limits, rad.
         resolution, bounds, directions, rolls, fk_samples, dilation: the grid source, as
             :class:`~redres.sweeps.kinds.capability.CapabilityParams`.
-        method: ``"auto"``, ``"closed_form"`` or ``"trace"``.
+        method: ``"auto"``, ``"closed_form"`` (S-R-S, else the closed form at ``q7``)
+            or ``"trace"``.
         intervals: pieces stored per slot and for the union (``K``).
         manifolds: slots of the trace (solutions traced per pose).
         step: the trace's step, rad (joint space); ``max_steps`` its budget per direction.
@@ -128,15 +139,31 @@ def _parse(r: Reader, base: Path) -> RedundancyParams:
 
 
 def _closed_form(p: RedundancyParams, robot: Robot, frame: str | None) -> SRSArm | None:
-    """The arm's closed form, or None when the trace is to be used."""
+    """The arm's S-R-S closed form, or None when it has none or the trace is asked for."""
     if p.method == "trace":
         return None
     try:
         return SRSArm.from_robot(robot, frame, p.points, np.array(p.reference))
     except NotSRSError:
-        if p.method == "closed_form":
-            raise
         return None
+
+
+def _method(p: RedundancyParams, robot: Robot, frame: str | None) -> str:
+    """``"closed_form"`` (S-R-S), ``"closed_form_q7"`` (the closed form at ``q7``:
+    :mod:`redres.sweeps.kinds.q7arcs`) or ``"trace"``, as ``p.method`` asks and the arm
+    allows (``closed_form`` on an arm with neither raises why)."""
+    if p.method == "trace":
+        return "trace"
+    if _closed_form(p, robot, frame) is not None:
+        return "closed_form"
+    try:
+        analytic_arm(robot, frame)
+    except NotAnalyticError:
+        if p.method == "closed_form":
+            SRSArm.from_robot(robot, frame, p.points, np.array(p.reference))  # NotSRSError
+            raise
+        return "trace"
+    return "closed_form_q7"
 
 
 def _plan(spec: SweepSpec, robot: Robot) -> Plan:
@@ -150,7 +177,8 @@ def _plan(spec: SweepSpec, robot: Robot) -> Plan:
         )
     for name in p.points:
         robot.frame_id(name)
-    closed = _closed_form(p, robot, frame) is not None
+    method = _method(p, robot, frame)
+    closed = method != "trace"
     slots, k = (8 if closed else p.manifolds), p.intervals
     fields = {
         "pose": Field("float64", (4, 4), "T_world_frame"),
@@ -167,13 +195,19 @@ def _plan(spec: SweepSpec, robot: Robot) -> Plan:
     if not closed:
         fields["ends"] = Field("int64", (slots, 2), "how each trace direction ended; -1 empty")
     inputs: dict[str, np.ndarray] = {}
-    tables: dict[str, np.ndarray] = {"branches": BRANCHES} if closed else {}
+    tables: dict[str, np.ndarray] = {}
+    if method == "closed_form":
+        tables["branches"] = BRANCHES
+    elif method == "closed_form_q7":  # the bits (i4, iφ, is) of each slot's branch code
+        tables["branches"] = (np.arange(8)[:, None] >> np.array([2, 1, 0])) & 1
     units = p.poses
     if p.source == "grid":
         inputs["pose"] = _grid_poses(p, robot, frame, spec.seed)
         units = len(inputs["pose"])
-    constants = {"closed_form": np.array([closed])}
-    meta = {"method": "closed_form" if closed else "trace", "source": p.source}
+    constants = {"closed_form": np.array([method == "closed_form"])}
+    if method == "closed_form_q7":
+        constants["q7_form"] = np.array([True])
+    meta = {"method": method, "source": p.source}
     return Plan(units, 1, fields, inputs, constants, tables, meta)
 
 
@@ -184,6 +218,16 @@ def _grid_poses(p: RedundancyParams, robot: Robot, frame: str | None, seed: int)
     occ = occupancy(robot, frame, p.resolution, bounds, p.fk_samples, p.dilation, 0, rng)
     rotations = frames(directions(p.directions), p.rolls)
     return voxel_poses((occ.index + 0.5) * p.resolution, rotations).reshape(-1, 4, 4)
+
+
+@contextmanager
+def _threads(count: int | None) -> Iterator[None]:
+    """The compiled kernels launched here on ``count`` threads (None: all)."""
+    previous = _compile.threads(count)
+    try:
+        yield
+    finally:
+        _compile.threads(previous)
 
 
 def _run(job: ShardJob, robot: Robot) -> dict[str, np.ndarray]:
@@ -203,6 +247,12 @@ def _run(job: ShardJob, robot: Robot) -> dict[str, np.ndarray]:
         arm = _closed_form(p, robot, frame)
         assert arm is not None
         out.update(arm.poses(T).intervals(p.intervals))
+        out["reachable"] = out["total_width"] > 0.0
+    elif "q7_form" in job.constants:
+        with _threads(job.threads):
+            runs = q7_arcs(robot, T, frame=frame, points=p.points,
+                           reference=np.array(p.reference))  # fmt: skip
+        out.update(runs.stored(p.intervals))
         out["reachable"] = out["total_width"] > 0.0
     else:
         arcs, ends = _traced(p, job, robot, T, q_true, rng)
@@ -281,8 +331,10 @@ class RedundancyMap:
     slots, ``K`` pieces; fields as the module docstring).
 
     Attributes:
-        method: ``"closed_form"`` or ``"trace"``; ``branches``: the ``(g₂, g₄, g₆)`` of
-            each slot of the closed form (``(8, 3)``; empty for the trace).
+        method: ``"closed_form"``, ``"closed_form_q7"`` or ``"trace"``; ``branches``:
+            the ``(g₂, g₄, g₆)`` of each slot of the S-R-S closed form, or the bits
+            ``(i4, iφ, is)`` of each slot's branch code at ``q7`` (``(8, 3)``; empty
+            for the trace).
         done: whether every shard is finished.
     """
 
@@ -328,4 +380,5 @@ REDUNDANCY_MAP = Kind(
     _parse,
     _plan,
     _run,
+    warmup=("linalg", "batch", "analytic ik"),
 )
