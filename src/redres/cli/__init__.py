@@ -298,8 +298,11 @@ def build_parser() -> argparse.ArgumentParser:
     plan = _command(sub, "plan", _cmd_plan,
                     "the global optimum of a scenario's path against its schemes")  # fmt: skip
     plan.add_argument("scenario", help="scenario file or built-in scenario name")
-    plan.add_argument("--objective", default="joint_limit_margin",
-                      choices=("joint_limit_margin", "obstacle_clearance", "path_length"))  # fmt: skip
+    plan.add_argument(
+        "--objective",
+        default="joint_limit_margin",
+        choices=("joint_limit_margin", "obstacle_clearance", "path_length"),
+    )
     plan.add_argument("--resolution", type=int, default=360, help="parameter values per sample")
     plan.add_argument("--duration", type=float, default=None, help="s of the path (default all)")
     warm = _command(

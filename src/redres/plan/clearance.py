@@ -116,10 +116,10 @@ def screen(robot: Robot, grid: PathGrid, keep: KeepOut) -> tuple[PathGrid, Float
     many were made infeasible."""
     shape = grid.feasible.shape
     index = np.flatnonzero(grid.feasible.reshape(-1))
-    dense = np.full(grid.feasible.size, np.nan)
-    dense[index] = clearances(robot, grid.q.reshape(-1, grid.q.shape[-1])[index],
-                              keep.obstacles, keep.capsules)  # fmt: skip
-    dense = dense.reshape(shape)
+    flat = np.full(grid.feasible.size, np.nan)
+    flat[index] = clearances(robot, grid.q.reshape(-1, grid.q.shape[-1])[index],
+                             keep.obstacles, keep.capsules)  # fmt: skip
+    dense: FloatArray = flat.reshape(shape)
     with np.errstate(invalid="ignore"):
         feasible = grid.feasible & (dense >= keep.margin)
     colliding = int(grid.feasible.sum() - feasible.sum())

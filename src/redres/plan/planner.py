@@ -34,8 +34,9 @@ objectives:
   ``Σ_k cost(q_k)``.
 
 Obstacles. Given ``obstacles``, a node whose clearance is below ``clearance`` (m,
-default 0: no penetration) is infeasible, whatever the objective (the node feasibility
-of Ferrentino et al. 2021, §2, extended from the joint limits to collisions).
+default 0: no penetration) is infeasible, whatever the objective, as a node outside the
+joint limits is (clearance at the samples only: between two of them each joint moves at
+most ``q̇_max·dt``).
 
 The additive objectives are summed in path order, ``(V_k + e) + c``, so that a sum over
 one path computed in that order equals the DP's value to the last bit.

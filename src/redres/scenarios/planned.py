@@ -6,8 +6,9 @@ and plans the same path from the same start by dynamic programming
 2021), then gives each scheme's value of the objective as a share of the optimum:
 "gradient projection: min margin 0.277 rad, 57 % of the optimum 0.483 rad". The plan is
 optimal over its grid, so a local scheme's value can pass it only by what the grid leaves
-out (finer parameter values, its 1 kHz steps between the plan's samples); the
-refinement study of the theory page (docs/theory/dp_planning.md) bounds that.
+out (parameter values between the grid's: the refinement study of
+docs/theory/dp_planning.md) or by leaving the path (torque control tracks it within
+millimetres, not exactly).
 """
 
 from __future__ import annotations
