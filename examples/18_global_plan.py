@@ -8,7 +8,8 @@ every IK solution at 360 values of ``q7`` (8 branches), then the joint path, wit
 velocity limits, whose smallest joint-limit margin is the largest (dynamic programming,
 Ferrentino, Salvioli & Chiacchio, Robotics 10(1):42, 2021). From the scenario's start
 configuration, the table gives each local scheme's smallest margin as a share of that
-optimum; then a controller tracks the plan.
+optimum (``redres.scenarios.planned.compare_with_plan``, or ``redres plan SCENARIO``);
+then a controller tracks the plan.
 
 Run: python examples/18_global_plan.py   (REDRES_EXAMPLE_STEPS shortens it)
 """
@@ -24,7 +25,7 @@ import numpy as np
 
 import redres as rr
 from redres.resolution import PriorityScheme
-from redres.scenarios.runner import run_scenario
+from redres.scenarios.planned import compare_with_plan
 from redres.scenarios.spec import builtin
 from redres.tasks import PostureTask
 
@@ -32,17 +33,12 @@ STEPS = int(os.environ.get("REDRES_EXAMPLE_STEPS", "10000"))  # of 1 ms
 scenario = builtin("panda_joint_limit_circle")
 scenario = replace(scenario, duration=min(scenario.duration, STEPS * 1e-3))
 robot, path = scenario.robot, scenario.trajectory
-dt = 0.01
-poses = np.array([path.sample(k * dt).pose for k in range(round(scenario.duration / dt) + 1)])
-plan = rr.plan_path(robot, poses, dt=dt, parameter="q7", resolution=360, q0=scenario.q0)
+found = compare_with_plan(scenario, objective="joint_limit_margin", parameter="q7",
+                          resolution=360, dt=0.01)  # fmt: skip
+plan, logs = found.plan, found.logs
 print(f"global plan: min margin {plan.objective:.3f} rad ({plan.stats.feasible_nodes:,} "
       f"feasible nodes of {plan.stats.nodes:,}, {plan.stats.components} component(s))")  # fmt: skip
-
-logs = run_scenario(scenario, progress=False)
-for log in logs:
-    m = float(log.joint_limit_margin.min())
-    print(f"{log.label or log.scheme:45s} min margin {m:+.3f} rad, "
-          f"{100 * m / plan.objective:6.1f} % of the optimum {plan.objective:.3f} rad")  # fmt: skip
+print(found.table())
 
 # %%
 # A controller tracks the plan

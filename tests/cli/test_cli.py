@@ -123,3 +123,11 @@ def test_a_folder_of_the_users_is_refused_before_anything_runs(
     (tmp_path / "other" / "notes.txt").write_text("mine")
     assert main([*args, str(tmp_path / "other")]) == 0
     assert (tmp_path / "other" / "notes.txt").read_text() == "mine"
+
+
+def test_plan_prints_the_schemes_against_the_optimum(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", "panda_joint_limit_circle", "--duration", "0.5"]) == 0
+    out = capsys.readouterr().out
+    assert "global plan (DP)" in out and "% of the optimum" in out and "wln" in out
+    assert main(["plan", "iiwa_arm_angle_eight", "--objective", "obstacle_clearance"]) == 2
+    assert "no obstacles" in capsys.readouterr().err

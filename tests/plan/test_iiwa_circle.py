@@ -50,3 +50,17 @@ def test_a_circle_out_of_reach_is_reported() -> None:
     assert not any(rr.self_motion(robot, path.sample(0.01 * k).pose).empty for k in range(41))
     log = rr.run(robot, FrameTask(), path, PseudoInverseScheme(), q0=Q0, duration=1.0)
     assert log.position_error.max() > 0.1  # the local scheme loses the path
+
+
+def test_refinement_converges_on_the_iiwa14_circle() -> None:
+    """The optimum changes by < 1 % between the two finest arm-angle grids. One turn of the
+    circle (251 samples) instead of four, to keep the test short: the optimum binds at
+    the start (measured: 0.47780 rad on one turn and on four, at 720, 1080 and 1440
+    values). 720 and 1440 values from the same start are nested grids (the values are
+    ``ψ(q0) + 2πi/P``), so the finer optimum is at least the coarser one."""
+    robot = rr.models.iiwa14()
+    path = Circle(robot.fk(Q0), 0.15, 2.5, normal=(1.0, 0.0, 0.0), turns=1)
+    optimum = {count: rr.plan_path(robot, path, dt=0.01, resolution=count, q0=Q0).objective
+               for count in (720, 1440)}  # fmt: skip
+    assert optimum[1440] >= optimum[720] > 0.477
+    assert abs(optimum[1440] - optimum[720]) / optimum[1440] < 0.01

@@ -12,6 +12,7 @@ import pytest
 
 import redres as rr
 from redres.control.trajectories import Circle
+from redres.objectives import SphereObstacle, proximities
 from redres.plan import PathGrid, PathPlan, plan_path, solve_grid
 
 # ---------------------------------------------------------------------- enumeration
@@ -113,6 +114,44 @@ def test_iiwa14_arm_angle_grid_equals_enumeration() -> None:
                     plan.grid.t[:9], "arm_angle")  # fmt: skip
     count = check_all_objectives(robot, grid, dt, qd)
     assert count > 1000
+
+
+def test_iiwa14_obstacle_clearance_equals_enumeration() -> None:
+    """A ball by the elbow: the largest smallest clearance over the admissible paths, and
+    the joint-limit optimum over the nodes at least 2 cm clear; the clearance of each node
+    measured here by :func:`redres.objectives.proximities` (Pinocchio's FK), the plan's
+    by the batched FK: equal to rounding."""
+    robot = rr.models.iiwa14()
+    q = np.array([0.3, 0.8, 0.2, -1.2, 0.3, 0.9, 0.1])
+    ball = [SphereObstacle(robot.fk(q, "link4")[:3, 3] + [0.0, 0.15, 0.1], 0.1)]
+    path = Circle(robot.fk(q), 0.15, 2.0, normal=(1.0, 0.0, 0.0))
+    dt, qd = 0.2, 2.6
+    full = plan_path(robot, path, dt=dt, resolution=12, qd_max=qd).grid  # no obstacles
+    K = 9
+    grid = PathGrid(full.q[:K], full.feasible[:K], full.values[:K], full.t[:K], "arm_angle")
+    clear = np.full(grid.feasible.shape, -np.inf)
+    for index in zip(*np.nonzero(grid.feasible)):
+        clear[index] = min(p.distance for p in proximities(robot, grid.q[index], ball,
+                                                             robot.capsules))  # fmt: skip
+    delta = np.full(7, qd * dt)
+    for margin in (0.0, 0.02):
+        clean = PathGrid(grid.q, grid.feasible & (clear >= margin), grid.values, grid.t,
+                         "arm_angle")  # fmt: skip
+        nodes, paths = admissible_paths(clean, delta)
+        assert len(paths) > 100
+        node_clear = [clear[k][clean.feasible[k]] for k in range(K)]
+        worst = np.min([node_clear[k][paths[:, k]] for k in range(K)], axis=0)
+        plan = solve_grid(robot, grid, dt=dt, qd_max=qd, objective="obstacle_clearance",
+                          obstacles=ball, clearance=margin)  # fmt: skip
+        assert plan.feasible and plan.objective == pytest.approx(worst.max(), abs=1e-12)
+        assert plan.min_clearance == plan.objective >= margin
+        assert plan.stats.colliding_nodes == int((grid.feasible & (clear < margin)).sum()) > 0
+        _admissible(plan, delta)
+        plan = solve_grid(robot, grid, dt=dt, qd_max=qd, obstacles=ball, clearance=margin)
+        bottleneck = np.min([margins(robot, nodes[k][paths[:, k]]) for k in range(K)], axis=0)
+        assert plan.objective == bottleneck.max() and plan.min_clearance >= margin
+    free = solve_grid(robot, grid, dt=dt, qd_max=qd)
+    assert free.objective > plan.objective  # the ball costs joint-limit margin here
 
 
 def test_iiwa14_manipulability_equals_enumeration() -> None:

@@ -1,4 +1,5 @@
-"""The ``redres`` command: ``redres robots``, ``demo``, ``run``, ``warmup``, ``bench``, ``sweep``.
+"""The ``redres`` command: ``redres robots``, ``demo``, ``run``, ``plan``, ``warmup``, ``bench``,
+``sweep``.
 
 Exit codes: 0 success, 2 bad usage, bad input or a file that cannot be read or written
 (one line on stderr: ``redres: error: ...`` naming the value or path and the fix).
@@ -170,6 +171,18 @@ def _cmd_view(args: argparse.Namespace) -> int:
     return serve_scenario(spec, port=args.port, seconds=args.seconds)
 
 
+def _cmd_plan(args: argparse.Namespace) -> int:
+    from ..scenarios.planned import compare_with_plan
+
+    found = compare_with_plan(args.scenario, objective=args.objective, duration=args.duration,
+                              resolution=args.resolution, progress=False)  # fmt: skip
+    stats = found.plan.stats
+    print(f"{found.scenario}: global plan over {stats.nodes:,} nodes "
+          f"({stats.feasible_nodes:,} feasible, {stats.components} component(s))")  # fmt: skip
+    print(found.table())
+    return 0
+
+
 def _cmd_warmup(args: argparse.Namespace) -> int:
     from .._compile import cache_dir
     from .._warmup import groups, warmup
@@ -282,6 +295,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     view.add_argument("scenario", help="scenario file or built-in scenario name")
     _viewer_options(view)
+    plan = _command(sub, "plan", _cmd_plan,
+                    "the global optimum of a scenario's path against its schemes")  # fmt: skip
+    plan.add_argument("scenario", help="scenario file or built-in scenario name")
+    plan.add_argument(
+        "--objective",
+        default="joint_limit_margin",
+        choices=("joint_limit_margin", "obstacle_clearance", "path_length"),
+    )
+    plan.add_argument("--resolution", type=int, default=360, help="parameter values per sample")
+    plan.add_argument("--duration", type=float, default=None, help="s of the path (default all)")
     warm = _command(
         sub, "warmup", _cmd_warmup, "compile the kernels now (a first call is then fast)"
     )

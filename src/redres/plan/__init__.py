@@ -9,6 +9,7 @@ the node counts and topology of the grid (:class:`PlanStats`).
 
 from __future__ import annotations
 
+from .clearance import clearances
 from .grid import PathGrid, build_grid, path_poses
 from .planner import OBJECTIVES, PathPlan, PlanStats, plan_path, solve_grid
 
@@ -18,6 +19,7 @@ __all__ = [
     "PathPlan",
     "PlanStats",
     "build_grid",
+    "clearances",
     "path_poses",
     "plan_path",
     "solve_grid",

@@ -24,11 +24,19 @@ objectives:
   Operations Research 8(5), 1960). Many paths share the optimum; among them the plan is
   the shortest (a second pass of the additive recursion over the nodes with
   ``m ≥ V*``);
+* ``"obstacle_clearance"``: the largest smallest clearance ``d(q)`` (m) between the
+  link capsules and ``obstacles`` (:mod:`redres.plan.clearance`) along the path, the
+  same bottleneck recursion with ``d`` for ``m``;
 * ``"manipulability"``: the largest integral ``∫ w(q) dt`` of Yoshikawa's ``w =
   √det(J Jᵀ)`` (trapezoid rule over the samples; ``c = −w·h_k``);
 * ``"path_length"``: the shortest ``Σ ‖q_{k+1} − q_k‖`` (rad; ``e`` that norm);
 * a callable ``cost(q)`` on ``(M, n)`` configurations returning ``(M,)``: the smallest
   ``Σ_k cost(q_k)``.
+
+Obstacles. Given ``obstacles``, a node whose clearance is below ``clearance`` (m,
+default 0: no penetration) is infeasible, whatever the objective, as a node outside the
+joint limits is (clearance at the samples only: between two of them each joint moves at
+most ``q̇_max·dt``).
 
 The additive objectives are summed in path order, ``(V_k + e) + c``, so that a sum over
 one path computed in that order equals the DP's value to the last bit.
@@ -58,7 +66,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -69,10 +77,12 @@ from .. import _compile
 from .._validate import FloatArray, as_gains, as_scalar, as_vector
 from ..control.trajectories import Trajectory
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError
+from .clearance import KeepOut, screen
 from .grid import Parameter, PathGrid, build_grid, parameter_values, path_poses
 
 if TYPE_CHECKING:
-    from ..robot import Robot
+    from ..objectives import Obstacle
+    from ..robot import Capsule, Robot
 
 __all__ = ["DT", "KERNELS", "OBJECTIVES", "PathPlan", "PlanStats", "plan_path", "solve_grid"]
 
@@ -80,8 +90,10 @@ __all__ = ["DT", "KERNELS", "OBJECTIVES", "PathPlan", "PlanStats", "plan_path", 
 #: 3.0): a first 2-sample plan 4.3, 4.6, 8.5 s on an empty cache; warm 0.7, 0.7, 1.2 s.
 KERNELS = _compile.KernelGroup("plan", ("redres.plan._kernels",), cold_seconds=5.0)
 
-Objective = Literal["joint_limit_margin", "manipulability", "path_length"]
-OBJECTIVES = ("joint_limit_margin", "manipulability", "path_length")
+Objective = Literal["joint_limit_margin", "obstacle_clearance", "manipulability", "path_length"]
+OBJECTIVES = ("joint_limit_margin", "obstacle_clearance", "manipulability", "path_length")
+#: The max-min objectives (the bottleneck recursion).
+_BOTTLENECK = ("joint_limit_margin", "obstacle_clearance")
 #: The default time between the samples of a trajectory, s.
 DT = 0.01
 #: How far ``q0`` may be from its node on the grid, rad (it is on the grid by
@@ -108,6 +120,8 @@ class PlanStats:
         first_unreachable: the first sample no admissible path from the start reaches,
             or None.
         seconds_grid, seconds_dp: wall-clock time of the grid (IK) and of the DP, s.
+        colliding_nodes: nodes within the joint limits but closer to an obstacle than
+            ``clearance`` (not counted in ``feasible_nodes``).
     """
 
     nodes: int
@@ -122,6 +136,7 @@ class PlanStats:
     first_unreachable: int | None
     seconds_grid: float
     seconds_dp: float
+    colliding_nodes: int = 0
 
 
 @dataclass(frozen=True)
@@ -144,7 +159,10 @@ class PathPlan:
         path_length: ``Σ ‖q_{k+1} − q_k‖``, rad.
         dt: s between samples. qd_max: ``(n,)`` the velocity limits planned with, rad/s.
         stats: :class:`PlanStats`.
-        grid: the :class:`~redres.plan.grid.PathGrid` planned over.
+        grid: the :class:`~redres.plan.grid.PathGrid` planned over (its ``feasible``
+            also clear of the obstacles, when given).
+        min_clearance: the smallest clearance to the obstacles along ``q``, m (NaN
+            without obstacles or when not ``feasible``).
     """
 
     q: FloatArray
@@ -161,6 +179,7 @@ class PathPlan:
     qd_max: FloatArray
     stats: PlanStats
     grid: PathGrid = field(repr=False)
+    min_clearance: float = math.nan
 
     @property
     def speed_ratio(self) -> float:
@@ -200,6 +219,9 @@ def plan_path(
     qd_max: Any = None,
     q0: Any = None,
     frame: str | None = None,
+    obstacles: Sequence[Obstacle] | None = None,
+    clearance: float = 0.0,
+    capsules: Sequence[Capsule] | None = None,
 ) -> PathPlan:
     """The globally optimal joint path of a 7-DOF arm along a tool path (module
     docstring).
@@ -214,7 +236,8 @@ def plan_path(
             default otherwise).
         resolution: parameter values per sample (≥ 2): over the circle for the arm
             angle, over the joint's range for ``q7``.
-        objective: ``"joint_limit_margin"`` (max-min, rad), ``"manipulability"``
+        objective: ``"joint_limit_margin"`` (max-min, rad), ``"obstacle_clearance"``
+            (max-min, m; needs ``obstacles``), ``"manipulability"``
             (largest integral), ``"path_length"`` (shortest, rad), or a function
             ``cost(q (M, n)) -> (M,)`` whose sum over the samples is minimised.
         qd_max: joint velocity limits, rad/s, a scalar or ``(n,)`` (default the
@@ -223,6 +246,11 @@ def plan_path(
             path's first pose; the parameter's values are shifted so that ``q0`` is a
             node, and the plan starts there.
         frame: the frame on the path (default the robot's tip).
+        obstacles: :class:`~redres.objectives.SphereObstacle` and
+            :class:`~redres.objectives.CapsuleObstacle` in world coordinates: a node
+            closer to one than ``clearance`` is infeasible.
+        clearance: the smallest clearance a node may have, m (default 0: touching).
+        capsules: the link capsules measured (default ``robot.capsules``).
 
     Returns:
         The :class:`PathPlan`; ``feasible`` False (with ``stats.first_infeasible`` or
@@ -230,8 +258,9 @@ def plan_path(
 
     Raises:
         NotAnalyticError, NotSRSError: no closed form for ``parameter``.
-        InvalidParameterError: a bad ``resolution``, ``objective``, ``qd_max`` or ``dt``;
-            a ``q0`` that is not on the path's first pose.
+        InvalidParameterError: a bad ``resolution``, ``objective``, ``qd_max``, ``dt``,
+            ``obstacles`` or ``clearance``; a ``q0`` that is not on the path's first
+            pose; ``"obstacle_clearance"`` without obstacles; no link capsules.
         ShapeError, NonFiniteError: bad poses or ``q0``.
     """
     if parameter is None:
@@ -243,7 +272,8 @@ def plan_path(
         raise InvalidParameterError(
             f"resolution must be an integer >= 2 (parameter values per sample); got {resolution!r}"
         )
-    _check_objective(objective)
+    keep = KeepOut.of(obstacles, clearance, capsules)
+    _check_objective(objective, keep)
     if dt is None:
         if not isinstance(path, Trajectory):
             raise InvalidParameterError(
@@ -261,7 +291,7 @@ def plan_path(
     grid = build_grid(robot, poses, t, values, parameter, frame)
     if q0 is not None:
         start = _start_node(grid, q0, anchor)  # type: ignore[arg-type]
-    return _solve(robot, grid, objective, float(dt), qd_max, start, frame,
+    return _solve(robot, grid, objective, float(dt), qd_max, start, frame, keep,
                   time.perf_counter() - began)  # fmt: skip
 
 
@@ -274,19 +304,23 @@ def solve_grid(
     qd_max: Any = None,
     start: tuple[int, int] | None = None,
     frame: str | None = None,
+    obstacles: Sequence[Obstacle] | None = None,
+    clearance: float = 0.0,
+    capsules: Sequence[Capsule] | None = None,
 ) -> PathPlan:
     """:func:`plan_path` over a grid of your own (a planar arm's closed form, another
-    parametrisation): the same DP, objectives and result. ``start``: the node
+    parametrisation): the same DP, objectives, obstacles and result. ``start``: the node
     ``(value index, branch)`` of the first sample the plan must start at (default:
     free)."""
-    _check_objective(objective)
+    keep = KeepOut.of(obstacles, clearance, capsules)
+    _check_objective(objective, keep)
     dt = as_scalar(dt, "dt", minimum=0.0, strict=True)
     if start is not None:
         p, b = (int(x) for x in start)
         if not grid.feasible[0, p, b]:
             raise InvalidParameterError(f"start node {start} of the first sample is not feasible")
         start = (p, b)
-    return _solve(robot, grid, objective, dt, qd_max, start, frame, 0.0)
+    return _solve(robot, grid, objective, dt, qd_max, start, frame, keep, 0.0)
 
 
 # ---------------------------------------------------------------------- the DP
@@ -300,10 +334,14 @@ def _solve(
     qd_max: Any,
     start: tuple[int, int] | None,
     frame: str | None,
+    keep: KeepOut | None,
     seconds_grid: float,
 ) -> PathPlan:
     began = time.perf_counter()
     K, P, B = grid.shape
+    colliding, clear = 0, np.zeros(0)
+    if keep is not None:
+        grid, dense, colliding = screen(robot, grid, keep)
     limit = robot.qd_max if qd_max is None else as_gains(qd_max, "qd_max")
     limit = np.array(np.broadcast_to(limit, (robot.n,)), dtype=np.float64)
     if not (limit > 0).all():
@@ -312,9 +350,11 @@ def _solve(
     M = len(q)
     kernels = _kernels(M)
     graph = _graph(kernels, q, per_sample, np.ascontiguousarray(limit * dt))
-    bottleneck = objective == "joint_limit_margin"
+    bottleneck = objective in _BOTTLENECK
     margin = np.minimum(q - robot.q_min, robot.q_max - q).min(axis=1) if M else np.zeros(0)
-    value, edge = _node_values(robot, q, objective, margin, graph[1], dt, frame)
+    if keep is not None:
+        clear = np.ascontiguousarray(dense.reshape(-1)[index])
+    value, edge = _node_values(robot, q, objective, margin, clear, graph[1], dt, frame)
     best, parent = np.empty(M), np.empty(M, np.int64)
     reached, ends, counts = np.empty(M, np.bool_), np.empty(M, np.bool_), np.zeros(2, np.int64)
     kernels.forward(*graph, np.ones(M, np.bool_), value, bottleneck, edge, best, parent, reached,
@@ -330,7 +370,7 @@ def _solve(
         pairs_checked=int(counts[0]), transitions=int(counts[1]),
         components=int(components), first_infeasible=first_infeasible,
         first_unreachable=None if first_infeasible is not None else _first(reached_per == 0),
-        seconds_grid=seconds_grid, seconds_dp=0.0,
+        seconds_grid=seconds_grid, seconds_dp=0.0, colliding_nodes=colliding,
     )  # fmt: skip
     name = objective if isinstance(objective, str) else getattr(objective, "__name__", "cost")
     last = np.arange(graph[1][K - 1], graph[1][K])
@@ -343,7 +383,7 @@ def _solve(
     if bottleneck:
         optimum = float(best[last].max())
         # among the max-min paths, the shortest: the additive DP over the nodes >= optimum
-        kernels.forward(*graph, on & (margin >= optimum), np.zeros(M), False, 1.0, best, parent,
+        kernels.forward(*graph, on & (value >= optimum), np.zeros(M), False, 1.0, best, parent,
                         reached, np.zeros(2, np.int64))  # fmt: skip
         last = last[reached[last]]
     rows = np.empty(K, np.int64)
@@ -360,7 +400,7 @@ def _solve(
         path_q, grid.t, optimum, name, True, grid.parameter,
         grid.values[np.arange(K), (flat // B) % P], (flat % B).astype(np.int64),
         float(margin[rows].min()), float(np.sum(np.linalg.norm(np.diff(path_q, axis=0), axis=1))),
-        dt, limit, stats, grid,
+        dt, limit, stats, grid, float(clear[rows].min()) if keep is not None else math.nan,
     )  # fmt: skip
 
 
@@ -398,6 +438,7 @@ def _node_values(
     q: FloatArray,
     objective: Objective | Callable[[FloatArray], Any],
     margin: FloatArray,
+    clear: FloatArray,
     offsets: NDArray[np.int64],
     dt: float,
     frame: str | None,
@@ -406,6 +447,8 @@ def _node_values(
     M = len(q)
     if objective == "joint_limit_margin":
         return np.ascontiguousarray(margin), 0.0
+    if objective == "obstacle_clearance":
+        return clear, 0.0
     if objective == "path_length":
         return np.zeros(M), 1.0
     if objective == "manipulability":
@@ -456,7 +499,12 @@ def _first(mask: NDArray[np.bool_]) -> int | None:
     return int(hit[0]) if len(hit) else None
 
 
-def _check_objective(objective: Any) -> None:
+def _check_objective(objective: Any, keep: KeepOut | None) -> None:
+    if objective == "obstacle_clearance" and keep is None:
+        raise InvalidParameterError(
+            "objective 'obstacle_clearance' needs obstacles=[SphereObstacle(...), "
+            "CapsuleObstacle(...)] (redres.objectives)"
+        )
     if callable(objective) or objective in OBJECTIVES:
         return
     raise InvalidParameterError(
