@@ -54,14 +54,17 @@ def _capsules_by_fk(robot: rr.Robot, q: np.ndarray) -> list[np.ndarray]:
     return out
 
 
-def _page_pose(spec: dict, f: int) -> np.ndarray:
-    """The vertices the page script draws at frame ``f`` for one ``rigid`` entry: the
-    local vertices under frame ``f``'s link poses, rounded as the script rounds them."""
+def _page_pose(rigid: list, k: int, f: int) -> np.ndarray:
+    """The vertices the page script draws at frame ``f`` for entry ``k`` of ``rigid``: the
+    local vertices under frame ``f``'s link poses (an earlier entry's, when ``poses`` is
+    its index), rounded as the script rounds them."""
+    spec = rigid[k]
+    poses = rigid[spec["poses"]]["poses"] if isinstance(spec["poses"], int) else spec["poses"]
     local = np.column_stack([spec["x"], spec["y"], spec["z"]])
     world = local.copy()
     for start, count, link in spec["parts"]:
         if link >= 0:
-            T = np.array(spec["poses"][f][link]).reshape(3, 4)
+            T = np.array(poses[f][link]).reshape(3, 4)
             world[start : start + count] = local[start : start + count] @ T[:, :3].T + T[:, 3]
     return np.round(world, spec["decimals"])
 
@@ -90,10 +93,11 @@ def test_file_robot_carries_its_link_capsules_hidden_and_posed_by_fk(
     assert trace["type"] == "mesh3d" and trace["meta"]["kind"] == "robot"
     assert "visible" not in figure["data"][meshes["trace"]]  # the meshes are shown
     assert len(capsules["parts"]) == len(robot.capsules)
+    assert capsules["poses"] == 0  # the same frames as the meshes: their poses, not a copy
     drawn = np.column_stack([trace["x"], trace["y"], trace["z"]])  # frame 0, as sent
     for f, k in enumerate(anim.steps):
         oracle = np.concatenate(_capsules_by_fk(robot, log.q[k]))
-        posed = _page_pose(capsules, f)
+        posed = _page_pose(figure["rigid"], 1, f)
         np.testing.assert_allclose(posed, oracle, rtol=0, atol=ROUNDING)
         if f == 0:
             np.testing.assert_allclose(drawn, oracle, rtol=0, atol=0.5e-4 + 1e-9)
@@ -103,7 +107,7 @@ def test_file_robot_carries_its_link_capsules_hidden_and_posed_by_fk(
             a, b = T[:3, :3] @ cap.a + T[:3, 3], T[:3, :3] @ cap.b + T[:3, 3]
             d = _segment_distances(posed[start : start + count], a, b)
             np.testing.assert_allclose(d, cap.radius, rtol=0, atol=ROUNDING)
-    first, last = _page_pose(capsules, 0), _page_pose(capsules, len(anim.steps) - 1)
+    first, last = (_page_pose(figure["rigid"], 1, f) for f in (0, len(anim.steps) - 1))
     assert np.abs(last - first).max() > 5e-3  # they move with the arm
 
 
@@ -164,9 +168,11 @@ def test_chromium_shows_the_capsules_on_a_legend_click_and_moves_them(
 
     def click(page: LivePage, element_js: str) -> None:
         """Scroll the element into view and click its centre with the mouse."""
-        rect = page.evaluate("(function () { var e = " + element_js + "; e.scrollIntoView("
-                             "{block: 'center'}); var r = e.getBoundingClientRect();"
-                             " return [r.left + r.width / 2, r.top + r.height / 2]; })()")
+        rect = page.evaluate(
+            "(function () { var e = " + element_js + "; e.scrollIntoView("
+            "{block: 'center'}); var r = e.getBoundingClientRect();"
+            " return [r.left + r.width / 2, r.top + r.height / 2]; })()"
+        )
         assert isinstance(rect, list), rect
         x, y = rect
         page.call("Input.dispatchMouseEvent", type="mouseMoved", x=x, y=y)

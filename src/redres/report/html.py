@@ -9,8 +9,9 @@ meshes and link capsules: name, shape, whether shown, vertex count and bounding 
 coordinates it draws; the frame shown; how many animation frames move the meshes), which
 automated checks can read; it is written again after each animation and each change of a
 trace's visibility (a legend click). The robot's meshes are sent once, in their links'
-coordinates, with each frame's link poses (``rigid``, one entry per moving mesh trace):
-the script poses them for every frame before plotly draws.
+coordinates, with each frame's link poses (``rigid``, one entry per moving mesh trace; an
+entry moved by the poses of an earlier one gives its index as ``poses``): the script
+poses them for every frame before plotly draws.
 """
 
 from __future__ import annotations
@@ -95,11 +96,12 @@ SCRIPT = """
       ["i", "j", "k", "facecolor"].forEach(function (c) { if (m[c]) { t[c] = m[c]; } });
     }
     var scale = Math.pow(10, r.decimals);
+    var poses = typeof r.poses === "number" ? fig.rigid[r.poses].poses : r.poses;
     fig.frames.forEach(function (fr, f) {
       var x = r.x.slice(), y = r.y.slice(), z = r.z.slice();
       r.parts.forEach(function (p) {
         if (p[2] < 0) { return; }
-        var T = r.poses[f][p[2]];  // rows of [R | t]
+        var T = poses[f][p[2]];  // rows of [R | t]
         for (var v = p[0]; v < p[0] + p[1]; v++) {
           var a = r.x[v], b = r.y[v], c = r.z[v];
           x[v] = Math.round((T[0] * a + T[1] * b + T[2] * c + T[3]) * scale) / scale;

@@ -208,46 +208,52 @@ def rigid_bodies(robot: Robot, configurations: FloatArray) -> tuple[RigidBodies,
 
     The robot's visual meshes (``robot.visuals``) and its link capsules, the capsules
     hidden (a legend click shows them: the clearance is measured to them); a robot
-    without visual meshes shows its capsules. Empty when it has neither.
+    without visual meshes shows its capsules. Empty when it has neither. All share one
+    ``poses`` array, over the frames any of them needs.
     """
-    out = []
+    bodies: list[tuple[str, list[_Piece]]] = []
     if robot.visuals:
         pieces = [(m.frame, m.vertices, m.triangles, m.colour) for m in robot.visuals]
-        out.append(_posed(robot, "robot meshes", pieces, configurations, hidden=False))
+        bodies.append(("robot meshes", pieces))
     if robot.capsules:
-        hidden = bool(out)
-        out.append(_posed(robot, "link capsules", _capsule_pieces(robot), configurations, hidden))
-    return tuple(out)
+        bodies.append(("link capsules", _capsule_pieces(robot)))
+    frames = sorted({p[0] for _, pieces in bodies for p in pieces if p[0] is not None})
+    poses = np.empty((len(configurations), len(frames), 3, 4))
+    for f, q in enumerate(configurations):
+        for i, frame in enumerate(frames):
+            poses[f, i] = robot.fk(q, frame)[:3, :]
+    return tuple(_posed(name, pieces, frames, poses, hidden=i > 0)
+                 for i, (name, pieces) in enumerate(bodies))  # fmt: skip
 
 
 def _posed(
-    robot: Robot, name: str, pieces: list[_Piece], configurations: FloatArray, hidden: bool
+    name: str, pieces: list[_Piece], frames: list[str], poses: FloatArray, hidden: bool
 ) -> RigidBodies:
-    """``pieces`` as one :class:`RigidBodies`, with their frames' poses at each row of
-    ``configurations``."""
-    frames = sorted({p[0] for p in pieces if p[0] is not None})
+    """``pieces`` as one :class:`RigidBodies` moved by ``poses`` of ``frames``."""
     parts, tris, colours, offset = [], [], [], 0
     for frame, v, tri, colour in pieces:
         parts.append((offset, len(v), frames.index(frame) if frame is not None else -1))
         tris.append(tri + offset)
         colours += [colour] * len(tri)
         offset += len(v)
-    poses = np.empty((len(configurations), len(frames), 3, 4))
-    for f, q in enumerate(configurations):
-        for i, frame in enumerate(frames):
-            poses[f, i] = robot.fk(q, frame)[:3, :]
     local = np.concatenate([p[1] for p in pieces])
     return RigidBodies(name, local, np.concatenate(tris), colours, parts, poses, hidden)
 
 
-def rigid_spec(bodies: RigidBodies, trace: int, decimals: int) -> dict[str, Any]:
+def rigid_spec(
+    bodies: RigidBodies, trace: int, decimals: int, *, poses_of: int | None = None
+) -> dict[str, Any]:
     """What the page needs to move ``bodies`` (trace index ``trace``) frame by frame: one
-    entry of the figure's ``rigid`` list."""
+    entry of the figure's ``rigid`` list. ``poses_of``: the index of an earlier entry
+    whose poses these are too, written instead of them."""
+    poses: Any = poses_of
+    if poses_of is None:
+        poses = np.round(bodies.poses.reshape(len(bodies.poses), -1, 12), 6).tolist()
     return {
         "trace": trace,
         **xyz(bodies.local, decimals),
         "parts": [list(p) for p in bodies.parts],
-        "poses": np.round(bodies.poses.reshape(len(bodies.poses), -1, 12), 6).tolist(),
+        "poses": poses,
         "decimals": decimals,
     }
 

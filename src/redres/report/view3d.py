@@ -305,6 +305,12 @@ def animation_figure(anim: ArmAnimation, colour: str = "#1f77b4") -> dict[str, A
     }
     if anim.bodies:  # one entry per moving mesh trace, in the order of ``data``
         robot = [i for i, t in enumerate(data) if t.get("meta", {}).get("kind") == "robot"]
-        figure["rigid"] = [scene3d.rigid_spec(b, i, MESH_DECIMALS)
-                           for b, i in zip(anim.bodies, robot, strict=True)]  # fmt: skip
+        figure["rigid"] = [_rigid_spec(anim.bodies, k, i) for k, i in enumerate(robot)]
     return figure
+
+
+def _rigid_spec(bodies: tuple[scene3d.RigidBodies, ...], k: int, trace: int) -> dict[str, Any]:
+    """Entry ``k`` of the figure's ``rigid`` list; poses an earlier entry has are not
+    written twice (the meshes and the capsules move with the same frames)."""
+    same = (j for j in range(k) if np.array_equal(bodies[j].poses, bodies[k].poses))
+    return scene3d.rigid_spec(bodies[k], trace, MESH_DECIMALS, poses_of=next(same, None))
