@@ -91,6 +91,7 @@ def test_file_robot_carries_its_link_capsules_hidden_and_posed_by_fk(
     trace = figure["data"][capsules["trace"]]
     assert trace["visible"] == "legendonly" and trace["showlegend"] is True
     assert trace["type"] == "mesh3d" and trace["meta"]["kind"] == "robot"
+    assert trace["uid"] == "link capsules"  # plotly keeps a legend click by uid across runs
     assert "visible" not in figure["data"][meshes["trace"]]  # the meshes are shown
     assert len(capsules["parts"]) == len(robot.capsules)
     assert capsules["poses"] == 0  # the same frames as the meshes: their poses, not a copy
@@ -148,14 +149,18 @@ def test_chromium_shows_the_capsules_on_a_legend_click_and_moves_them(
     fixtures_dir: Path, tmp_path: Path
 ) -> None:
     """The legend entry is clicked with the mouse (DevTools ``Input.dispatchMouseEvent``);
-    the page's own Play button takes the view to the last frame."""
+    the page's own Play button takes the view to the last frame; the click holds in the
+    robot's next run, whose traces a ball shifts by one."""
     from _chromium import LivePage
+
+    from redres.objectives import SphereObstacle
 
     robot = _file_robot(fixtures_dir, "arm3.urdf")
     log = _reach(robot, (0.0, 0.03, 0.03))
+    ball = SphereObstacle(robot.fk(log.q[-1])[:3, 3] + [0.1, 0.0, 0.0], 0.03, "ball")
     frames = 8
-    page_file = write_report(tmp_path / "report", [(robot, log)], title="Capsules",
-                             frames=frames)  # fmt: skip
+    page_file = write_report(tmp_path / "report", [(robot, log), (robot, log, [ball])],
+                             title="Capsules", frames=frames)  # fmt: skip
     steps = arm_animation(robot, log, frames=frames).steps
     oracle = [np.concatenate(_capsules_by_fk(robot, log.q[k])) for k in steps]
     scene_js = 'JSON.parse(document.getElementById("arm-view").dataset.scene || "{}")'
@@ -224,5 +229,9 @@ def test_chromium_shows_the_capsules_on_a_legend_click_and_moves_them(
         assert len(held) == frames
         for f, xyz in enumerate(held):
             np.testing.assert_allclose(np.array(xyz).T, oracle[f], rtol=0, atol=ROUNDING)
+        page.evaluate('var s = document.getElementById("run-select"); s.value = "1";'
+                      ' s.dispatchEvent(new Event("change"))')  # fmt: skip
+        run1 = 'document.getElementById("arm-view").dataset.run === "1"'
+        assert page.wait(f"{run1} && {shown} && d.visible === true; }})", seconds=60.0)
         problems = [m for m in page.console if m[0] in ("error", "exception", "assert", "warning")]
     assert problems == []

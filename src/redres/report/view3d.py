@@ -222,7 +222,9 @@ def _traces(anim: ArmAnimation, colour: str) -> list[dict[str, Any]]:
 def _body_trace(b: scene3d.RigidBodies) -> dict[str, Any]:
     """The mesh trace of ``b`` at frame 0 (``meta.kind`` ``"robot"``)."""
     opacity = 1.0 if b.name == "robot meshes" else 0.35
-    style: dict[str, Any] = {"visible": "legendonly"} if b.hidden else {}
+    style: dict[str, Any] = {"uid": b.name}  # a legend click holds across runs
+    if b.hidden:
+        style["visible"] = "legendonly"
     if len(set(b.face_colours)) > 1:
         style["facecolor"] = b.face_colours
     colour = b.face_colours[0] if b.face_colours else scene3d.CAPSULE_COLOUR
