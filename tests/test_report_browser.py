@@ -147,8 +147,9 @@ def test_report_of_a_urdf_robot_draws_its_meshes(tmp_path: Path, fixtures_dir: P
     view.feed(proc.stdout)
     assert view.attrs.get("data-status") == "rendered"
     scene = json.loads(view.attrs["data-scene"])
-    (meshes,) = [d for d in scene["drawn"] if d["kind"] == "robot"]
+    meshes, capsules = [d for d in scene["drawn"] if d["kind"] == "robot"]
     assert meshes["name"] == "robot meshes" and meshes["type"] == "mesh3d"
+    assert meshes["visible"] is True and capsules["visible"] == "legendonly"
     # oracle: the visual meshes placed by forward kinematics at the run's first step
     world = []
     for mesh in robot.visuals:

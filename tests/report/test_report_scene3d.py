@@ -127,7 +127,9 @@ def test_figure_draws_obstacles_capsules_and_the_pair(obstacle_run: tuple) -> No
     assert names[:3] == ["arm", "target now", "closest pair"]
     assert names[-3:] == ["link capsules", "ball", "pole"]
     assert figure["frames"][0]["traces"] == [0, 1, 2]  # the page adds the capsules' trace
-    assert figure["rigid"]["trace"] == names.index("link capsules")
+    (spec,) = figure["rigid"]  # a built-in arm: its capsules alone move, shown
+    assert spec["trace"] == names.index("link capsules")
+    assert "visible" not in figure["data"][spec["trace"]]
     pair = figure["frames"][5]["data"][2]
     np.testing.assert_allclose(np.column_stack([pair["x"], pair["y"], pair["z"]]),
                                anim.closest[5], atol=1e-5)  # fmt: skip
@@ -155,7 +157,7 @@ def test_rigid_spec_moves_the_capsules_with_their_links(obstacle_run: tuple) -> 
     robot, log, obstacles = obstacle_run
     anim = arm_animation(robot, log, frames=5, obstacles=obstacles)
     figure = animation_figure(anim)
-    spec = figure["rigid"]
+    (spec,) = figure["rigid"]
     assert figure["data"][spec["trace"]]["name"] == "link capsules"
     local = np.column_stack([spec["x"], spec["y"], spec["z"]])
     for f in (0, 4):
@@ -177,13 +179,14 @@ def test_runs_of_one_robot_share_its_mesh_in_the_page(obstacle_run: tuple) -> No
     shared, slim = share_meshes(figures)
     assert len(shared) == 1  # one robot, one mesh, written once
     for fig, small in zip(figures, slim):
-        mesh = shared[small["rigid"]["mesh"]]
-        trace = small["data"][fig["rigid"]["trace"]]
-        assert "i" not in trace and "x" not in small["rigid"]
+        ((spec,), (slim_spec,)) = fig["rigid"], small["rigid"]
+        mesh = shared[slim_spec["mesh"]]
+        trace = small["data"][spec["trace"]]
+        assert "i" not in trace and "x" not in slim_spec
         # what the page restores is what the figure held
         for c in ("x", "y", "z"):
-            assert mesh[c] == fig["rigid"][c]
+            assert mesh[c] == spec[c]
         for c in ("i", "j", "k"):
-            assert mesh[c] == fig["data"][fig["rigid"]["trace"]][c]
-        assert trace["x"] == fig["data"][fig["rigid"]["trace"]]["x"]  # frame 0 stays
-        assert "i" in fig["data"][fig["rigid"]["trace"]]  # the input is unchanged
+            assert mesh[c] == fig["data"][spec["trace"]][c]
+        assert trace["x"] == fig["data"][spec["trace"]]["x"]  # frame 0 stays
+        assert "i" in fig["data"][spec["trace"]]  # the input is unchanged

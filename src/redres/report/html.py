@@ -5,10 +5,13 @@ JSON document in the page, and a small script draws the run picked in a drop-dow
 single plotly graph (one WebGL context however many runs there are). The graph element
 gets ``data-status="rendered"`` once plotly has drawn it (``"error"`` if it failed) and
 ``data-scene``, a JSON summary of what plotly holds (for the obstacles and the robot's
-meshes: name, shape, vertex count and bounding box of the coordinates it draws; how many
-animation frames move the meshes), which automated checks can read. The robot's meshes
-are sent once, in their links' coordinates, with each frame's link poses (``rigid``): the
-script poses them for every frame before plotly draws.
+meshes and link capsules: name, shape, whether shown, vertex count and bounding box of the
+coordinates it draws; the frame shown; how many animation frames move the meshes), which
+automated checks can read; it is written again after each animation and each change of a
+trace's visibility (a legend click). The robot's meshes are sent once, in their links'
+coordinates, with each frame's link poses (``rigid``, one entry per moving mesh trace; an
+entry moved by the poses of an earlier one gives its index as ``poses``): the script
+poses them for every frame before plotly draws.
 """
 
 from __future__ import annotations
@@ -82,19 +85,23 @@ SCRIPT = """
       .catch(quiet);
   }
   function expand(fig) {  // move the robot's meshes: frame f's link poses on local vertices
-    var r = fig.rigid;
-    if (!r || fig.expanded) { return; }
+    if (fig.expanded) { return; }
+    (fig.rigid || []).forEach(function (r) { pose(fig, r); });
+    fig.expanded = true;
+  }
+  function pose(fig, r) {  // one moving mesh trace (an entry of fig.rigid), every frame
     if (r.mesh !== undefined) {  // a mesh several runs share: written once in the page
       var m = shared[r.mesh], t = fig.data[r.trace];
       ["x", "y", "z"].forEach(function (c) { r[c] = m[c]; });
       ["i", "j", "k", "facecolor"].forEach(function (c) { if (m[c]) { t[c] = m[c]; } });
     }
     var scale = Math.pow(10, r.decimals);
+    var poses = typeof r.poses === "number" ? fig.rigid[r.poses].poses : r.poses;
     fig.frames.forEach(function (fr, f) {
       var x = r.x.slice(), y = r.y.slice(), z = r.z.slice();
       r.parts.forEach(function (p) {
         if (p[2] < 0) { return; }
-        var T = r.poses[f][p[2]];  // rows of [R | t]
+        var T = poses[f][p[2]];  // rows of [R | t]
         for (var v = p[0]; v < p[0] + p[1]; v++) {
           var a = r.x[v], b = r.y[v], c = r.z[v];
           x[v] = Math.round((T[0] * a + T[1] * b + T[2] * c + T[3]) * scale) / scale;
@@ -105,7 +112,6 @@ SCRIPT = """
       fr.data.push({type: "mesh3d", x: x, y: y, z: z});
       fr.traces.push(r.trace);
     });
-    fig.expanded = true;
   }
   function drawn() {  // what the scene holds, for automated checks (data-scene)
     return view.data.filter(function (t) { return t.meta && t.meta.kind; })
@@ -114,10 +120,19 @@ SCRIPT = """
           return [Math.min.apply(null, t[c]), Math.max.apply(null, t[c])];
         });
         return {name: t.name, kind: t.meta.kind, shape: t.meta.shape, type: t.type,
-                vertices: t.x.length,
+                visible: t.visible === undefined ? true : t.visible, vertices: t.x.length,
                 min: box.map(function (b) { return b[0]; }),
                 max: box.map(function (b) { return b[1]; })};
       });
+  }
+  function describe() {  // data-scene: the summary of the scene as drawn now
+    var fig = runs[current], rigid = fig.rigid || [];
+    var moving = fig.frames.filter(function (fr) {  // frames that move every mesh trace
+      return rigid.length && rigid.every(function (r) { return fr.traces.indexOf(r.trace) >= 0; });
+    }).length;
+    view.dataset.scene = JSON.stringify({drawn: drawn(), traces: view.data.length,
+                                         frames: fig.frames.length, moving: moving,
+                                         frame: frame});
   }
   function show(i) {
     var fig = runs[i];
@@ -129,13 +144,11 @@ SCRIPT = """
       .then(function () {
         if (!bound) {
           view.on("plotly_animatingframe", function (e) { frame = e.name; });
+          view.on("plotly_animated", describe);
+          view.on("plotly_restyle", describe);  // a legend click shows or hides a trace
           bound = true;
         }
-        var moving = fig.frames.filter(function (fr) {
-          return fig.rigid && fr.traces.indexOf(fig.rigid.trace) >= 0;
-        }).length;
-        view.dataset.scene = JSON.stringify({drawn: drawn(), traces: view.data.length,
-                                             frames: fig.frames.length, moving: moving});
+        describe();
         view.dataset.status = "rendered"; view.dataset.run = String(i);
       })
       .catch(function (err) { view.dataset.status = "error"; console.error(err); });
@@ -170,29 +183,27 @@ _MESH_KEYS = ("i", "j", "k", "facecolor")
 
 def share_meshes(figures: Sequence[Mapping[str, Any]]) -> tuple[list[Any], list[Any]]:
     """Write each robot mesh once: the triangles and local vertices that several runs'
-    figures repeat (``rigid``) move to a shared list, and each figure keeps an index to it
-    (``rigid.mesh``); the page puts them back before drawing (:data:`SCRIPT`). The figures
-    given are not changed."""
+    figures repeat (each entry of ``rigid``, one per moving mesh trace) move to a shared
+    list, and each entry keeps an index to it (``mesh``); the page puts them back before
+    drawing (:data:`SCRIPT`). The figures given are not changed."""
     shared: list[Any] = []
     index: dict[str, int] = {}
     out = []
     for fig in figures:
-        rigid = fig.get("rigid")
-        if not rigid:
-            out.append(fig)
-            continue
-        trace = fig["data"][rigid["trace"]]
-        mesh = {c: rigid[c] for c in ("x", "y", "z")}
-        mesh.update({c: trace[c] for c in _MESH_KEYS if c in trace})
-        key = json.dumps(mesh, separators=(",", ":"))
-        if key not in index:
-            index[key] = len(shared)
-            shared.append(mesh)
-        data = list(fig["data"])
-        # frame 0's world vertices stay with the run (they differ); the rest is shared
-        data[rigid["trace"]] = {k: v for k, v in trace.items() if k not in _MESH_KEYS}
-        slim = {k: v for k, v in rigid.items() if k not in ("x", "y", "z")}
-        out.append({**fig, "data": data, "rigid": {**slim, "mesh": index[key]}})
+        data, rigid = list(fig["data"]), []
+        for spec in fig.get("rigid", []):
+            trace = data[spec["trace"]]
+            mesh = {c: spec[c] for c in ("x", "y", "z")}
+            mesh.update({c: trace[c] for c in _MESH_KEYS if c in trace})
+            key = json.dumps(mesh, separators=(",", ":"))
+            if key not in index:
+                index[key] = len(shared)
+                shared.append(mesh)
+            # frame 0's world vertices stay with the run (they differ); the rest is shared
+            data[spec["trace"]] = {k: v for k, v in trace.items() if k not in _MESH_KEYS}
+            slim = {k: v for k, v in spec.items() if k not in ("x", "y", "z")}
+            rigid.append({**slim, "mesh": index[key]})
+        out.append({**fig, "data": data, "rigid": rigid} if rigid else fig)
     return shared, out
 
 

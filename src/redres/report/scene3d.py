@@ -1,4 +1,4 @@
-"""What the 3D view draws besides the arm: obstacles, the robot's meshes or link capsules,
+"""What the 3D view draws besides the arm: obstacles, the robot's meshes and link capsules,
 and the closest points.
 
 Spheres and capsules become closed triangle meshes (plotly ``mesh3d``) at their real
@@ -154,7 +154,7 @@ def obstacle_traces(obstacles: Sequence[Obstacle]) -> list[dict[str, Any]]:
 
 @dataclass(frozen=True)
 class RigidBodies:
-    """The robot's bodies as one triangle mesh whose parts move with their frames.
+    """Triangle meshes whose parts move with their frames, drawn as one trace.
 
     The page moves them itself (:mod:`.html`): the figure carries the vertices once, in
     their frames' coordinates, and each animation frame's link poses, so a report does
@@ -168,6 +168,7 @@ class RigidBodies:
             (``-1``: fixed in the world).
         poses: each animation frame's link poses, ``(F, L, 3, 4)`` (rotation, then
             translation).
+        hidden: drawn only once its legend entry is clicked (plotly's ``legendonly``).
     """
 
     name: str
@@ -176,6 +177,7 @@ class RigidBodies:
     face_colours: list[str]
     parts: list[tuple[int, int, int]]
     poses: FloatArray
+    hidden: bool = False
 
     def world(self, f: int) -> FloatArray:
         """The vertices in the world at animation frame ``f``, ``(V, 3)``, m."""
@@ -187,42 +189,71 @@ class RigidBodies:
         return out
 
 
-def rigid_bodies(robot: Robot, configurations: FloatArray) -> RigidBodies | None:
-    """The robot's visual meshes (``robot.visuals``), else its link capsules, posed at
-    each configuration (rows of ``configurations``); ``None`` when it has neither."""
-    pieces: list[tuple[str | None, FloatArray, np.ndarray, str]] = []
+#: A mesh of a body: its frame (``None``: the world), vertices ``(V, 3)`` in that frame,
+#: triangles ``(T, 3)`` and colour.
+_Piece = tuple[str | None, FloatArray, np.ndarray, str]
+
+
+def _capsule_pieces(robot: Robot) -> list[_Piece]:
+    """The meshes of the robot's link capsules (``robot.capsules``) in their frames."""
+    pieces: list[_Piece] = []
+    for cap in robot.capsules:
+        v, tri = capsule_mesh(cap.a, cap.b, cap.radius, latitudes=6, longitudes=12)
+        pieces.append((cap.frame, v, tri, CAPSULE_COLOUR))
+    return pieces
+
+
+def rigid_bodies(robot: Robot, configurations: FloatArray) -> tuple[RigidBodies, ...]:
+    """What moves with the arm, posed at each configuration (rows of ``configurations``).
+
+    The robot's visual meshes (``robot.visuals``) and its link capsules, the capsules
+    hidden (a legend click shows them: the clearance is measured to them); a robot
+    without visual meshes shows its capsules. Empty when it has neither. All share one
+    ``poses`` array, over the frames any of them needs.
+    """
+    bodies: list[tuple[str, list[_Piece]]] = []
     if robot.visuals:
-        name = "robot meshes"
         pieces = [(m.frame, m.vertices, m.triangles, m.colour) for m in robot.visuals]
-    elif robot.capsules:
-        name = "link capsules"
-        for cap in robot.capsules:
-            v, tri = capsule_mesh(cap.a, cap.b, cap.radius, latitudes=6, longitudes=12)
-            pieces.append((cap.frame, v, tri, CAPSULE_COLOUR))
-    if not pieces:
-        return None
-    frames = sorted({p[0] for p in pieces if p[0] is not None})
+        bodies.append(("robot meshes", pieces))
+    if robot.capsules:
+        bodies.append(("link capsules", _capsule_pieces(robot)))
+    frames = sorted({p[0] for _, pieces in bodies for p in pieces if p[0] is not None})
+    poses = np.empty((len(configurations), len(frames), 3, 4))
+    for f, q in enumerate(configurations):
+        for i, frame in enumerate(frames):
+            poses[f, i] = robot.fk(q, frame)[:3, :]
+    return tuple(_posed(name, pieces, frames, poses, hidden=i > 0)
+                 for i, (name, pieces) in enumerate(bodies))  # fmt: skip
+
+
+def _posed(
+    name: str, pieces: list[_Piece], frames: list[str], poses: FloatArray, hidden: bool
+) -> RigidBodies:
+    """``pieces`` as one :class:`RigidBodies` moved by ``poses`` of ``frames``."""
     parts, tris, colours, offset = [], [], [], 0
     for frame, v, tri, colour in pieces:
         parts.append((offset, len(v), frames.index(frame) if frame is not None else -1))
         tris.append(tri + offset)
         colours += [colour] * len(tri)
         offset += len(v)
-    poses = np.empty((len(configurations), len(frames), 3, 4))
-    for f, q in enumerate(configurations):
-        for i, frame in enumerate(frames):
-            poses[f, i] = robot.fk(q, frame)[:3, :]
     local = np.concatenate([p[1] for p in pieces])
-    return RigidBodies(name, local, np.concatenate(tris), colours, parts, poses)
+    return RigidBodies(name, local, np.concatenate(tris), colours, parts, poses, hidden)
 
 
-def rigid_spec(bodies: RigidBodies, trace: int, decimals: int) -> dict[str, Any]:
-    """What the page needs to move ``bodies`` (trace index ``trace``) frame by frame."""
+def rigid_spec(
+    bodies: RigidBodies, trace: int, decimals: int, *, poses_of: int | None = None
+) -> dict[str, Any]:
+    """What the page needs to move ``bodies`` (trace index ``trace``) frame by frame: one
+    entry of the figure's ``rigid`` list. ``poses_of``: the index of an earlier entry
+    whose poses these are too, written instead of them."""
+    poses: Any = poses_of
+    if poses_of is None:
+        poses = np.round(bodies.poses.reshape(len(bodies.poses), -1, 12), 6).tolist()
     return {
         "trace": trace,
         **xyz(bodies.local, decimals),
         "parts": [list(p) for p in bodies.parts],
-        "poses": np.round(bodies.poses.reshape(len(bodies.poses), -1, 12), 6).tolist(),
+        "poses": poses,
         "decimals": decimals,
     }
 

@@ -2,10 +2,11 @@
 
 :func:`arm_animation` samples a run (about 80 configurations, forward kinematics on each)
 and :func:`animation_figure` turns it into a plotly figure (plain JSON-ready dicts, so
-plotly.js draws it without the Python plotly objects): the arm, its link capsules when it
-has them, the obstacles at their place and size, the closest arm–obstacle pair at each
-instant, the target and actual paths of the task frame and a time slider (play/pause are
-the page's), equal scale. The meshes are built in :mod:`.scene3d`.
+plotly.js draws it without the Python plotly objects): the arm, its visual meshes and its
+link capsules (behind a legend entry when it has meshes), the obstacles at their place and
+size, the closest arm–obstacle pair at each instant, the target and actual paths of the
+task frame and a time slider (play/pause are the page's), equal scale. The meshes are
+built in :mod:`.scene3d`.
 """
 
 from __future__ import annotations
@@ -79,8 +80,9 @@ class ArmAnimation:
         closest: the closest (arm, obstacle) witness points at each frame, ``(F, 2, 3)``,
             m, and ``clearance`` their distance ``(F,)``, m; ``None`` without obstacles or
             link capsules.
-        bodies: the robot's visual meshes, else its link capsules, posed at each frame
-            (:class:`~.scene3d.RigidBodies`); ``None`` when it has neither.
+        bodies: what moves with the arm, posed at each frame
+            (:class:`~.scene3d.RigidBodies`): the robot's visual meshes, then its link
+            capsules (``hidden`` when there are meshes); empty when it has neither.
     """
 
     robot: str
@@ -94,7 +96,7 @@ class ArmAnimation:
     obstacles: tuple[Obstacle, ...] = ()
     closest: FloatArray | None = None
     clearance: FloatArray | None = None
-    bodies: scene3d.RigidBodies | None = None
+    bodies: tuple[scene3d.RigidBodies, ...] = ()
 
 
 def arm_animation(
@@ -148,8 +150,8 @@ def _xyz(points: FloatArray) -> dict[str, list[float]]:
 def _scene(anim: ArmAnimation) -> dict[str, Any]:
     clouds = [anim.arm.reshape(-1, 3), anim.position, np.zeros((1, 3))]
     clouds.append(scene3d.obstacle_points(anim.obstacles))
-    if anim.bodies is not None:
-        clouds += [anim.bodies.world(0), anim.bodies.world(len(anim.arm) - 1)]
+    for b in anim.bodies:  # the hidden ones too: shown, they stay in the scene
+        clouds += [b.world(0), b.world(len(anim.arm) - 1)]
     if anim.target is not None:
         clouds.append(anim.target)
     every = np.concatenate(clouds)
@@ -213,15 +215,22 @@ def _traces(anim: ArmAnimation, colour: str) -> list[dict[str, Any]]:
     if anim.target is not None:
         dashed = {"color": "#555", "width": 2, "dash": "dash"}
         traces.append(_path("target path", anim.target, line=dashed))
-    if anim.bodies is not None:  # posed at frame 0; the page moves it (``rigid``)
-        b = anim.bodies
-        opacity = 1.0 if b.name == "robot meshes" else 0.35
-        style = {"facecolor": b.face_colours} if len(set(b.face_colours)) > 1 else {}
-        body_colour = b.face_colours[0] if b.face_colours else scene3d.CAPSULE_COLOUR
-        traces.append(scene3d.mesh_trace(b.world(0), b.triangles, name=b.name, colour=body_colour,
-                                         opacity=opacity, decimals=MESH_DECIMALS,
-                                         meta={"kind": "robot"}, **style))  # fmt: skip
+    traces += [_body_trace(b) for b in anim.bodies]  # posed at frame 0; the page moves them
     return traces + scene3d.obstacle_traces(anim.obstacles)
+
+
+def _body_trace(b: scene3d.RigidBodies) -> dict[str, Any]:
+    """The mesh trace of ``b`` at frame 0 (``meta.kind`` ``"robot"``)."""
+    opacity = 1.0 if b.name == "robot meshes" else 0.35
+    style: dict[str, Any] = {"uid": b.name}  # a legend click holds across runs
+    if b.hidden:
+        style["visible"] = "legendonly"
+    if len(set(b.face_colours)) > 1:
+        style["facecolor"] = b.face_colours
+    colour = b.face_colours[0] if b.face_colours else scene3d.CAPSULE_COLOUR
+    return scene3d.mesh_trace(b.world(0), b.triangles, name=b.name, colour=colour,
+                              opacity=opacity, decimals=MESH_DECIMALS,
+                              meta={"kind": "robot"}, **style)  # fmt: skip
 
 
 def _frames(anim: ArmAnimation) -> list[dict[str, Any]]:
@@ -296,7 +305,14 @@ def animation_figure(anim: ArmAnimation, colour: str = "#1f77b4") -> dict[str, A
         "frames": _frames(anim),
         "play": {"frame_ms": frame_delay_ms(anim)},
     }
-    if anim.bodies is not None:
-        trace = next(i for i, t in enumerate(data) if t.get("meta", {}).get("kind") == "robot")
-        figure["rigid"] = scene3d.rigid_spec(anim.bodies, trace, MESH_DECIMALS)
+    if anim.bodies:  # one entry per moving mesh trace, in the order of ``data``
+        robot = [i for i, t in enumerate(data) if t.get("meta", {}).get("kind") == "robot"]
+        figure["rigid"] = [_rigid_spec(anim.bodies, k, i) for k, i in enumerate(robot)]
     return figure
+
+
+def _rigid_spec(bodies: tuple[scene3d.RigidBodies, ...], k: int, trace: int) -> dict[str, Any]:
+    """Entry ``k`` of the figure's ``rigid`` list; poses an earlier entry has are not
+    written twice (the meshes and the capsules move with the same frames)."""
+    same = (j for j in range(k) if np.array_equal(bodies[j].poses, bodies[k].poses))
+    return scene3d.rigid_spec(bodies[k], trace, MESH_DECIMALS, poses_of=next(same, None))
