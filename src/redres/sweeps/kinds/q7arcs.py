@@ -56,11 +56,16 @@ __all__ = ["END_TOL", "FOLD_GAP", "GRID", "Q7Arcs", "merged", "q7_arcs"]
 
 GRID = 41  #: q7 values of the grid over the joint's range
 END_TOL = 1e-8  #: rad: a limit end's bracket in q7, or its margin
-FOLD_GAP = 1e-2  #: rad: the two sides of a fold, apart in joint space (2-norm)
-_FOLD_TOL = 1e-7  # rad: a bracket in q7 narrower than this: not a fold of the pair
+FOLD_GAP = 1e-4  #: rad: the two sides of a fold, apart in joint space (2-norm)
+_FOLD_TOL = 1e-12  # rad: a bracket in q7 narrower than this: not a fold of the pair
 _EXTRA = 3  # samples between a fold and its grid value
 _JUMP = 0.5  # rad: a joint's move between samples above which the step is halved
-_LEVELS = 3  # halvings at most
+_LEVELS = 48  # halvings at most (a swing narrower than 2**-48 of the grid step is one)
+_NARROW = 1e-13  # rad: a step of q7 not halved further
+_TURN_RANGE = 0.5  # rad: a joint's turns farther inside (or outside) its limits are left
+_TURN_NEAR = 0.05  # rad: a turn estimated this near its limit is sampled
+_TURN_TOL = 1e-7  # rad: a turn's vertex this near a sample is sampled
+_TURN_ROUNDS = 6  # rounds of successive parabolic interpolation at most
 _CHUNK = 256  # poses per pass
 _SMALL = 4096  # evaluations below which one thread is faster than a parallel launch
 _TWO_PI = 2.0 * math.pi
@@ -178,11 +183,11 @@ class _Solver:
         if len(q7) < _SMALL:  # a parallel launch waits for its slowest thread
             previous = _compile.threads(1)
             try:
-                found = at_q7_batch(self.robot, T, q7, frame=self.frame)
+                found = at_q7_batch(self.robot, T, q7, frame=self.frame, residuals=False)
             finally:
                 _compile.threads(previous)
         else:
-            found = at_q7_batch(self.robot, T, q7, frame=self.frame)
+            found = at_q7_batch(self.robot, T, q7, frame=self.frame, residuals=False)
         q = np.full((len(q7), 8, 7), np.nan)
         inside = np.zeros((len(q7), 8), dtype=bool)
         rows, slots = np.nonzero(found.branch >= 0)
@@ -196,6 +201,12 @@ class _Solver:
         measured on the circle from the middle of the limits; NaN where ``q`` is NaN)."""
         q = self.centre + _wrap(q - self.centre)  # a joint past π is reported wrapped
         return np.minimum(q - self.q_min, self.q_max - q).min(axis=-1)
+
+    def margins(self, q: np.ndarray) -> np.ndarray:
+        """Each joint's distance inside its nearer limit, rad, ``(..., 7)`` (negative
+        outside; :meth:`margin` is their smallest)."""
+        q = self.centre + _wrap(q - self.centre)
+        return np.minimum(q - self.q_min, self.q_max - q)
 
     def angle(self, q: np.ndarray) -> np.ndarray:
         """Arm angles of configurations ``(M, 7)``, rad."""
@@ -305,6 +316,7 @@ def _chunk(solver: _Solver, T: np.ndarray, grid: int) -> Q7Arcs:
     folds = _folds(solver, T, g, q, inside, s)
     s.sort()
     _refine(solver, T, s)
+    _joint_turns(solver, T, s)
     _limit_ends(solver, T, s)
     s.sort()
     return _runs(solver, T, s, folds)
@@ -365,10 +377,65 @@ def _refine(solver: _Solver, T: np.ndarray, s: _Samples) -> None:
     for _ in range(_LEVELS):
         i = s.neighbours()
         jump = np.abs(_wrap(s.q[i + 1] - s.q[i])).max(axis=1) > _JUMP  # NaN: False
-        i = i[jump]
+        i = i[jump & (s.x[i + 1] - s.x[i] > _NARROW)]
         if not len(i):
             return
         key = np.unique(np.stack((s.row[i] // 8, 0.5 * (s.x[i] + s.x[i + 1])), 1), axis=0)
+        _sample(solver, T, key[:, 0].astype(np.int64), key[:, 1], s)
+        s.sort()
+
+
+def _vertex(x: tuple[np.ndarray, ...], y: tuple[np.ndarray, ...]
+            ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """The vertex ``(x, y)`` of the parabola through three points (NaN where they are
+    collinear or not distinct)."""
+    x0, x1, x2 = x
+    y0, y1, y2 = y
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d01, d12 = (y1 - y0) / (x1 - x0), (y2 - y1) / (x2 - x1)
+        curve = (d12 - d01) / (x2 - x0)
+        vertex = 0.5 * (x0 + x1) - d01 / (2.0 * curve)
+        value = y1 + (vertex - x1) * (d01 + curve * (vertex - x0))
+    return vertex, value
+
+
+def _turns(x: tuple[np.ndarray, ...], y: tuple[np.ndarray, ...]) -> np.ndarray:
+    """Whether the function sampled at three points turns back between the outer two:
+    the middle one is an extreme of the three (the slope changes sign), or the parabola
+    through them has its vertex between the outer two and beyond the three values (a
+    turn inside the first or last step of a run, where no sample lies past it)."""
+    vertex, value = _vertex(x, y)
+    inside = (vertex > x[0]) & (vertex < x[2])
+    with np.errstate(invalid="ignore"):
+        beyond = (value > np.maximum(np.maximum(y[0], y[1]), y[2])) | (
+            value < np.minimum(np.minimum(y[0], y[1]), y[2]))  # fmt: skip
+    return ((y[1] - y[0]) * (y[2] - y[1]) < 0.0) | (inside & beyond)
+
+
+def _joint_turns(solver: _Solver, T: np.ndarray, s: _Samples) -> None:
+    """Sample each joint's turning point near its limits (module docstring, step 3):
+    where a joint's margin turns back between samples of a branch (its discrete slope
+    changes sign) and the parabola through the three samples puts the turn across the
+    limit or within :data:`_TURN_NEAR` of it, sample the vertex; repeat on the new
+    triples (successive parabolic interpolation) until every such turn is sampled to
+    :data:`_TURN_TOL` in ``q7``, at most :data:`_TURN_ROUNDS` times."""
+    for _ in range(_TURN_ROUNDS):
+        mid = np.flatnonzero((s.row[1:-1] == s.row[:-2]) & (s.row[1:-1] == s.row[2:])) + 1
+        mid = mid[np.isfinite(s.q[mid - 1, 0]) & np.isfinite(s.q[mid, 0])
+                  & np.isfinite(s.q[mid + 1, 0])]  # fmt: skip
+        y0, y1, y2 = (solver.margins(s.q[mid + d]) for d in (-1, 0, 1))
+        xs = tuple(np.repeat(s.x[mid + d], 7).reshape(-1, 7) for d in (-1, 0, 1))
+        turn = _turns(xs, (y0, y1, y2)) & (np.abs(y1) < _TURN_RANGE)
+        k, j = np.nonzero(turn)
+        xs = (s.x[mid[k] - 1], s.x[mid[k]], s.x[mid[k] + 1])
+        x, value = _vertex(xs, (y0[k, j], y1[k, j], y2[k, j]))
+        near = (np.sign(value) != np.sign(y1[k, j])) | (np.abs(value) < _TURN_NEAR)
+        fresh = np.minimum(np.abs(x - xs[0]), np.abs(x - xs[2])) > _TURN_TOL
+        fresh &= np.abs(x - xs[1]) > _TURN_TOL
+        keep = np.isfinite(x) & near & fresh & (x > xs[0]) & (x < xs[2])
+        if not keep.any():
+            return
+        key = np.unique(np.stack((s.row[mid[k[keep]]] // 8, x[keep]), 1), axis=0)
         _sample(solver, T, key[:, 0].astype(np.int64), key[:, 1], s)
         s.sort()
 
@@ -513,19 +580,42 @@ def _runs(solver: _Solver, T: np.ndarray, s: _Samples, folds: int) -> Q7Arcs:
 def _extrema(solver: _Solver, T: np.ndarray, row: np.ndarray, x: np.ndarray, u: np.ndarray,
              run: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """At each sample where the arm angle ``u`` turns back along its run, the arm angle at
-    the vertex of the parabola through it and its neighbours: ``(run, angle)`` of each
-    one within the limits."""
+    its turn: the vertex of the parabola through it and its neighbours, then through the
+    vertex and its two nearest of them, :data:`_TURN_ROUNDS` at most (successive
+    parabolic interpolation, to :data:`_TURN_TOL` in ``q7``); ``(run, angle)`` of each
+    vertex within the limits."""
     mid = np.flatnonzero((run[1:-1] == run[:-2]) & (run[1:-1] == run[2:])) + 1
-    mid = mid[(u[mid] - u[mid - 1]) * (u[mid + 1] - u[mid]) < 0.0]
-    x0, x1, x2 = x[mid - 1], x[mid], x[mid + 1]
-    y0, y1, y2 = u[mid - 1], u[mid], u[mid + 1]
-    d01, d12 = (y1 - y0) / (x1 - x0), (y2 - y1) / (x2 - x1)
-    curve = (d12 - d01) / (x2 - x0)
-    vertex = 0.5 * (x0 + x1) - d01 / (2.0 * curve)
-    vertex = np.clip(np.where(np.isfinite(vertex), vertex, x1), x0, x2)
-    q = _branch(solver, T[row[mid] // 8], vertex, row[mid] % 8)
+    mid = mid[_turns((x[mid - 1], x[mid], x[mid + 1]), (u[mid - 1], u[mid], u[mid + 1]))]
     if not len(mid):
         return np.zeros(0, np.int64), np.zeros(0)
-    ok = solver.margin(q) >= 0.0
-    phi = solver.angle(q[ok])
-    return run[mid][ok], u[mid][ok] + _wrap(phi - u[mid][ok])
+    px = np.stack((x[mid - 1], x[mid], x[mid + 1]), axis=1)
+    pu = np.stack((u[mid - 1], u[mid], u[mid + 1]), axis=1)
+    top = _vertex(tuple(px.T), tuple(pu.T))[1] > pu[:, 1]  # a maximum
+    pose, branch = row[mid] // 8, row[mid] % 8
+    out_run, out_u = [], []
+    active = np.arange(len(mid))
+    for _ in range(_TURN_ROUNDS):
+        vertex, _ = _vertex(tuple(px[active].T), tuple(pu[active].T))
+        lo, hi = px[active, 0], px[active, 2]
+        vertex = np.clip(np.where(np.isfinite(vertex), vertex, px[active, 1]), lo, hi)
+        q = _branch(solver, T[pose[active]], vertex, branch[active])
+        ok = solver.margin(q) >= 0.0
+        active, vertex, q = active[ok], vertex[ok], q[ok]
+        phi = solver.angle(q)
+        value = pu[active, 1] + _wrap(phi - pu[active, 1])
+        out_run.append(run[mid][active])
+        out_u.append(value)
+        moved = np.abs(vertex - px[active, 1]) > _TURN_TOL
+        # the vertex and its nearest two: the three around the extreme of the four
+        fx = np.concatenate((px[active], vertex[:, None]), axis=1)
+        fu = np.concatenate((pu[active], value[:, None]), axis=1)
+        order = np.argsort(fx, axis=1)
+        fx, fu = np.take_along_axis(fx, order, 1), np.take_along_axis(fu, order, 1)
+        best = np.where(top[active], np.argmax(fu, axis=1), np.argmin(fu, axis=1))
+        first = np.clip(best - 1, 0, 1)[:, None] + np.arange(3)
+        px[active] = np.take_along_axis(fx, first, 1)
+        pu[active] = np.take_along_axis(fu, first, 1)
+        active = active[moved]
+        if not len(active):
+            break
+    return np.concatenate(out_run), np.concatenate(out_u)
