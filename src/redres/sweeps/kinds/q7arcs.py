@@ -274,28 +274,33 @@ def merged(lo: np.ndarray, hi: np.ndarray, owner: np.ndarray, owners: int, slots
     return out, count, width
 
 
-@dataclass
 class _Samples:
     """Samples along ``q7`` of one chunk's rows (row ``8 n + b``: pose ``n``, branch
-    ``b``), flat: sorted by row, then ``q7`` (:meth:`sort`)."""
+    ``b``), flat: sorted by row, then ``q7`` (:meth:`sort`; samples added are read after
+    the next sort)."""
 
-    row: np.ndarray  # (S,) int64
-    x: np.ndarray  # (S,) q7, rad
-    inside: np.ndarray  # (S,) within the limits (False where there is no such branch)
-    q: np.ndarray  # (S, 7) rad; NaN where there is no such branch
-    tag: np.ndarray  # (S,) the fold a sample is the side of, else -1
+    _KEYS = ("row", "x", "inside", "q", "tag")
+
+    def __init__(self, row: np.ndarray, x: np.ndarray, inside: np.ndarray, q: np.ndarray,
+                 tag: np.ndarray) -> None:  # fmt: skip
+        self.row = row  # (S,) int64
+        self.x = x  # (S,) q7, rad
+        self.inside = inside  # (S,) within the limits (False where there is no such branch)
+        self.q = q  # (S, 7) rad; NaN where there is no such branch
+        self.tag = tag  # (S,) the fold a sample is the side of, else -1
+        self._new: list[tuple[np.ndarray, ...]] = []
 
     def add(self, row: np.ndarray, x: np.ndarray, q: np.ndarray, inside: np.ndarray,
             tag: np.ndarray | None = None) -> None:  # fmt: skip
-        self.row = np.concatenate((self.row, row))
-        self.x = np.concatenate((self.x, x))
-        self.inside = np.concatenate((self.inside, inside))
-        self.q = np.concatenate((self.q, q))
-        self.tag = np.concatenate((self.tag, np.full(len(row), -1) if tag is None else tag))
+        self._new.append((row, x, inside, q, np.full(len(row), -1) if tag is None else tag))
 
     def sort(self) -> None:
+        for k, key in enumerate(self._KEYS):
+            parts = [getattr(self, key)] + [new[k] for new in self._new]
+            setattr(self, key, np.concatenate(parts))
+        self._new = []
         order = np.lexsort((self.x, self.row))
-        for key in ("row", "x", "inside", "q", "tag"):
+        for key in self._KEYS:
             setattr(self, key, getattr(self, key)[order])
 
     def neighbours(self) -> np.ndarray:
@@ -370,18 +375,40 @@ def _sample(solver: _Solver, T: np.ndarray, pose: np.ndarray, x: np.ndarray, s: 
     s.add(pose[i] * 8 + b, x[i], every[i, b], within[i, b])
 
 
+def _evaluate(solver: _Solver, T: np.ndarray, pose: np.ndarray, x: np.ndarray, s: _Samples
+              ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Every branch at the distinct ``(pose, x)`` pairs, added to ``s`` (unsorted); returns
+    the configurations ``(M, 8, 7)`` of each pair asked (NaN: no such branch)."""
+    key, back = np.unique(np.stack((pose, x), 1), axis=0, return_inverse=True)
+    every, within = solver.all_branches(T[key[:, 0].astype(np.int64)], key[:, 1])
+    i, b = np.nonzero(np.isfinite(every[..., 0]))
+    s.add(key[i, 0].astype(np.int64) * 8 + b, key[i, 1], every[i, b], within[i, b])
+    return every[back.ravel()]
+
+
 def _refine(solver: _Solver, T: np.ndarray, s: _Samples) -> None:
-    """Halve, :data:`_LEVELS` times over, each step between neighbouring samples of a
-    branch where a joint moves more than :data:`_JUMP` (near the shoulder's singularity
-    joints 1 and 3 swing through π in a short stretch of ``q7``)."""
+    """Halve each step between neighbouring samples of a branch where a joint moves more
+    than :data:`_JUMP`, and its halves again, until none does (or the step is
+    :data:`_NARROW`): near the shoulder's singularity joints 1 and 3 swing through π in
+    a stretch of ``q7`` that may be far shorter than the grid's step, and can pass
+    outside their limits (through ±π) between two samples within them."""
+    i = s.neighbours()
+    i = i[np.abs(_wrap(s.q[i + 1] - s.q[i])).max(axis=1) > _JUMP]  # NaN: False
+    row, xa, xb, qa, qb = s.row[i], s.x[i], s.x[i + 1], s.q[i], s.q[i + 1]
+    added = False
     for _ in range(_LEVELS):
-        i = s.neighbours()
-        jump = np.abs(_wrap(s.q[i + 1] - s.q[i])).max(axis=1) > _JUMP  # NaN: False
-        i = i[jump & (s.x[i + 1] - s.x[i] > _NARROW)]
-        if not len(i):
-            return
-        key = np.unique(np.stack((s.row[i] // 8, 0.5 * (s.x[i] + s.x[i + 1])), 1), axis=0)
-        _sample(solver, T, key[:, 0].astype(np.int64), key[:, 1], s)
+        keep = xb - xa > _NARROW
+        row, xa, xb, qa, qb = row[keep], xa[keep], xb[keep], qa[keep], qb[keep]
+        if not len(row):
+            break
+        mid = 0.5 * (xa + xb)
+        qm = _evaluate(solver, T, row // 8, mid, s)[np.arange(len(row)), row % 8]
+        added = True
+        row, xa, xb = np.concatenate((row, row)), np.concatenate((xa, mid)), np.concatenate((mid, xb))
+        qa, qb = np.concatenate((qa, qm)), np.concatenate((qm, qb))
+        jump = np.abs(_wrap(qb - qa)).max(axis=1) > _JUMP
+        row, xa, xb, qa, qb = row[jump], xa[jump], xb[jump], qa[jump], qb[jump]
+    if added:
         s.sort()
 
 
@@ -412,31 +439,54 @@ def _turns(x: tuple[np.ndarray, ...], y: tuple[np.ndarray, ...]) -> np.ndarray:
     return ((y[1] - y[0]) * (y[2] - y[1]) < 0.0) | (inside & beyond)
 
 
+def _narrowed(px: np.ndarray, py: np.ndarray, x: np.ndarray, y: np.ndarray, top: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Of the three points ``(px, py)`` ``(M, 3)`` and a fourth ``(x, y)``, the three
+    around the extreme (the largest where ``top``, else the smallest), in order of ``x``:
+    a step of successive parabolic interpolation."""
+    fx = np.concatenate((px, x[:, None]), axis=1)
+    fy = np.concatenate((py, y[:, None]), axis=1)
+    order = np.argsort(fx, axis=1)
+    fx, fy = np.take_along_axis(fx, order, 1), np.take_along_axis(fy, order, 1)
+    best = np.where(top, np.argmax(fy, axis=1), np.argmin(fy, axis=1))
+    first = np.clip(best - 1, 0, 1)[:, None] + np.arange(3)
+    return np.take_along_axis(fx, first, 1), np.take_along_axis(fy, first, 1)
+
+
 def _joint_turns(solver: _Solver, T: np.ndarray, s: _Samples) -> None:
-    """Sample each joint's turning point near its limits (module docstring, step 3):
-    where a joint's margin turns back between samples of a branch (its discrete slope
-    changes sign) and the parabola through the three samples puts the turn across the
-    limit or within :data:`_TURN_NEAR` of it, sample the vertex; repeat on the new
-    triples (successive parabolic interpolation) until every such turn is sampled to
-    :data:`_TURN_TOL` in ``q7``, at most :data:`_TURN_ROUNDS` times."""
+    """Sample each joint's turn near its limits (module docstring, step 4): where a
+    joint's margin turns back between samples of a branch (:func:`_turns`) within
+    :data:`_TURN_RANGE` of its limit, and the parabola through the three samples puts
+    the turn across the limit or within :data:`_TURN_NEAR` of it, sample the vertex;
+    then the parabola through the vertex and its two nearest (successive parabolic
+    interpolation), until the turn is sampled to :data:`_TURN_TOL` in ``q7`` or found
+    away from the limit, :data:`_TURN_ROUNDS` at most."""
+    mid = np.flatnonzero((s.row[1:-1] == s.row[:-2]) & (s.row[1:-1] == s.row[2:])) + 1
+    margins = solver.margins(s.q)
+    y0, y1, y2 = margins[mid - 1], margins[mid], margins[mid + 1]  # NaN: no turn
+    xs = tuple(np.broadcast_to(s.x[mid + d][:, None], y1.shape) for d in (-1, 0, 1))
+    k, joint = np.nonzero(_turns(xs, (y0, y1, y2)) & (np.abs(y1) < _TURN_RANGE))
+    px = np.stack([s.x[mid[k] + d] for d in (-1, 0, 1)], axis=1)
+    py = np.stack([margins[mid[k] + d, joint] for d in (-1, 0, 1)], axis=1)
+    row = s.row[mid[k]]
+    top = _vertex(tuple(px.T), tuple(py.T))[1] > py[:, 1]
+    active = np.arange(len(k))
+    added = False
     for _ in range(_TURN_ROUNDS):
-        mid = np.flatnonzero((s.row[1:-1] == s.row[:-2]) & (s.row[1:-1] == s.row[2:])) + 1
-        mid = mid[np.isfinite(s.q[mid - 1, 0]) & np.isfinite(s.q[mid, 0])
-                  & np.isfinite(s.q[mid + 1, 0])]  # fmt: skip
-        y0, y1, y2 = (solver.margins(s.q[mid + d]) for d in (-1, 0, 1))
-        xs = tuple(np.repeat(s.x[mid + d], 7).reshape(-1, 7) for d in (-1, 0, 1))
-        turn = _turns(xs, (y0, y1, y2)) & (np.abs(y1) < _TURN_RANGE)
-        k, j = np.nonzero(turn)
-        xs = (s.x[mid[k] - 1], s.x[mid[k]], s.x[mid[k] + 1])
-        x, value = _vertex(xs, (y0[k, j], y1[k, j], y2[k, j]))
-        near = (np.sign(value) != np.sign(y1[k, j])) | (np.abs(value) < _TURN_NEAR)
-        fresh = np.minimum(np.abs(x - xs[0]), np.abs(x - xs[2])) > _TURN_TOL
-        fresh &= np.abs(x - xs[1]) > _TURN_TOL
-        keep = np.isfinite(x) & near & fresh & (x > xs[0]) & (x < xs[2])
-        if not keep.any():
-            return
-        key = np.unique(np.stack((s.row[mid[k[keep]]] // 8, x[keep]), 1), axis=0)
-        _sample(solver, T, key[:, 0].astype(np.int64), key[:, 1], s)
+        x, value = _vertex(tuple(px[active].T), tuple(py[active].T))
+        near = (np.sign(value) != np.sign(py[active, 1])) | (np.abs(value) < _TURN_NEAR)
+        fresh = np.abs(px[active] - x[:, None]).min(axis=1) > _TURN_TOL
+        ok = near & fresh & (x > px[active, 0]) & (x < px[active, 2])  # NaN: False
+        active, x = active[ok], x[ok]
+        if not len(active):
+            break
+        q = _evaluate(solver, T, row[active] // 8, x, s)[np.arange(len(x)), row[active] % 8]
+        added = True
+        y = solver.margins(q)[np.arange(len(x)), joint[active]]
+        there = np.isfinite(y)  # the branch ends before the turn: a fold there
+        active, x, y = active[there], x[there], y[there]
+        px[active], py[active] = _narrowed(px[active], py[active], x, y, top[active])
+    if added:
         s.sort()
 
 
@@ -606,15 +656,7 @@ def _extrema(solver: _Solver, T: np.ndarray, row: np.ndarray, x: np.ndarray, u: 
         out_run.append(run[mid][active])
         out_u.append(value)
         moved = np.abs(vertex - px[active, 1]) > _TURN_TOL
-        # the vertex and its nearest two: the three around the extreme of the four
-        fx = np.concatenate((px[active], vertex[:, None]), axis=1)
-        fu = np.concatenate((pu[active], value[:, None]), axis=1)
-        order = np.argsort(fx, axis=1)
-        fx, fu = np.take_along_axis(fx, order, 1), np.take_along_axis(fu, order, 1)
-        best = np.where(top[active], np.argmax(fu, axis=1), np.argmin(fu, axis=1))
-        first = np.clip(best - 1, 0, 1)[:, None] + np.arange(3)
-        px[active] = np.take_along_axis(fx, first, 1)
-        pu[active] = np.take_along_axis(fu, first, 1)
+        px[active], pu[active] = _narrowed(px[active], pu[active], vertex, value, top[active])
         active = active[moved]
         if not len(active):
             break
