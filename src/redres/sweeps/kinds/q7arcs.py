@@ -9,32 +9,50 @@ is these curves glued at their *folds*: where two branches meet (their roots mer
 along the other branch. The arm angle (:class:`redres.tasks.ArmAngleTask`) is a smooth
 function along it. So, per pose, on arrays over all poses of a batch:
 
-1. **Grid.** :func:`~redres.ik.analytic.at_q7_batch` at ``grid`` values of ``q7`` over
-   its limits: which branch exists, and where it is within the joint limits.
+1. **Grid.** :func:`~redres.ik.analytic.at_q7_batch` (``residuals=False``: no FK
+   errors) at ``grid`` values of ``q7`` over its limits: which branch exists, and where
+   it is within the joint limits.
 2. **Folds.** Between grid values where branches appear or vanish, each is paired with
    the branch whose root merges with its own there (code ``b ^ 2``: the roots of step 3;
    ``b ^ 4``: the elbow; the nearer where both vanish), and the fold is
    found by the secant method on the squared distance ``d²`` between them (linear in
    ``q7`` near the fold: ``d ∝ √|q7 − q7*|``), bracketed by where they exist; it is
    sampled on both branches at the first ``q7`` found where they are closer than
-   :data:`FOLD_GAP` (joint space). The arm angle is monotone across so short a piece of
-   the curve but where it turns back exactly at the fold, so the piece's arm angles lie
-   between the two samples' and step 4 adds them to both sides.
-3. **Limit ends.** Between neighbouring samples of a branch, one within the limits and
+   :data:`FOLD_GAP` (joint space). The piece of the curve between the two samples is
+   short enough that step 6 adds each side's arm angle to the other (at 1e-2 rad apart
+   the arm angle there was off by up to 1.4e-3 rad: it turns back sharply at folds).
+3. **Swings.** Each step between neighbouring samples of a branch where a joint moves
+   more than :data:`_JUMP` is halved, and its halves again, until none does (or the
+   step is :data:`_NARROW`): near the shoulder's singularity joints 1 and 3 swing
+   through π in a stretch of ``q7`` that can be far shorter than the grid's step, and
+   the swing can pass outside their limits (through ±π) between two samples within them.
+4. **Joint turns.** Where a joint's margin inside its nearer limit turns back between
+   samples of a branch (the slope between samples changes sign, or the parabola through
+   three samples has its vertex inside the first or last step, beyond them) within
+   :data:`_TURN_RANGE` of the limit, and the parabola puts the turn across the limit or
+   within :data:`_TURN_NEAR` of it, the vertex is sampled; then the parabola through the
+   vertex and its two nearest points (successive parabolic interpolation), to
+   :data:`_TURN_TOL` in ``q7``. So a joint that leaves its limits and comes back between
+   two samples within them, or enters them and leaves between two samples outside, is
+   sampled there.
+5. **Limit ends.** Between neighbouring samples of a branch, one within the limits and
    one outside, the ``q7`` where a joint meets its limit: the Illinois false-position
    method on the margin (the smallest distance of a joint inside its limits, negative
    outside), to :data:`END_TOL` in ``q7`` or in the margin.
-4. **Arcs.** Each run of samples within the limits on a branch is one piece of the
-   manifold; its arm angles (unwrapped along it) span ``[min, max]``. Where a sample is a
-   local extremum of the arm angle, the vertex of the parabola through it and its two
-   neighbours is evaluated too (the arm angle of the Panda turns back along ``q7``).
-   At a fold within the limits the partner branch's arm angle is added to each side, so
-   the two runs overlap and the union joins them.
+6. **Arcs.** Each run of samples within the limits on a branch is one piece of the
+   manifold; its arm angles (unwrapped along it) span ``[min, max]``. Where the arm
+   angle turns back (as in step 4, the Panda's turns back along ``q7``) its turn is
+   found by successive parabolic interpolation too, and added. At a fold within the
+   limits the partner branch's arm angle is added to each side, so the two runs overlap
+   and the union joins them.
 
 What a map stores is then the stored form of the sweep's closed form: per branch slot,
-its runs' arcs as pieces; the union over the branches. Not seen: a run or a branch that
-exists only between two grid values (narrower than the grid step, ``5.8/(grid − 1)``
-rad for the Panda) with no fold beside it.
+its runs' arcs as pieces; the union over the branches. Not certified: steps 3, 4 and 6
+find a turn or a swing from the samples around it (a joint that turns twice within one
+step unseen is missed), and step 2 sees the folds of a branch only where its existence
+changes between grid values: a branch pair that lives between two grid values, or a
+second fold in one grid interval, is missed (grid step ``5.8/(grid − 1)`` rad for the
+Panda; docs/sweeps.md gives the measured cases).
 """
 
 from __future__ import annotations
@@ -64,7 +82,7 @@ _LEVELS = 48  # halvings at most (a swing narrower than 2**-48 of the grid step 
 _NARROW = 1e-13  # rad: a step of q7 not halved further
 _TURN_RANGE = 0.5  # rad: a joint's turns farther inside (or outside) its limits are left
 _TURN_NEAR = 0.05  # rad: a turn estimated this near its limit is sampled
-_TURN_TOL = 1e-7  # rad: a turn's vertex this near a sample is sampled
+_TURN_TOL = 1e-7  # rad: a turn with a sample this near its vertex is done
 _TURN_ROUNDS = 6  # rounds of successive parabolic interpolation at most
 _CHUNK = 256  # poses per pass
 _SMALL = 4096  # evaluations below which one thread is faster than a parallel launch
@@ -376,7 +394,7 @@ def _sample(solver: _Solver, T: np.ndarray, pose: np.ndarray, x: np.ndarray, s: 
 
 
 def _evaluate(solver: _Solver, T: np.ndarray, pose: np.ndarray, x: np.ndarray, s: _Samples
-              ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+              ) -> np.ndarray:  # fmt: skip
     """Every branch at the distinct ``(pose, x)`` pairs, added to ``s`` (unsorted); returns
     the configurations ``(M, 8, 7)`` of each pair asked (NaN: no such branch)."""
     key, back = np.unique(np.stack((pose, x), 1), axis=0, return_inverse=True)
@@ -404,7 +422,8 @@ def _refine(solver: _Solver, T: np.ndarray, s: _Samples) -> None:
         mid = 0.5 * (xa + xb)
         qm = _evaluate(solver, T, row // 8, mid, s)[np.arange(len(row)), row % 8]
         added = True
-        row, xa, xb = np.concatenate((row, row)), np.concatenate((xa, mid)), np.concatenate((mid, xb))
+        row = np.concatenate((row, row))
+        xa, xb = np.concatenate((xa, mid)), np.concatenate((mid, xb))
         qa, qb = np.concatenate((qa, qm)), np.concatenate((qm, qb))
         jump = np.abs(_wrap(qb - qa)).max(axis=1) > _JUMP
         row, xa, xb, qa, qb = row[jump], xa[jump], xb[jump], qa[jump], qb[jump]
@@ -541,7 +560,7 @@ def _branch(solver: _Solver, T: np.ndarray, q7: np.ndarray, branch: np.ndarray
 
 def _limit_ends(solver: _Solver, T: np.ndarray, s: _Samples) -> None:
     """Find where a joint meets its limit between neighbouring samples of a branch, one
-    within the limits and one outside (module docstring, step 3), and add a sample
+    within the limits and one outside (module docstring, step 5), and add a sample
     there."""
     i = s.neighbours()
     i = i[(s.inside[i] != s.inside[i + 1]) & np.isfinite(s.q[i, 0]) & np.isfinite(s.q[i + 1, 0])]
@@ -589,7 +608,7 @@ def _inverse_quadratic(x: tuple[np.ndarray, ...], y: tuple[np.ndarray, ...]) -> 
 
 def _runs(solver: _Solver, T: np.ndarray, s: _Samples, folds: int) -> Q7Arcs:
     """The runs of samples within the limits and their arm-angle arcs (module docstring,
-    step 4)."""
+    step 6)."""
     take = np.flatnonzero(s.inside)
     row, x, tag = s.row[take], s.x[take], s.tag[take]
     before = take - 1
