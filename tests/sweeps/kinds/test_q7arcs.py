@@ -128,8 +128,8 @@ def test_agrees_with_the_trace_on_200_poses(panda: rr.Robot) -> None:
           f"(ends within {AGREE} rad; the disagreeing ones traced again with steps of "
           f"0.001 rad); largest difference among them {gaps[agreeing].max():.1e} rad; "
           f"disagreeing: poses {np.flatnonzero(~agreeing).tolist()}")  # fmt: skip
-    # the three left: a branch pair that lives between two grid values (35), a grid
-    # interval with two folds (191), a closed loop through the stretched elbow (17)
+    # the three left (17, 35, 191): branches that live between two grid values, missed
+    # by step 2 (docs/sweeps.md)
     assert agreeing.sum() >= 197
 
 
