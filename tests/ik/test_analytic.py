@@ -120,6 +120,30 @@ def test_batch_equals_single_calls_bit_for_bit_at_any_thread_count() -> None:
     assert (one.branch[np.arange(8)[None, :] >= one.count[:, None]] == -1).all()
 
 
+def test_batch_without_residuals_gives_the_same_solutions_at_any_thread_count() -> None:
+    """``residuals=False`` skips the FK errors only: every other field is the one with
+    them, bit for bit, on one thread and on all; the errors are NaN on the solutions and
+    0 in the padding."""
+    robot = rr.models.panda()
+    q, T = _poses(robot, 64, 5)
+    from redres import _compile
+
+    full = at_q7_batch(robot, T, q[:, 6])
+    previous = _compile.threads(1)
+    try:
+        one = at_q7_batch(robot, T, q[:, 6], residuals=False)
+    finally:
+        _compile.threads(previous)
+    many = at_q7_batch(robot, T, q[:, 6], residuals=False)
+    for field in ("q", "branch", "within_limits", "solution_flags", "count", "flags"):
+        assert np.array_equal(getattr(one, field), getattr(full, field))
+        assert np.array_equal(getattr(many, field), getattr(full, field))
+    solution = one.branch >= 0
+    for field in ("position_error", "rotation_error", "residual"):
+        value = getattr(many, field)
+        assert np.isnan(value[solution]).all() and (value[~solution] == 0.0).all()
+
+
 @pytest.mark.parametrize("name", ["panda", "iiwa14"])
 def test_plain_python_twin_gives_the_same_solutions(name: str) -> None:
     robot = ARMS[name]()

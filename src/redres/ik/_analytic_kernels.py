@@ -6,9 +6,9 @@ Entry points and their call tree::
         _is_pose, _frame6, _unit, _perpendicular, _angle, _limit, _shoulder -> _emit
     errors(links, axes, kinds, out, count)
         robot._chain_kernels.fk (each solution's own FK error against the pose in ``out``)
-    solve_many(arm, links, axes, kinds, T, q7, out, summary)
-        solve_pose and errors over a parallel range of poses (each pose independent:
-        results do not depend on the thread count)
+    solve_many(arm, links, axes, kinds, T, q7, out, summary, residuals)
+        solve_pose, and errors when residuals, over a parallel range of poses (each pose
+        independent: results do not depend on the thread count)
 
 ``arm`` holds the arm's constants (slots of :mod:`._analytic_codes`, derived in
 :func:`redres.ik.analytic._build`); ``links, axes, kinds`` are
@@ -540,16 +540,21 @@ def _pose_dot(P, F, i, j):
 
 
 @kernel(parallel=True)
-def solve_many(arm, links, axes, kinds, T, q7, out, summary):
-    """:func:`solve_pose` and :func:`errors` for poses ``T[i]`` ``(N, 4, 4)`` at
-    ``q7[i]`` into ``out[i]``, rows past the count padded (zeros, branch −1);
-    ``summary[i]`` <- ``(status, count, flags)``."""
+def solve_many(arm, links, axes, kinds, T, q7, out, summary, residuals):
+    """:func:`solve_pose` for poses ``T[i]`` ``(N, 4, 4)`` at ``q7[i]`` into ``out[i]``,
+    and :func:`errors` when ``residuals`` (else the FK errors are NaN), rows past the
+    count padded (zeros, branch −1); ``summary[i]`` <- ``(status, count, flags)``."""
     for i in prange(T.shape[0]):
         code = solve_pose(arm, T[i], q7[i], out[i])
         count, flags, status = 0, 0, code
         if code >= 0:
             count, flags, status = code & ((1 << FLAG_SHIFT) - 1), code >> FLAG_SHIFT, SOLVED
-            errors(links, axes, kinds, out[i], count)
+            if residuals:
+                errors(links, axes, kinds, out[i], count)
+            else:
+                for r in range(count):
+                    out[i, r, POSITION_ERROR] = math.nan
+                    out[i, r, ROTATION_ERROR] = math.nan
         for r in range(count, MAX_SOLUTIONS):
             for j in range(N_VALUES):
                 out[i, r, j] = 0.0

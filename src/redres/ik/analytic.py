@@ -56,7 +56,7 @@ Rot(k3, q3 + π) = Rot(k1, q1) Rot(k2, q2) Rot(k1, π) Rot(k3, π) Rot(k3, q3)``
 ``Rot(k1, π) Rot(k2, θ) = Rot(k2, −θ) Rot(k1, π)`` for ``k1 ⊥ k2``, and ``Rot(k1, π)
 Rot(k3, π) = I`` for ``k3 = ±k1`` (tested against the general subproblem 2). A single
 call's FK errors are computed on first access (:class:`IKSolutions`), the batch's in
-its kernel.
+its kernel (or not at all: ``residuals=False``).
 
 The structure is detected from the robot's serial chain to the frame
 (:func:`analytic_arm`) to :data:`STRUCTURE_TOL`; an arm without it raises
@@ -463,10 +463,15 @@ def at_q7(robot: Robot, T: Any, *, q7: float, frame: str | None = None) -> IKSol
     return IKSolutions(code & _COUNT_MASK, _FLAGS[code >> _FLAG_SHIFT], x, out, arm)
 
 
-def at_q7_batch(robot: Robot, T: Any, q7: Any, *, frame: str | None = None) -> IKSolutionsBatch:
+def at_q7_batch(
+    robot: Robot, T: Any, q7: Any, *, frame: str | None = None, residuals: bool = True
+) -> IKSolutionsBatch:
     """:func:`at_q7` for ``N`` poses ``T`` ``(N, 4, 4)`` at ``q7`` ``(N,)`` (or one value
     for all), rad, on every core (numba's threads; each pose is independent, so results do
-    not depend on the thread count). The FK errors are computed here, for every solution.
+    not depend on the thread count). The FK errors are computed here, for every solution,
+    when ``residuals`` (the default); ``residuals=False`` skips them (``position_error``
+    and ``rotation_error`` are then NaN for every solution, 0 in the padding) and more
+    than halves the kernel's time for callers that do not read them.
 
     Raises:
         NotAnalyticError, ShapeError, NonFiniteError: as :func:`at_q7` (the message names
@@ -480,7 +485,9 @@ def at_q7_batch(robot: Robot, T: Any, q7: Any, *, frame: str | None = None) -> I
     values = np.ascontiguousarray(np.broadcast_to(np.asarray(q7, dtype=np.float64), (n,)))
     out = np.empty((n, *_BUFFER))
     summary = np.zeros((n, 3), dtype=np.int64)
-    _module().solve_many(arm.arm, arm.links, arm.axes, arm.kinds, poses, values, out, summary)
+    _module().solve_many(
+        arm.arm, arm.links, arm.axes, arm.kinds, poses, values, out, summary, bool(residuals)
+    )
     bad = np.flatnonzero(summary[:, 0] != codes.SOLVED)
     if len(bad):
         i = int(bad[0])

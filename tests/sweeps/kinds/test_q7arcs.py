@@ -39,21 +39,32 @@ def wrap(x: np.ndarray | float) -> np.ndarray:
     return np.pi - np.mod(np.pi - np.asarray(x), 2 * np.pi)
 
 
-def agreement(robot: rr.Robot, count: int, seed: int) -> tuple[np.ndarray, Q7Arcs]:
+def agreement(robot: rr.Robot, count: int, seed: int, fine: float | None = None
+              ) -> tuple[np.ndarray, Q7Arcs]:  # fmt: skip
     """Per pose, the smallest largest end difference between the traced arc through its
     own configuration and a connected piece of the closed form's self-motion (inf: no
-    piece has as many pieces)."""
+    piece has as many pieces). With ``fine``, a pose that disagrees is traced again with
+    that step (the trace misses an arm angle that turns back inside a step by up to its
+    curvature times the step squared, and at the Panda's folds it turns back sharply)."""
     q, T = random_poses(robot, count, seed)
     runs = q7_arcs(robot, T)
     components = runs.components()
-    traced = trace(robot, T, q, step=0.02)
-    gaps = np.full(count, np.inf)
-    for i in range(count):
-        arc = pieces([traced.arc(i)])
-        for comp in components[i]:
-            if len(comp) == len(arc):
-                gap = max(abs(a - b) for pa, pb in zip(arc, comp) for a, b in zip(pa, pb))
-                gaps[i] = min(gaps[i], gap)
+
+    def gaps_of(items: np.ndarray, step: float) -> np.ndarray:
+        traced = trace(robot, T[items], q[items], step=step, max_steps=int(80 / step))
+        out = np.full(len(items), np.inf)
+        for k, i in enumerate(items):
+            arc = pieces([traced.arc(k)])
+            for comp in components[i]:
+                if len(comp) == len(arc):
+                    gap = max(abs(a - b) for pa, pb in zip(arc, comp) for a, b in zip(pa, pb))
+                    out[k] = min(out[k], gap)
+        return out
+
+    gaps = gaps_of(np.arange(count), 0.02)
+    if fine is not None:
+        again = np.flatnonzero(gaps >= AGREE)
+        gaps[again] = np.minimum(gaps[again], gaps_of(again, fine))
     return gaps, runs
 
 
@@ -102,21 +113,24 @@ def test_agrees_with_the_trace(panda: rr.Robot) -> None:
     """The traced arc through each pose's own configuration is a connected piece of the
     closed form's self-motion, its ends within 1e-3 rad, on (almost) every pose (the
     grid misses pieces that live between two of its values; docs/sweeps.md)."""
-    gaps, _ = agreement(panda, 16, 3)
+    gaps, _ = agreement(panda, 16, 3, fine=0.001)
     agreeing = gaps < AGREE
     print(f"\npanda: {agreeing.sum()} of 16 traced arcs agree with the closed form, largest "
           f"end difference {gaps[agreeing].max():.1e} rad")  # fmt: skip
-    assert agreeing.sum() >= 14
+    assert agreeing.all()
 
 
 @pytest.mark.skipif(not os.environ.get("REDRES_SLOW"), reason="REDRES_SLOW=1: 200 poses")
 def test_agrees_with_the_trace_on_200_poses(panda: rr.Robot) -> None:
-    gaps, _ = agreement(panda, 200, 4)
+    gaps, _ = agreement(panda, 200, 4, fine=0.001)
     agreeing = gaps < AGREE
     print(f"\npanda: {agreeing.sum()} of 200 traced arcs agree with the closed form "
-          f"(ends within {AGREE} rad); largest difference among them "
-          f"{gaps[agreeing].max():.1e} rad")  # fmt: skip
-    assert agreeing.mean() >= 0.9
+          f"(ends within {AGREE} rad; the disagreeing ones traced again with steps of "
+          f"0.001 rad); largest difference among them {gaps[agreeing].max():.1e} rad; "
+          f"disagreeing: poses {np.flatnonzero(~agreeing).tolist()}")  # fmt: skip
+    # the three left (17, 35, 191): branches that live between two grid values, missed
+    # by step 2 (docs/sweeps.md)
+    assert agreeing.sum() >= 197
 
 
 SPEC = """

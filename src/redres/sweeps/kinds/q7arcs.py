@@ -9,32 +9,50 @@ is these curves glued at their *folds*: where two branches meet (their roots mer
 along the other branch. The arm angle (:class:`redres.tasks.ArmAngleTask`) is a smooth
 function along it. So, per pose, on arrays over all poses of a batch:
 
-1. **Grid.** :func:`~redres.ik.analytic.at_q7_batch` at ``grid`` values of ``q7`` over
-   its limits: which branch exists, and where it is within the joint limits.
+1. **Grid.** :func:`~redres.ik.analytic.at_q7_batch` (``residuals=False``: no FK
+   errors) at ``grid`` values of ``q7`` over its limits: which branch exists, and where
+   it is within the joint limits.
 2. **Folds.** Between grid values where branches appear or vanish, each is paired with
    the branch whose root merges with its own there (code ``b ^ 2``: the roots of step 3;
    ``b ^ 4``: the elbow; the nearer where both vanish), and the fold is
    found by the secant method on the squared distance ``d²`` between them (linear in
    ``q7`` near the fold: ``d ∝ √|q7 − q7*|``), bracketed by where they exist; it is
    sampled on both branches at the first ``q7`` found where they are closer than
-   :data:`FOLD_GAP` (joint space). The arm angle is monotone across so short a piece of
-   the curve but where it turns back exactly at the fold, so the piece's arm angles lie
-   between the two samples' and step 4 adds them to both sides.
-3. **Limit ends.** Between neighbouring samples of a branch, one within the limits and
+   :data:`FOLD_GAP` (joint space). The piece of the curve between the two samples is
+   short enough that step 6 adds each side's arm angle to the other (at 1e-2 rad apart
+   the arm angle there was off by up to 1.4e-3 rad: it turns back sharply at folds).
+3. **Swings.** Each step between neighbouring samples of a branch where a joint moves
+   more than :data:`_JUMP` is halved, and its halves again, until none does (or the
+   step is :data:`_NARROW`): near the shoulder's singularity joints 1 and 3 swing
+   through π in a stretch of ``q7`` that can be far shorter than the grid's step, and
+   the swing can pass outside their limits (through ±π) between two samples within them.
+4. **Joint turns.** Where a joint's margin inside its nearer limit turns back between
+   samples of a branch (the slope between samples changes sign, or the parabola through
+   three samples has its vertex inside the first or last step, beyond them) within
+   :data:`_TURN_RANGE` of the limit, and the parabola puts the turn across the limit or
+   within :data:`_TURN_NEAR` of it, the vertex is sampled; then the parabola through the
+   vertex and its two nearest points (successive parabolic interpolation), to
+   :data:`_TURN_TOL` in ``q7``. So a joint that leaves its limits and comes back between
+   two samples within them, or enters them and leaves between two samples outside, is
+   sampled there.
+5. **Limit ends.** Between neighbouring samples of a branch, one within the limits and
    one outside, the ``q7`` where a joint meets its limit: the Illinois false-position
    method on the margin (the smallest distance of a joint inside its limits, negative
    outside), to :data:`END_TOL` in ``q7`` or in the margin.
-4. **Arcs.** Each run of samples within the limits on a branch is one piece of the
-   manifold; its arm angles (unwrapped along it) span ``[min, max]``. Where a sample is a
-   local extremum of the arm angle, the vertex of the parabola through it and its two
-   neighbours is evaluated too (the arm angle of the Panda turns back along ``q7``).
-   At a fold within the limits the partner branch's arm angle is added to each side, so
-   the two runs overlap and the union joins them.
+6. **Arcs.** Each run of samples within the limits on a branch is one piece of the
+   manifold; its arm angles (unwrapped along it) span ``[min, max]``. Where the arm
+   angle turns back (as in step 4, the Panda's turns back along ``q7``) its turn is
+   found by successive parabolic interpolation too, and added. At a fold within the
+   limits the partner branch's arm angle is added to each side, so the two runs overlap
+   and the union joins them.
 
 What a map stores is then the stored form of the sweep's closed form: per branch slot,
-its runs' arcs as pieces; the union over the branches. Not seen: a run or a branch that
-exists only between two grid values (narrower than the grid step, ``5.8/(grid − 1)``
-rad for the Panda) with no fold beside it.
+its runs' arcs as pieces; the union over the branches. Not certified: steps 3, 4 and 6
+find a turn or a swing from the samples around it (a joint that turns twice within one
+step unseen is missed), and step 2 sees the folds of a branch only where its existence
+changes between grid values: a branch pair that lives between two grid values, or a
+second fold in one grid interval, is missed (grid step ``5.8/(grid − 1)`` rad for the
+Panda; docs/sweeps.md gives the measured cases).
 """
 
 from __future__ import annotations
@@ -56,11 +74,16 @@ __all__ = ["END_TOL", "FOLD_GAP", "GRID", "Q7Arcs", "merged", "q7_arcs"]
 
 GRID = 41  #: q7 values of the grid over the joint's range
 END_TOL = 1e-8  #: rad: a limit end's bracket in q7, or its margin
-FOLD_GAP = 1e-2  #: rad: the two sides of a fold, apart in joint space (2-norm)
-_FOLD_TOL = 1e-7  # rad: a bracket in q7 narrower than this: not a fold of the pair
+FOLD_GAP = 1e-4  #: rad: the two sides of a fold, apart in joint space (2-norm)
+_FOLD_TOL = 1e-12  # rad: a bracket in q7 narrower than this: not a fold of the pair
 _EXTRA = 3  # samples between a fold and its grid value
 _JUMP = 0.5  # rad: a joint's move between samples above which the step is halved
-_LEVELS = 3  # halvings at most
+_LEVELS = 48  # halvings at most (a swing narrower than 2**-48 of the grid step is one)
+_NARROW = 1e-13  # rad: a step of q7 not halved further
+_TURN_RANGE = 0.5  # rad: a joint's turns farther inside (or outside) its limits are left
+_TURN_NEAR = 0.05  # rad: a turn estimated this near its limit is sampled
+_TURN_TOL = 1e-7  # rad: a turn with a sample this near its vertex is done
+_TURN_ROUNDS = 6  # rounds of successive parabolic interpolation at most
 _CHUNK = 256  # poses per pass
 _SMALL = 4096  # evaluations below which one thread is faster than a parallel launch
 _TWO_PI = 2.0 * math.pi
@@ -178,11 +201,11 @@ class _Solver:
         if len(q7) < _SMALL:  # a parallel launch waits for its slowest thread
             previous = _compile.threads(1)
             try:
-                found = at_q7_batch(self.robot, T, q7, frame=self.frame)
+                found = at_q7_batch(self.robot, T, q7, frame=self.frame, residuals=False)
             finally:
                 _compile.threads(previous)
         else:
-            found = at_q7_batch(self.robot, T, q7, frame=self.frame)
+            found = at_q7_batch(self.robot, T, q7, frame=self.frame, residuals=False)
         q = np.full((len(q7), 8, 7), np.nan)
         inside = np.zeros((len(q7), 8), dtype=bool)
         rows, slots = np.nonzero(found.branch >= 0)
@@ -196,6 +219,12 @@ class _Solver:
         measured on the circle from the middle of the limits; NaN where ``q`` is NaN)."""
         q = self.centre + _wrap(q - self.centre)  # a joint past π is reported wrapped
         return np.minimum(q - self.q_min, self.q_max - q).min(axis=-1)
+
+    def margins(self, q: np.ndarray) -> np.ndarray:
+        """Each joint's distance inside its nearer limit, rad, ``(..., 7)`` (negative
+        outside; :meth:`margin` is their smallest)."""
+        q = self.centre + _wrap(q - self.centre)
+        return np.minimum(q - self.q_min, self.q_max - q)
 
     def angle(self, q: np.ndarray) -> np.ndarray:
         """Arm angles of configurations ``(M, 7)``, rad."""
@@ -263,28 +292,33 @@ def merged(lo: np.ndarray, hi: np.ndarray, owner: np.ndarray, owners: int, slots
     return out, count, width
 
 
-@dataclass
 class _Samples:
     """Samples along ``q7`` of one chunk's rows (row ``8 n + b``: pose ``n``, branch
-    ``b``), flat: sorted by row, then ``q7`` (:meth:`sort`)."""
+    ``b``), flat: sorted by row, then ``q7`` (:meth:`sort`; samples added are read after
+    the next sort)."""
 
-    row: np.ndarray  # (S,) int64
-    x: np.ndarray  # (S,) q7, rad
-    inside: np.ndarray  # (S,) within the limits (False where there is no such branch)
-    q: np.ndarray  # (S, 7) rad; NaN where there is no such branch
-    tag: np.ndarray  # (S,) the fold a sample is the side of, else -1
+    _KEYS = ("row", "x", "inside", "q", "tag")
+
+    def __init__(self, row: np.ndarray, x: np.ndarray, inside: np.ndarray, q: np.ndarray,
+                 tag: np.ndarray) -> None:  # fmt: skip
+        self.row = row  # (S,) int64
+        self.x = x  # (S,) q7, rad
+        self.inside = inside  # (S,) within the limits (False where there is no such branch)
+        self.q = q  # (S, 7) rad; NaN where there is no such branch
+        self.tag = tag  # (S,) the fold a sample is the side of, else -1
+        self._new: list[tuple[np.ndarray, ...]] = []
 
     def add(self, row: np.ndarray, x: np.ndarray, q: np.ndarray, inside: np.ndarray,
             tag: np.ndarray | None = None) -> None:  # fmt: skip
-        self.row = np.concatenate((self.row, row))
-        self.x = np.concatenate((self.x, x))
-        self.inside = np.concatenate((self.inside, inside))
-        self.q = np.concatenate((self.q, q))
-        self.tag = np.concatenate((self.tag, np.full(len(row), -1) if tag is None else tag))
+        self._new.append((row, x, inside, q, np.full(len(row), -1) if tag is None else tag))
 
     def sort(self) -> None:
+        for k, key in enumerate(self._KEYS):
+            parts = [getattr(self, key)] + [new[k] for new in self._new]
+            setattr(self, key, np.concatenate(parts))
+        self._new = []
         order = np.lexsort((self.x, self.row))
-        for key in ("row", "x", "inside", "q", "tag"):
+        for key in self._KEYS:
             setattr(self, key, getattr(self, key)[order])
 
     def neighbours(self) -> np.ndarray:
@@ -305,6 +339,7 @@ def _chunk(solver: _Solver, T: np.ndarray, grid: int) -> Q7Arcs:
     folds = _folds(solver, T, g, q, inside, s)
     s.sort()
     _refine(solver, T, s)
+    _joint_turns(solver, T, s)
     _limit_ends(solver, T, s)
     s.sort()
     return _runs(solver, T, s, folds)
@@ -358,18 +393,119 @@ def _sample(solver: _Solver, T: np.ndarray, pose: np.ndarray, x: np.ndarray, s: 
     s.add(pose[i] * 8 + b, x[i], every[i, b], within[i, b])
 
 
+def _evaluate(solver: _Solver, T: np.ndarray, pose: np.ndarray, x: np.ndarray, s: _Samples
+              ) -> np.ndarray:  # fmt: skip
+    """Every branch at the distinct ``(pose, x)`` pairs, added to ``s`` (unsorted); returns
+    the configurations ``(M, 8, 7)`` of each pair asked (NaN: no such branch)."""
+    key, back = np.unique(np.stack((pose, x), 1), axis=0, return_inverse=True)
+    every, within = solver.all_branches(T[key[:, 0].astype(np.int64)], key[:, 1])
+    i, b = np.nonzero(np.isfinite(every[..., 0]))
+    s.add(key[i, 0].astype(np.int64) * 8 + b, key[i, 1], every[i, b], within[i, b])
+    return every[back.ravel()]
+
+
 def _refine(solver: _Solver, T: np.ndarray, s: _Samples) -> None:
-    """Halve, :data:`_LEVELS` times over, each step between neighbouring samples of a
-    branch where a joint moves more than :data:`_JUMP` (near the shoulder's singularity
-    joints 1 and 3 swing through π in a short stretch of ``q7``)."""
+    """Halve each step between neighbouring samples of a branch where a joint moves more
+    than :data:`_JUMP`, and its halves again, until none does (or the step is
+    :data:`_NARROW`): near the shoulder's singularity joints 1 and 3 swing through π in
+    a stretch of ``q7`` that may be far shorter than the grid's step, and can pass
+    outside their limits (through ±π) between two samples within them."""
+    i = s.neighbours()
+    i = i[np.abs(_wrap(s.q[i + 1] - s.q[i])).max(axis=1) > _JUMP]  # NaN: False
+    row, xa, xb, qa, qb = s.row[i], s.x[i], s.x[i + 1], s.q[i], s.q[i + 1]
+    added = False
     for _ in range(_LEVELS):
-        i = s.neighbours()
-        jump = np.abs(_wrap(s.q[i + 1] - s.q[i])).max(axis=1) > _JUMP  # NaN: False
-        i = i[jump]
-        if not len(i):
-            return
-        key = np.unique(np.stack((s.row[i] // 8, 0.5 * (s.x[i] + s.x[i + 1])), 1), axis=0)
-        _sample(solver, T, key[:, 0].astype(np.int64), key[:, 1], s)
+        keep = xb - xa > _NARROW
+        row, xa, xb, qa, qb = row[keep], xa[keep], xb[keep], qa[keep], qb[keep]
+        if not len(row):
+            break
+        mid = 0.5 * (xa + xb)
+        qm = _evaluate(solver, T, row // 8, mid, s)[np.arange(len(row)), row % 8]
+        added = True
+        row = np.concatenate((row, row))
+        xa, xb = np.concatenate((xa, mid)), np.concatenate((mid, xb))
+        qa, qb = np.concatenate((qa, qm)), np.concatenate((qm, qb))
+        jump = np.abs(_wrap(qb - qa)).max(axis=1) > _JUMP
+        row, xa, xb, qa, qb = row[jump], xa[jump], xb[jump], qa[jump], qb[jump]
+    if added:
+        s.sort()
+
+
+def _vertex(x: tuple[np.ndarray, ...], y: tuple[np.ndarray, ...]
+            ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """The vertex ``(x, y)`` of the parabola through three points (NaN where they are
+    collinear or not distinct)."""
+    x0, x1, x2 = x
+    y0, y1, y2 = y
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d01, d12 = (y1 - y0) / (x1 - x0), (y2 - y1) / (x2 - x1)
+        curve = (d12 - d01) / (x2 - x0)
+        vertex = 0.5 * (x0 + x1) - d01 / (2.0 * curve)
+        value = y1 + (vertex - x1) * (d01 + curve * (vertex - x0))
+    return vertex, value
+
+
+def _turns(x: tuple[np.ndarray, ...], y: tuple[np.ndarray, ...]) -> np.ndarray:
+    """Whether the function sampled at three points turns back between the outer two:
+    the middle one is an extreme of the three (the slope changes sign), or the parabola
+    through them has its vertex between the outer two and beyond the three values (a
+    turn inside the first or last step of a run, where no sample lies past it)."""
+    vertex, value = _vertex(x, y)
+    inside = (vertex > x[0]) & (vertex < x[2])
+    with np.errstate(invalid="ignore"):
+        beyond = (value > np.maximum(np.maximum(y[0], y[1]), y[2])) | (
+            value < np.minimum(np.minimum(y[0], y[1]), y[2]))  # fmt: skip
+    return ((y[1] - y[0]) * (y[2] - y[1]) < 0.0) | (inside & beyond)
+
+
+def _narrowed(px: np.ndarray, py: np.ndarray, x: np.ndarray, y: np.ndarray, top: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Of the three points ``(px, py)`` ``(M, 3)`` and a fourth ``(x, y)``, the three
+    around the extreme (the largest where ``top``, else the smallest), in order of ``x``:
+    a step of successive parabolic interpolation."""
+    fx = np.concatenate((px, x[:, None]), axis=1)
+    fy = np.concatenate((py, y[:, None]), axis=1)
+    order = np.argsort(fx, axis=1)
+    fx, fy = np.take_along_axis(fx, order, 1), np.take_along_axis(fy, order, 1)
+    best = np.where(top, np.argmax(fy, axis=1), np.argmin(fy, axis=1))
+    first = np.clip(best - 1, 0, 1)[:, None] + np.arange(3)
+    return np.take_along_axis(fx, first, 1), np.take_along_axis(fy, first, 1)
+
+
+def _joint_turns(solver: _Solver, T: np.ndarray, s: _Samples) -> None:
+    """Sample each joint's turn near its limits (module docstring, step 4): where a
+    joint's margin turns back between samples of a branch (:func:`_turns`) within
+    :data:`_TURN_RANGE` of its limit, and the parabola through the three samples puts
+    the turn across the limit or within :data:`_TURN_NEAR` of it, sample the vertex;
+    then the parabola through the vertex and its two nearest (successive parabolic
+    interpolation), until the turn is sampled to :data:`_TURN_TOL` in ``q7`` or found
+    away from the limit, :data:`_TURN_ROUNDS` at most."""
+    mid = np.flatnonzero((s.row[1:-1] == s.row[:-2]) & (s.row[1:-1] == s.row[2:])) + 1
+    margins = solver.margins(s.q)
+    y0, y1, y2 = margins[mid - 1], margins[mid], margins[mid + 1]  # NaN: no turn
+    xs = tuple(np.broadcast_to(s.x[mid + d][:, None], y1.shape) for d in (-1, 0, 1))
+    k, joint = np.nonzero(_turns(xs, (y0, y1, y2)) & (np.abs(y1) < _TURN_RANGE))
+    px = np.stack([s.x[mid[k] + d] for d in (-1, 0, 1)], axis=1)
+    py = np.stack([margins[mid[k] + d, joint] for d in (-1, 0, 1)], axis=1)
+    row = s.row[mid[k]]
+    top = _vertex(tuple(px.T), tuple(py.T))[1] > py[:, 1]
+    active = np.arange(len(k))
+    added = False
+    for _ in range(_TURN_ROUNDS):
+        x, value = _vertex(tuple(px[active].T), tuple(py[active].T))
+        near = (np.sign(value) != np.sign(py[active, 1])) | (np.abs(value) < _TURN_NEAR)
+        fresh = np.abs(px[active] - x[:, None]).min(axis=1) > _TURN_TOL
+        ok = near & fresh & (x > px[active, 0]) & (x < px[active, 2])  # NaN: False
+        active, x = active[ok], x[ok]
+        if not len(active):
+            break
+        q = _evaluate(solver, T, row[active] // 8, x, s)[np.arange(len(x)), row[active] % 8]
+        added = True
+        y = solver.margins(q)[np.arange(len(x)), joint[active]]
+        there = np.isfinite(y)  # the branch ends before the turn: a fold there
+        active, x, y = active[there], x[there], y[there]
+        px[active], py[active] = _narrowed(px[active], py[active], x, y, top[active])
+    if added:
         s.sort()
 
 
@@ -424,7 +560,7 @@ def _branch(solver: _Solver, T: np.ndarray, q7: np.ndarray, branch: np.ndarray
 
 def _limit_ends(solver: _Solver, T: np.ndarray, s: _Samples) -> None:
     """Find where a joint meets its limit between neighbouring samples of a branch, one
-    within the limits and one outside (module docstring, step 3), and add a sample
+    within the limits and one outside (module docstring, step 5), and add a sample
     there."""
     i = s.neighbours()
     i = i[(s.inside[i] != s.inside[i + 1]) & np.isfinite(s.q[i, 0]) & np.isfinite(s.q[i + 1, 0])]
@@ -472,7 +608,7 @@ def _inverse_quadratic(x: tuple[np.ndarray, ...], y: tuple[np.ndarray, ...]) -> 
 
 def _runs(solver: _Solver, T: np.ndarray, s: _Samples, folds: int) -> Q7Arcs:
     """The runs of samples within the limits and their arm-angle arcs (module docstring,
-    step 4)."""
+    step 6)."""
     take = np.flatnonzero(s.inside)
     row, x, tag = s.row[take], s.x[take], s.tag[take]
     before = take - 1
@@ -513,19 +649,34 @@ def _runs(solver: _Solver, T: np.ndarray, s: _Samples, folds: int) -> Q7Arcs:
 def _extrema(solver: _Solver, T: np.ndarray, row: np.ndarray, x: np.ndarray, u: np.ndarray,
              run: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """At each sample where the arm angle ``u`` turns back along its run, the arm angle at
-    the vertex of the parabola through it and its neighbours: ``(run, angle)`` of each
-    one within the limits."""
+    its turn: the vertex of the parabola through it and its neighbours, then through the
+    vertex and its two nearest of them, :data:`_TURN_ROUNDS` at most (successive
+    parabolic interpolation, to :data:`_TURN_TOL` in ``q7``); ``(run, angle)`` of each
+    vertex within the limits."""
     mid = np.flatnonzero((run[1:-1] == run[:-2]) & (run[1:-1] == run[2:])) + 1
-    mid = mid[(u[mid] - u[mid - 1]) * (u[mid + 1] - u[mid]) < 0.0]
-    x0, x1, x2 = x[mid - 1], x[mid], x[mid + 1]
-    y0, y1, y2 = u[mid - 1], u[mid], u[mid + 1]
-    d01, d12 = (y1 - y0) / (x1 - x0), (y2 - y1) / (x2 - x1)
-    curve = (d12 - d01) / (x2 - x0)
-    vertex = 0.5 * (x0 + x1) - d01 / (2.0 * curve)
-    vertex = np.clip(np.where(np.isfinite(vertex), vertex, x1), x0, x2)
-    q = _branch(solver, T[row[mid] // 8], vertex, row[mid] % 8)
+    mid = mid[_turns((x[mid - 1], x[mid], x[mid + 1]), (u[mid - 1], u[mid], u[mid + 1]))]
     if not len(mid):
         return np.zeros(0, np.int64), np.zeros(0)
-    ok = solver.margin(q) >= 0.0
-    phi = solver.angle(q[ok])
-    return run[mid][ok], u[mid][ok] + _wrap(phi - u[mid][ok])
+    px = np.stack((x[mid - 1], x[mid], x[mid + 1]), axis=1)
+    pu = np.stack((u[mid - 1], u[mid], u[mid + 1]), axis=1)
+    top = _vertex(tuple(px.T), tuple(pu.T))[1] > pu[:, 1]  # a maximum
+    pose, branch = row[mid] // 8, row[mid] % 8
+    out_run, out_u = [], []
+    active = np.arange(len(mid))
+    for _ in range(_TURN_ROUNDS):
+        vertex, _ = _vertex(tuple(px[active].T), tuple(pu[active].T))
+        lo, hi = px[active, 0], px[active, 2]
+        vertex = np.clip(np.where(np.isfinite(vertex), vertex, px[active, 1]), lo, hi)
+        q = _branch(solver, T[pose[active]], vertex, branch[active])
+        ok = solver.margin(q) >= 0.0
+        active, vertex, q = active[ok], vertex[ok], q[ok]
+        phi = solver.angle(q)
+        value = pu[active, 1] + _wrap(phi - pu[active, 1])
+        out_run.append(run[mid][active])
+        out_u.append(value)
+        moved = np.abs(vertex - px[active, 1]) > _TURN_TOL
+        px[active], pu[active] = _narrowed(px[active], pu[active], vertex, value, top[active])
+        active = active[moved]
+        if not len(active):
+            break
+    return np.concatenate(out_run), np.concatenate(out_u)
