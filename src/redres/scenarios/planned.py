@@ -39,7 +39,7 @@ COMPARED = {
 
 @dataclass(frozen=True)
 class ComparisonRow:
-    """One scheme: its ``value`` of the objective (unit of :attr:`PlanComparison.unit`)
+    """One scheme: its ``value`` of the objective (in the unit ``PlanComparison.unit`` names)
     and ``percent``, ``100 · value / optimum``."""
 
     scheme: str
