@@ -81,6 +81,27 @@ def covered(robot: Robot, frame: str | None) -> bool:
     return _arm(robot, frame) is not None and KERNELS.compiled() is not None
 
 
+def full_pose(spec: tuple[np.ndarray, np.ndarray | None] | None) -> np.ndarray | None:
+    """The 4x4 pose of a parsed full-pose target ``(position, rotation)`` (None: position
+    only, or not finite)."""
+    if spec is None or spec[1] is None:
+        return None
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = spec[1], spec[0]
+    return T
+
+
+def answer(
+    robot: Robot, frame: str | None, pose: Any, q0: np.ndarray, options: Any, start: float
+) -> IKResult | None:
+    """:func:`closed_form_solution` at ``options``' tolerances where the arm is
+    :func:`covered` and ``pose`` is a full pose (None otherwise: iterate instead)."""
+    if pose is None or not covered(robot, frame):
+        return None
+    return closed_form_solution(robot, frame, pose, q0, options.tol_position,
+                                options.tol_orientation, start)  # fmt: skip
+
+
 def closed_form_solution(
     robot: Robot,
     frame: str | None,

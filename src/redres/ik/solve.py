@@ -91,7 +91,7 @@ from .._validate import FloatArray, as_scalar, as_seed, as_vector
 from ..errors import InvalidParameterError
 from ..linalg import AdaptiveDamping, rate_step
 from . import _layout as layout
-from .closed import closed_form_solution, covered
+from .closed import answer, full_pose
 from .options import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target, limit_arrays
 from .reference import ReferenceSolver
 
@@ -204,11 +204,7 @@ def ik(
         guess = q_start
 
         def shortcut() -> IKResult | None:  # asked only when an attempt has failed
-            pose = target if raw else _full_pose(spec)
-            if pose is None or not covered(robot, frame):
-                return None
-            return closed_form_solution(robot, frame, pose, guess, options.tol_position,
-                                        options.tol_orientation, start)  # fmt: skip
+            return answer(robot, frame, target if raw else full_pose(spec), guess, options, start)
 
     if compiled is not None and (raw or spec is not None):
         problem = _problem(target if raw else spec, packed, q_pref)
@@ -383,15 +379,6 @@ def _warm_arguments() -> tuple[Any, ...]:
     problem[16:19] = 1.0
     io = np.zeros(2 + 6)
     return (*chain, limits, problem, io, 6, False, 0, 0, 1, 1)
-
-
-def _full_pose(spec: tuple[FloatArray, FloatArray | None] | None) -> FloatArray | None:
-    """The 4x4 pose of a parsed full-pose target (None: position only, or not finite)."""
-    if spec is None or spec[1] is None:
-        return None
-    T = _EYE4.copy()
-    T[:3, :3], T[:3, 3] = spec[1], spec[0]
-    return T
 
 
 def _is_float_vector(value: Any, n: int) -> bool:

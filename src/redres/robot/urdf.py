@@ -231,9 +231,7 @@ def _file_limits(
     """An MJCF's limits as MuJoCo reads them, put into ``model``: the torque limits of its
     actuators (:func:`.mjcf.torque_limits`, in place of Pinocchio's), and ``continuous_limits`` for
     a hinge without a range (MuJoCo's unlimited joint; Pinocchio leaves it at ±inf)."""
-    lo, hi = float(continuous_limits[0]), float(continuous_limits[1])
-    if not (lo < hi):
-        raise URDFError(f"continuous_limits must satisfy low < high; got {continuous_limits}")
+    lo, hi = _continuous(continuous_limits)
     q_lo, q_hi = np.array(model.lowerPositionLimit), np.array(model.upperPositionLimit)
     effort = np.array(model.effortLimit)
     for j in range(1, model.njoints):
@@ -247,6 +245,14 @@ def _file_limits(
         effort[v] = torques.get(str(model.names[j]), math.inf)
     model.lowerPositionLimit, model.upperPositionLimit = q_lo, q_hi
     model.effortLimit = effort
+
+
+def _continuous(limits: tuple[float, float]) -> tuple[float, float]:
+    """``continuous_limits`` as two floats, checked ``low < high``."""
+    lo, hi = float(limits[0]), float(limits[1])
+    if not (lo < hi):
+        raise URDFError(f"continuous_limits must satisfy low < high; got {limits}")
+    return lo, hi
 
 
 def _reference(model: pin.Model) -> np.ndarray | None:
@@ -353,9 +359,7 @@ def _locked_configuration(model: pin.Model, locked: Mapping[str, float], file: s
 
 def _bound_continuous_joints(model: pin.Model, limits: tuple[float, float], file: str) -> pin.Model:
     """Copy ``model`` with each continuous joint replaced by a revolute joint in ``limits``."""
-    lo, hi = float(limits[0]), float(limits[1])
-    if not (lo < hi):
-        raise URDFError(f"continuous_limits must satisfy low < high; got {limits}")
+    lo, hi = _continuous(limits)
     out = pin.Model()
     out.name = model.name
     for j in range(1, model.njoints):

@@ -177,9 +177,8 @@ def training_rows(
     T = poses[index]
     xyzw = quaternions(T[:, :3, :3]) if len(T) else np.empty((0, 4))
     pose = np.column_stack((T[:, :3, 3], xyzw[:, 3], xyzw[:, :3]))
-    n = q.shape[1] if q.ndim == 2 else data["q_true"].shape[1]
-    columns = ("x", "y", "z", "qw", "qx", "qy", "qz", *(f"q{j + 1}" for j in range(n)))
-    return TrainingRows(pose, q.reshape(len(index), n), index.astype(np.int64), columns)
+    columns = ("x", "y", "z", "qw", "qx", "qy", "qz", *(f"q{j + 1}" for j in range(q.shape[1])))
+    return TrainingRows(pose, q, index.astype(np.int64), columns)
 
 
 def export_rows(
