@@ -11,7 +11,7 @@ Entry points and their call tree::
         independent: results do not depend on the thread count)
 
 ``arm`` holds the arm's constants (slots of :mod:`._analytic_codes`, derived in
-:func:`redres.ik.analytic._build`); ``links, axes, kinds`` are
+:func:`redres.ik.structure.analytic_arm`); ``links, axes, kinds`` are
 :attr:`redres.robot.SerialChain.arrays` of the 7 joints and the frame; ``T`` the frame's
 pose ``(4, 4)``; ``out`` ``(N_ROWS, N_VALUES)`` receives the solutions (joints, FK
 errors, branch, flags, within the limits) and, in its last row, the pose. The
