@@ -31,6 +31,8 @@ _T = TypeVar("_T")
 
 #: The limits a ``[robot]`` table of a scenario or sweep spec may set (:meth:`Reader.joint_limits`).
 LIMIT_KEYS = ("qd_max", "qdd_max", "qddd_max", "tau_max")
+#: The keys that name a ``[robot]`` table's robot, one of them per table.
+ROBOT_SOURCES = ("model", "urdf", "mjcf", "menagerie")
 
 
 def load(path: str | Path, what: str, error: type[RedresError]) -> dict[str, Any]:
@@ -197,6 +199,24 @@ class Reader:
                 raise self.fail(key, f"must be > 0 for every joint; got {short_repr(value)}")
             out[key] = value
         return out
+
+    def robot_source(self) -> tuple[str, str]:
+        """The one robot source of a ``[robot]`` table, ``(key, value)``: a built-in
+        ``model``, a ``urdf`` or ``mjcf`` path, or a ``menagerie`` arm (:data:`ROBOT_SOURCES`).
+
+        Raises:
+            The reader's error: none of them, or more than one.
+        """
+        given = {key: self.get(key, "string", None) for key in ROBOT_SOURCES}
+        named = [key for key, value in given.items() if value is not None]
+        if len(named) != 1:
+            got = f"; got {' and '.join(named)}" if named else ""
+            raise self.fail(
+                named[1] if len(named) > 1 else "model",
+                'give exactly one of model = "<built-in name>", urdf = "<path>", mjcf = '
+                f'"<path>" or menagerie = "<arm>"{got}',
+            )
+        return named[0], given[named[0]]
 
     def sub(self, key: str) -> Reader:
         """The reader of the sub-table ``[key]`` (empty when absent)."""

@@ -28,13 +28,9 @@ if TYPE_CHECKING:
     from .._toml import Reader
     from ..robot import Robot
 
-__all__ = ["SOURCES", "RobotSource", "model_digest"]
+__all__ = ["RobotSource", "model_digest"]
 
 _BUILT: dict[RobotSource, Robot] = {}  # per process: the robot of each source
-
-
-#: The ``[robot]`` keys that name where the robot comes from (exactly one is given).
-SOURCES = ("model", "menagerie", "urdf", "mjcf")
 
 
 @dataclass(frozen=True)
@@ -70,18 +66,8 @@ class RobotSource:
         folder) with ``tip``; optional ``frame`` and limits (``qd_max = 2.0``, ...)."""
         from .. import models
 
-        given = {key: r.get(key, "string", None) for key in SOURCES}
-        named = [key for key, value in given.items() if value is not None]
+        key, value = r.robot_source()
         tip, frame = r.get("tip", "string", None), r.get("frame", "string", None)
-        if len(named) != 1:
-            raise r.fail(
-                named[1] if len(named) > 1 else "model",
-                'give exactly one of model = "<built-in name>", menagerie = "<arm>", urdf = '
-                '"<path>" or mjcf = "<path>"' + (f"; got {' and '.join(named)}" if named else ""),
-            )
-        key = named[0]
-        value = given[key]
-        assert value is not None
         if key == "model":
             if value not in models.names():
                 raise r.fail("model", f"unknown robot {value!r}; built-in robots: "
