@@ -9,7 +9,13 @@ import numpy as np
 import pytest
 
 import redres as rr
-from redres.errors import InvalidParameterError, ModelFileNotFoundError, ShapeError, URDFError
+from redres.errors import (
+    InvalidParameterError,
+    MJCFError,
+    ModelFileNotFoundError,
+    ShapeError,
+    URDFError,
+)
 from redres.testing import assert_jacobian_close, frame_jacobian_fd
 
 
@@ -47,8 +53,9 @@ def test_missing_and_malformed_mjcf(tmp_path: Path) -> None:
         rr.Robot.from_mjcf(tmp_path / "nope.xml")
     bad = tmp_path / "bad.xml"
     bad.write_text("<robot/>")
-    with pytest.raises(URDFError, match="expected <mujoco>"):
+    with pytest.raises(MJCFError, match="expected <mujoco>") as caught:
         rr.Robot.from_mjcf(bad)
+    assert not isinstance(caught.value, URDFError)  # an MJCF problem is named as one
 
 
 def test_urdf_string_gives_the_file_robot(fixtures_dir: Path, rng: np.random.Generator) -> None:

@@ -122,6 +122,7 @@ def test_unknown_tip_and_unknown_locked_joint(fixtures_dir: Path) -> None:
         ('<mass value="1"/>', '<mass value="nan"/>', r"link 'l1': <mass value='nan'> must be 1"),
         ('<axis xyz="0 1 0"/>', '<axis xyz="0 0 0"/>', r"joint 'j2': <axis xyz='0 0 0'> is no"),
         ('<axis xyz="0 1 0"/>', '<axis xyz="0 1"/>', r"joint 'j2': <axis xyz='0 1'> must be 3"),
+        ('<axis xyz="0 1 0"/>', "<axis/>", r"joint 'j2': <axis> has no xyz"),
         ('upper="2"', 'upper="nan"', r"joint 'j2': <limit upper='nan'> must be 1 finite"),
         ('<origin xyz="0.4 0 0"/>', '<origin xyz="0.4 0 inf"/>', r"<origin xyz='0.4 0 inf'>"),
     ],

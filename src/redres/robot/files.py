@@ -217,7 +217,8 @@ class RobotFiles:
 
         Raises:
             ModelFileNotFoundError: the file does not exist.
-            URDFError: the file cannot be parsed, or ``tip`` is missing or ambiguous.
+            MJCFError: the file cannot be parsed (a malformed number is named by element and
+                attribute), or ``tip`` is missing or ambiguous.
         """
         from .urdf import mjcf_source
 
