@@ -3,6 +3,7 @@ made the one array type the batch kernels are compiled for, with errors naming t
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import numpy as np
@@ -16,15 +17,17 @@ def _targets(value: Any) -> tuple[FloatArray, int]:
     positions)."""
     array = real_array(value, "targets", "poses (N, 4, 4) or positions (N, 3)")
     if array.ndim == 2 and array.shape[1] == 3:
+        _fits_in_memory(array.shape[0] * 16 * 8, "the targets' poses")
         T = np.tile(np.eye(4), (len(array), 1, 1))
         T[:, :3, 3] = array
         return T, 3
     if array.ndim != 3 or array.shape[1:] != (4, 4):
         raise ShapeError(f"targets must have shape (N, 4, 4) or (N, 3); got {array.shape}")
+    _fits_in_memory(array.shape[0] * 16 * 8, "the targets' copy")
     return _typed(array), 6
 
 
-def _keys(keys: Any, seed: int, count: int) -> Any:
+def _keys(keys: Any, seed: Any, count: int) -> Any:
     """The restart keys: ``keys`` checked, or drawn from ``default_rng(seed)``."""
     if keys is None:
         return np.random.default_rng(seed).integers(0, 2**62, count)
@@ -89,3 +92,18 @@ def _ragged(value: Any, name: str, width: int) -> ShapeError | None:
                 f"({width},) (ragged input)"
             )
     return None
+
+
+def _fits_in_memory(size: int, what: str) -> None:
+    """Refuse a call whose output arrays (``size`` bytes) exceed half the machine's memory
+    (a broadcast of 10⁹ targets), before allocating them."""
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # not POSIX: numpy's own MemoryError
+        return
+    if size > total // 2:
+        raise InvalidParameterError(
+            f"{what} would need {size / 2**30:.1f} GiB for its outputs, more than half of this "
+            f"machine's {total / 2**30:.0f} GiB: split the targets into chunks, or run a sweep "
+            "(redres.sweeps) that stores its shards on disk"
+        )
