@@ -93,7 +93,12 @@ def main(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result))
     else:
-        redone = f", {len(report.redone)} redone" if report.redone else ""
+        shards = ", ".join(map(str, report.redone[:8])) + (
+            ", ..." if len(report.redone) > 8 else ""
+        )
+        redone = f", {len(report.redone)} redone (damaged: shard {shards})" if report.redone else ""
+        if report.tables_rewritten:
+            redone += ", the plan's tables written again (damaged)"
         print(f"{report.kind} sweep in {args.out}: {report.computed} shards computed, "
               f"{report.skipped} already done{redone}, {report.queries:,} queries in "
               f"{report.seconds:.1f} s ({report.queries_per_second:,.0f}/s, {report.engine}, "

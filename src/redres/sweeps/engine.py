@@ -70,6 +70,8 @@ class SweepReport:
         shards: shards of the sweep.
         skipped: shards found finished (resumed past).
         redone: shards whose stored arrays did not match their checksum, computed again.
+        tables_rewritten: the plan's stored tables did not match their checksum (a file
+            lost or altered) and were written again.
         computed: shards computed by this call.
         queries: queries of the computed shards.
         seconds: wall-clock time of this call, s.
@@ -82,6 +84,7 @@ class SweepReport:
     shards: int
     skipped: int = 0
     redone: list[int] = field(default_factory=list)
+    tables_rewritten: bool = False
     computed: int = 0
     queries: int = 0
     seconds: float = 0.0
@@ -95,7 +98,8 @@ class SweepReport:
     def as_dict(self) -> dict[str, Any]:
         return {
             "folder": str(self.folder), "kind": self.kind, "shards": self.shards,
-            "skipped": self.skipped, "redone": self.redone, "computed": self.computed,
+            "skipped": self.skipped, "redone": self.redone,
+            "tables_rewritten": self.tables_rewritten, "computed": self.computed,
             "queries": self.queries, "seconds": round(self.seconds, 3),
             "queries_per_second": round(self.queries_per_second, 1), "engine": self.engine,
             "workers": self.workers,
@@ -162,6 +166,9 @@ def run(
     (folder / MANIFEST).mkdir(exist_ok=True)
     if not (resume and store.valid()):  # new, or killed while it was being created
         store.create(plan.tables)
+    elif store.tables_sha256() != header["tables_sha256"]:  # a table file lost or altered
+        store.write_tables(plan.tables)
+        report.tables_rewritten = True
     todo = _unfinished(folder, store, count, header, report) if resume else list(range(count))
     report.skipped = count - len(todo)
     if todo:
@@ -198,6 +205,7 @@ def _header(
         "settings_sha256": spec.digest(), "versions": versions(), "storage": storage,
         "units": plan.units, "queries_per_unit": plan.queries_per_unit,
         "shard_units": shard_units, "shards": count, "plan_sha256": checksum(arrays),
+        "tables_sha256": checksum(plan.tables),
         "fields": {k: {"dtype": f.dtype, "shape": list(f.shape), "doc": f.doc}
                    for k, f in plan.fields.items()},
         "tables": sorted(plan.tables), "meta": plan.meta,
