@@ -125,3 +125,20 @@ def test_no_robot_and_an_output_beyond_memory_are_refused(builtin_robots: dict) 
     many = np.broadcast_to(T, (10**9, 4, 4))  # no memory of its own: a view
     with pytest.raises(InvalidParameterError, match=r"GiB for its outputs.*chunks"):
         batch.ik(robot, many, solutions=8)
+
+
+def test_a_batch_launched_in_pieces_equals_its_items(
+    builtin_robots: dict, rng: np.random.Generator
+) -> None:
+    """rr.batch.ik launches the kernel on a few thousand targets at a time (Ctrl-C is seen
+    between launches): the items past the first launch equal the same items alone."""
+    robot = builtin_robots["panda"]
+    q = np.array([robot.random_configuration(rng) for _ in range(4100)])
+    T = batch.fk(robot, q)
+    keys = rng.integers(0, 2**62, len(T))
+    options = {"max_iterations": 30, "max_restarts": 0, "q0": q + 0.05}
+    whole = batch.ik(robot, T, keys=keys, **options)
+    part = slice(4090, 4100)  # across the first launch's end (4096)
+    alone = batch.ik(robot, T[part], keys=keys[part], **{**options, "q0": q[part] + 0.05})
+    for a, b in zip(whole, alone):
+        assert np.array_equal(a[part], b, equal_nan=True)

@@ -360,9 +360,16 @@ def ik(
     kernels = _compiled(threads)
     if kernels is None:
         kernels = KERNELS.module(plain=True)  # the plain-Python twin: the same code, slowly
-    args = (*chain.arrays, limit_arrays(robot.q_min, robot.q_max), T, starts, packed, rows, key,
-            o.max_restarts + 1, q, errors, counts, status)  # fmt: skip
-    _launch(kernels.ik_solves, args, threads)
+    fixed = (*chain.arrays, limit_arrays(robot.q_min, robot.q_max))
+    # In launches of a few thousand targets: Ctrl-C (KeyboardInterrupt) is seen between
+    # two (a compiled call cannot be interrupted); each item depends on its own row alone.
+    step = 4096
+    for a in range(0, count, step):
+        b = min(count, a + step)
+        first = starts if len(starts) == 1 else starts[a:b]
+        args = (*fixed, T[a:b], first, packed, rows, key[a:b], o.max_restarts + 1, q[a:b],
+                errors[a:b], counts[a:b], status[a:b])  # fmt: skip
+        _launch(kernels.ik_solves, args, threads)
     if status.any():
         i = int(np.flatnonzero(status)[0])
         raise ShapeError(f"targets[{i}] is not a homogeneous transform (orthonormal rotation "

@@ -75,8 +75,13 @@ def main(args: argparse.Namespace) -> int:
 
     target = args.spec
     path = builtin[target] if target in builtin and not Path(target).exists() else Path(target)
-    report = run(path, args.out, workers=args.workers, scheduler=args.scheduler,
-                 storage=args.storage, progress=not (args.quiet or args.json))  # fmt: skip
+    try:
+        report = run(path, args.out, workers=args.workers, scheduler=args.scheduler,
+                     storage=args.storage, progress=not (args.quiet or args.json))  # fmt: skip
+    except KeyboardInterrupt:
+        print(f"\nredres sweep: interrupted; the finished shards are stored in {args.out}: run "
+              "the same command again to resume", file=sys.stderr)  # fmt: skip
+        return 130
     result = report.as_dict()
     if args.reuleaux:
         from ..sweeps.kinds.reuleaux import export_reuleaux

@@ -30,7 +30,9 @@ from __future__ import annotations
 import concurrent.futures as cf
 import multiprocessing
 import os
+import signal
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures.process import BrokenProcessPool
@@ -292,9 +294,19 @@ def _dispatch(
                 tick(job.stop - job.start)
             return
         context = multiprocessing.get_context("spawn")  # numba's threads do not survive fork
-        with cf.ProcessPoolExecutor(min(count, len(jobs)), mp_context=context) as pool:
-            report.engine, report.workers = "process pool", min(count, len(jobs))
+        pool = cf.ProcessPoolExecutor(
+            min(count, len(jobs)),
+            mp_context=context,
+            initializer=die_with_parent,
+            initargs=(os.getpid(),),
+        )
+        report.engine, report.workers = "process pool", min(count, len(jobs))
+        try:
             _gather(pool, jobs, finish, tick)
+        except BaseException:  # Ctrl-C, a failed shard: no wait for the running shards
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        pool.shutdown()
         return
     if scheduler is not None:
         try:
@@ -312,6 +324,30 @@ def _dispatch(
     report.engine = type(executor).__name__
     report.workers = int(getattr(executor, "_max_workers", 0) or 1)
     _gather(executor, jobs, finish, tick)
+
+
+def die_with_parent(parent: int) -> None:
+    """A pool worker's initializer: end this process when ``parent`` (the sweep) is gone,
+    even by ``kill -9`` (which runs no clean-up of its own): Linux's parent-death signal,
+    and everywhere a thread that watches for the process to be re-parented. Ctrl-C is
+    ignored here: the sweep stops the pool and says how to resume, once."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the watcher alone
+        pass
+    if os.getppid() != parent:  # gone before the signal was armed
+        os._exit(1)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the sweep's to handle
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="redres-parent-watch", daemon=True).start()
 
 
 def _gather(
