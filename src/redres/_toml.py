@@ -31,6 +31,10 @@ _T = TypeVar("_T")
 
 #: The limits a ``[robot]`` table of a scenario or sweep spec may set (:meth:`Reader.joint_limits`).
 LIMIT_KEYS = ("qd_max", "qdd_max", "qddd_max", "tau_max")
+#: The largest magnitude of a number in a scenario or sweep spec (gains, lengths, times,
+#: limits); integers (seeds, counts) may reach :data:`MAX_INTEGER` (exact in a float).
+MAX_NUMBER = 1e9
+MAX_INTEGER = float(2**53)
 #: The keys that name a ``[robot]`` table's robot, one of them per table.
 ROBOT_SOURCES = ("model", "urdf", "mjcf", "menagerie")
 
@@ -96,10 +100,10 @@ class Reader:
                 raise self.fail(key, f"missing; add `{key} = <{kind}>`")
             return default
         value = self.table[key]
-        if kind == "number":
+        if kind in ("number", "integer"):
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise self.fail(key, f"expected a number, got {value!r} (write {key} = 1.0)")
-            return self._float(key, value)
+            return self._float(key, value, MAX_NUMBER if kind == "number" else MAX_INTEGER)
         if kind == "string":
             if not isinstance(value, str):
                 raise self.fail(key, f'expected a string, got {value!r} (write {key} = "...")')
@@ -118,14 +122,18 @@ class Reader:
             return value
         raise AssertionError(kind)
 
-    def _float(self, key: str, value: int | float) -> float:
-        """``value`` as a finite float (an integer of hundreds of digits is not one)."""
+    def _float(self, key: str, value: int | float, limit: float = MAX_NUMBER) -> float:
+        """``value`` as a finite float within ``±limit`` (an integer of hundreds of digits
+        is not one; 1e300 is no setting of a scenario or sweep, refused here by key rather
+        than at run time)."""
         try:
             x = float(value)
         except OverflowError:
             raise self.fail(key, f"{short_repr(value)} is too large for a number") from None
         if not math.isfinite(x):
             raise self.fail(key, f"must be finite; got {value!r}")
+        if abs(x) > limit:
+            raise self.fail(key, f"must lie within ±{limit:g}; got {value!r}")
         return x
 
     def number(self, key: str, default: Any = ...) -> float:
@@ -170,7 +178,7 @@ class Reader:
             )
 
     def integer(self, key: str, default: Any = ..., minimum: int | None = None) -> int:
-        value = self.number(key, default)
+        value = float(self.get(key, "integer", default))
         if not float(value).is_integer():
             raise self.fail(key, f"expected an integer, got {self.table[key]!r}")
         if minimum is not None and value < minimum:

@@ -118,6 +118,23 @@ def _root(source: ModelSource) -> ET.Element:
     return root
 
 
+def _as_utf8(source: ModelSource, root: ET.Element) -> ModelSource:
+    """Pinocchio reads names as UTF-8: a URDF file in another encoding (ISO-8859-1 with an
+    'é' in a name, declared in its XML header) is handed over as UTF-8 text, its meshes
+    still found beside the file; an MJCF must be UTF-8 (MuJoCo's own rule)."""
+    if source.file is None:
+        return source
+    try:
+        source.file.read_bytes().decode("utf-8")
+        return source
+    except UnicodeDecodeError:
+        pass
+    if source.kind == "mjcf":
+        raise URDFError(f"{source.label}: not UTF-8 text; MuJoCo reads MJCF as UTF-8: save it so")
+    text = ET.tostring(root, encoding="unicode")
+    return ModelSource(source.label, "urdf", text=text, mesh_dir=source.folder)
+
+
 def _full_model(
     source: ModelSource, geometry: tuple[str, ...], root: ET.Element
 ) -> tuple[pin.Model, Any, Any]:
@@ -189,6 +206,7 @@ def _load_model(
     geometry: tuple[str, ...],
 ) -> LoadedModel:
     root = _root(source)
+    source = _as_utf8(source, root)
     label = source.label
     if source.kind == "urdf":
         if root.find("link") is None:
