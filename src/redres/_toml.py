@@ -35,6 +35,9 @@ LIMIT_KEYS = ("qd_max", "qdd_max", "qddd_max", "tau_max")
 #: limits); integers (seeds, counts) may reach :data:`MAX_INTEGER` (exact in a float).
 MAX_NUMBER = 1e9
 MAX_INTEGER = float(2**53)
+#: The largest file a spec may name (a robot model, a scenario), bytes: Menagerie's
+#: largest MJCF is about 60 kB, a URDF with inline meshes a few MB.
+MAX_FILE_BYTES = 64 * 1024 * 1024
 #: The keys that name a ``[robot]`` table's robot, one of them per table.
 ROBOT_SOURCES = ("model", "urdf", "mjcf", "menagerie")
 
@@ -225,6 +228,23 @@ class Reader:
                 f'"<path>" or menagerie = "<arm>"{got}',
             )
         return named[0], given[named[0]]
+
+    def file_text(self, key: str, file: Path) -> str:
+        """The text of the file that ``key`` names: a regular file (not ``/dev/zero`` or a
+        pipe, which would be read until memory runs out) of at most :data:`MAX_FILE_BYTES`,
+        in UTF-8; else the reader's error naming the key and the file."""
+        try:
+            if not file.is_file():
+                what = "not found" if not file.exists() else "not a regular file"
+                raise self.fail(key, f"cannot read {shown_path(file)}: {what}")
+            size = file.stat().st_size
+            if size > MAX_FILE_BYTES:
+                limit = f"{size} bytes, more than the {MAX_FILE_BYTES} a spec's file may have"
+                raise self.fail(key, f"cannot read {shown_path(file)}: {limit}")
+            return file.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            why = describe_os_error(exc) if isinstance(exc, OSError) else "not UTF-8 text"
+            raise self.fail(key, f"cannot read {shown_path(file)}: {why}") from None
 
     def sub(self, key: str) -> Reader:
         """The reader of the sub-table ``[key]`` (empty when absent)."""

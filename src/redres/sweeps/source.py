@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import ModelFileError, describe_os_error, shown_path
+from ..errors import ModelFileError
 
 if TYPE_CHECKING:
     from .._toml import Reader
@@ -78,7 +78,7 @@ class RobotSource:
         elif key == "menagerie":
             source = cls(menagerie=value, tip=tip, frame=frame, label=value)
         else:
-            text = _model_text(r, key, base / value)
+            text = r.file_text(key, base / value)
             source = cls(urdf=text if key == "urdf" else None, mjcf=text if key == "mjcf" else None,
                          tip=tip, frame=frame, label=Path(value).name)  # fmt: skip
         with r.blame(key):
@@ -157,26 +157,3 @@ def model_digest(robot: Robot, frame: str | None = None) -> str:
         digest.update(f"{a.dtype.str}{a.shape}".encode())
         digest.update(a.tobytes())
     return digest.hexdigest()
-
-
-#: The largest robot file a spec may name, bytes (Menagerie's largest MJCF is ~60 kB; a
-#: URDF with inline meshes a few MB).
-MAX_MODEL_BYTES = 64 * 1024 * 1024
-
-
-def _model_text(r: Reader, key: str, file: Path) -> str:
-    """The text of the model file a spec names: a regular file (not ``/dev/zero`` or a
-    pipe, which would be read until memory runs out) of at most :data:`MAX_MODEL_BYTES`,
-    in UTF-8."""
-    try:
-        if not file.is_file():
-            what = "not found" if not file.exists() else "not a regular file"
-            raise r.fail(key, f"cannot read {shown_path(file)}: {what}")
-        size = file.stat().st_size
-        if size > MAX_MODEL_BYTES:
-            raise r.fail(key, f"{shown_path(file)}: {size} bytes; a robot file is at most "
-                         f"{MAX_MODEL_BYTES} bytes")  # fmt: skip
-        return file.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        why = describe_os_error(exc) if isinstance(exc, OSError) else "not UTF-8 text"
-        raise r.fail(key, f"cannot read {shown_path(file)}: {why}") from None
