@@ -107,3 +107,26 @@ def test_damage_is_named_on_reading_and_redone_on_resume(
             assert _same(again[name], array), (kind, how, victim, name)
         if kind.startswith(("field", "shard")):  # a damaged shard file is found and redone
             assert report.redone or report.computed, (kind, how, victim)
+
+
+def test_a_full_disk_names_the_file_being_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A write to a full disk raises an OSError without a file name; the message said
+    "a file". It now names the file the sweep was writing."""
+    import errno
+    import os
+
+    from redres.errors import describe_os_error
+    from redres.sweeps.store import write_atomic
+
+    def full(fd: int) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "fsync", full)
+    target = tmp_path / "manifest.json"
+    with pytest.raises(OSError) as caught:
+        write_atomic(target, b"{}")
+    text = describe_os_error(caught.value)
+    assert str(target) in text and "the disk is full" in text, text
+    assert list(tmp_path.iterdir()) == []  # nothing half-written left behind
