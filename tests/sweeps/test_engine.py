@@ -292,7 +292,7 @@ def test_ctrl_c_of_a_pool_sweep_says_how_to_resume_in_one_line(tmp_path: Path) -
         time.sleep(0.01)
     workers = _children(process.pid)
     os.killpg(process.pid, signal.SIGINT)
-    _, err = process.communicate(timeout=120)
+    _, err = process.communicate(timeout=600)
     text = err.decode()
     assert process.returncode == 130, text
     assert "Traceback" not in text and text.strip().count("\n") == 0, text
