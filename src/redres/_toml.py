@@ -180,12 +180,16 @@ class Reader:
                 unknown[0], f"unknown key; valid keys here: {', '.join(sorted(self.used))}"
             )
 
-    def integer(self, key: str, default: Any = ..., minimum: int | None = None) -> int:
+    def integer(
+        self, key: str, default: Any = ..., minimum: int | None = None, maximum: int | None = None
+    ) -> int:
         value = float(self.get(key, "integer", default))
         if not float(value).is_integer():
             raise self.fail(key, f"expected an integer, got {self.table[key]!r}")
         if minimum is not None and value < minimum:
             raise self.fail(key, f"must be >= {minimum}; got {int(value)}")
+        if maximum is not None and value > maximum:
+            raise self.fail(key, f"must be <= {maximum:,}; got {int(value):,}")
         return int(value)
 
     def boolean(self, key: str, default: bool) -> bool:

@@ -21,6 +21,8 @@ BAD = {
     "solver": ({"max_restarts": "-1"}, "spec.toml: [solver].max_restarts: must be >= 0"),
     "bounds": ({"bounds": "[[1, 0], [0, 1], [0, 1]]"}, "[capability].bounds: each range must"),
     "seed": ({"seed": '"abc"'}, 'spec.toml: seed: expected a number, got \'abc\''),
+    "directions large": ({"directions": "100000000"}, "[capability].directions: must be <= 10,000"),
+    "fk samples large": ({"fk_samples": "1000000000"}, "fk_samples: must be <= 20,000,000"),
 }  # fmt: skip
 
 

@@ -11,8 +11,8 @@ compiler's ``angle`` and ``eulerseq``; MuJoCo's XML reference, "body").
 Pinocchio's parser does not check the numbers it reads: ``pos="0.3 0"`` (too few),
 ``pos="a b c"`` or ``range="nan 1"`` build a model from whatever memory held, ``axis="0 0 0"``
 a joint without a direction, ``mass="-1"`` a massless link. :func:`check_numbers` reads
-every numeric attribute of the bodies, joints, geoms, sites and inertials (and of the
-default classes that hold them) first, with MuJoCo's counts, and refuses, naming the
+every numeric attribute of the bodies, joints, geoms, sites, inertials, cameras and lights
+(and of the default classes that hold them) first, with MuJoCo's counts, and refuses, naming the
 element and attribute, what is not finite, has the wrong count, is a zero direction or
 quaternion, or is a negative mass, inertia or size.
 
@@ -62,12 +62,14 @@ _NUMERIC: dict[str, dict[str, tuple[int, ...]]] = {
     "geom": {"pos": (3,), "size": (1, 2, 3), "fromto": (6,), "mass": (1,), "density": (1,),
              **_ORIENTATION},
     "site": {"pos": (3,), "size": (1, 2, 3), "fromto": (6,), **_ORIENTATION},
+    "camera": {"pos": (3,), **_ORIENTATION},
+    "light": {"pos": (3,), "dir": (3,)},
 }  # fmt: skip
 #: Attributes that must not be negative (sizes, masses, inertias, joint dynamics).
 _NONNEGATIVE = {"mass", "density", "diaginertia", "size", "damping", "stiffness", "armature",
                 "frictionloss"}  # fmt: skip
 #: Attributes that are a direction (or contain one first): not zero.
-_DIRECTIONS = {"axis": 3, "quat": 4, "axisangle": 3, "zaxis": 3}
+_DIRECTIONS = {"axis": 3, "quat": 4, "axisangle": 3, "zaxis": 3, "dir": 3}
 
 
 def check_numbers(root: ET.Element, label: str) -> None:
@@ -107,6 +109,24 @@ def check_numbers(root: ET.Element, label: str) -> None:
                 raise MJCFError(f"{where}: the low end is above the high end")
             if key == "xyaxes" and np.linalg.norm(np.cross(values[:3], values[3:])) < 1e-9:
                 raise MJCFError(f"{where}: the two axes are parallel or zero")
+            if key == "size" and element.tag == "geom":
+                _check_geom_size(element, values, where)
+
+
+#: The sizes a geom of each type needs: (without ``fromto``, with it) (MuJoCo's reference).
+_GEOM_SIZES = {"sphere": (1, 1), "capsule": (2, 1), "cylinder": (2, 1), "box": (3, 2),
+               "ellipsoid": (3, 3)}  # fmt: skip
+
+
+def _check_geom_size(geom: ET.Element, values: list[float], where: str) -> None:
+    """A geom whose own ``type`` needs more numbers than its ``size`` holds, or a zero
+    where MuJoCo needs a positive size (a type set by a default class is not checked)."""
+    kind = geom.get("type")
+    if kind not in _GEOM_SIZES:
+        return
+    need = _GEOM_SIZES[kind][geom.get("fromto") is not None]
+    if len(values) < need or min(values[:need]) <= 0.0:
+        raise MJCFError(f"{where}: a {kind} needs {need} positive size number(s)")
 
 
 def keep_root_placements(model: pin.Model, root: ET.Element, label: str) -> None:

@@ -319,6 +319,9 @@ def _dispatch(
             report.engine = "dask"
             report.workers = len(client.scheduler_info().get("workers", {})) or 1
             _gather(client.get_executor(), jobs, finish, tick)
+            # workers that joined while the sweep ran count too (the count at the start
+            # said "1" for a cluster whose second worker connected a moment later)
+            report.workers = max(report.workers, len(client.scheduler_info().get("workers", {})))
         return
     assert executor is not None
     report.engine = type(executor).__name__
