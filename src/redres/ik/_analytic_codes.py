@@ -1,5 +1,6 @@
-"""The analytic IK kernel's packed constants, flags and tolerances, read by the kernel
-(:mod:`._analytic_kernels`) and its caller (:mod:`.analytic`).
+"""The analytic IK kernels' packed constants, flags and tolerances, read by the kernels
+(:mod:`._q7_kernels`, :mod:`._arm_angle_kernels`, their shared :mod:`._geometry_kernels`,
+:mod:`._residual_kernels`) and their caller (:mod:`.analytic`).
 
 The arm's constants cross the Python → kernel boundary as one flat float64 array of
 :data:`N_ARM` slots (points in m, unit vectors, the elbow law's coefficients): slot
