@@ -104,7 +104,8 @@ __all__ = [
 ]
 
 #: The analytic kernels: the closed form at ``q7`` (first), at the arm angle (S-R-S arms),
-#: the solutions' FK errors, and the geometry the first two share (compiled into them).
+#: the solutions' FK errors, the geometry the first two share (compiled into them), and
+#: ``rr.ik``'s closed-form answer (the nearest solution within the limits).
 #: Cold (2026-12-07, 2 shared cores, load 3.1, empty cache, foreground): a first ``at_q7``
 #: 6.6 s (no chain kernel on its path), its first FK errors 2.4 s more (with the chain's
 #: FK), the batch form 1.7 s more, the arm-angle form (``at_arm_angle``) 3.0 s more; warm
@@ -116,6 +117,7 @@ KERNELS = _compile.KernelGroup(
         "redres.ik._arm_angle_kernels",
         "redres.ik._residual_kernels",
         "redres.ik._geometry_kernels",
+        "redres.ik._nearest_kernels",
     ),
     cold_seconds=8.3,
     others={"redres.ik._arm_angle_kernels": 3.0, "redres.ik._residual_kernels": 2.4},
