@@ -52,8 +52,11 @@ if TYPE_CHECKING:
 
 __all__ = ["Q7_TRIES", "closed_form_solution", "covered"]
 
-#: Other values of ``q7`` tried when none of the solutions at ``q0[6]`` is within limits.
-Q7_TRIES = 12
+#: Other values of ``q7`` tried when none of the solutions at ``q0[6]`` is within limits
+#: (1,000 random in-limit targets from the neutral configuration, seed 7: with 12, the
+#: iiwa14 had no answer on 64 and the Panda on 20; with 48, 12 and 0; each value tried
+#: costs about half a microsecond).
+Q7_TRIES = 48
 
 _ARMS: WeakKeyDictionary[Robot, dict[str | None, tuple[AnalyticArm, np.ndarray] | None]] = (
     WeakKeyDictionary()
