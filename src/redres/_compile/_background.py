@@ -62,7 +62,8 @@ def compile_behind(name: str, seconds: Callable[[], float]) -> str | None:
     print(
         f"redres: compiling kernels in a background process ({name.removeprefix('redres.')} "
         f"first, about {seconds():.0f} s on one core; cached in {_cache.cache_dir()}); until "
-        "then results come from the reference path (same answers, slower); `redres warmup` "
+        "then results come from the reference path (the same method, slower; answers within "
+        "the same tolerances); `redres warmup` "
         "compiles them up front",
         file=sys.stderr,
         flush=True,

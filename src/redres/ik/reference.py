@@ -86,7 +86,9 @@ class ReferenceSolver:
         self.last_preference: FloatArray | None = None
 
     # ------------------------------------------------------------------ outer loop
-    def solve(self, q: FloatArray, rng: np.random.Generator, start: float) -> IKResult:
+    def solve(self, q: FloatArray, draw: Callable[[int], FloatArray], start: float) -> IKResult:
+        """Attempts from ``q``, then from ``draw(r)`` for restart ``r = 1, 2, ...``, until
+        one converges or the budget is spent."""
         deadline = start + self.o.timeout_s
         iterations = restarts = 0
         while True:
@@ -97,7 +99,7 @@ class ReferenceSolver:
             if status == _TIMEOUT or restarts >= self.o.max_restarts:
                 break
             restarts += 1
-            q = rng.uniform(self.sample_lo, self.sample_hi)
+            q = draw(restarts)
         why = "time budget" if status == _TIMEOUT else "iteration and restart budget"
         message = f"not converged: {why} exhausted; returning the best configuration found"
         return self.result(self.best_q, False, iterations, restarts, start, message)
