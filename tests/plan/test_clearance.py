@@ -10,7 +10,7 @@ import pytest
 import redres as rr
 from redres.errors import InvalidParameterError, NonFiniteError
 from redres.objectives import CapsuleObstacle, SphereObstacle, proximities
-from redres.objectives.geometry import (
+from redres.collision.geometry import (
     closest_point_on_segment,
     closest_points_segments,
     segment_point_distances,
