@@ -32,6 +32,7 @@ if TYPE_CHECKING:
         resolution,
         tasks,
     )
+    from ._warmup import warmup
     from .collision import (
         BoxObstacle,
         CapsuleObstacle,
@@ -40,7 +41,6 @@ if TYPE_CHECKING:
         PointObstacle,
         SphereObstacle,
     )
-    from ._warmup import warmup
     from .control import Controller, run
     from .errors import RedresError
     from .ik.solutions import ik_all, self_motion
@@ -59,8 +59,8 @@ _LAZY: dict[str, str] = dict.fromkeys(("Controller", "run"), ".control") | {
 } | dict.fromkeys(("Collisions", "SphereObstacle", "PointObstacle", "CapsuleObstacle",
                    "BoxObstacle", "PlaneObstacle"), ".collision")  # fmt: skip
 _SUBMODULES = frozenset(
-    {"batch", "collision", "control", "dynamics", "errors", "hardware", "linalg", "models", "objectives",
-     "resolution", "sim", "tasks"}
+    {"batch", "collision", "control", "dynamics", "errors", "hardware", "linalg", "models",
+     "objectives", "resolution", "sim", "tasks"}
 )  # fmt: skip
 
 

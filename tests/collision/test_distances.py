@@ -105,7 +105,7 @@ def test_parallel_and_touching_pairs() -> None:
     """Parallel segments (overlapping, offset) and touching shapes (d = 0)."""
     a, b = np.array([0.0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])
     parallel = CapsuleObstacle([0.3, 0.5, 0.0], [1.7, 0.5, 0.0], 0.1)
-    d, pa, pb, n = _one_pair(a, b, 0.1, parallel)
+    d, _, _, n = _one_pair(a, b, 0.1, parallel)
     assert d == pytest.approx(0.3, abs=1e-14)
     assert d == pytest.approx(_coal_distance(a, b, 0.1, parallel), abs=1e-9)
     assert np.allclose(n, [0.0, -1.0, 0.0])

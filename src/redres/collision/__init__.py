@@ -9,7 +9,7 @@ Jacobians, and the velocity-damper constraint of the QP scheme.
 - :mod:`.constraint`: :class:`Collisions`, the settings of the hard constraint.
 """
 
-from .constraint import CollisionDetails, Collisions, DEFAULT_GAIN
+from .constraint import DEFAULT_GAIN, CollisionDetails, Collisions
 from .distances import CollisionModel, PairDistances
 from .pairs import Pair, read_srdf
 from .shapes import (

@@ -17,8 +17,9 @@ up to ``ω × r n̂``, which has no component along ``n̂``, so both give the sa
 ``∂d/∂q = n̂ᵀ (J_a − J_b)`` (Faverjon & Tournassoud 1987; Kanoun, Lamiraux, Wieber 2011),
 ``J_p`` column ``k``: ``v_k + ω_k × p`` from Pinocchio's ``WORLD`` joint Jacobian
 ``[v; ω]`` (``v`` the velocity of the point at the world origin; Featherstone's spatial
-velocity), the columns of the joints that move the link; ``J_b = 0`` for an obstacle. Where the closest points are unique it is the exact derivative: their sliding
-along the surfaces changes ``d`` only to second order.
+velocity), the columns of the joints that move the link; ``J_b = 0`` for an obstacle.
+Where the closest points are unique it is the exact derivative: their sliding along the
+surfaces changes ``d`` only to second order.
 
 Closest points of segments: Ericson, *Real-Time Collision Detection*, 2005, §5.1.9 (the
 parallel case clamps ``s = 0`` and projects). Segment–box: ``f(t) = dist²(a + t(b − a),

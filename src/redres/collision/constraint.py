@@ -109,8 +109,7 @@ class Collisions:
         self.safety = as_scalar(safety, "safety", minimum=0.0)
         if self.safety >= self.influence:
             raise InvalidParameterError(
-                f"safety (d_s = {self.safety} m) must be below influence (d_i = "
-                f"{self.influence} m)"
+                f"safety (d_s = {self.safety} m) must be below influence (d_i = {self.influence} m)"
             )
         self.gain = as_scalar(gain, "gain", minimum=0.0, strict=True)
         self.self_collision = bool(self_collision)

@@ -2,8 +2,8 @@
 
 :class:`CollisionModel` fixes a robot's link capsules, the obstacles and the pairs
 (:mod:`redres.collision.pairs`) once; :meth:`CollisionModel.compute` then takes one
-Pinocchio pass (``computeJointJacobians``: the joints' poses and ``WORLD`` Jacobian) and hands them to
-the kernel :func:`redres.collision._kernels.pair_distances` (formulas there).
+Pinocchio pass (``computeJointJacobians``: the joints' poses and ``WORLD`` Jacobian) and
+hands them to the kernel :func:`redres.collision._kernels.pair_distances` (formulas there).
 """
 
 from __future__ import annotations
@@ -69,7 +69,8 @@ class PairDistances:
     def closest(self, self_pairs: bool | None = None) -> tuple[Pair, float] | None:
         """The closest pair and its distance (``self_pairs``: only self pairs when
         True, only environment pairs when False); None when there is none."""
-        keep = [k for k, p in enumerate(self.pairs) if self_pairs is None or p.self_pair == self_pairs]
+        keep = [k for k, p in enumerate(self.pairs)
+                if self_pairs is None or p.self_pair == self_pairs]  # fmt: skip
         if not keep:
             return None
         k = keep[int(np.argmin(self.distance[keep]))]

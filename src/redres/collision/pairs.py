@@ -91,7 +91,9 @@ def _names(capsule: Capsule) -> tuple[str, str]:
     return capsule.name, capsule.frame
 
 
-def is_allowed(allowed: frozenset[frozenset[str]], first: Sequence[str], second: Sequence[str]) -> bool:
+def is_allowed(
+    allowed: frozenset[frozenset[str]], first: Sequence[str], second: Sequence[str]
+) -> bool:
     """Whether any name of the first shape and any of the second form an allowed pair."""
     return any(frozenset((a, b)) in allowed for a in first for b in second)
 

@@ -123,10 +123,8 @@ class PlaneObstacle:
         if not size > 1e-12:
             raise InvalidParameterError(f"normal must be a non-zero vector; got {normal}")
         object.__setattr__(self, "normal", normal / size)
-        object.__setattr__(
-            self, "offset", as_scalar(self.offset, "offset", minimum=-MAX_LENGTH,
-                                      maximum=MAX_LENGTH)  # fmt: skip
-        )
+        offset = as_scalar(self.offset, "offset", minimum=-MAX_LENGTH, maximum=MAX_LENGTH)
+        object.__setattr__(self, "offset", offset)
 
 
 Obstacle = SphereObstacle | CapsuleObstacle | BoxObstacle | PlaneObstacle

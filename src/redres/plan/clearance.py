@@ -21,9 +21,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._validate import FloatArray, as_scalar
+from ..collision.geometry import segment_point_distances, segment_segment_distances
 from ..errors import InvalidParameterError
 from ..objectives import CapsuleObstacle, SphereObstacle
-from ..collision.geometry import segment_point_distances, segment_segment_distances
 from .grid import PathGrid
 
 if TYPE_CHECKING:
