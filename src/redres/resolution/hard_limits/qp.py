@@ -76,6 +76,7 @@ _MET2 = MET_TOLERANCE * MET_TOLERANCE
 _INF = 1e30  # DAQP's infinity (an absent bound)
 
 if TYPE_CHECKING:
+    from ..._toml import ScenarioParams
     from ...robot import Robot
 
 
@@ -131,8 +132,8 @@ class QPScheme(BoxScheme):
     Identifier ``qp``. State: the previous joint velocity ``qd_prev`` (:meth:`reset`
     clears it). ``StepResult.feasible``: every level met exactly; ``binding``: the bounds
     ``q̇`` sits on; ``details``: a :class:`QPDetails` (residuals, box, relaxed joints,
-    solver, collision pairs). ``info`` gives the singular values and rank of ``J`` (:mod:`redres.linalg`'s
-    rule); ``null_term`` the component of ``q̇`` in its null space.
+    solver, collision pairs). ``info`` gives the singular values and rank of ``J``
+    (:mod:`redres.linalg`'s rule); ``null_term`` the component of ``q̇`` in its null space.
     """
 
     name = "qp"
@@ -178,8 +179,17 @@ class QPScheme(BoxScheme):
                 "collisions work with the DAQP backend and one level (no levels=) today"
             )
         if collisions is not None:
-            collisions.check_period(self.dt)
+            collisions.check_period(as_scalar(dt, "dt"))
         self.collisions = collisions
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> QPScheme:
+        """The scheme of a scenario table: ``objectives``, ``k_null`` and ``collisions``
+        (``{ influence = 0.10, safety = 0.01, self = true }``, optional ``gain``), over
+        the run's period ``dt``."""
+        return cls(dt=params.dt, objectives=params.objectives(),
+                   k_null=params.nonnegative("k_null", 1.0),
+                   collisions=params.collisions())  # fmt: skip
 
     def _reset(self) -> None:
         super()._reset()
