@@ -269,8 +269,9 @@ class QPScheme(BoxScheme):
     ) -> bool:  # fmt: skip
         """The step again with the collision rows ``G q̇ ≥ h`` (module docstring): the exact
         QP, else the least-violating one, else the same with the acceleration limits
-        dropped from the box, else with no box. Writes ``out[0]``; returns whether the
-        exact QP was solved."""
+        dropped from the box, else with no box. Writes ``out[0]`` (and the box used into
+        ``out[2]``, ``out[3]``: the epilogue clips to them); returns whether the exact QP
+        was solved."""
         n, m, k = J.shape[1], J.shape[0], G.shape[0]
         daqp, options = self._qp.module, self._qp.options
         free = np.full(k, _INF)
@@ -297,9 +298,10 @@ class QPScheme(BoxScheme):
                                        np.concatenate([lower, h]), np.zeros(n + k, np.intc),
                                        **options)  # fmt: skip
             if flag > 0:
-                out[0] = x
+                out[0], out[2], out[3] = x, lower, upper
                 return False
         out[0] = np.linalg.lstsq(G, h, rcond=None)[0]  # the rows contradict each other
+        out[2], out[3] = boxes[-1]
         return False
 
     def _single(
