@@ -99,8 +99,9 @@ def random_scenes(scenes: int, steps: int, seed: int) -> None:
             d = np.concatenate([r[1] for r in rows])
             below = sum(int(r[1].min() < SAFETY - 1e-6) for r in rows)
             contact = sum(int(r[1].min() < 0.0) for r in rows)
+            steps_below = int((d < SAFETY - 1e-6).sum())
             print(f"| {label} | {arm} | {len(rows)} | {d.size} | {d.min():+.7f} | {below} | "
-                  f"{int((d < SAFETY - 1e-6).sum())} | {contact} | {int((d < 0).sum())} |")  # fmt: skip
+                  f"{steps_below} | {contact} | {int((d < 0).sum())} |")  # fmt: skip
     worst = min(totals["qp"], key=lambda r: r[1].min())
     print(f"\nQP: smallest distance {worst[1].min():+.9f} m (d_s = {SAFETY} m; goal >= "
           f"{SAFETY - 1e-6:.6f}) on {worst[0]}")  # fmt: skip

@@ -278,7 +278,7 @@ def collision_scene(
         end = robot.fk(q1)[:3, 3]
         if rng.uniform() < 1.0 / 3.0:
             height = end[2] + rng.uniform(0.0, 0.1)
-            obstacles.append(PlaneObstacle([0.0, 0.0, 1.0], height, "table"))
+            obstacles.append(PlaneObstacle(np.array([0.0, 0.0, 1.0]), height, "table"))
         model = CollisionModel(robot, obstacles, safety=0.0)
         base = {c.name for c in robot.capsules} - {c.name for c in caps}
         left_out = [e for e in model.excluded if e[1] != "table" or e[0] not in base]
