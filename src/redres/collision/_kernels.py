@@ -66,25 +66,31 @@ def _norm(g):
 
 
 @kernel(inline=True)
+def _gap(p, x, y, z):
+    """``‖p − (x, y, z)‖``."""
+    return math.sqrt((p[0] - x) ** 2 + (p[1] - y) ** 2 + (p[2] - z) ** 2)
+
+
+@kernel(inline=True)
 def _clamp01(x):
     return 0.0 if x < 0.0 else 1.0 if x > 1.0 else x
 
 
 @kernel(inline=True)
-def _segment_params(p1, d1, p2, d2):
-    """Parameters ``(s, t)`` of the closest points ``p1 + s d1``, ``p2 + t d2`` (Ericson)."""
-    r0, r1, r2 = p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]
-    a = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]
-    e = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2]
-    f = d2[0] * r0 + d2[1] * r1 + d2[2] * r2
+def _segment_params(r0, r1, r2, u0, u1, u2, v0, v1, v2):
+    """Parameters ``(s, t)`` of the closest points ``p1 + s u``, ``p2 + t v`` of two
+    segments, ``r = p1 − p2`` (Ericson)."""
+    a = u0 * u0 + u1 * u1 + u2 * u2
+    e = v0 * v0 + v1 * v1 + v2 * v2
+    f = v0 * r0 + v1 * r1 + v2 * r2
     if a <= _TINY and e <= _TINY:
         return 0.0, 0.0
     if a <= _TINY:
         return 0.0, _clamp01(f / e)
-    c = d1[0] * r0 + d1[1] * r1 + d1[2] * r2
+    c = u0 * r0 + u1 * r1 + u2 * r2
     if e <= _TINY:
         return _clamp01(-c / a), 0.0
-    b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]
+    b = u0 * v0 + u1 * v1 + u2 * v2
     denom = a * e - b * b
     s = _clamp01((b * f - c * e) / denom) if denom > 1e-14 * a * e else 0.0  # parallel: s = 0
     t = (b * s + f) / e
@@ -96,23 +102,18 @@ def _segment_params(p1, d1, p2, d2):
 
 
 @kernel(inline=True)
-def _unit_or_perpendicular(g, d1, d2, n):
+def _unit_or_perpendicular(g0, g1, g2, u0, u1, u2, v0, v1, v2, n):
     """``n = g/‖g‖``; when the witnesses coincide (centre lines cross) a unit vector normal
-    to both directions (else to ``d1``): the direction is undefined there. Returns ‖g‖."""
-    size = math.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+    to both directions ``u``, ``v`` (else to ``u``): the direction is undefined there.
+    Returns ‖g‖."""
+    size = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
     if size * size > _TINY:
-        for i in range(3):
-            n[i] = g[i] / size
+        n[0], n[1], n[2] = g0 / size, g1 / size, g2 / size
         return size
-    c0 = d1[1] * d2[2] - d1[2] * d2[1]
-    c1 = d1[2] * d2[0] - d1[0] * d2[2]
-    c2 = d1[0] * d2[1] - d1[1] * d2[0]
-    if c0 * c0 + c1 * c1 + c2 * c2 <= _TINY:  # parallel or a point: any normal to d1
-        k = 0 if abs(d1[0]) <= abs(d1[1]) and abs(d1[0]) <= abs(d1[2]) else 1
-        e0, e1, e2 = (1.0, 0.0, 0.0) if k == 0 else (0.0, 1.0, 0.0)
-        c0 = d1[1] * e2 - d1[2] * e1
-        c1 = d1[2] * e0 - d1[0] * e2
-        c2 = d1[0] * e1 - d1[1] * e0
+    c0, c1, c2 = u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0
+    if c0 * c0 + c1 * c1 + c2 * c2 <= _TINY:  # parallel or a point: any normal to u
+        e0, e1 = (1.0, 0.0) if abs(u0) <= abs(u1) and abs(u0) <= abs(u2) else (0.0, 1.0)
+        c0, c1, c2 = -u2 * e1, u2 * e0, u0 * e1 - u1 * e0
         if c0 * c0 + c1 * c1 + c2 * c2 <= _TINY:
             c0, c1, c2 = 0.0, 0.0, 1.0
     size_c = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
@@ -124,13 +125,13 @@ def _unit_or_perpendicular(g, d1, d2, n):
 def _segment_segment(a, b, p, q, pa, pb, n):
     """Closest points of ``[a, b]`` and ``[p, q]`` into ``pa``, ``pb``; normal from the
     second to the first into ``n``; returns their distance."""
-    d1 = b - a
-    d2 = q - p
-    s, t = _segment_params(a, d1, p, d2)
-    for i in range(3):
-        pa[i] = a[i] + s * d1[i]
-        pb[i] = p[i] + t * d2[i]
-    return _unit_or_perpendicular(pa - pb, d1, d2, n)
+    u0, u1, u2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    v0, v1, v2 = q[0] - p[0], q[1] - p[1], q[2] - p[2]
+    s, t = _segment_params(a[0] - p[0], a[1] - p[1], a[2] - p[2], u0, u1, u2, v0, v1, v2)
+    pa[0], pa[1], pa[2] = a[0] + s * u0, a[1] + s * u1, a[2] + s * u2
+    pb[0], pb[1], pb[2] = p[0] + t * v0, p[1] + t * v1, p[2] + t * v2
+    return _unit_or_perpendicular(pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2],
+                                  u0, u1, u2, v0, v1, v2, n)  # fmt: skip
 
 
 @kernel(inline=True)
@@ -316,20 +317,18 @@ def pair_distances(R, t, J, cap_frame, cap_cols, cap_a, cap_b, cap_r, kinds, row
         if kind == 0:  # broad phase: bounding spheres (none for a plane)
             o = kinds[j]
             bound = -np.inf
+            row = rows[j]
             if o == _SPHERE:
-                g = mid[i] - rows[j, 0:3]
-                bound = _norm(g) - reach[i] - rows[j, 3]
+                bound = _gap(mid[i], row[0], row[1], row[2]) - reach[i] - row[3]
             elif o == _CAPSULE:
-                g = mid[i] - 0.5 * (rows[j, 0:3] + rows[j, 3:6])
-                e = 0.5 * (rows[j, 3:6] - rows[j, 0:3])
-                bound = _norm(g) - reach[i] - _norm(e) - rows[j, 6]
+                e0, e1, e2 = row[3] - row[0], row[4] - row[1], row[5] - row[2]
+                c = _gap(mid[i], row[0] + 0.5 * e0, row[1] + 0.5 * e1, row[2] + 0.5 * e2)
+                bound = c - reach[i] - 0.5 * math.sqrt(e0 * e0 + e1 * e1 + e2 * e2) - row[6]
             elif o == _BOX:
-                g = mid[i] - rows[j, 0:3]
-                e = rows[j, 3:6]
-                bound = _norm(g) - reach[i] - _norm(e)
+                h = math.sqrt(row[3] * row[3] + row[4] * row[4] + row[5] * row[5])
+                bound = _gap(mid[i], row[0], row[1], row[2]) - reach[i] - h
         else:
-            g = mid[i] - mid[j]
-            bound = _norm(g) - reach[i] - reach[j]
+            bound = _gap(mid[i], mid[j, 0], mid[j, 1], mid[j, 2]) - reach[i] - reach[j]
         if bound > cutoff:
             dist[k] = bound
             pa[k, :] = mid[i]
