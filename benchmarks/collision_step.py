@@ -97,8 +97,10 @@ def soft_step() -> None:
     xd = np.array([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
     times = interleaved({"soft": lambda: scheme.step(robot, q, J, xd)}, rounds=5, batch=100,
                         batches=5)  # fmt: skip
-    print(f"gradient projection + ObstacleObjective, Menagerie iiwa14 ({len(robot.capsules)} "
-          f"fitted capsules, {len(obstacles)} obstacles): {median(times['soft']):.1f} µs")
+    print(
+        f"gradient projection + ObstacleObjective, Menagerie iiwa14 ({len(robot.capsules)} "
+        f"fitted capsules, {len(obstacles)} obstacles): {median(times['soft']):.1f} µs"
+    )
 
 
 def distances_only() -> None:
@@ -110,8 +112,10 @@ def distances_only() -> None:
         model = CollisionModel(robot, _ring(robot, q, 4, 0.05))
         times = interleaved({"compute": lambda: model.compute(q)}, rounds=5, batch=200,
                             batches=5)  # fmt: skip
-        print(f"CollisionModel.compute, {name}: {len(model.pairs)} pairs "
-              f"({sum(p.self_pair for p in model.pairs)} self): {median(times['compute']):.1f} µs")
+        print(
+            f"CollisionModel.compute, {name}: {len(model.pairs)} pairs "
+            f"({sum(p.self_pair for p in model.pairs)} self): {median(times['compute']):.1f} µs"
+        )
 
 
 def main() -> None:

@@ -22,7 +22,7 @@ References:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -160,10 +160,19 @@ class Collisions:
     def details(
         self, found: PairDistances, active: np.ndarray, G: FloatArray, h: FloatArray,
         qd: FloatArray,
-    ) -> CollisionDetails:  # fmt: skip
-        """The :class:`CollisionDetails` of a step that answered ``qd``."""
-        pairs = [found.pairs[k] for k in active]
+    ) -> Callable[[], CollisionDetails]:  # fmt: skip
+        """The :class:`CollisionDetails` of a step that answered ``qd``, built on first
+        call (what it needs is copied now: ``found`` is overwritten by the next step)."""
         slack = G @ qd - h if len(active) else np.zeros(0)
-        binding = [p for p, s in zip(pairs, slack) if s <= BINDING_TOLERANCE]
-        closest = found.closest() if found.resolved else None
-        return CollisionDetails(pairs, found.distance[active].copy(), closest, binding)
+        d = found.distance[active]  # a copy (fancy indexing)
+        k = int(np.argmin(found.distance)) if found.resolved else -1
+        closest_d = float(found.distance[k]) if k >= 0 else 0.0
+        pairs_all = found.pairs
+
+        def build() -> CollisionDetails:
+            pairs = [pairs_all[i] for i in active]
+            binding = [p for p, s in zip(pairs, slack) if s <= BINDING_TOLERANCE]
+            closest = (pairs_all[k], closest_d) if k >= 0 else None
+            return CollisionDetails(pairs, d, closest, binding)
+
+        return build

@@ -137,7 +137,8 @@ class CollisionModel:
         self._call: Any = None
         self._compiled = False
         F = len(joints)
-        self._R, self._t = np.zeros((F, 3, 3)), np.zeros((F, 3))
+        self._T = np.zeros((F, 4, 4))
+        self._R, self._t = self._T[:, :3, :3], self._T[:, :3, 3]  # views the kernel reads
         permitted = allowed_set(allowed, srdf)
         candidates = [(0, i, j) for i, cap in enumerate(caps)
                       for j, obs in enumerate(self.obstacles)
@@ -168,10 +169,9 @@ class CollisionModel:
     def _kinematics(self, q: FloatArray) -> None:
         model, data = self.robot.model, self._data
         self._J = pin.computeJointJacobians(model, data, q)  # one pass: poses and data.J
+        oMi, T = data.oMi, self._T
         for k, j in enumerate(self._joints):
-            placement = data.oMi[j]
-            self._R[k] = placement.rotation
-            self._t[k] = placement.translation
+            T[k] = oMi[j].homogeneous  # one conversion per joint
 
     def _run(self, q: FloatArray, cutoff: float) -> tuple[FloatArray, int]:
         self._kinematics(q)

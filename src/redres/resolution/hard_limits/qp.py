@@ -260,7 +260,7 @@ class QPScheme(BoxScheme):
         return self._result(
             out, codes, Jc, all(exact), active,
             lambda: QPDetails(residual, levels, *box_details(out, codes, relaxed), self.solver,
-                              contact),
+                              None if contact is None else contact()),
         )  # fmt: skip
 
     def _collide(
