@@ -73,7 +73,7 @@ def qp_steps() -> None:
         for name, scheme in schemes.items():
             scheme.qd_prev = np.zeros(7)
 
-            def step(scheme: object = scheme) -> object:
+            def step(scheme: object = scheme, xd: np.ndarray = xd) -> object:
                 scheme.qd_prev = np.zeros(7)  # type: ignore[attr-defined]
                 return scheme.step(robot, q, J, xd)  # type: ignore[attr-defined]
 
@@ -110,7 +110,7 @@ def distances_only() -> None:
         robot = getattr(rr.models, name)()
         q = robot.neutral()
         model = CollisionModel(robot, _ring(robot, q, 4, 0.05))
-        times = interleaved({"compute": lambda: model.compute(q)}, rounds=5, batch=200,
+        times = interleaved({"compute": lambda m=model, q=q: m.compute(q)}, rounds=5, batch=200,
                             batches=5)  # fmt: skip
         print(
             f"CollisionModel.compute, {name}: {len(model.pairs)} pairs "

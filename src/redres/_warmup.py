@@ -197,8 +197,9 @@ def _collision() -> None:
     from .models import panda
 
     robot = panda()
-    obstacles = [SphereObstacle([0.5, 0.0, 0.5], 0.05), BoxObstacle([0.5, 0.3, 0.3], [0.1] * 3),
-                 PlaneObstacle([0.0, 0.0, 1.0], -0.2)]  # fmt: skip
+    obstacles = [SphereObstacle(np.array([0.5, 0.0, 0.5]), 0.05),
+                 BoxObstacle(np.array([0.5, 0.3, 0.3]), np.full(3, 0.1)),
+                 PlaneObstacle(np.array([0.0, 0.0, 1.0]), -0.2)]  # fmt: skip
     CollisionModel(robot, obstacles).compute(robot.neutral(), 0.1)
 
 
