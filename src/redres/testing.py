@@ -231,7 +231,13 @@ def _random_rotation(rng: np.random.Generator) -> FloatArray:
 
 
 def collision_scene(
-    robot: Robot, rng: np.random.Generator, *, clear: float = 0.03, spread: float = 0.8
+    robot: Robot,
+    rng: np.random.Generator,
+    *,
+    clear: float = 0.03,
+    spread: float = 0.8,
+    allowed: Any = (),
+    tries: int = 10_000,
 ) -> CollisionScene:
     """A random start ``q0`` inside the limits, a nearby ``q1`` (normal steps of
     ``spread`` rad) and one to three obstacles (sphere, box or capsule, 2–8 cm) centred on
@@ -242,7 +248,13 @@ def collision_scene(
     :class:`~redres.collision.CollisionModel` chooses them) is at least ``clear`` m apart
     at ``q0``, and no obstacle touches the arm at its neutral pose (where the model would
     leave the pair out) but the table under the base capsule (joint 1: its distance to a
-    horizontal plane never changes)."""
+    horizontal plane never changes). ``allowed``: pairs left out (as
+    :class:`~redres.collision.Collisions` takes them).
+
+    Raises:
+        RuntimeError: no scene found in ``tries`` draws (the arm's capsules overlap
+            each other in most configurations: allow those pairs).
+    """
     from .collision import (
         BoxObstacle,
         CapsuleObstacle,
@@ -255,7 +267,7 @@ def collision_scene(
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     frames = robot.model.frames
     caps = [c for c in robot.capsules if frames[robot.frame_id(c.frame)].parentJoint > 1]
-    while True:
+    for _ in range(tries):
         q0 = mid + 0.8 * half * rng.uniform(-1.0, 1.0, robot.n)
         q1 = np.clip(q0 + rng.normal(0.0, spread, robot.n), mid - 0.9 * half, mid + 0.9 * half)
         obstacles: list[Any] = []
@@ -279,10 +291,11 @@ def collision_scene(
         if rng.uniform() < 1.0 / 3.0:
             height = end[2] + rng.uniform(0.0, 0.1)
             obstacles.append(PlaneObstacle(np.array([0.0, 0.0, 1.0]), height, "table"))
-        model = CollisionModel(robot, obstacles, safety=0.0)
+        model = CollisionModel(robot, obstacles, safety=0.0, allowed=allowed)
         base = {c.name for c in robot.capsules} - {c.name for c in caps}
         left_out = [e for e in model.excluded if e[1] != "table" or e[0] not in base]
         if model.distances(q0).min(initial=np.inf) >= clear and not any(
             e[1] in {o.name for o in obstacles} for e in left_out
         ):
             return CollisionScene(q0, q1, end, obstacles)
+    raise RuntimeError(f"no collision scene for {robot.name} in {tries} draws")
