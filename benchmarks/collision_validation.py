@@ -48,7 +48,8 @@ def robots() -> dict[str, tuple[rr.Robot, list[tuple[str, str]]]]:
     """The arms and their allowed pairs: the Menagerie iiwa14's fitted capsules of links
     two joints apart overlap in most configurations (link5 and link7 as soon as joint 6
     bends), so those pairs are allowed, as an SRDF would disable them."""
-    file_arm = rr.models.menagerie("iiwa14")
+    # the Menagerie file has no velocity limits: KUKA's published ones (the built-in's)
+    file_arm = rr.models.menagerie("iiwa14").with_limits(qd_max=rr.models.iiwa14().qd_max)
     names = [c.name for c in file_arm.capsules]
     allowed = list(zip(names, names[2:]))
     return {

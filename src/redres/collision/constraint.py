@@ -10,7 +10,9 @@ approach speed falls linearly to zero at the safety distance ``d_s``, and below 
 row demands separation. Over a period ``dt`` the linearised distance obeys
 ``d⁺ − d_s ≥ (1 − ξ dt/(d_i − d_s)) (d − d_s)``: a pair never crosses ``d_s`` while
 ``ξ dt ≤ d_i − d_s`` (checked by the scheme), up to the second-order change of ``d``
-over one step.
+over one step, and as long as no pair farther than ``d_i`` closes the gap ``d_i − d_s``
+within one period (the joint velocity limits must keep every link point's travel per
+period below it: the QP scheme refuses a robot without velocity limits).
 
 References:
     B. Faverjon, P. Tournassoud, "A local based approach for path planning of

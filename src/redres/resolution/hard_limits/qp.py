@@ -201,7 +201,14 @@ class QPScheme(BoxScheme):
         if w.shape != (m,):  # before anything changes: the old workspace stays consistent
             raise ShapeError(f"task_weights must have shape ({m},); got {w.shape}")
         self._robot = None  # rebuilt from scratch on the next call if anything below fails
-        ws = Workspace(self.limits(robot), m)
+        limits = self.limits(robot)
+        if self.collisions is not None and not np.all(np.isfinite(limits.qd_max)):
+            raise InvalidParameterError(
+                f"collisions need joint velocity limits (robot {robot.name!r} has qd_max = "
+                f"{limits.qd_max}): a pair farther than d_i could cross into contact within "
+                "one period; give them with robot.with_limits(qd_max=...) or QPScheme(qd_max=...)"
+            )
+        ws = Workspace(limits, m)
         self._bu, self._bl, self._f = np.empty(n + m), np.empty(n + m), np.empty(n)
         self._P, self._c, self._w = np.empty((n, n)), np.empty(n), w
         kq, out = kernels("_qp_kernels"), ws.outputs()
