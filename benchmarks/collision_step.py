@@ -16,19 +16,35 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from _common import interleaved, machine, median
+from _common import machine
 
 import redres as rr
 from redres.objectives import ObstacleObjective, SphereObstacle
 from redres.resolution import GradientProjectionScheme
 
 DT = 1e-3
+
+
+def per_call(contenders: dict, rounds: int = 7, calls: int = 300) -> dict[str, float]:
+    """Median time of one call (µs), every call timed alone, the contenders in turn for
+    ``rounds`` rounds (a median of single calls is robust to a loaded machine)."""
+    samples: dict[str, list[float]] = {name: [] for name in contenders}
+    for fn in contenders.values():
+        fn()
+    for _ in range(rounds):
+        for name, fn in contenders.items():
+            for _ in range(calls):
+                t0 = time.perf_counter_ns()
+                fn()
+                samples[name].append((time.perf_counter_ns() - t0) / 1e3)
+    return {name: float(np.median(v)) for name, v in samples.items()}
 
 
 def _ring(robot: rr.Robot, q: np.ndarray, per_capsule: int, gap: float) -> list[SphereObstacle]:
@@ -55,7 +71,7 @@ def qp_steps() -> None:
     robot = rr.models.panda()
     q = np.array([0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.8])
     J = robot.jacobian(q)
-    near = _ring(robot, q, 4, 0.05)
+    near = _ring(robot, q, 3, 0.06)
     far = [SphereObstacle([2.0, 2.0, 2.0], 0.05, "far")]
     schemes = {
         "QP (today)": QPScheme(DT),
@@ -78,12 +94,12 @@ def qp_steps() -> None:
                 return scheme.step(robot, q, J, xd)  # type: ignore[attr-defined]
 
             calls[name] = step
-        times = interleaved(calls, rounds=5, batch=100, batches=5)
+        times = per_call(calls)
         result = schemes["QP + collisions, ~20 active"].step(robot, q, J, xd)
         binding = len(result.details.collisions.binding)
         print(f"task velocity {label} ({binding} rows binding with ~20 active):")
         for name, t in times.items():
-            print(f"  {name:<30} {median(t):8.1f} µs")
+            print(f"  {name:<30} {t:8.1f} µs")
     print()
 
 
@@ -95,11 +111,10 @@ def soft_step() -> None:
     objective = ObstacleObjective(obstacles, influence=0.15)
     scheme = GradientProjectionScheme([objective], k_null=1.0)
     xd = np.array([0.05, 0.0, 0.0, 0.0, 0.0, 0.0])
-    times = interleaved({"soft": lambda: scheme.step(robot, q, J, xd)}, rounds=5, batch=100,
-                        batches=5)  # fmt: skip
+    times = per_call({"soft": lambda: scheme.step(robot, q, J, xd)})
     print(
         f"gradient projection + ObstacleObjective, Menagerie iiwa14 ({len(robot.capsules)} "
-        f"fitted capsules, {len(obstacles)} obstacles): {median(times['soft']):.1f} µs"
+        f"fitted capsules, {len(obstacles)} obstacles): {times['soft']:.1f} µs"
     )
 
 
@@ -110,11 +125,10 @@ def distances_only() -> None:
         robot = getattr(rr.models, name)()
         q = robot.neutral()
         model = CollisionModel(robot, _ring(robot, q, 4, 0.05))
-        times = interleaved({"compute": lambda m=model, q=q: m.compute(q)}, rounds=5, batch=200,
-                            batches=5)  # fmt: skip
+        times = per_call({"compute": lambda m=model, q=q: m.compute(q)})
         print(
             f"CollisionModel.compute, {name}: {len(model.pairs)} pairs "
-            f"({sum(p.self_pair for p in model.pairs)} self): {median(times['compute']):.1f} µs"
+            f"({sum(p.self_pair for p in model.pairs)} self): {times['compute']:.1f} µs"
         )
 
 

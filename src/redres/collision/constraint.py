@@ -151,9 +151,11 @@ class Collisions:
     def rows(
         self, robot: Robot, q: FloatArray
     ) -> tuple[FloatArray, FloatArray, PairDistances, np.ndarray]:
-        """The constraint ``G q̇ ≥ h`` at ``q``: ``G`` ``(k, n)``, ``h`` ``(k,)`` for the
-        ``k`` pairs closer than ``d_i`` (their indices, the last item), and the distances."""
-        found = self.model(robot).compute(q, self.influence)
+        """The constraint ``G q̇ ≥ h`` at ``q`` (a float vector of size ``n``, checked by
+        the caller): ``G`` ``(k, n)``, ``h`` ``(k,)`` for the ``k`` pairs closer than
+        ``d_i`` (their indices, the last item), and the distances."""
+        model = self._model if self._model is not None and self._model.robot is robot else None
+        found = (model or self.model(robot)).compute(q, self.influence, checked=True)
         active = np.flatnonzero(found.distance < self.influence)
         d = found.distance[active]
         h = (-self.gain / (self.influence - self.safety)) * (d - self.safety)

@@ -41,7 +41,7 @@ def _entry(args: tuple[Any, ...]) -> tuple[Any, bool]:
     return _compile.entry_point(module.pair_distances, args), _compile.is_compiled(module)
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class PairDistances:
     """Distances of a :class:`CollisionModel`'s pairs at one ``q`` (arrays owned by the
     model: copy what must outlive the next :meth:`~CollisionModel.compute`).
@@ -182,10 +182,13 @@ class CollisionModel:
             self._call, self._compiled = _entry(args)
         return self._d, int(self._call(*args))
 
-    def compute(self, q: Any, cutoff: float = np.inf) -> PairDistances:
+    def compute(self, q: Any, cutoff: float = np.inf, *, checked: bool = False) -> PairDistances:
         """Every pair at ``q`` (shape ``(n,)``, rad); pairs whose bounding spheres are
-        farther apart than ``cutoff`` (m; the broad phase) are not resolved exactly."""
-        q = as_vector(q, "q", self.robot.n)
+        farther apart than ``cutoff`` (m; the broad phase) are not resolved exactly.
+        ``checked``: ``q`` is already a finite float vector of size ``n`` (a scheme's
+        step checked it)."""
+        if not checked:
+            q = as_vector(q, "q", self.robot.n)
         _, resolved = self._run(q, cutoff)
         return PairDistances(self.pairs, self._d, self._pa, self._pb, self._n, self._gradient,
                              resolved)  # fmt: skip
