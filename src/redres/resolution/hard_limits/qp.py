@@ -259,7 +259,7 @@ class QPScheme(BoxScheme):
         if self.collisions is not None:
             G, h, found, pairs = self.collisions.rows(robot, q)
             if len(pairs) and np.any(G @ out[0] < h - 1e-12 * (1.0 + np.abs(h))):
-                exact[0] = self._collide(q, J, xd, qd0, out, G, h)
+                exact[0] = self._collide(q, J, xd, qd0, out, G, h, exact[0])
                 active, residual = self._finish(J, xd, out, ws.M, ws.wm, full, False)
                 exact[0] = exact[0] and task_met(J, xd, out[0])
             contact = self.collisions.details(found, pairs, G, h, out[0])
@@ -272,24 +272,26 @@ class QPScheme(BoxScheme):
 
     def _collide(
         self, q: FloatArray, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray,
-        G: FloatArray, h: FloatArray,
+        G: FloatArray, h: FloatArray, met: bool,
     ) -> bool:  # fmt: skip
         """The step again with the collision rows ``G q̇ ≥ h`` (module docstring): the exact
         QP, else the least-violating one, else the same with the acceleration limits
         dropped from the box, else with no box. Writes ``out[0]`` (and the box used into
         ``out[2]``, ``out[3]``: the epilogue clips to them); returns whether the exact QP
-        was solved."""
+        was solved (tried only when the task was ``met`` without the rows: more rows
+        cannot make an infeasible QP feasible)."""
         n, m, k = J.shape[1], J.shape[0], G.shape[0]
         daqp, options = self._qp.module, self._qp.options
         free = np.full(k, _INF)
         flags = np.zeros(n + m + k, dtype=np.intc)
         flags[n : n + m] = 5  # DAQP: equality rows
-        A = np.ascontiguousarray(np.vstack([J, G]))
-        x, _, flag, _ = daqp.solve(np.eye(n), -qd0, A, np.concatenate([out[3], xd, free]),
-                                   np.concatenate([out[2], xd, h]), flags, **options)  # fmt: skip
-        if flag > 0:
-            out[0] = x
-            return True
+        if met:
+            A = np.ascontiguousarray(np.vstack([J, G]))
+            upper, lower = np.concatenate([out[3], xd, free]), np.concatenate([out[2], xd, h])
+            x, _, flag, _ = daqp.solve(np.eye(n), -qd0, A, upper, lower, flags, **options)
+            if flag > 0:
+                out[0] = x
+                return True
         w = np.ones(m) if self.task_weights is None else self.task_weights
         lam2 = self.damping * self.damping
         P = (J.T * w) @ J + lam2 * np.eye(n)
