@@ -185,3 +185,21 @@ def test_scenario_collisions_keys() -> None:
         parse_scenario(_scenario("collisions = { influenc = 0.1 }"))
     with pytest.raises(rr.errors.RedresError, match="safety"):
         parse_scenario(_scenario("collisions = { influence = 0.1, safety = 0.2 }"))
+
+
+def test_a_run_reports_self_and_obstacle_clearances() -> None:
+    """``redres run --json``'s summary: ``min_self_clearance_m`` beside
+    ``min_obstacle_clearance_m`` for a qp scheme with ``collisions``."""
+    from redres.scenarios.runner import run_scenario
+
+    spec = parse_scenario(
+        _scenario("collisions = { influence = 0.10, safety = 0.01, self = true }")
+    )
+    (log,) = run_scenario(spec, progress=False)
+    summary = log.summary()
+    assert summary["min_self_clearance_m"] >= 0.01 - 1e-6
+    assert summary["min_obstacle_clearance_m"] >= 0.01 - 1e-6
+    model = spec.schemes[0].build().collisions.model(spec.robot)
+    self_pairs = model.self_mask()
+    want = min(model.distances(q)[self_pairs].min() for q in log.q)
+    assert summary["min_self_clearance_m"] == pytest.approx(want, abs=1e-12)
