@@ -26,8 +26,8 @@ from .shapes import pack_obstacles
 if TYPE_CHECKING:
     from ..robot import Capsule, Robot
 
-#: The distance kernels. Cold: about 10 s on a 2-core machine.
-KERNELS = _compile.KernelGroup("collision", ("redres.collision._kernels",), cold_seconds=10.0)
+#: The distance kernels. Cold: 66 s measured at load 8 on 2 cores (about 20 s quiet, estimated).
+KERNELS = _compile.KernelGroup("collision", ("redres.collision._kernels",), cold_seconds=20.0)
 
 
 def _kernels() -> Any:
