@@ -20,8 +20,27 @@ from .ik import IKResult, ik  # eager: the function `ik` must shadow the package
 from .robot import DHLink, Robot
 
 if TYPE_CHECKING:
-    from . import batch, control, dynamics, errors, linalg, models, objectives, resolution, tasks
+    from . import (
+        batch,
+        collision,
+        control,
+        dynamics,
+        errors,
+        linalg,
+        models,
+        objectives,
+        resolution,
+        tasks,
+    )
     from ._warmup import warmup
+    from .collision import (
+        BoxObstacle,
+        CapsuleObstacle,
+        Collisions,
+        PlaneObstacle,
+        PointObstacle,
+        SphereObstacle,
+    )
     from .control import Controller, run
     from .errors import RedresError
     from .ik.solutions import ik_all, self_motion
@@ -37,10 +56,11 @@ _LAZY: dict[str, str] = dict.fromkeys(("Controller", "run"), ".control") | {
     "RedresError": ".errors", "warmup": "._warmup", "Viewer": ".viewer", "view": ".viewer",
     "ik_all": ".ik.solutions", "self_motion": ".ik.solutions",
     "plan_path": ".plan", "PathPlan": ".plan",
-}  # fmt: skip
+} | dict.fromkeys(("Collisions", "SphereObstacle", "PointObstacle", "CapsuleObstacle",
+                   "BoxObstacle", "PlaneObstacle"), ".collision")  # fmt: skip
 _SUBMODULES = frozenset(
-    {"batch", "control", "dynamics", "errors", "hardware", "linalg", "models", "objectives",
-     "resolution", "sim", "tasks"}
+    {"batch", "collision", "control", "dynamics", "errors", "hardware", "linalg", "models",
+     "objectives", "resolution", "sim", "tasks"}
 )  # fmt: skip
 
 
@@ -59,15 +79,22 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "BoxObstacle",
+    "CapsuleObstacle",
+    "Collisions",
     "Controller",
     "DHLink",
     "IKResult",
     "PathPlan",
+    "PlaneObstacle",
+    "PointObstacle",
     "RedresError",
     "Robot",
+    "SphereObstacle",
     "Viewer",
     "__version__",
     "batch",
+    "collision",
     "control",
     "dynamics",
     "errors",

@@ -119,6 +119,10 @@ class Reader:
                 want = f"{size} numbers" if size else "a list of numbers"
                 raise self.fail(key, f"expected {want}, got {short_repr(value)}")
             return np.array([self._float(key, v) for v in value])
+        if kind == "list":
+            if not isinstance(value, list):
+                raise self.fail(key, f"expected a list, got {short_repr(value)}")
+            return value
         if kind == "tables":
             if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
                 raise self.fail(key, f"expected a list of tables, got {value!r}")
@@ -305,7 +309,7 @@ class ScenarioParams(Protocol):
         """A string."""
         ...
 
-    # The three below return objects of higher layers (typed Any here: this module is at
+    # The four below return objects of higher layers (typed Any here: this module is at
     # the bottom): redres.objectives.Objective, redres.tasks.Task, redres.resolution.Inverse.
 
     def objectives(self) -> list[tuple[Any, float]]:
@@ -314,6 +318,11 @@ class ScenarioParams(Protocol):
 
     def levels(self) -> list[Any]:
         """The ``levels = [...]`` list as fresh tasks, highest priority first (≥ 1)."""
+        ...
+
+    def collisions(self) -> Any:
+        """The ``collisions = {...}`` table as a :class:`redres.collision.Collisions` over
+        the scenario's obstacles, or None when absent."""
         ...
 
     def inverse(self, default_damping: float | None = None) -> Any:

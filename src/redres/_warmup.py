@@ -194,6 +194,17 @@ def _plan() -> None:
     plan_path(robot, np.stack((T, T)), dt=0.1, resolution=4)
 
 
+def _collision() -> None:
+    from .collision import BoxObstacle, CollisionModel, PlaneObstacle, SphereObstacle
+    from .models import panda
+
+    robot = panda()
+    obstacles = [SphereObstacle(np.array([0.5, 0.0, 0.5]), 0.05),
+                 BoxObstacle(np.array([0.5, 0.3, 0.3]), np.full(3, 0.1)),
+                 PlaneObstacle(np.array([0.0, 0.0, 1.0]), -0.2)]  # fmt: skip
+    CollisionModel(robot, obstacles).compute(robot.neutral(), 0.1)
+
+
 #: Each kernel group's workload, by the group's name, in the order ``redres warmup`` runs
 #: them.
 #: A workload returns None, or the modules of its group it compiled when it had to leave
@@ -210,12 +221,13 @@ WORKLOADS: dict[str, Callable[[], tuple[str, ...] | None]] = {
     "analytic ik": _analytic_ik,
     "batch": _batch,
     "plan": _plan,
+    "collision": _collision,
 }
 
 
 def groups() -> dict[str, _compile.KernelGroup]:
     """Every kernel group, by name (importing their owners declares them)."""
-    from . import batch, control, dynamics, ik, linalg, plan  # noqa: F401
+    from . import batch, collision, control, dynamics, ik, linalg, plan  # noqa: F401
     from .ik import analytic  # noqa: F401
     from .resolution import hard_limits  # noqa: F401
     from .robot import chain, derivatives  # noqa: F401
@@ -312,6 +324,7 @@ GROUP_WORDS = {
     "analytic ik": "closed-form inverse kinematics",
     "batch": "batched kinematics and IK",
     "plan": "path planning by dynamic programming",
+    "collision": "collision distances",
 }
 
 #: Seconds between progress lines while a group compiles (a log without a terminal

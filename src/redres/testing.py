@@ -205,3 +205,97 @@ def command_violations(
         for k, i in zip(*np.nonzero(ratio > 1.0)):
             found.append(CommandViolation(int(k), name, int(i), float(ratio[k, i])))
     return sorted(found)
+
+
+class CollisionScene(NamedTuple):
+    """A random scene that drives an arm into obstacles (:func:`collision_scene`).
+
+    Attributes:
+        q0: start configuration ``(n,)``, rad, clear of every obstacle and of itself.
+        q1: the configuration whose tip position ``end`` the path goes to, rad.
+        end: the tip's goal position ``(3,)``, m (a straight line from ``fk(q0)``).
+        obstacles: spheres, boxes, capsules and sometimes a half-space, placed on the
+            links at configurations between ``q0`` and ``q1``.
+    """
+
+    q0: FloatArray
+    q1: FloatArray
+    end: FloatArray
+    obstacles: list[Any]
+
+
+def _random_rotation(rng: np.random.Generator) -> FloatArray:
+    Q, R = np.linalg.qr(rng.normal(size=(3, 3)))
+    Q = Q * np.sign(np.diag(R))
+    return Q if np.linalg.det(Q) > 0 else -Q
+
+
+def collision_scene(
+    robot: Robot,
+    rng: np.random.Generator,
+    *,
+    clear: float = 0.03,
+    spread: float = 0.8,
+    allowed: Any = (),
+    tries: int = 10_000,
+) -> CollisionScene:
+    """A random start ``q0`` inside the limits, a nearby ``q1`` (normal steps of
+    ``spread`` rad) and one to three obstacles (sphere, box or capsule, 2–8 cm) centred on
+    a link capsule's axis at a configuration on the straight joint-space way from ``q0``
+    to ``q1``, and in a third of the scenes a table (half-space) the tip path goes below:
+    the tip path from ``fk(q0)`` to ``fk(q1)`` drives the arm into them. Drawn again until
+    every pair of the robot's capsules and the obstacles (self pairs too, as
+    :class:`~redres.collision.CollisionModel` chooses them) is at least ``clear`` m apart
+    at ``q0``, and no obstacle touches the arm at its neutral pose (where the model would
+    leave the pair out) but the table under the base capsule (joint 1: its distance to a
+    horizontal plane never changes). ``allowed``: pairs left out (as
+    :class:`~redres.collision.Collisions` takes them).
+
+    Raises:
+        RuntimeError: no scene found in ``tries`` draws (the arm's capsules overlap
+            each other in most configurations: allow those pairs).
+    """
+    from .collision import (
+        BoxObstacle,
+        CapsuleObstacle,
+        CollisionModel,
+        PlaneObstacle,
+        SphereObstacle,
+    )
+
+    lo, hi = robot.q_min, robot.q_max
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    frames = robot.model.frames
+    caps = [c for c in robot.capsules if frames[robot.frame_id(c.frame)].parentJoint > 1]
+    for _ in range(tries):
+        q0 = mid + 0.8 * half * rng.uniform(-1.0, 1.0, robot.n)
+        q1 = np.clip(q0 + rng.normal(0.0, spread, robot.n), mid - 0.9 * half, mid + 0.9 * half)
+        obstacles: list[Any] = []
+        for k in range(int(rng.integers(1, 4))):
+            q = q0 + rng.uniform(0.3, 0.9) * (q1 - q0)
+            cap = caps[int(rng.integers(len(caps)))]
+            T = robot.fk(q, cap.frame)
+            point = T[:3, :3] @ (cap.a + rng.uniform() * (cap.b - cap.a)) + T[:3, 3]
+            size, kind = rng.uniform(0.02, 0.08), int(rng.integers(3))
+            name = f"o{k}"
+            if kind == 0:
+                obstacles.append(SphereObstacle(point, size, name))
+            elif kind == 1:
+                half_extents = rng.uniform(0.5, 1.0, 3) * size
+                obstacles.append(BoxObstacle(point, half_extents, _random_rotation(rng), name))
+            else:
+                axis = rng.normal(size=3)
+                axis *= rng.uniform(0.05, 0.15) / np.linalg.norm(axis)
+                obstacles.append(CapsuleObstacle(point - axis, point + axis, 0.5 * size, name))
+        end = robot.fk(q1)[:3, 3]
+        if rng.uniform() < 1.0 / 3.0:
+            height = end[2] + rng.uniform(0.0, 0.1)
+            obstacles.append(PlaneObstacle(np.array([0.0, 0.0, 1.0]), height, "table"))
+        model = CollisionModel(robot, obstacles, safety=0.0, allowed=allowed)
+        base = {c.name for c in robot.capsules} - {c.name for c in caps}
+        left_out = [e for e in model.excluded if e[1] != "table" or e[0] not in base]
+        if model.distances(q0).min(initial=np.inf) >= clear and not any(
+            e[1] in {o.name for o in obstacles} for e in left_out
+        ):
+            return CollisionScene(q0, q1, end, obstacles)
+    raise RuntimeError(f"no collision scene for {robot.name} in {tries} draws")

@@ -364,10 +364,14 @@ class Viewer:
 def _obstacle_shape(obstacle: Obstacle) -> tuple[FloatArray, FloatArray]:
     """Where an obstacle's scene node sits (a sphere's centre, a capsule's end ``a``) and
     its shape relative to it: ``(b − a, radius)``."""
-    from .objectives import SphereObstacle
+    from .objectives import CapsuleObstacle, SphereObstacle
 
     if isinstance(obstacle, SphereObstacle):
         return np.asarray(obstacle.center, dtype=float), np.array([0.0, 0.0, 0.0, obstacle.radius])
+    if not isinstance(obstacle, CapsuleObstacle):
+        raise InvalidParameterError(
+            f"the viewer draws spheres, points and capsules; got {type(obstacle).__name__}"
+        )
     a = np.asarray(obstacle.a, dtype=float)
     return a, np.append(np.asarray(obstacle.b, dtype=float) - a, obstacle.radius)
 

@@ -165,7 +165,7 @@ def test_opting_out_compiles_on_the_callers_path(tmp_path: Path) -> None:
 
 
 GROUPS = ("linalg", "derivatives", "chain", "controller", "shaping", "dynamics", "hard limits",
-          "ik", "analytic ik", "batch", "plan")  # fmt: skip
+          "ik", "analytic ik", "batch", "plan", "collision")  # fmt: skip
 
 
 def test_warmup_fills_the_cache_so_that_a_second_process_compiles_nothing(

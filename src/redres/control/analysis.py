@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._validate import FloatArray, as_scalar, as_vector
+from ..collision import CollisionModel
 from ..errors import InvalidParameterError, JointLimitError
 from ..objectives import Objective, ObstacleObjective
 from .log import RunLog
@@ -133,3 +134,19 @@ def analyse_run(
                           key=lambda p: p.distance)  # fmt: skip
             log.extra["deepest_contact"] = {"obstacle": deepest.obstacle, "link": deepest.capsule}
     return s
+
+
+def collision_clearance(log: RunLog, model: CollisionModel) -> None:
+    """Log the clearances of a run under collision avoidance: at every step of ``log.q``
+    the smallest distance of ``model``'s environment pairs (``obstacle_distance_m``, when
+    it has any) and of its self pairs (``self_distance_m``, when it has any), m; the pairs
+    are the constraint's (adjacent links, contacts at the neutral pose and allowed pairs
+    left out: :class:`~redres.collision.CollisionModel`)."""
+    mask = model.self_mask()
+    if not log.steps or not len(mask):
+        return
+    d = np.array([model.distances(q) for q in log.q])
+    if (~mask).any():
+        log.objectives["obstacle_distance_m"] = d[:, ~mask].min(axis=1)
+    if mask.any():
+        log.objectives["self_distance_m"] = d[:, mask].min(axis=1)

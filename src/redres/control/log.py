@@ -239,7 +239,9 @@ class RunLog:
         print these).
 
         Besides the metrics: ``min_obstacle_clearance_m``, the smallest arm–obstacle
-        distance over the whole run (only when obstacle distances were logged), and
+        distance over the whole run (only when obstacle distances were logged),
+        ``min_self_clearance_m``, the smallest distance between two link capsules (only
+        when logged: a run under collision avoidance with self pairs), and
         ``warnings``, :attr:`warnings` as a list of
         :meth:`~redres.control.RunWarning.as_dict`.
         """
@@ -268,5 +270,8 @@ class RunLog:
         distance = self.objectives.get("obstacle_distance_m")
         if distance is not None and len(distance):
             out["min_obstacle_clearance_m"] = float(np.min(distance))
+        distance = self.objectives.get("self_distance_m")
+        if distance is not None and len(distance):
+            out["min_self_clearance_m"] = float(np.min(distance))
         out["warnings"] = [w.as_dict() for w in self.warnings]
         return out

@@ -4,9 +4,11 @@ from .base import Objective, quadratic_coefficients
 from .joint_limits import JointLimitObjective
 from .manipulability import ManipulabilityObjective
 from .obstacles import (
+    BoxObstacle,
     CapsuleObstacle,
     Obstacle,
     ObstacleObjective,
+    PlaneObstacle,
     PointObstacle,
     Proximity,
     SphereObstacle,
@@ -15,12 +17,14 @@ from .obstacles import (
 from .posture import PostureObjective
 
 __all__ = [
+    "BoxObstacle",
     "CapsuleObstacle",
     "JointLimitObjective",
     "ManipulabilityObjective",
     "Objective",
     "Obstacle",
     "ObstacleObjective",
+    "PlaneObstacle",
     "PointObstacle",
     "PostureObjective",
     "Proximity",

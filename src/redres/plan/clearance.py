@@ -6,7 +6,7 @@ node of a path's grid.
 
 Each capsule's segment is placed by :func:`redres.batch.fk` of its frame (compiled, all
 rows per call), then measured against each obstacle by the row-wise closest points of
-:mod:`redres.objectives.geometry` (Ericson, *Real-Time Collision Detection*, 2005,
+:mod:`redres.collision.geometry` (Ericson, *Real-Time Collision Detection*, 2005,
 §5.1.9): for a sphere the distance from its centre to the segment, for a capsule the
 distance between the two segments, less both radii.
 """
@@ -21,9 +21,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._validate import FloatArray, as_scalar
+from ..collision.geometry import segment_point_distances, segment_segment_distances
 from ..errors import InvalidParameterError
 from ..objectives import CapsuleObstacle, SphereObstacle
-from ..objectives.geometry import segment_point_distances, segment_segment_distances
 from .grid import PathGrid
 
 if TYPE_CHECKING:

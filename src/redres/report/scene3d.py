@@ -111,10 +111,12 @@ def mesh_trace(
 
 def obstacle_points(obstacles: Sequence[Obstacle]) -> FloatArray:
     """Points that bound every obstacle (for the scene's range), shape ``(k, 3)``, m."""
-    from ..objectives import SphereObstacle
+    from ..objectives import CapsuleObstacle, SphereObstacle
 
     out = [np.zeros((0, 3))]
     for obs in obstacles:
+        if not isinstance(obs, (SphereObstacle, CapsuleObstacle)):
+            continue  # boxes and half-spaces are not drawn yet
         ends = [obs.center] if isinstance(obs, SphereObstacle) else [obs.a, obs.b]
         for p in ends:
             out.append(p + obs.radius * np.vstack([np.eye(3), -np.eye(3)]))
@@ -122,11 +124,14 @@ def obstacle_points(obstacles: Sequence[Obstacle]) -> FloatArray:
 
 
 def obstacle_traces(obstacles: Sequence[Obstacle]) -> list[dict[str, Any]]:
-    """One trace per obstacle: a mesh at its place and size, a marker for a point."""
-    from ..objectives import SphereObstacle
+    """One trace per obstacle: a mesh at its place and size, a marker for a point (boxes
+    and half-spaces are not drawn yet)."""
+    from ..objectives import CapsuleObstacle, SphereObstacle
 
     traces = []
     for obs in obstacles:
+        if not isinstance(obs, (SphereObstacle, CapsuleObstacle)):
+            continue
         sphere = isinstance(obs, SphereObstacle)
         meta = {"kind": "obstacle", "shape": "sphere" if sphere else "capsule", "name": obs.name}
         a, b = (obs.center, obs.center) if isinstance(obs, SphereObstacle) else (obs.a, obs.b)

@@ -51,7 +51,7 @@ def _check_options(
 
 
 def _check_runs(runs: Sequence[Run]) -> list[tuple[Robot, RunLog, tuple[Obstacle, ...]]]:
-    from ..objectives import CapsuleObstacle, SphereObstacle
+    from ..collision import OBSTACLE_TYPES
 
     pairs = []
     for i, pair in enumerate(runs):
@@ -63,9 +63,10 @@ def _check_runs(runs: Sequence[Run]) -> list[tuple[Robot, RunLog, tuple[Obstacle
         robot, log = pair[0], pair[1]
         obstacles = tuple(pair[2]) if len(pair) == 3 else ()  # type: ignore[misc]
         for obs in obstacles:
-            if not isinstance(obs, (SphereObstacle, CapsuleObstacle)):
+            if not isinstance(obs, OBSTACLE_TYPES):  # boxes and half-spaces: not drawn yet
                 raise InvalidParameterError(
-                    f"runs[{i}]: obstacles must be SphereObstacle or CapsuleObstacle; got {obs!r}"
+                    f"runs[{i}]: obstacles must be SphereObstacle, CapsuleObstacle, BoxObstacle "
+                    f"or PlaneObstacle; got {obs!r}"
                 )
         pairs.append((robot, log, obstacles))
     if not pairs:

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..control import LiveView, RunLog, run
+from ..control.analysis import collision_clearance
 from ..dynamics.simulate import simulate
 from ..errors import MissingDependencyError
 from ..objectives import ObstacleObjective
@@ -121,9 +122,13 @@ def run_scenario(
             elif s.kind == "osc":
                 logs.append(simulate(spec.robot, s.build(), spec.trajectory, **common))
             else:
-                logs.append(run(spec.robot, spec.task(), spec.trajectory, s.build(),
+                scheme = s.build()
+                logs.append(run(spec.robot, spec.task(), spec.trajectory, scheme,
                                 gain=spec.gain, shaping=spec.shaping, log_objectives=extra,
                                 viewer=viewer, **common))  # fmt: skip
+                collisions = getattr(scheme, "collisions", None)
+                if collisions is not None:  # the clearances the constraint kept
+                    collision_clearance(logs[-1], collisions.model(spec.robot))
         except MissingDependencyError as exc:
             if skipped is None:
                 raise

@@ -32,6 +32,7 @@ import pinocchio as pin
 
 from .. import models
 from .._toml import Reader, load
+from ..collision import DEFAULT_GAIN, BoxObstacle, Collisions, PlaneObstacle
 from ..control.analysis import run_steps
 from ..control.trajectories import Circle, FigureEight, Hold, Line, MinimumJerk, Trajectory
 from ..errors import MissingDependencyError, RedresError, install_hint
@@ -177,14 +178,21 @@ def _blamed(parse: Callable[..., _T]) -> Callable[..., _T]:
 @_blamed
 def _obstacle(r: Reader) -> Obstacle:
     kind = r.string("type")
-    name, radius = r.string("name", kind), r.nonnegative("radius", 0.0)
+    name = r.string("name", kind)
+    if kind == "box":  # rpy: roll, pitch, yaw (rad) of the box axes, Rz(y) Ry(p) Rx(r)
+        rpy = r.get("rpy", "vector", np.zeros(3), size=3)
+        center, half = r.get("center", "vector", size=3), r.get("half_extents", "vector", size=3)
+        return BoxObstacle(center, half, pin.rpy.rpyToMatrix(*rpy), name)
+    if kind == "plane":  # the solid side: normal · x <= offset
+        return PlaneObstacle(r.get("normal", "vector", size=3), r.number("offset", 0.0), name)
+    radius = r.nonnegative("radius", 0.0)
     if kind in ("sphere", "point"):
         return SphereObstacle(r.get("center", "vector", size=3), radius, name)
     if kind == "capsule":
         return CapsuleObstacle(
             r.get("a", "vector", size=3), r.get("b", "vector", size=3), radius, name
         )
-    raise r.fail("type", f"unknown obstacle {kind!r}; use sphere, point or capsule")
+    raise r.fail("type", f"unknown obstacle {kind!r}; use sphere, point, capsule, box or plane")
 
 
 @_blamed
@@ -205,6 +213,22 @@ def _objective(r: Reader, obstacles: list[Obstacle], n: int) -> tuple[Objective,
         "type",
         f"unknown objective {kind!r}; use joint_limits, manipulability, posture or obstacles",
     )
+
+
+def _collisions(r: Reader, obstacles: list[Obstacle]) -> Collisions:
+    allowed = r.get("allowed", "list", [])
+    ok = isinstance(allowed, list) and all(
+        isinstance(p, list) and len(p) == 2 and all(isinstance(x, str) for x in p)
+        for p in allowed
+    )  # fmt: skip
+    if not ok:
+        raise r.fail("allowed", 'expected pairs of names, e.g. allowed = [["hand", "base"]]')
+    influence, safety = r.positive("influence", 0.10), r.nonnegative("safety", 0.01)
+    gain, self_collision = r.positive("gain", DEFAULT_GAIN), r.boolean("self", True)
+    with r.blame(None):
+        pairs = [(str(p[0]), str(p[1])) for p in allowed]
+        return Collisions(obstacles, influence=influence, safety=safety, gain=gain,
+                          self_collision=self_collision, allowed=pairs)  # fmt: skip
 
 
 @_blamed
@@ -234,6 +258,20 @@ class _SchemeReader(Reader):
 
     def objectives(self) -> list[tuple[Objective, float]]:
         return self.each("objectives", partial(_objective, obstacles=self.obstacles, n=self.n), [])
+
+    def collisions(self) -> Collisions | None:
+        """The ``collisions = { influence = 0.10, safety = 0.01, self = true }`` table (also
+        ``gain``, m/s, and ``allowed = [["hand", "base"], ...]``) as a :class:`Collisions`
+        over the scenario's obstacles; None when absent."""
+        self.used.add("collisions")
+        if "collisions" not in self.table:
+            return None
+        table = self.table["collisions"]
+        if not isinstance(table, dict):
+            example = "collisions = { influence = 0.10, safety = 0.01, self = true }"
+            raise self.fail("collisions", f"expected a table, e.g. {example}")
+        path = f"{self.path}.collisions" if self.path else "collisions"
+        return self.read(table, path, partial(_collisions, obstacles=self.obstacles))
 
     def levels(self) -> list[Task]:
         levels = self.each("levels", partial(_level, n=self.n))

@@ -19,6 +19,15 @@ QPs (Kanoun, Lamiraux, Wieber 2011; Escande, Mansard, Wieber 2014):
    exact one is skipped when the residual ``r = ẋ − J q̇`` proves the task infeasible
    (Farkas' lemma: ``rᵀẋ > max_box rᵀJ q̇``).
 
+With ``collisions`` (:class:`~redres.collision.Collisions`), every pair of link capsules
+and obstacles (or two link capsules) closer than the influence distance ``d_i`` adds the
+velocity damper ``n̂ᵀ(J_a − J_b) q̇ ≥ −ξ (d − d_s)/(d_i − d_s)`` (Faverjon & Tournassoud
+1987; Kanoun, Lamiraux, Wieber 2011; :mod:`redres.collision.constraint`) to both QPs,
+beside the box: the task yields (``feasible=False``), the rows never do. When the box and
+the rows admit no velocity together (the acceleration limits cannot brake an approach in
+one period), the acceleration limits yield first, then the rest of the box; the rows are
+kept in every case (:meth:`QPScheme._collide`).
+
 With ``levels`` (lower-priority tasks, each evaluated at ``q`` by the scheme and commanded
 ``ẋ_d + gain·e``), level ``k`` is solved by the same two QPs with the velocities achieved by
 the levels above held as equality constraints, ``J_i q̇ = J_i q̇*_i`` for ``i < k`` (a
@@ -52,6 +61,7 @@ from numpy.typing import ArrayLike
 
 from ... import _compile
 from ..._validate import FloatArray, as_scalar, as_vector, checked_keywords
+from ...collision import CollisionDetails, Collisions
 from ...errors import InvalidParameterError, ShapeError
 from ...linalg._status import raise_status
 from ...tasks import Task, stack
@@ -60,11 +70,13 @@ from ..gradient_projection import WeightedObjective
 from ._codes import MET_TOLERANCE
 from ._compiled import kernels, pending
 from ._solvers import QPSolver, WarmQP, sense, solve_exact, solve_levels
-from .base import STEP_NAMES, BoxScheme, Workspace, box_details
+from .base import STEP_NAMES, BoxScheme, Workspace, box_details, task_met
 
 _MET2 = MET_TOLERANCE * MET_TOLERANCE
+_INF = 1e30  # DAQP's infinity (an absent bound)
 
 if TYPE_CHECKING:
+    from ..._toml import ScenarioParams
     from ...robot import Robot
 
 
@@ -78,6 +90,8 @@ class QPDetails:
         bounds: the joint-velocity box ``(lower, upper)``, two ``(n,)`` arrays, rad/s.
         relaxed: joints whose box had to give up a limit.
         solver: the QP backend.
+        collisions: with ``collisions``: the active pairs, the closest pair and the
+            binding rows (:class:`~redres.collision.CollisionDetails`); else None.
     """
 
     residual: float
@@ -85,6 +99,7 @@ class QPDetails:
     bounds: tuple[FloatArray, FloatArray]
     relaxed: list[int]
     solver: str
+    collisions: CollisionDetails | None = None
 
 
 class QPScheme(BoxScheme):
@@ -105,16 +120,20 @@ class QPScheme(BoxScheme):
         solver_options: keyword settings passed to the backend (e.g. ``{"eps_abs": 1e-9}``
             for ProxQP; DAQP gets ``primal_tol=1e-10`` unless given).
         qd_max, qdd_max: limits replacing the robot's (scalar or ``(n,)``).
+        collisions: collision avoidance as a hard constraint (module docstring; DAQP, one
+            level).
 
     Raises:
         MissingDependencyError: qpsolvers or the backend is not installed (names the
             ``qp`` extra).
+        InvalidParameterError: ``collisions`` with ``levels`` or another backend than
+            DAQP, or a period too long for its gain.
 
     Identifier ``qp``. State: the previous joint velocity ``qd_prev`` (:meth:`reset`
     clears it). ``StepResult.feasible``: every level met exactly; ``binding``: the bounds
     ``q̇`` sits on; ``details``: a :class:`QPDetails` (residuals, box, relaxed joints,
-    solver). ``info`` gives the singular values and rank of ``J`` (:mod:`redres.linalg`'s
-    rule); ``null_term`` the component of ``q̇`` in its null space.
+    solver, collision pairs). ``info`` gives the singular values and rank of ``J``
+    (:mod:`redres.linalg`'s rule); ``null_term`` the component of ``q̇`` in its null space.
     """
 
     name = "qp"
@@ -134,6 +153,7 @@ class QPScheme(BoxScheme):
         solver_options: dict[str, Any] | None = None,
         qd_max: ArrayLike | None = None,
         qdd_max: ArrayLike | None = None,
+        collisions: Collisions | None = None,
     ) -> None:
         """The arguments are described in ``help(QPScheme)``."""
         self._init_box(dt, objectives, k_null, qd_max, qdd_max)
@@ -150,6 +170,26 @@ class QPScheme(BoxScheme):
         self._qp = QPSolver(solver, solver_options)
         self.solver, self.solver_options = self._qp.name, self._qp.options
         self._infeasible_before = False
+        if collisions is not None and not isinstance(collisions, Collisions):
+            raise InvalidParameterError(
+                f"collisions must be a redres.Collisions(...); got {type(collisions).__name__}"
+            )
+        if collisions is not None and (self.levels or not self._qp.daqp):
+            raise InvalidParameterError(
+                "collisions work with the DAQP backend and one level (no levels=) today"
+            )
+        if collisions is not None:
+            collisions.check_period(as_scalar(dt, "dt"))
+        self.collisions = collisions
+
+    @classmethod
+    def from_scenario(cls, params: ScenarioParams) -> QPScheme:
+        """The scheme of a scenario table: ``objectives``, ``k_null`` and ``collisions``
+        (``{ influence = 0.10, safety = 0.01, self = true }``, optional ``gain``), over
+        the run's period ``dt``."""
+        return cls(dt=params.dt, objectives=params.objectives(),
+                   k_null=params.nonnegative("k_null", 1.0),
+                   collisions=params.collisions())  # fmt: skip
 
     def _reset(self) -> None:
         super()._reset()
@@ -161,7 +201,14 @@ class QPScheme(BoxScheme):
         if w.shape != (m,):  # before anything changes: the old workspace stays consistent
             raise ShapeError(f"task_weights must have shape ({m},); got {w.shape}")
         self._robot = None  # rebuilt from scratch on the next call if anything below fails
-        ws = Workspace(self.limits(robot), m)
+        limits = self.limits(robot)
+        if self.collisions is not None and not np.all(np.isfinite(limits.qd_max)):
+            raise InvalidParameterError(
+                f"collisions need joint velocity limits (robot {robot.name!r} has qd_max = "
+                f"{limits.qd_max}): a pair farther than d_i could cross into contact within "
+                "one period; give them with robot.with_limits(qd_max=...) or QPScheme(qd_max=...)"
+            )
+        ws = Workspace(limits, m)
         self._bu, self._bl, self._f = np.empty(n + m), np.empty(n + m), np.empty(n)
         self._P, self._c, self._w = np.empty((n, n)), np.empty(n), w
         kq, out = kernels("_qp_kernels"), ws.outputs()
@@ -208,11 +255,63 @@ class QPScheme(BoxScheme):
         active, residual = finished
         if single and residual * residual > _MET2 * (xd @ xd):
             exact[0], active, residual = self._refine(J, xd, qd0, out, full, active, residual)
+        contact = None
+        if self.collisions is not None:
+            G, h, found, pairs = self.collisions.rows(robot, q)
+            if len(pairs) and np.any(G @ out[0] < h - 1e-12 * (1.0 + np.abs(h))):
+                exact[0] = self._collide(q, J, xd, qd0, out, G, h, exact[0])
+                active, residual = self._finish(J, xd, out, ws.M, ws.wm, full, False)
+                exact[0] = exact[0] and task_met(J, xd, out[0])
+            contact = self.collisions.details(found, pairs, G, h, out[0])
         levels = residuals if self.levels else [residual]
         return self._result(
             out, codes, Jc, all(exact), active,
-            lambda: QPDetails(residual, levels, *box_details(out, codes, relaxed), self.solver),
+            lambda: QPDetails(residual, levels, *box_details(out, codes, relaxed), self.solver,
+                              None if contact is None else contact()),
         )  # fmt: skip
+
+    def _collide(
+        self, q: FloatArray, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray,
+        G: FloatArray, h: FloatArray, met: bool,
+    ) -> bool:  # fmt: skip
+        """The step again with the collision rows ``G q̇ ≥ h`` (module docstring): the exact
+        QP, else the least-violating one, else the same with the acceleration limits
+        dropped from the box, else with no box. Writes ``out[0]`` (and the box used into
+        ``out[2]``, ``out[3]``: the epilogue clips to them); returns whether the exact QP
+        was solved (tried only when the task was ``met`` without the rows: more rows
+        cannot make an infeasible QP feasible)."""
+        n, m, k = J.shape[1], J.shape[0], G.shape[0]
+        daqp, options = self._qp.module, self._qp.options
+        free = np.full(k, _INF)
+        flags = np.zeros(n + m + k, dtype=np.intc)
+        flags[n : n + m] = 5  # DAQP: equality rows
+        if met:
+            A = np.ascontiguousarray(np.vstack([J, G]))
+            upper, lower = np.concatenate([out[3], xd, free]), np.concatenate([out[2], xd, h])
+            x, _, flag, _ = daqp.solve(np.eye(n), -qd0, A, upper, lower, flags, **options)
+            if flag > 0:
+                out[0] = x
+                return True
+        w = np.ones(m) if self.task_weights is None else self.task_weights
+        lam2 = self.damping * self.damping
+        P = (J.T * w) @ J + lam2 * np.eye(n)
+        c = -((J.T * w) @ xd + lam2 * qd0)
+        lim = self._ws.lim
+        lo = np.maximum(-lim[2], (lim[0] - q) / self.dt)
+        hi = np.minimum(lim[2], (lim[1] - q) / self.dt)
+        lo = np.minimum(lo, hi)
+        boxes = ((out[2], out[3]), (lo, hi), (np.full(n, -_INF), np.full(n, _INF)))
+        G = np.ascontiguousarray(G)
+        for lower, upper in boxes:
+            x, _, flag, _ = daqp.solve(P, c, G, np.concatenate([upper, free]),
+                                       np.concatenate([lower, h]), np.zeros(n + k, np.intc),
+                                       **options)  # fmt: skip
+            if flag > 0:
+                out[0], out[2], out[3] = x, lower, upper
+                return False
+        out[0] = np.linalg.lstsq(G, h, rcond=None)[0]  # the rows contradict each other
+        out[2], out[3] = boxes[-1]
+        return False
 
     def _single(
         self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray, full: bool

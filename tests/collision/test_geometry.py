@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from redres.objectives.geometry import closest_point_on_segment, closest_points_segments
+from redres.collision.geometry import closest_point_on_segment, closest_points_segments
 
 
 def brute_force(p1, q1, p2, q2, samples: int = 801) -> float:  # type: ignore[no-untyped-def]

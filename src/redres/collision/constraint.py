@@ -1,0 +1,182 @@
+"""Collision avoidance as a hard constraint: the velocity damper.
+
+For every pair closer than the influence distance ``d_i`` (Faverjon & Tournassoud 1987;
+Kanoun, Lamiraux, Wieber 2011, §IV)::
+
+    ḋ = n̂ᵀ (J_a − J_b) q̇  ≥  −ξ (d − d_s) / (d_i − d_s)
+
+one row linear in ``q̇``: at ``d_i`` the pair may approach at ``ξ`` (m/s), the allowed
+approach speed falls linearly to zero at the safety distance ``d_s``, and below ``d_s`` the
+row demands separation. Over a period ``dt`` the linearised distance obeys
+``d⁺ − d_s ≥ (1 − ξ dt/(d_i − d_s)) (d − d_s)``: a pair never crosses ``d_s`` while
+``ξ dt ≤ d_i − d_s`` (checked by the scheme), up to the second-order change of ``d``
+over one step, and as long as no pair farther than ``d_i`` closes the gap ``d_i − d_s``
+within one period (the joint velocity limits must keep every link point's travel per
+period below it: the QP scheme refuses a robot without velocity limits).
+
+References:
+    B. Faverjon, P. Tournassoud, "A local based approach for path planning of
+    manipulators with a high number of degrees of freedom", ICRA 1987, 1152–1159.
+    O. Kanoun, F. Lamiraux, P.-B. Wieber, "Kinematic control of redundant manipulators:
+    generalizing the task-priority framework to inequality tasks", IEEE Trans. Robotics
+    27(4) (2011) 785–792.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .._validate import FloatArray, as_scalar
+from ..errors import InvalidParameterError
+from .distances import CollisionModel, PairDistances
+from .pairs import Pair
+
+if TYPE_CHECKING:
+    from ..robot import Capsule, Robot
+
+#: Default gain ξ of the damper, m/s (:class:`Collisions`).
+DEFAULT_GAIN = 0.5
+#: A collision row counts as binding when ``ḋ`` is within this of its bound, m/s.
+BINDING_TOLERANCE = 1e-7
+
+
+@dataclass(frozen=True)
+class CollisionDetails:
+    """The collision part of a QP step's details.
+
+    Attributes:
+        active: the pairs closer than ``d_i``, one constraint row each.
+        distances: their signed distances, ``(len(active),)``, m.
+        closest: the closest pair within the broad phase and its distance (m), or None
+            when no pair is within ``d_i`` of the other's bounding sphere.
+        binding: the active pairs whose row the answer sits on (``ḋ`` at its bound).
+    """
+
+    active: list[Pair]
+    distances: FloatArray
+    closest: tuple[Pair, float] | None
+    binding: list[Pair] = field(default_factory=list)
+
+    @property
+    def bound(self) -> bool:
+        """Whether a collision row was binding."""
+        return bool(self.binding)
+
+
+class Collisions:
+    """Settings of collision avoidance as a hard constraint (:class:`~redres.QPScheme`).
+
+    Args:
+        obstacles: spheres, points, capsules, boxes and half-spaces, world coordinates
+            (:mod:`redres.collision.shapes`).
+        influence: ``d_i``, m: pairs farther apart are not constrained.
+        safety: ``d_s``, m, ``0 ≤ d_s < d_i``: the distance never crossed.
+        gain: ``ξ``, m/s: the approach speed allowed at ``d_i``. Default
+            :data:`DEFAULT_GAIN` = 0.5 m/s: with the default ``d_i − d_s = 0.09`` m the
+            distance's excess over ``d_s`` decays no faster than with a time constant of
+            ``(d_i − d_s)/ξ = 0.18`` s, slower than an arm's joint-velocity limits
+            allow (a link moves at 1–2 m/s), so the approach is braked over several
+            periods rather than stopped in one (which the acceleration limits would
+            forbid), and the discrete-time bound ``ξ dt ≤ d_i − d_s`` holds up to
+            ``dt = 0.18`` s.
+        self_collision: also constrain pairs of link capsules.
+        allowed: pairs of names (capsule, link frame or obstacle) never checked.
+        srdf: an SRDF (path or XML text) whose ``disable_collisions`` are allowed too.
+        capsules: link capsules (default ``robot.capsules``).
+
+    Raises:
+        InvalidParameterError: ``safety`` not below ``influence``, a negative value.
+    """
+
+    def __init__(
+        self,
+        obstacles: Sequence[Any] = (),
+        *,
+        influence: float = 0.10,
+        safety: float = 0.01,
+        gain: float = DEFAULT_GAIN,
+        self_collision: bool = True,
+        allowed: Sequence[Sequence[str]] = (),
+        srdf: str | Path | None = None,
+        capsules: Sequence[Capsule] | None = None,
+    ) -> None:
+        """The arguments are described in ``help(Collisions)``."""
+        self.obstacles = list(obstacles)
+        self.influence = as_scalar(influence, "influence", minimum=0.0, strict=True)
+        self.safety = as_scalar(safety, "safety", minimum=0.0)
+        if self.safety >= self.influence:
+            raise InvalidParameterError(
+                f"safety (d_s = {self.safety} m) must be below influence (d_i = {self.influence} m)"
+            )
+        self.gain = as_scalar(gain, "gain", minimum=0.0, strict=True)
+        self.self_collision = bool(self_collision)
+        self.allowed = [tuple(p) for p in allowed]
+        self.srdf = srdf
+        self.capsules = None if capsules is None else list(capsules)
+        self._model: CollisionModel | None = None
+
+    def __repr__(self) -> str:
+        return (f"Collisions({len(self.obstacles)} obstacles, influence={self.influence}, "
+                f"safety={self.safety}, gain={self.gain}, self={self.self_collision})")  # fmt: skip
+
+    def check_period(self, dt: float) -> None:
+        """Refuse a period over which the damper could step past ``d_s``
+        (``ξ dt > d_i − d_s``, module docstring).
+
+        Raises:
+            InvalidParameterError: the period is too long for the gain.
+        """
+        if self.gain * dt > self.influence - self.safety:
+            raise InvalidParameterError(
+                f"collisions: gain·dt = {self.gain * dt:.3g} m exceeds influence − safety = "
+                f"{self.influence - self.safety:.3g} m: a pair could cross the safety "
+                "distance in one step; lower the gain or the period"
+            )
+
+    def model(self, robot: Robot) -> CollisionModel:
+        """The :class:`CollisionModel` of ``robot`` (built once per robot)."""
+        if self._model is None or self._model.robot is not robot:
+            self._model = CollisionModel(
+                robot, self.obstacles, capsules=self.capsules,
+                self_collision=self.self_collision, allowed=self.allowed, srdf=self.srdf,
+                safety=self.safety,
+            )  # fmt: skip
+        return self._model
+
+    def rows(
+        self, robot: Robot, q: FloatArray
+    ) -> tuple[FloatArray, FloatArray, PairDistances, np.ndarray]:
+        """The constraint ``G q̇ ≥ h`` at ``q`` (a float vector of size ``n``, checked by
+        the caller): ``G`` ``(k, n)``, ``h`` ``(k,)`` for the ``k`` pairs closer than
+        ``d_i`` (their indices, the last item), and the distances."""
+        model = self._model if self._model is not None and self._model.robot is robot else None
+        found = (model or self.model(robot)).compute(q, self.influence, checked=True)
+        active = np.flatnonzero(found.distance < self.influence)
+        d = found.distance[active]
+        h = (-self.gain / (self.influence - self.safety)) * (d - self.safety)
+        return found.gradient[active], h, found, active
+
+    def details(
+        self, found: PairDistances, active: np.ndarray, G: FloatArray, h: FloatArray,
+        qd: FloatArray,
+    ) -> Callable[[], CollisionDetails]:  # fmt: skip
+        """The :class:`CollisionDetails` of a step that answered ``qd``, built on first
+        call (what it needs is copied now: ``found`` is overwritten by the next step)."""
+        slack = G @ qd - h if len(active) else np.zeros(0)
+        d = found.distance[active]  # a copy (fancy indexing)
+        k = int(np.argmin(found.distance)) if found.resolved else -1
+        closest_d = float(found.distance[k]) if k >= 0 else 0.0
+        pairs_all = found.pairs
+
+        def build() -> CollisionDetails:
+            pairs = [pairs_all[i] for i in active]
+            binding = [p for p, s in zip(pairs, slack) if s <= BINDING_TOLERANCE]
+            closest = (pairs_all[k], closest_d) if k >= 0 else None
+            return CollisionDetails(pairs, d, closest, binding)
+
+        return build
