@@ -67,8 +67,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import _compile
-from .._validate import FloatArray, as_gains
-from ..errors import InvalidParameterError
+from .._validate import FloatArray
+from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from .clearance import KeepOut, screen
 from .grid import PathGrid
 from .objectives import BOTTLENECK, Objective, node_values
@@ -251,7 +251,17 @@ def _edge_dp(kernels: Any, graph: tuple[Any, ...], accel: FloatArray, value: Flo
 
 def _limit(value: Any, name: str, n: int, unit: str) -> FloatArray:
     """A positive limit per joint ``(n,)`` from a scalar or ``(n,)`` (``inf``: none)."""
-    limit = np.array(np.broadcast_to(as_gains(value, name), (n,)), dtype=np.float64)
+    try:
+        raw = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(
+            f"{name} must be a number or {n} numbers ({unit}); got {value!r}"
+        ) from None
+    if raw.shape not in ((), (n,)):
+        raise ShapeError(f"{name} must be a scalar or shape ({n},); got shape {raw.shape}")
+    if np.isnan(raw).any():
+        raise NonFiniteError(f"{name} contains NaN")
+    limit = np.array(np.broadcast_to(raw, (n,)))
     if not (limit > 0).all():
         raise InvalidParameterError(f"{name} must be positive ({unit}); got {limit}")
     return limit
