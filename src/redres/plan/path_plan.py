@@ -27,7 +27,8 @@ class PlanStats:
         reachable_nodes: reached by an admissible path from the start.
         traversable_nodes: on some complete admissible path (start to end).
         pairs_checked: node pairs the transition test ran on (after pruning).
-        transitions: admissible transitions among them.
+        transitions: admissible transitions among them (with ``qdd_max``: every
+            velocity transition between feasible nodes, the states of the DP).
         components: connected components of the traversable nodes (0: no path).
         first_infeasible: the first sample without a feasible node, or None.
         first_unreachable: the first sample no admissible path from the start reaches,
