@@ -141,6 +141,17 @@ BENCHES = [
           "`benchmarks/dynamics.py`: the compiled operational-space step next to the same "
           "step on Pinocchio, and the pieces of a step (redres alone).",
           quick=["--rounds", "3"], markdown=False),
+    Bench("reliability", "reliability_surfaces.py",
+          "Reliability: generated bad inputs on the new surfaces",
+          "`benchmarks/reliability_surfaces.py`: value generators (not numbers, NaN, inf, "
+          "10**400, ragged, complex, bool, text, counts of 0 and 2**63, broadcasts of 10**9 "
+          "rows, wrong shapes) crossed with every parameter of batches, rr.ik, with_limits, "
+          "the viewer; every numeric attribute of the URDF fixture, the Panda URDF, the MJCF "
+          "fixture and Menagerie's four arms replaced by bad tokens; every key of the "
+          "built-in sweep specs replaced by bad values, and their sizes set to 10**7 and "
+          "10**9 and planned in a child process; valid inputs checked (batch FK and "
+          "Jacobians against the single calls, IK answers against FK and the limits).",
+          quick=["--quick"]),
 ]  # fmt: skip
 
 

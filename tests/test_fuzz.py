@@ -132,7 +132,7 @@ def test_the_command_on_fuzzed_scenarios_exits_cleanly(
     assume(spec is None or round(spec.duration / spec.dt) <= 200)  # a hang, not a long run
     proc = subprocess.run(
         [sys.executable, "-m", "redres", "run", "s.toml", "--quiet", "--out", "o"],
-        cwd=folder, capture_output=True, text=True, timeout=120, check=False,
+        cwd=folder, capture_output=True, text=True, timeout=600, check=False,
     )  # fmt: skip
     assert "Traceback" not in proc.stderr, proc.stderr
     errors = [x for x in proc.stderr.splitlines() if x.startswith("redres: error:")]

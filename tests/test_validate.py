@@ -325,3 +325,19 @@ def test_objectives_check_the_configuration_they_are_given() -> None:
             objective.gradient(robot, np.full(7, np.nan))
         with pytest.raises(ShapeError, match=r"q must have shape \(7,\)"):
             objective.cost(robot, np.zeros(3))
+
+
+@pytest.mark.parametrize("value", [True, np.True_, "1.5", b"1", "nan"])
+def test_a_bool_or_text_is_no_number(value: Any) -> None:
+    """float() reads "1.5", b"1" and True as numbers: a tolerance of True or a gain of
+    "1.5" was accepted silently (the reliability campaign's silent accepts)."""
+    with pytest.raises(InvalidParameterError, match="tol must be a number"):
+        as_scalar(value, "tol")
+
+
+@pytest.mark.parametrize("value", [[True, False, True], ["1", "2", "3"], [b"1", b"2", b"3"]])
+def test_bool_and_text_arrays_are_no_vectors(value: Any) -> None:
+    with pytest.raises(ShapeError, match="qd_max must be a vector of numbers"):
+        as_vector(value, "qd_max", 3)
+    with pytest.raises(ShapeError, match="q must be an array of numbers"):
+        rr.batch.fk(rr.models.load("planar3"), [value])

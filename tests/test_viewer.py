@@ -247,3 +247,34 @@ def test_chromium_shows_the_obstacle_where_it_was_pushed(viewer, tmp_path: Path)
     text, console = live_page(viewer.url, tmp_path / "profile", done, seconds=90.0)
     assert "ball at (0.3500, -0.0500, 0.4500)" in text, text[-2000:]
     assert [m for m in console if m[0] in ("error", "exception", "assert")] == []
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"port": 70000}, "port must be an integer from 0 to 65535; got 70000"),
+        ({"port": "8080"}, "port must be an integer"),
+        ({"host": "no.such.host.invalid"}, "host 'no.such.host.invalid' is not an address"),
+        ({"host": 5}, "host must be a host name or address"),
+        ({"rate": 1e-300}, "rate must be >= 0.01"),
+        ({"rate": 1e9}, "rate must be <= 1000"),
+    ],
+)
+def test_an_address_or_rate_the_server_cannot_use_is_refused_at_once(
+    options: dict, message: str
+) -> None:
+    """viser's server thread failed on these and left the caller waiting for good (a bad
+    port or host), or the sender thread died on its first wait (a rate of 1e-300)."""
+    from redres.viewer import Viewer
+
+    with pytest.raises(rr.errors.InvalidParameterError, match=message):
+        Viewer(rr.models.panda(), **options)
+
+
+def test_a_malformed_push_is_refused_in_the_caller_not_in_the_sender(viewer) -> None:  # type: ignore[no-untyped-def]
+    for bad, error in ((np.eye(3), rr.errors.ShapeError), ([np.nan] * 3, rr.errors.NonFiniteError)):
+        with pytest.raises(error, match="target"):
+            viewer.push(viewer.robot.neutral(), target=bad)
+    q = viewer.robot.neutral() + 0.1
+    viewer.push(q, target=np.eye(4))  # the sender is still alive: this one arrives
+    assert _wait(lambda: viewer.shown is not None and np.allclose(viewer.shown, q))

@@ -31,6 +31,15 @@ _T = TypeVar("_T")
 
 #: The limits a ``[robot]`` table of a scenario or sweep spec may set (:meth:`Reader.joint_limits`).
 LIMIT_KEYS = ("qd_max", "qdd_max", "qddd_max", "tau_max")
+#: The largest magnitude of a number in a scenario or sweep spec (gains, lengths, times,
+#: limits); integers (seeds, counts) may reach :data:`MAX_INTEGER` (exact in a float).
+MAX_NUMBER = 1e9
+MAX_INTEGER = float(2**53)
+#: The largest file a spec may name (a robot model, a scenario), bytes: Menagerie's
+#: largest MJCF is about 60 kB, a URDF with inline meshes a few MB.
+MAX_FILE_BYTES = 64 * 1024 * 1024
+#: The keys that name a ``[robot]`` table's robot, one of them per table.
+ROBOT_SOURCES = ("model", "urdf", "mjcf", "menagerie")
 
 
 def load(path: str | Path, what: str, error: type[RedresError]) -> dict[str, Any]:
@@ -94,10 +103,10 @@ class Reader:
                 raise self.fail(key, f"missing; add `{key} = <{kind}>`")
             return default
         value = self.table[key]
-        if kind == "number":
+        if kind in ("number", "integer"):
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise self.fail(key, f"expected a number, got {value!r} (write {key} = 1.0)")
-            return self._float(key, value)
+            return self._float(key, value, MAX_NUMBER if kind == "number" else MAX_INTEGER)
         if kind == "string":
             if not isinstance(value, str):
                 raise self.fail(key, f'expected a string, got {value!r} (write {key} = "...")')
@@ -116,14 +125,18 @@ class Reader:
             return value
         raise AssertionError(kind)
 
-    def _float(self, key: str, value: int | float) -> float:
-        """``value`` as a finite float (an integer of hundreds of digits is not one)."""
+    def _float(self, key: str, value: int | float, limit: float = MAX_NUMBER) -> float:
+        """``value`` as a finite float within ``±limit`` (an integer of hundreds of digits
+        is not one; 1e300 is no setting of a scenario or sweep, refused here by key rather
+        than at run time)."""
         try:
             x = float(value)
         except OverflowError:
             raise self.fail(key, f"{short_repr(value)} is too large for a number") from None
         if not math.isfinite(x):
             raise self.fail(key, f"must be finite; got {value!r}")
+        if abs(x) > limit:
+            raise self.fail(key, f"must lie within ±{limit:g}; got {value!r}")
         return x
 
     def number(self, key: str, default: Any = ...) -> float:
@@ -167,12 +180,16 @@ class Reader:
                 unknown[0], f"unknown key; valid keys here: {', '.join(sorted(self.used))}"
             )
 
-    def integer(self, key: str, default: Any = ..., minimum: int | None = None) -> int:
-        value = self.number(key, default)
+    def integer(
+        self, key: str, default: Any = ..., minimum: int | None = None, maximum: int | None = None
+    ) -> int:
+        value = float(self.get(key, "integer", default))
         if not float(value).is_integer():
             raise self.fail(key, f"expected an integer, got {self.table[key]!r}")
         if minimum is not None and value < minimum:
             raise self.fail(key, f"must be >= {minimum}; got {int(value)}")
+        if maximum is not None and value > maximum:
+            raise self.fail(key, f"must be <= {maximum:,}; got {int(value):,}")
         return int(value)
 
     def boolean(self, key: str, default: bool) -> bool:
@@ -197,6 +214,41 @@ class Reader:
                 raise self.fail(key, f"must be > 0 for every joint; got {short_repr(value)}")
             out[key] = value
         return out
+
+    def robot_source(self) -> tuple[str, str]:
+        """The one robot source of a ``[robot]`` table, ``(key, value)``: a built-in
+        ``model``, a ``urdf`` or ``mjcf`` path, or a ``menagerie`` arm (:data:`ROBOT_SOURCES`).
+
+        Raises:
+            The reader's error: none of them, or more than one.
+        """
+        given = {key: self.get(key, "string", None) for key in ROBOT_SOURCES}
+        named = [key for key, value in given.items() if value is not None]
+        if len(named) != 1:
+            got = f"; got {' and '.join(named)}" if named else ""
+            raise self.fail(
+                named[1] if len(named) > 1 else "model",
+                'give exactly one of model = "<built-in name>", urdf = "<path>", mjcf = '
+                f'"<path>" or menagerie = "<arm>"{got}',
+            )
+        return named[0], given[named[0]]
+
+    def file_text(self, key: str, file: Path) -> str:
+        """The text of the file that ``key`` names: a regular file (not ``/dev/zero`` or a
+        pipe, which would be read until memory runs out) of at most :data:`MAX_FILE_BYTES`,
+        in UTF-8; else the reader's error naming the key and the file."""
+        try:
+            if not file.is_file():
+                what = "not found" if not file.exists() else "not a regular file"
+                raise self.fail(key, f"cannot read {shown_path(file)}: {what}")
+            size = file.stat().st_size
+            if size > MAX_FILE_BYTES:
+                limit = f"{size} bytes, more than the {MAX_FILE_BYTES} a spec's file may have"
+                raise self.fail(key, f"cannot read {shown_path(file)}: {limit}")
+            return file.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            why = describe_os_error(exc) if isinstance(exc, OSError) else "not UTF-8 text"
+            raise self.fail(key, f"cannot read {shown_path(file)}: {why}") from None
 
     def sub(self, key: str) -> Reader:
         """The reader of the sub-table ``[key]`` (empty when absent)."""

@@ -66,6 +66,8 @@ def _real_array(value: Any, name: str, what: str) -> FloatArray:
     """``value`` as a float64 array; complex values are refused, not made real."""
     try:
         raw = value if isinstance(value, np.ndarray) else np.asarray(value)
+        if raw.dtype.kind in "bSUV":  # astype would read "1.5", b"1" and True as numbers
+            raise TypeError(f"{raw.dtype} is not a number type")
         arr = None if raw.dtype.kind == "c" else raw.astype(np.float64, copy=False)
     except (TypeError, ValueError, OverflowError) as exc:
         raise ShapeError(f"{name} must be {what} of numbers; got {short_repr(value)}") from exc
@@ -113,6 +115,8 @@ def as_scalar(
     ``>``) and above (``<=``)."""
     if isinstance(value, (complex, np.complexfloating)):
         raise InvalidParameterError(f"{name} must be a real number; got {value!r}")
+    if isinstance(value, (bool, np.bool_, str, bytes)):  # float() takes "1.5", b"1" and True
+        raise InvalidParameterError(f"{name} must be a number; got {short_repr(value)}")
     try:
         x = float(value)
     except (TypeError, ValueError, OverflowError) as exc:

@@ -154,6 +154,7 @@ def _ik() -> None:
 
 def _analytic_ik() -> None:
     from .ik.analytic import at_q7, at_q7_batch
+    from .ik.closed import closed_form_solution
     from .ik.solutions import at_arm_angle
     from .models import iiwa14, panda
 
@@ -162,6 +163,7 @@ def _analytic_ik() -> None:
     T = robot.fk(q)
     at_q7(robot, T, q7=float(q[6])).residual  # noqa: B018 - the FK errors' kernel
     at_q7_batch(robot, T[None], q[6:])
+    closed_form_solution(robot, None, T, q, 1e-6, 1e-5, 0.0)  # rr.ik's closed form
     srs = iiwa14()
     at_arm_angle(srs, srs.fk(srs.neutral()), arm_angle=0.0)
 

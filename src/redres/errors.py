@@ -16,7 +16,9 @@ __all__ = [
     "FrameNotFoundError",
     "InvalidParameterError",
     "JointLimitError",
+    "MJCFError",
     "MissingDependencyError",
+    "ModelFileError",
     "ModelFileNotFoundError",
     "NonFiniteError",
     "NotPositiveDefiniteError",
@@ -66,8 +68,16 @@ class DHParameterError(RedresError, ValueError):
     """A Denavit–Hartenberg record is malformed (message names the record and the key)."""
 
 
-class URDFError(RedresError, ValueError):
+class ModelFileError(RedresError, ValueError):
+    """A robot description (URDF or MJCF) cannot be turned into a robot model."""
+
+
+class URDFError(ModelFileError):
     """A URDF file or string cannot be turned into a robot model."""
+
+
+class MJCFError(ModelFileError):
+    """An MJCF file (MuJoCo's format) cannot be turned into a robot model."""
 
 
 class ModelFileNotFoundError(RedresError, FileNotFoundError):

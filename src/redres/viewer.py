@@ -22,6 +22,7 @@ automated checks read.
 
 from __future__ import annotations
 
+import socket
 import threading
 import time
 from collections.abc import Sequence
@@ -29,13 +30,23 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._validate import FloatArray, as_scalar, as_vector
-from .errors import InvalidParameterError, MissingDependencyError, install_hint
+from ._validate import FloatArray, as_scalar, as_vector, real_array
+from .errors import (
+    InvalidParameterError,
+    MissingDependencyError,
+    NonFiniteError,
+    ShapeError,
+    install_hint,
+)
 
 if TYPE_CHECKING:
     from .control import RunLog
     from .objectives import Obstacle
     from .robot import Robot
+
+
+#: The slowest and fastest scene update rates, Hz.
+MIN_RATE, MAX_RATE = 0.01, 1000.0
 
 
 def _viser() -> Any:
@@ -68,7 +79,8 @@ class Viewer:
         robot: the robot to show.
         obstacles: spheres, points and capsules to draw (world coordinates).
         host, port: where viser serves the page (``port=0``: a free port).
-        rate: at most this many scene updates per second, Hz.
+        rate: at most this many scene updates per second, Hz (:data:`MIN_RATE` to
+            :data:`MAX_RATE`).
         geometry: ``"auto"`` (meshes, else capsules, else lines), ``"meshes"``,
             ``"capsules"`` or ``"lines"``.
 
@@ -88,7 +100,8 @@ class Viewer:
     ) -> None:
         viser = _viser()
         self.robot = robot
-        self.rate = as_scalar(rate, "rate", minimum=0.0, strict=True)
+        self.rate = as_scalar(rate, "rate", minimum=MIN_RATE, maximum=MAX_RATE)
+        _check_address(host, port)
         if geometry not in ("auto", "meshes", "capsules", "lines"):
             raise InvalidParameterError(
                 f"geometry must be 'auto', 'meshes', 'capsules' or 'lines'; got {geometry!r}"
@@ -137,10 +150,11 @@ class Viewer:
         says it is), soon: returns at once; only the latest push is sent.
 
         Raises:
+            ShapeError, NonFiniteError: ``q`` or ``target`` of the wrong shape, or not finite.
             InvalidParameterError: ``obstacles`` of another count than the viewer's.
         """
         qv = np.array(as_vector(q, "q", self.robot.n), dtype=float)
-        tv = None if target is None else np.array(target, dtype=float)
+        tv = None if target is None else _target(target)
         moved = None
         if obstacles is not None:
             moved = list(obstacles)
@@ -356,6 +370,29 @@ def _obstacle_shape(obstacle: Obstacle) -> tuple[FloatArray, FloatArray]:
         return np.asarray(obstacle.center, dtype=float), np.array([0.0, 0.0, 0.0, obstacle.radius])
     a = np.asarray(obstacle.a, dtype=float)
     return a, np.append(np.asarray(obstacle.b, dtype=float) - a, obstacle.radius)
+
+
+def _check_address(host: Any, port: Any) -> None:
+    """Refuse, before viser starts its server thread (whose failure would leave the caller
+    waiting for good), a port outside 0–65535 and a host that is not an address."""
+    if isinstance(port, bool) or not isinstance(port, (int, np.integer)) or not 0 <= port <= 65535:
+        raise InvalidParameterError(f"port must be an integer from 0 to 65535; got {port!r}")
+    if not isinstance(host, str) or not host:
+        raise InvalidParameterError(f"host must be a host name or address; got {host!r}")
+    try:
+        socket.getaddrinfo(host, int(port), type=socket.SOCK_STREAM)
+    except (OSError, UnicodeError) as exc:
+        raise InvalidParameterError(f"host {host!r} is not an address here: {exc}") from None
+
+
+def _target(target: Any) -> FloatArray:
+    """A pushed target: a 4x4 pose or a position (3,), finite."""
+    arr = real_array(target, "target", "a 4x4 pose or a position (3,)")
+    if arr.shape not in ((3,), (4, 4)):
+        raise ShapeError(f"target must be a 4x4 pose or a position (3,); got shape {arr.shape}")
+    if not np.isfinite(arr).all():
+        raise NonFiniteError("target contains NaN or infinity")
+    return np.array(arr, dtype=float)
 
 
 def view(robot: Robot, **kwargs: Any) -> Viewer:

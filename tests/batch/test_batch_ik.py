@@ -91,3 +91,54 @@ def test_bad_input_names_the_item(builtin_robots: dict) -> None:
         batch.ik(robot, T, solutions=0)
     with pytest.raises(InvalidParameterError, match="max_iterations"):
         batch.ik(robot, T, max_iterations=0)
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"max_iterations": 2**63}, "max_iterations must be an integer from 1 to 10,000,000"),
+        ({"max_restarts": 10**30}, "max_restarts must be an integer from 0"),
+        ({"patience": True}, "patience must be an integer"),
+        ({"threads": "a"}, "threads must be a positive integer or None; got 'a'"),
+        ({"seed": "x"}, "seed must be a numpy.random.Generator"),
+        ({"solutions": 10**6}, "solutions must be an integer from 1 to 1024"),
+    ],
+)
+def test_every_option_is_bounded_and_named(
+    builtin_robots: dict, options: dict, message: str
+) -> None:
+    """A count of 2**63 wrapped around in the kernel and returned uninitialised q; other
+    options raised Python's own errors (the reliability issue's reproductions)."""
+    robot = builtin_robots["panda"]
+    T = robot.fk(robot.neutral())[None]
+    with pytest.raises(InvalidParameterError, match=message):
+        batch.ik(robot, T, **options)
+
+
+def test_no_robot_and_an_output_beyond_memory_are_refused(builtin_robots: dict) -> None:
+    robot = builtin_robots["panda"]
+    T = robot.fk(robot.neutral())
+    with pytest.raises(InvalidParameterError, match=r"robot must be a redres.Robot .*; got None"):
+        batch.ik(None, T[None])  # type: ignore[arg-type]
+    with pytest.raises(InvalidParameterError, match="robot must be a redres.Robot"):
+        batch.fk("panda", np.zeros((1, 7)))  # type: ignore[arg-type]
+    many = np.broadcast_to(T, (10**9, 4, 4))  # no memory of its own: a view
+    with pytest.raises(InvalidParameterError, match=r"GiB for its outputs.*chunks"):
+        batch.ik(robot, many, solutions=8)
+
+
+def test_a_batch_launched_in_pieces_equals_its_items(
+    builtin_robots: dict, rng: np.random.Generator
+) -> None:
+    """rr.batch.ik launches the kernel on a few thousand targets at a time (Ctrl-C is seen
+    between launches): the items past the first launch equal the same items alone."""
+    robot = builtin_robots["panda"]
+    q = np.array([robot.random_configuration(rng) for _ in range(4100)])
+    T = batch.fk(robot, q)
+    keys = rng.integers(0, 2**62, len(T))
+    options = {"max_iterations": 30, "max_restarts": 0, "q0": q + 0.05}
+    whole = batch.ik(robot, T, keys=keys, **options)
+    part = slice(4090, 4100)  # across the first launch's end (4096)
+    alone = batch.ik(robot, T[part], keys=keys[part], **{**options, "q0": q[part] + 0.05})
+    for a, b in zip(whole, alone):
+        assert np.array_equal(a[part], b, equal_nan=True)

@@ -29,7 +29,7 @@ def _script(*parts: str) -> str:
     return "\n".join(textwrap.dedent(part) for part in parts)
 
 
-def _run(code: str, cache: Path, policy: str = "background", timeout: float = 600) -> Any:
+def _run(code: str, cache: Path, policy: str = "background", timeout: float = 1500) -> Any:
     """Run ``code`` in a fresh process on ``cache``; it prints one JSON line last."""
     env = {**os.environ, "REDRES_CACHE_DIR": str(cache), "REDRES_COMPILE": policy}
     proc = subprocess.run(
@@ -174,7 +174,7 @@ def test_warmup_fills_the_cache_so_that_a_second_process_compiles_nothing(
     env = {**os.environ, "REDRES_CACHE_DIR": str(tmp_path)}
     first = subprocess.run(
         [sys.executable, "-m", "redres", "warmup"],
-        capture_output=True, text=True, env=env, timeout=600, check=True,
+        capture_output=True, text=True, env=env, timeout=1500, check=True,
     )  # fmt: skip
     lines = first.stderr.splitlines()
     # each group that takes over a second is announced in words and closed with its time

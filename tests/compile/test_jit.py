@@ -175,7 +175,7 @@ def test_an_edit_to_a_callee_in_another_file_recompiles_the_caller(tmp_path: Pat
     def run() -> tuple[float, int]:
         out = subprocess.run(
             [sys.executable, "-c", textwrap.dedent(_RUN)],
-            capture_output=True, text=True, env=env, timeout=300, check=True,
+            capture_output=True, text=True, env=env, timeout=1200, check=True,
         ).stdout.split()  # fmt: skip
         return float(out[0]), int(out[1])
 
@@ -196,7 +196,7 @@ def test_the_cache_falls_back_to_the_user_directory(tmp_path: Path) -> None:
             jit._cache.PACKAGE = Path("/proc/redres-read-only")  # not writable
             print(jit.cache_dir())
         """)],
-        capture_output=True, text=True, timeout=120, check=True,
+        capture_output=True, text=True, timeout=600, check=True,
         env={**without_cache_dir, "XDG_CACHE_HOME": str(tmp_path)},
     ).stdout.strip()  # fmt: skip
     assert out == str(tmp_path / "redres" / "numba")
@@ -210,7 +210,7 @@ def test_a_first_compilation_is_announced_once(tmp_path: Path) -> None:
     def stderr() -> str:
         return subprocess.run(
             [sys.executable, "-c", code], capture_output=True, text=True, env=env,
-            timeout=300, check=True,
+            timeout=1200, check=True,
         ).stderr  # fmt: skip
 
     first = stderr()
@@ -227,7 +227,7 @@ def test_without_a_writable_cache_the_kernels_compile_in_memory() -> None:
             import redres._compile as jit, redres.linalg as rl
             print(jit.cache_dir(), round(rl.damped_pinv(np.eye(2), 1.0)[0, 0], 12))
         """)],
-        capture_output=True, text=True, timeout=300, check=True,
+        capture_output=True, text=True, timeout=1200, check=True,
         env={**os.environ, "REDRES_CACHE_DIR": "/proc/redres-read-only"},
     ).stdout.split()  # fmt: skip
     assert out == ["None", "0.5"]
@@ -277,7 +277,7 @@ print(json.dumps([before, objects, after, sorted(set(redres.__all__) - set(dir(r
 """
     env = {k: v for k, v in os.environ.items() if k != "REDRES_DISABLE_JIT"}
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env=env, timeout=120)  # fmt: skip
+                          env=env, timeout=600)  # fmt: skip
     assert proc.returncode == 0, proc.stderr
     before, objects, after, missing = json.loads(proc.stdout)
     assert before == []
@@ -331,3 +331,69 @@ def test_an_owner_without_numba_says_what_needs_it_and_what_to_do(
         analytic._module()
     with pytest.raises(MissingDependencyError, match="or use Robot.fk and Robot.jacobian$"):
         chain._module()
+
+
+@pytest.mark.skipif(not _jit.enabled(), reason="the compiled kernels are disabled")
+@pytest.mark.parametrize("damage", ["truncate data", "flip data", "truncate index"])
+def test_a_damaged_cache_file_is_discarded_and_compiled_again(tmp_path: Path, damage: str) -> None:
+    """One damaged compiled-code file made every later run fail with a raw traceback
+    (a truncated pickle, LLVM's bitcode error): now it is discarded with one line, the
+    kernel compiled again, and the run after that loads it silently."""
+    copy = tmp_path / "redres"
+    shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    (copy / "_probe_kernels.py").write_text(_CALLER)
+    (copy / "_callee_kernels.py").write_text(_CALLEE.format(value="1.0"))
+    env = {**os.environ, "PYTHONPATH": str(tmp_path), "REDRES_CACHE_DIR": str(tmp_path / "c")}
+
+    def run() -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            [sys.executable, "-c", textwrap.dedent(_RUN)],
+            capture_output=True, text=True, env=env, timeout=1200, check=False,
+        )  # fmt: skip
+
+    assert run().stdout.split() == ["20.0", "0"]  # compiled
+    folder = tmp_path / "c" / "redres._probe_kernels"
+    suffix = ".nbi" if "index" in damage else ".nbc"
+    (victim,) = [p for p in folder.iterdir() if p.name.endswith(suffix)]
+    data = victim.read_bytes()
+    if damage.startswith("truncate"):
+        victim.write_bytes(data[: len(data) // 3])
+    else:
+        victim.write_bytes(data[:-40] + bytes(b ^ 0xFF for b in data[-40:]))
+    damaged = run()
+    assert damaged.returncode == 0 and damaged.stdout.split() == ["20.0", "0"], damaged.stderr
+    assert "Traceback" not in damaged.stderr
+    assert "a damaged compiled-code file of redres._probe_kernels.outer" in damaged.stderr
+    again = run()
+    assert again.stdout.split() == ["20.0", "1"] and "damaged" not in again.stderr
+
+
+def test_a_lock_left_by_a_dead_compiler_does_not_stop_compiling_behind(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The background compiler's lock file names a process id; once that compiler is
+    gone, a later process may have the id (after a reboot): a live process that is not
+    the compiler no longer holds the lock (it stopped compiling behind for good)."""
+    from redres._compile import _background
+
+    lock = tmp_path / "compiling-x.pid"
+    monkeypatch.setattr(_background, "_lock_file", lambda: lock)
+    code = "import time; time.sleep(120)"
+    other = subprocess.Popen([sys.executable, "-c", code])
+    compiler = subprocess.Popen([sys.executable, "-c", code, "redres._warmup", "--behind", "x"])
+    try:
+        old = time.time() - 3600
+        lock.write_text(str(other.pid))
+        assert _background._lock_holder() == other.pid  # just written: the starter's id
+        os.utime(lock, (old, old))
+        assert _background._lock_holder() is None  # an hour old, not a compiler: stale
+        assert _background._take_lock() and int(lock.read_text()) == os.getpid()
+        lock.write_text(str(compiler.pid))
+        os.utime(lock, (old, old))
+        assert _background._lock_holder() == compiler.pid  # a compiler, however old
+        assert not _background._take_lock()
+    finally:
+        for process in (other, compiler):
+            process.kill()
+            process.wait()
+    assert _background._lock_holder() is None  # dead

@@ -77,7 +77,7 @@ def _unprivileged_prefix() -> list[str]:
     why = ""
     for prefix in (plain, plain + caps):
         probe = subprocess.run([*prefix, sys.executable, "-c", _PROBE], capture_output=True,
-                               text=True, timeout=120, cwd="/")  # fmt: skip
+                               text=True, timeout=600, cwd="/")  # fmt: skip
         found = probe.stdout.strip()
         if probe.returncode == 0 and found == sys.prefix:
             return prefix
@@ -114,7 +114,7 @@ def test_read_only_install_compiles_each_kernel_once_across_processes(scratch: P
     subprocess.run(
         [sys.executable, "-m", "pip", "install", "--no-deps",
          "--no-compile", "--quiet", "--target", str(site), str(source)],
-        check=True, capture_output=True, timeout=300,
+        check=True, capture_output=True, timeout=1200,
     )  # fmt: skip
     assert not (site / "redres" / "__editable__").exists()
     for p in site.rglob("*"):  # read-only for everyone, readable by everyone
@@ -134,7 +134,7 @@ def test_read_only_install_compiles_each_kernel_once_across_processes(scratch: P
     for _ in range(2):
         done = subprocess.run(
             [*prefix, sys.executable, "-c", _SCRIPT, str(site)],
-            capture_output=True, text=True, env=env, timeout=300, cwd=scratch,
+            capture_output=True, text=True, env=env, timeout=1200, cwd=scratch,
         )  # fmt: skip
         assert done.returncode == 0, done.stderr[-2000:]
         runs.append(json.loads(done.stdout.splitlines()[-1]))

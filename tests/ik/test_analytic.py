@@ -149,6 +149,7 @@ def test_plain_python_twin_gives_the_same_solutions(name: str) -> None:
     robot = ARMS[name]()
     arm = analytic_arm(robot)
     plain = analytic.KERNELS.module(plain=True)
+    residuals = analytic.KERNELS.module("_residual_kernels", plain=True)
     q, T = _poses(robot, 5, 7)
     for x, pose in zip(q, T):
         ref = at_q7(robot, pose, q7=float(x[6]))
@@ -156,7 +157,7 @@ def test_plain_python_twin_gives_the_same_solutions(name: str) -> None:
         code = plain.solve_pose(arm.arm, pose, float(x[6]), out)
         count = code & codes.COUNT_MASK
         assert (count, code >> codes.FLAG_SHIFT) == (len(ref), int(ref.flags))
-        plain.errors(arm.links, arm.axes, arm.kinds, out, count)
+        residuals.errors(arm.links, arm.axes, arm.kinds, out, count)
         assert np.allclose(out[:count, :7], ref.q, atol=1e-12, rtol=0.0)
         assert np.array_equal(out[:count, codes.BRANCH], ref.branch)
         assert np.allclose(out[:count, codes.POSITION_ERROR], ref.position_error, atol=1e-14)

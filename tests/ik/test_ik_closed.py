@@ -1,6 +1,7 @@
-"""rr.ik with the closed form (redres.ik.closed): taken when the first attempt fails, exact,
-within the limits, the nearest to q0 at q0's q7; skipped with analytic=False, with a
-preference, for position-only targets and on arms without a closed form."""
+"""rr.ik with the closed form (redres.ik.closed): taken before iterating, exact, within the
+limits, the nearest to q0 at q0's q7 (or at the nearest other q7 tried that has one, as
+at_q7 at each says); skipped with analytic=False, with a preference, for position-only
+targets and on arms without a closed form."""
 
 from __future__ import annotations
 
@@ -17,9 +18,9 @@ NO_TIMEOUT = 60.0
 
 
 @pytest.mark.parametrize("name", ["panda", "iiwa14"])
-def test_failed_first_attempt_is_finished_by_the_closed_form(name: str) -> None:
-    """With one iteration per attempt the first attempt fails; the answer then comes from
-    the closed form, before any restart: converged, exact, within the limits."""
+def test_the_closed_form_answers_before_iterating(name: str) -> None:
+    """Even with one iteration per attempt (the first attempt would fail) the answer comes
+    from the closed form, with no iteration: converged, exact, within the limits."""
     robot = rr.models.load(name)
     rng = np.random.default_rng(5)
     kw = {"max_iterations": 1, "timeout_s": NO_TIMEOUT, "seed": 0}
@@ -29,16 +30,45 @@ def test_failed_first_attempt_is_finished_by_the_closed_form(name: str) -> None:
         q0 = robot.random_configuration(rng)
         result = rr.ik(robot, T, q0=q0, **kw)
         assert robot.within_limits(result.q)
-        if "closed form" in result.message:  # else: none within limits at the 13 q7s tried
+        if "closed form" in result.message:  # else: none within limits at the 49 q7s tried
             taken += 1
             assert result.converged
             np.testing.assert_allclose(robot.fk(result.q), T, atol=1e-9)
-            assert result.restarts == 0 and result.iterations == 1
+            assert result.restarts == 0 and result.iterations == 0
             assert result.position_error < 1e-10 and result.orientation_error < 1e-10
         without = rr.ik(robot, T, q0=q0, analytic=False, **kw)
         assert "closed form" not in without.message
-    print(f"\n{name}: the closed form finished {taken} of 20 failed first attempts")
+    print(f"\n{name}: the closed form answered {taken} of 20")
     assert taken >= 12
+
+
+def test_the_answer_is_at_the_first_q7_tried_with_one_within_limits() -> None:
+    """Where q0[6] has none within the limits, the kernel's answer is the nearest at the
+    first of the other values (nearest q0[6] first) that has one, as at_q7 says."""
+    robot = rr.models.panda()
+    _, others = closed_module._arm(robot, None)
+    rng = np.random.default_rng(8)
+    checked = 0
+    for _ in range(60):
+        T = robot.fk(robot.random_configuration(rng))
+        q0 = robot.random_configuration(rng)
+        if at_q7(robot, T, q7=float(q0[6])).within_limits.any():
+            continue
+        expected = None
+        for value in others[np.argsort(np.abs(others - q0[6]))]:
+            found = at_q7(robot, T, q7=float(value))
+            within = found.q[found.within_limits]
+            if len(within):
+                expected = within[np.argmin(((within - q0) ** 2).sum(axis=1))]
+                break
+        answer = closed_module.closed_form_solution(robot, None, T, q0, 1e-6, 1e-5, 0.0)
+        if expected is None:
+            assert answer is None
+            continue
+        assert answer is not None
+        np.testing.assert_allclose(answer.q, np.clip(expected, robot.q_min, robot.q_max))
+        checked += 1
+    assert checked >= 5
 
 
 def test_the_answer_is_the_nearest_within_limits_at_q0s_q7() -> None:

@@ -149,7 +149,7 @@ def test_compiled_arm_angle_form_equals_the_numpy_one() -> None:
     phis = task.values(robot, qs) + rng.uniform(-0.5, 0.5, len(qs))  # not only the own angle
     batch = rr.ik_all(robot, T, arm_angle=phis)
     data = robot.model.createData()
-    plain = analytic.KERNELS.module(plain=True)
+    plain = analytic.KERNELS.module("_arm_angle_kernels", plain=True)
     srs = _srs(robot, None)
     for i in range(len(qs)):
         one = at_arm_angle(robot, T[i], arm_angle=float(phis[i]))

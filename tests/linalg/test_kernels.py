@@ -32,7 +32,7 @@ def run_python(code: str, **env: str) -> str:
         text=True,
         env=environment,
         check=True,
-        timeout=300,
+        timeout=1200,
     )
     return result.stdout.strip()
 

@@ -9,7 +9,13 @@ import numpy as np
 import pytest
 
 import redres as rr
-from redres.errors import InvalidParameterError, ModelFileNotFoundError, ShapeError, URDFError
+from redres.errors import (
+    InvalidParameterError,
+    MJCFError,
+    ModelFileNotFoundError,
+    ShapeError,
+    URDFError,
+)
 from redres.testing import assert_jacobian_close, frame_jacobian_fd
 
 
@@ -47,8 +53,9 @@ def test_missing_and_malformed_mjcf(tmp_path: Path) -> None:
         rr.Robot.from_mjcf(tmp_path / "nope.xml")
     bad = tmp_path / "bad.xml"
     bad.write_text("<robot/>")
-    with pytest.raises(URDFError, match="expected <mujoco>"):
+    with pytest.raises(MJCFError, match="expected <mujoco>") as caught:
         rr.Robot.from_mjcf(bad)
+    assert not isinstance(caught.value, URDFError)  # an MJCF problem is named as one
 
 
 def test_urdf_string_gives_the_file_robot(fixtures_dir: Path, rng: np.random.Generator) -> None:
@@ -145,3 +152,39 @@ def test_a_misspelt_loader_option_names_the_nearest_one(
         getattr(rr.Robot, loader)(source, **{keyword: 1})
     robot = getattr(rr.Robot, loader)(source, name="renamed", capsules=False)
     assert robot.name == "renamed" and not robot.capsules
+
+
+@pytest.mark.parametrize(
+    ("options", "error", "message"),
+    [
+        ({"tip": 5}, InvalidParameterError, "tip must be a frame name"),
+        ({"locked": 5}, InvalidParameterError, "locked must map joint names to positions"),
+        ({"locked": {"j1": "a"}}, InvalidParameterError, r"locked\['j1'\] must be a number"),
+        ({"continuous_limits": "ab"}, ShapeError, "continuous_limits must be a pair"),
+        ({"continuous_limits": (1,)}, InvalidParameterError, "two finite numbers low < high"),
+        ({"continuous_limits": (1, -1)}, InvalidParameterError, "two finite numbers low < high"),
+        ({"capsules": "no"}, InvalidParameterError, "capsules must be True or False"),
+        ({"name": 3}, InvalidParameterError, "name must be a string"),
+    ],
+)
+def test_loader_options_are_checked_by_name(
+    fixtures_dir: Path, options: dict, error: type, message: str
+) -> None:
+    """Each of these was a raw TypeError, a C++ signature mismatch, or silently accepted."""
+    with pytest.raises(error, match=message):
+        rr.Robot.from_urdf(fixtures_dir / "arm3.urdf", **options)
+
+
+@pytest.mark.parametrize(
+    ("value", "error"),
+    [("abc", ShapeError), (1 + 2j, InvalidParameterError), ({}, ShapeError),
+     (10**400, ShapeError), ([[1, 2], [3]], ShapeError), ([1.0, 2.0], ShapeError)],
+)  # fmt: skip
+def test_with_limits_refuses_what_is_not_a_limit(value: object, error: type) -> None:
+    with pytest.raises(error, match="qd_max"):
+        rr.models.panda().with_limits(qd_max=value)
+
+
+def test_with_limits_names_an_unknown_keyword() -> None:
+    with pytest.raises(rr.errors.UnknownParameterError, match="'qd_mx'.*qd_max"):
+        rr.models.panda().with_limits(qd_mx=1.0)

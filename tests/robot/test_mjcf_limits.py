@@ -119,5 +119,5 @@ def test_a_bad_forcerange_is_named(tmp_path: Path) -> None:
     path = tmp_path / "arm.xml"
     path.write_text(ARM.replace('<motor name="a3" joint="j3" class="small" gear="-2"/>',
                                 '<motor name="a3" joint="j3" forcerange="-5"/>'))  # fmt: skip
-    with pytest.raises(rr.errors.URDFError, match=r"actuator on joint 'j3' forcerange"):
+    with pytest.raises(rr.errors.MJCFError, match=r"actuator on joint 'j3' forcerange"):
         rr.Robot.from_mjcf(path, tip="tool", capsules=False)

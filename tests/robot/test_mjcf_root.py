@@ -79,7 +79,7 @@ def test_a_branching_file_names_its_sites_as_tips(tmp_path: Path) -> None:
     )
     path = tmp_path / "hand.xml"
     path.write_text(arm)
-    with pytest.raises(rr.errors.URDFError, match=r"branches; pass tip= one of its links: .*"
+    with pytest.raises(rr.errors.MJCFError, match=r"branches; pass tip= one of its links: .*"
                        r"left, right; or of its sites: tip"):  # fmt: skip
         rr.Robot.from_mjcf(path)
     assert rr.Robot.from_mjcf(path, tip="tip").tip == "tip"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -122,6 +123,7 @@ def test_unknown_tip_and_unknown_locked_joint(fixtures_dir: Path) -> None:
         ('<mass value="1"/>', '<mass value="nan"/>', r"link 'l1': <mass value='nan'> must be 1"),
         ('<axis xyz="0 1 0"/>', '<axis xyz="0 0 0"/>', r"joint 'j2': <axis xyz='0 0 0'> is no"),
         ('<axis xyz="0 1 0"/>', '<axis xyz="0 1"/>', r"joint 'j2': <axis xyz='0 1'> must be 3"),
+        ('<axis xyz="0 1 0"/>', "<axis/>", r"joint 'j2': <axis> has no xyz"),
         ('upper="2"', 'upper="nan"', r"joint 'j2': <limit upper='nan'> must be 1 finite"),
         ('<origin xyz="0.4 0 0"/>', '<origin xyz="0.4 0 inf"/>', r"<origin xyz='0.4 0 inf'>"),
     ],
@@ -163,3 +165,23 @@ def test_a_tip_at_the_root_says_so(tmp_path: Path) -> None:
     path = write(tmp_path, TWO_LINK.format(kind="revolute"))
     with pytest.raises(URDFError, match=r"no movable joint between the root and tip 'base'"):
         rr.Robot.from_urdf(path, tip="base")
+
+
+def test_a_urdf_in_another_encoding_loads_as_its_utf8_twin(
+    tmp_path: Path, fixtures_dir: Path, rng: np.random.Generator
+) -> None:
+    """An ISO-8859-1 URDF (declared in its header) with a non-ASCII robot name was a raw
+    UnicodeDecodeError from Pinocchio's names; it is read as the same robot."""
+    text = (fixtures_dir / "arm3.urdf").read_text(encoding="utf-8")
+    assert text.startswith('<?xml version="1.0"?>') and '<robot name="arm3">' in text
+    latin = text.replace('<?xml version="1.0"?>', '<?xml version="1.0" encoding="ISO-8859-1"?>')
+    latin = latin.replace('<robot name="arm3">', '<robot name="bras-\xe9">')
+    path = tmp_path / "bras.urdf"
+    path.write_bytes(latin.encode("latin-1"))
+    shutil.copytree(fixtures_dir / "meshes", tmp_path / "meshes")  # found beside the file
+    robot = rr.Robot.from_urdf(path)
+    reference = rr.Robot.from_urdf(fixtures_dir / "arm3.urdf")
+    assert robot.name == "bras-\xe9"
+    assert len(robot.capsules) == len(reference.capsules)
+    q = reference.random_configuration(rng)
+    np.testing.assert_array_equal(robot.fk(q), reference.fk(q))

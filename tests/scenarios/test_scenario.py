@@ -145,6 +145,12 @@ def test_a_good_scenario_runs(tmp_path: Path, capsys: pytest.CaptureFixture[str]
             r"\[run\]\.plant: MuJoCo simulates an MJCF robot",
         ),
         (('model = "panda"', 'menagerie = "ur5e"'), r"\[robot\]\.menagerie: unknown Menagerie"),
+        (("radius = 0.05", "radius = 1e300"), r"\[trajectory\]\.radius: must lie within ±1e\+09"),
+        (("dt = 0.002", "dt = 0.002\ngain = 1e300"), r"\[run\]\.gain: must lie within ±1e\+09"),
+        (
+            ('type = "pinv"', 'type = "dls"\ndamping = -1e300'),
+            r"\[schemes\]\[0\]\.damping: must lie within",
+        ),
     ],
 )
 def test_bad_scenarios_name_the_key(

@@ -7,6 +7,7 @@ file (SHA-256 of every byte under the output folder).
 from __future__ import annotations
 
 import json
+import os
 import re
 import signal
 import subprocess
@@ -21,6 +22,7 @@ import pytest
 from redres import sweeps
 from redres.errors import install_hint
 from redres.sweeps import SweepFolderError
+from redres.sweeps.folder import read_json
 from redres.sweeps.store import checksum
 
 from .helpers import tree_digest, write_spec
@@ -221,3 +223,83 @@ def test_bad_engine_arguments(small_spec: Path, tmp_path: Path) -> None:
     with ThreadPoolExecutor(1) as pool, pytest.raises(InvalidParameterError, match="not both"):
         sweeps.run(small_spec, tmp_path / "b", executor=pool, scheduler="tcp://x:1")
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()  # nothing written
+
+
+def _children(pid: int) -> set[int]:
+    """The processes whose parent is ``pid`` (from /proc)."""
+    found = set()
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            found.add(int(stat.parent.name))
+    return found
+
+
+def _alive(pid: int) -> bool:
+    """Whether ``pid`` exists and is not a zombie (a reaped or zombie process is gone)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux's /proc")
+@pytest.mark.parametrize("moment", [0.0, 0.3, 0.6, 1.0])
+def test_sigkill_of_a_pool_sweep_leaves_no_process(tmp_path: Path, moment: float) -> None:
+    """`kill -9` of `redres sweep --workers 2` at a moment of its work (the fraction of its
+    shards stored): its pool processes end with it (they were left running for good)."""
+    spec = write_spec(tmp_path, **KILL_MAP)
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "redres", "sweep", str(spec), "--out", str(out),
+               "--workers", "2", "--quiet"]  # fmt: skip
+    process = subprocess.Popen(command, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 300
+    workers: set[int] = set()
+    while time.monotonic() < deadline and process.poll() is None:
+        workers |= _children(process.pid)
+        header = read_json(out / "sweep.json")
+        stored = len(list(out.glob("manifest/*.json")))
+        if len(workers) >= 2 and header and stored >= moment * (header["shards"] - 1):
+            break
+        time.sleep(0.01)
+    assert process.poll() is None, "the sweep ended before it could be killed"
+    assert len(workers) >= 2, workers  # the pool (and multiprocessing's tracker) are up
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    deadline = time.monotonic() + 60  # they end within a second; generous on a loaded machine
+    while any(map(_alive, workers)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [pid for pid in workers if _alive(pid)], "pool processes outlived the sweep"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux's /proc")
+def test_ctrl_c_of_a_pool_sweep_says_how_to_resume_in_one_line(tmp_path: Path) -> None:
+    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) printed a
+    35-line traceback from the sweep and each worker; now one line, exit code 130, and
+    the stored shards resume."""
+    spec = write_spec(tmp_path, **KILL_MAP)
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "redres", "sweep", str(spec), "--out", str(out),
+               "--workers", "2", "--quiet"]  # fmt: skip
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, start_new_session=True)
+    deadline = time.monotonic() + 300
+    while not list(out.glob("manifest/*.json")) and time.monotonic() < deadline:
+        assert process.poll() is None, process.stderr.read() if process.stderr else ""
+        time.sleep(0.01)
+    workers = _children(process.pid)
+    os.killpg(process.pid, signal.SIGINT)
+    _, err = process.communicate(timeout=600)
+    text = err.decode()
+    assert process.returncode == 130, text
+    assert "Traceback" not in text and text.strip().count("\n") == 0, text
+    assert "interrupted" in text and "run the same command again to resume" in text
+    deadline = time.monotonic() + 60
+    while any(map(_alive, workers)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [pid for pid in workers if _alive(pid)]
+    report = sweeps.run(spec, out, workers=1, progress=False)
+    assert report.skipped >= 1 and report.skipped + report.computed == report.shards

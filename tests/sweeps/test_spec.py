@@ -21,6 +21,8 @@ BAD = {
     "solver": ({"max_restarts": "-1"}, "spec.toml: [solver].max_restarts: must be >= 0"),
     "bounds": ({"bounds": "[[1, 0], [0, 1], [0, 1]]"}, "[capability].bounds: each range must"),
     "seed": ({"seed": '"abc"'}, 'spec.toml: seed: expected a number, got \'abc\''),
+    "directions large": ({"directions": "100000000"}, "[capability].directions: must be <= 10,000"),
+    "fk samples large": ({"fk_samples": "1000000000"}, "fk_samples: must be <= 20,000,000"),
 }  # fmt: skip
 
 
@@ -110,3 +112,22 @@ def test_mjcf_and_menagerie_robots_with_limits(tmp_path: Path) -> None:
     path.write_text(SMALL_MAP.replace('model = "panda"', 'mjcf = "fr3.xml"\nqd_max = [1.0]'))
     with pytest.raises(SweepSpecError, match=r"\[robot\]\.qd_max: expected 7 numbers"):
         sweeps.load_spec(path)
+
+
+def test_a_robot_file_is_named_as_the_user_wrote_it_and_must_be_regular(
+    tmp_path: Path, fixtures_dir: Path
+) -> None:
+    """A model error names the spec's file, not the temporary copy the loader reads; a
+    device such as /dev/zero is refused instead of read until memory runs out."""
+    bad = (fixtures_dir / "arm3.urdf").read_text().replace('xyz="0 1 0"', 'xyz="0 0 0"', 1)
+    assert 'xyz="0 0 0"' in bad
+    (tmp_path / "bad.urdf").write_text(bad)
+    path = tmp_path / "spec.toml"
+    path.write_text(SMALL_MAP.replace('model = "panda"', 'urdf = "bad.urdf"\ntip = "tool"'))
+    with pytest.raises(SweepSpecError, match=r"\[robot\]\.urdf: bad\.urdf: joint .* no dir") as e:
+        sweeps.load_spec(path)
+    assert "redres-sweep-" not in str(e.value)
+    for device, why in (("/dev/zero", "not a regular file"), ("missing.urdf", "not found")):
+        path.write_text(SMALL_MAP.replace('model = "panda"', f'urdf = "{device}"'))
+        with pytest.raises(SweepSpecError, match=rf"\[robot\]\.urdf: .*{why}"):
+            sweeps.load_spec(path)

@@ -123,13 +123,34 @@ def _log_file() -> Path:
 
 
 def _lock_holder() -> int | None:
-    """Process id of a live background compilation into this cache, or None."""
+    """Process id of a live background compilation into this cache, or None: the lock
+    file's process exists and is one (a lock left by a compiler that died, whose id a
+    later process took, after a reboot say, stopped compiling behind for good)."""
+    path = _lock_file()
     try:
-        pid = int(_lock_file().read_text())
+        pid = int(path.read_text())
         os.kill(pid, 0)
+        age = time.time() - path.stat().st_mtime
     except (OSError, ValueError):
         return None
-    return pid
+    if age < _HANDOVER_S or _is_compiler(pid):  # just taken: the starter's own id first
+        return pid
+    return None
+
+
+#: How long the starter's own process id may stand in the lock file before the child's
+#: replaces it, s.
+_HANDOVER_S = 30.0
+
+
+def _is_compiler(pid: int) -> bool:
+    """Whether process ``pid`` runs redres's background compiler (its command line, from
+    ``/proc``; True where that cannot be read)."""
+    try:
+        command = Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return not Path("/proc/self/cmdline").exists()  # no /proc: trust the id
+    return b"redres._warmup" in command and b"--behind" in command
 
 
 def _failed(why: str) -> None:

@@ -20,8 +20,10 @@ switch from the reference path to the compiled one.
 from __future__ import annotations
 
 import functools
+import glob
 import hashlib
 import os
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any, ClassVar
@@ -148,6 +150,33 @@ def cache_class() -> Any:
         _locator_classes: ClassVar[list[Any]] = [Locator]  # type: ignore[misc]
 
     class Cache(caching.FunctionCache):  # type: ignore[misc]
+        """numba's cache, which discards a damaged file instead of raising from it."""
+
         _impl_class = Impl
 
+        def load_overload(self, sig: Any, target_context: Any) -> Any:
+            try:
+                return super().load_overload(sig, target_context)  # type: ignore[no-untyped-call]
+            except Exception as exc:
+                func = self._py_func
+                discard(
+                    Path(self._cache_file._index_path), f"{func.__module__}.{func.__name__}", exc
+                )
+                return None  # not cached: numba compiles it and saves it afresh
+
     return Cache
+
+
+def discard(index: Path, name: str, why: BaseException) -> None:
+    """Remove a kernel's cache files (its index ``index`` and the data files beside it)
+    after loading them failed with ``why``, and say so in one line: numba then compiles
+    the kernel and writes them anew (a damaged file made every later run fail)."""
+    base = index.name.removesuffix(".nbi")
+    for path in (index, *index.parent.glob(f"{glob.escape(base)}.*.nbc")):
+        path.unlink(missing_ok=True)
+    print(
+        f"redres: a damaged compiled-code file of {name} ({type(why).__name__}) was discarded "
+        f"from {index.parent}; compiling it again",
+        file=sys.stderr,
+        flush=True,
+    )

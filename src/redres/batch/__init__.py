@@ -45,7 +45,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .. import _compile
-from .._validate import FloatArray, as_scalar
+from .._validate import FloatArray, as_scalar, as_seed, short_repr
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError
 from ..linalg import RCOND, AdaptiveDamping, InverseInfo
 from ..linalg import _backend as be
@@ -56,13 +56,15 @@ from ..linalg import rate_step as _single_rate_step
 from ..linalg._status import raise_status
 from ..robot import Reference, Robot, SerialChain
 from ..robot.chain import _output  # the check of SerialChain's output arrays
-from ._rows import _keys, _rows, _targets, _typed
+from ._rows import _fits_in_memory, _keys, _rows, _targets, _typed
 
 __all__ = ["BatchIK", "BatchRateStep", "fk", "ik", "jacobian", "rate_step"]
 
 #: The batch kernels (parallel loops over the single calls' kernels). Cold: 53 s.
 KERNELS = _compile.KernelGroup("batch", ("redres.batch._kernels",), cold_seconds=53.0)
 _LOCK = threading.Lock()
+#: The most solutions :func:`ik` seeks per target.
+MAX_SOLUTIONS = 1024
 _TASK_ROWS = 6  # rows of a frame Jacobian
 # InverseInfo.method by damping mode (EXACT, FIXED, ADAPTIVE, SELECTIVE), as rate_step's.
 _LABELS = tuple(eng.method_label(mode, False, "pinv") for mode in range(4))
@@ -122,7 +124,7 @@ def fk(robot: Robot, q: Any, frame: str | None = None, *, threads: int | None = 
         NonFiniteError: a row of ``q`` holds NaN or infinity (named).
         NotSerialChainError: the model is not a serial chain up to ``frame``.
     """
-    chain = robot.chain(frame)
+    chain = _chain(robot, frame)
     qs = _rows(q, "q", chain.n)
     T = np.empty((len(qs), 4, 4))
     kernels = _compiled(threads)
@@ -151,7 +153,7 @@ def jacobian(
     arguments and errors as :func:`fk`."""
     if reference not in ("world", "local"):
         raise InvalidParameterError(f"reference must be 'world' or 'local'; got {reference!r}")
-    chain = robot.chain(frame)
+    chain = _chain(robot, frame)
     qs = _rows(q, "q", chain.n)
     T = _output(poses, (len(qs), 4, 4), "poses")
     J = np.empty((len(qs), _TASK_ROWS, chain.n))
@@ -216,7 +218,7 @@ def rate_step(
         NotPositiveDefiniteError: ``weights`` is not positive definite.
         NotSerialChainError: the model is not a serial chain up to ``frame``.
     """
-    chain = robot.chain(frame)
+    chain = _chain(robot, frame)
     n = chain.n
     qs = _rows(q, "q", n)
     count = len(qs)
@@ -326,7 +328,7 @@ def ik(
     from ..ik.options import limit_arrays
     from ..ik.solve import _options_of
 
-    chain = robot.chain(frame)
+    chain = _chain(robot, frame)
     n = chain.n
     T, rows = _targets(targets)
     count = len(T)
@@ -337,13 +339,20 @@ def ik(
             item = f"{name}[{bad[0]}]" if len(array) > 1 or name == "targets" else name
             raise NonFiniteError(f"{item} contains NaN or infinity")
     starts = _typed(np.clip(starts, robot.q_min, robot.q_max))
-    if isinstance(solutions, bool) or not isinstance(solutions, (int, np.integer)) or solutions < 1:
-        raise InvalidParameterError(f"solutions must be an integer >= 1; got {solutions!r}")
+    if (
+        isinstance(solutions, bool)
+        or not isinstance(solutions, (int, np.integer))
+        or not 1 <= solutions <= MAX_SOLUTIONS
+    ):
+        raise InvalidParameterError(
+            f"solutions must be an integer from 1 to {MAX_SOLUTIONS}; got {short_repr(solutions)}"
+        )
     o, packed, _ = _options_of(
         tol_position, tol_orientation, max_iterations, max_restarts, None, max_step,
         k_limits, damping, patience, 1e-5,
     )  # fmt: skip
-    key = _keys(keys, seed, count)
+    key = _keys(keys, as_seed(seed), count)
+    _fits_in_memory(count * (int(solutions) * (n + 2) + 4) * 8, "rr.batch.ik")
     q = np.full((count, int(solutions), n), np.nan)
     errors = np.full((count, int(solutions), 2), np.nan)
     counts = np.zeros((count, 3), dtype=np.int64)
@@ -351,9 +360,16 @@ def ik(
     kernels = _compiled(threads)
     if kernels is None:
         kernels = KERNELS.module(plain=True)  # the plain-Python twin: the same code, slowly
-    args = (*chain.arrays, limit_arrays(robot.q_min, robot.q_max), T, starts, packed, rows, key,
-            o.max_restarts + 1, q, errors, counts, status)  # fmt: skip
-    _launch(kernels.ik_solves, args, threads)
+    fixed = (*chain.arrays, limit_arrays(robot.q_min, robot.q_max))
+    # In launches of a few thousand targets: Ctrl-C (KeyboardInterrupt) is seen between
+    # two (a compiled call cannot be interrupted); each item depends on its own row alone.
+    step = 4096
+    for a in range(0, count, step):
+        b = min(count, a + step)
+        first = starts if len(starts) == 1 else starts[a:b]
+        args = (*fixed, T[a:b], first, packed, rows, key[a:b], o.max_restarts + 1, q[a:b],
+                errors[a:b], counts[a:b], status[a:b])  # fmt: skip
+        _launch(kernels.ik_solves, args, threads)
     if status.any():
         i = int(np.flatnonzero(status)[0])
         raise ShapeError(f"targets[{i}] is not a homogeneous transform (orthonormal rotation "
@@ -366,12 +382,26 @@ def ik(
 # ---------------------------------------------------------------------- helpers
 
 
+def _chain(robot: Robot, frame: str | None) -> SerialChain:
+    """The compiled serial chain of ``robot`` up to ``frame``; a clear error for anything
+    that is not a :class:`~redres.robot.Robot`."""
+    if not isinstance(robot, Robot):
+        raise InvalidParameterError(
+            f"robot must be a redres.Robot (e.g. rr.models.load('panda')); got {short_repr(robot)}"
+        )
+    return robot.chain(frame)
+
+
 def _compiled(threads: int | None) -> Any:
     """The compiled batch kernels, or None: compiling behind, or plain Python (then the
     functions loop over the single calls, which are as fast as the plain kernels).
     Checks ``threads`` first, so that both paths refuse the same input."""
-    if threads is not None and (isinstance(threads, bool) or int(threads) < 1):
-        raise InvalidParameterError(f"threads must be a positive integer or None; got {threads}")
+    if threads is not None and (
+        isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1
+    ):
+        raise InvalidParameterError(
+            f"threads must be a positive integer or None; got {short_repr(threads)}"
+        )
     kernels = KERNELS.compiled()
     return kernels if kernels is not None and _compile.is_compiled(kernels) else None
 

@@ -245,8 +245,19 @@ def _output_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _port(text: str) -> int:
+    """A ``--port``: an integer from 0 to 65535 (refused before any run starts)."""
+    try:
+        port = int(text)
+    except ValueError:
+        port = -1
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"must be an integer from 0 to 65535; got {text!r}")
+    return port
+
+
 def _viewer_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--port", type=int, default=8080, help="port of the viewer's page")
+    parser.add_argument("--port", type=_port, default=8080, help="port of the viewer's page")
     parser.add_argument("--seconds", type=float, default=None, help="stop the viewer after this")
 
 

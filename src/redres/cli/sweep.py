@@ -75,8 +75,13 @@ def main(args: argparse.Namespace) -> int:
 
     target = args.spec
     path = builtin[target] if target in builtin and not Path(target).exists() else Path(target)
-    report = run(path, args.out, workers=args.workers, scheduler=args.scheduler,
-                 storage=args.storage, progress=not (args.quiet or args.json))  # fmt: skip
+    try:
+        report = run(path, args.out, workers=args.workers, scheduler=args.scheduler,
+                     storage=args.storage, progress=not (args.quiet or args.json))  # fmt: skip
+    except KeyboardInterrupt:
+        print(f"\nredres sweep: interrupted; the finished shards are stored in {args.out}: run "
+              "the same command again to resume", file=sys.stderr)  # fmt: skip
+        return 130
     result = report.as_dict()
     if args.reuleaux:
         from ..sweeps.kinds.reuleaux import export_reuleaux
@@ -93,7 +98,12 @@ def main(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result))
     else:
-        redone = f", {len(report.redone)} redone" if report.redone else ""
+        shards = ", ".join(map(str, report.redone[:8])) + (
+            ", ..." if len(report.redone) > 8 else ""
+        )
+        redone = f", {len(report.redone)} redone (damaged: shard {shards})" if report.redone else ""
+        if report.tables_rewritten:
+            redone += ", the plan's tables written again (damaged)"
         print(f"{report.kind} sweep in {args.out}: {report.computed} shards computed, "
               f"{report.skipped} already done{redone}, {report.queries:,} queries in "
               f"{report.seconds:.1f} s ({report.queries_per_second:,.0f}/s, {report.engine}, "

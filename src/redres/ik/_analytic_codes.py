@@ -1,5 +1,6 @@
-"""The analytic IK kernel's packed constants, flags and tolerances, read by the kernel
-(:mod:`._analytic_kernels`) and its caller (:mod:`.analytic`).
+"""The analytic IK kernels' packed constants, flags and tolerances, read by the kernels
+(:mod:`._q7_kernels`, :mod:`._arm_angle_kernels`, their shared :mod:`._geometry_kernels`,
+:mod:`._residual_kernels`, :mod:`._nearest_kernels`) and their caller (:mod:`.analytic`).
 
 The arm's constants cross the Python → kernel boundary as one flat float64 array of
 :data:`N_ARM` slots (points in m, unit vectors, the elbow law's coefficients): slot
@@ -51,6 +52,9 @@ BRANCHES_MERGED = int(AnalyticFlag.BRANCHES_MERGED)
 SELF_MOTION = int(AnalyticFlag.SELF_MOTION)
 UNREACHABLE = int(AnalyticFlag.UNREACHABLE)
 SOLVED, BAD_POSE, BAD_Q7 = (int(s) for s in AnalyticStatus)
+#: ``rr.ik``'s closed-form answer (:mod:`._nearest_kernels`): no value of ``q7`` tried has a
+#: solution within the limits.
+NONE_WITHIN_LIMITS = -3
 
 #: Most solutions of one pose: 2 elbow roots x 2 roots of the 5/6 condition x 2 shoulders.
 MAX_SOLUTIONS = 8

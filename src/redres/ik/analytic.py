@@ -2,7 +2,7 @@
 
 ``at_q7(robot, T, q7=...)`` returns all joint configurations (up to eight) that put the
 frame at pose ``T`` with the last joint at ``q7``, computed by a compiled kernel
-(:mod:`redres.ik._analytic_kernels`) in microseconds. Covered: arms whose first three
+(:mod:`redres.ik._q7_kernels`) in microseconds. Covered: arms whose first three
 axes meet at one point ``S`` (a spherical shoulder) and whose axes 5 and 6 meet at a
 point ``W`` (the Franka Panda and FR3, whose axis 7 is offset; S-R-S arms such as the
 iiwa14). With ``q7`` fixed the arm is a 6R chain with a spherical shoulder, the geometry
@@ -103,11 +103,25 @@ __all__ = [
     "at_q7_batch",
 ]
 
-#: The analytic kernels. Cold (2026-12-07, 2 shared cores, load 3.1, empty cache,
-#: foreground): a first ``at_q7`` 6.6 s (no chain kernel on its path), its first FK
-#: errors 2.4 s more (with the chain's FK), the batch form 1.7 s more, the arm-angle form
-#: (``at_arm_angle``) 3.0 s more; warm 0.6 s.
-KERNELS = _compile.KernelGroup("analytic ik", ("redres.ik._analytic_kernels",), cold_seconds=12.0)
+#: The analytic kernels: the closed form at ``q7`` (first), at the arm angle (S-R-S arms),
+#: the solutions' FK errors, the geometry the first two share (compiled into them), and
+#: ``rr.ik``'s closed-form answer (the nearest solution within the limits).
+#: Cold (2026-12-07, 2 shared cores, load 3.1, empty cache, foreground): a first ``at_q7``
+#: 6.6 s (no chain kernel on its path), its first FK errors 2.4 s more (with the chain's
+#: FK), the batch form 1.7 s more, the arm-angle form (``at_arm_angle``) 3.0 s more; warm
+#: 0.6 s.
+KERNELS = _compile.KernelGroup(
+    "analytic ik",
+    (
+        "redres.ik._q7_kernels",
+        "redres.ik._arm_angle_kernels",
+        "redres.ik._residual_kernels",
+        "redres.ik._geometry_kernels",
+        "redres.ik._nearest_kernels",
+    ),
+    cold_seconds=8.3,
+    others={"redres.ik._arm_angle_kernels": 3.0, "redres.ik._residual_kernels": 2.4},
+)
 
 
 @dataclass(slots=True, eq=False)
@@ -336,19 +350,20 @@ def _refused(status: int, T: FloatArray, q7: float, t_name: str, q_name: str) ->
 # ---------------------------------------------------------------------- kernels
 
 
-def _module() -> Any:
-    return KERNELS.required("analytic IK")
+def _module(module: str | None = None) -> Any:
+    """Kernel module ``module`` of :data:`KERNELS` (default: the closed form at ``q7``)."""
+    return KERNELS.required("analytic IK", module)
 
 
-def _native(name: str, args: tuple[Any, ...]) -> tuple[Any, Callable[..., Any] | None]:
-    """Kernel ``name`` run on ``args``, and its native entry point for these types, made
-    at the first call (:func:`redres._compile.entry_point`); no entry point (``None``)
-    while the kernels compile behind: the plain-Python twin answers, and the compiled
-    kernel takes over when ready. The kernels are idempotent: running one twice writes
-    the same values."""
-    module = _module()
-    kernel = getattr(module, name)
-    if not _compile.is_compiled(module):
+def _native(module: str, name: str, args: tuple[Any, ...]) -> tuple[Any, Callable[..., Any] | None]:
+    """Kernel ``name`` of kernel module ``module`` run on ``args``, and its native entry
+    point for these types, made at the first call (:func:`redres._compile.entry_point`);
+    no entry point (``None``) while the kernels compile behind: the plain-Python twin
+    answers, and the compiled kernel takes over when ready. The kernels are idempotent:
+    running one twice writes the same values."""
+    found = _module(module)
+    kernel = getattr(found, name)
+    if not _compile.is_compiled(found):
         return kernel(*args), None
     entry = _compile.entry_point(kernel, args)
     return entry(*args), entry
@@ -357,7 +372,7 @@ def _native(name: str, args: tuple[Any, ...]) -> tuple[Any, Callable[..., Any] |
 def _solve_first(*args: Any) -> int:
     """``solve_pose(*args)``, and :data:`_solve` its entry point from now on."""
     global _solve
-    code, entry = _native("solve_pose", args)
+    code, entry = _native("_q7_kernels", "solve_pose", args)
     if entry is not None:
         _solve = entry
     return int(code)
@@ -366,7 +381,7 @@ def _solve_first(*args: Any) -> int:
 def _solve_srs_first(*args: Any) -> int:
     """``solve_arm_angle(*args)``, and :data:`solve_srs` its entry point from now on."""
     global solve_srs
-    code, entry = _native("solve_arm_angle", args)
+    code, entry = _native("_arm_angle_kernels", "solve_arm_angle", args)
     if entry is not None:
         solve_srs = entry
     return int(code)
@@ -375,7 +390,7 @@ def _solve_srs_first(*args: Any) -> int:
 def _errors_first(*args: Any) -> None:
     """``errors(*args)``, and :data:`_errors` its entry point from now on."""
     global _errors
-    _, entry = _native("errors", args)
+    _, entry = _native("_residual_kernels", "errors", args)
     if entry is not None:
         _errors = entry
 

@@ -1,33 +1,35 @@
-"""``rr.ik`` on an arm with a closed form: its answer before any random restart.
+"""``rr.ik`` on an arm with a closed form: its answer before the iteration.
 
 On the arms :func:`~redres.ik.analytic.analytic_arm` accepts (a spherical shoulder and
-axes 5 and 6 meeting: Panda, FR3, iiwa14, srs7), when the iteration's first attempt from
-``q0`` fails on a full-pose target (no preference), the closed form answers before the
-random restarts (each as long as a first attempt, and most of the tail of the solve
-time; on the reference path, which iterates on Pinocchio in milliseconds, before the
-iteration):
+axes 5 and 6 meeting: Panda, FR3, iiwa14, srs7), for a full-pose target without a
+preference, the closed form answers first, in one compiled call
+(:mod:`redres.ik._nearest_kernels`):
 
 1. at ``q0``'s own last joint ``q7 = q0[6]``, every solution
-   (:func:`~redres.ik.analytic.at_q7`, exact to about 1e-13); of those within the joint
-   limits the nearest to ``q0`` (Euclidean, rad) is the answer;
+   (:func:`~redres.ik.analytic.at_q7`'s kernel, exact to about 1e-13); of those within
+   the joint limits the nearest to ``q0`` (Euclidean, rad) is the answer;
 2. if none is within the limits there, the same at :data:`Q7_TRIES` other values of
    ``q7``, evenly spread over its range, nearest to ``q0[6]`` first;
-3. if still none, the restarts as without the closed form. An answer whose residual
-   (the kernel's own forward kinematics) is above ``tol_position`` (m) or
-   ``tol_orientation`` (rad) is not taken.
+3. if still none, the iteration from ``q0`` and its random restarts, as without the
+   closed form. An answer whose residual (the chain's compiled forward kinematics) is
+   above ``tol_position`` (m) or ``tol_orientation`` (rad) is not taken.
 
-Why not before the first attempt: one :func:`~redres.ik.analytic.at_q7` call costs as
-much as most converging first attempts (measured 2026-12-07: 5-9 µs in its kernel,
-about as much around it, against 25-35 µs for a whole compiled solve), and half the
-random targets have no solution within the limits at ``q0[6]``; so taken first it
-raised the median time and lowered none (docs/priority_and_ik.md).
+What that changes (``benchmarks/ik_compare.py``, docs/priority_and_ik.md): the iteration
+from the neutral configuration costs 20-35 µs per target and fails on a few per cent
+(joint limits), each failure followed by a restart; the closed form costs a microsecond
+per value of ``q7`` tried and answers nearly every random in-limit target. The answer is
+a different solution: the nearest to ``q0`` among those at the first value of ``q7``
+tried that has one within the limits (``q0[6]`` itself for about half the random
+targets from the neutral configuration) — not the one the iteration converges to from
+``q0``, which moves joint 7 too; along a path with ``q0`` the previous solution, joint 7
+stays where ``q0`` had it while that keeps a solution within the limits.
 
 The answer is clipped into the limits (``within_limits`` allows 1e-12 rad) and returned
-with ``iterations`` of the first attempt, no restart, and a message naming the ``q7``
-used. It is a solution near ``q0`` in ``q7`` and then in joint space — not the one a
-restart would have found. ``rr.ik(..., analytic=False)`` skips it; preferences
-(``q_preferred``, ``arm_angle``) and position-only targets skip it too, as do processes
-whose analytic kernels are still compiling behind.
+with no iteration, no restart, and a message naming the ``q7`` used.
+``rr.ik(..., analytic=False)`` skips it; preferences (``q_preferred``, ``arm_angle``) and
+position-only targets skip it too, as do processes whose analytic kernels are still
+compiling behind. On the reference path (kernels disabled) it answers before the
+iteration on Pinocchio (milliseconds).
 """
 
 from __future__ import annotations
@@ -35,13 +37,14 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
 
 import numpy as np
 
-from ..errors import RedresError
-from .analytic import KERNELS, AnalyticArm, NotAnalyticError, analytic_arm, at_q7
+from . import _analytic_codes as codes
+from .analytic import KERNELS, AnalyticArm, NotAnalyticError, analytic_arm
 from .options import IKResult
 
 if TYPE_CHECKING:
@@ -49,8 +52,11 @@ if TYPE_CHECKING:
 
 __all__ = ["Q7_TRIES", "closed_form_solution", "covered"]
 
-#: Other values of ``q7`` tried when none of the solutions at ``q0[6]`` is within limits.
-Q7_TRIES = 12
+#: Other values of ``q7`` tried when none of the solutions at ``q0[6]`` is within limits
+#: (1,000 random in-limit targets from the neutral configuration, seed 7: with 12, the
+#: iiwa14 had no answer on 64 and the Panda on 20; with 48, 12 and 0; each value tried
+#: costs about half a microsecond).
+Q7_TRIES = 48
 
 _ARMS: WeakKeyDictionary[Robot, dict[str | None, tuple[AnalyticArm, np.ndarray] | None]] = (
     WeakKeyDictionary()
@@ -78,7 +84,14 @@ def _arm(robot: Robot, frame: str | None) -> tuple[AnalyticArm, np.ndarray] | No
 
 def covered(robot: Robot, frame: str | None) -> bool:
     """Whether the arm has the closed form, its kernels ready (not compiling behind)."""
-    return _arm(robot, frame) is not None and KERNELS.compiled() is not None
+    if not _READY:  # once ready, ready for good (a fifth of this path's time to ask)
+        if KERNELS.compiled("_nearest_kernels") is None:
+            return False
+        _READY.append(True)
+    return _arm(robot, frame) is not None
+
+
+_READY: list[bool] = []
 
 
 def full_pose(spec: tuple[np.ndarray, np.ndarray | None] | None) -> np.ndarray | None:
@@ -124,30 +137,32 @@ def closed_form_solution(
     if found is None:
         return None
     arm, others = found
-    lo, hi = arm.bounds
-    q7 = float(q0[6])
-    if not math.isfinite(q7):
+    if not (target.flags.c_contiguous and q0.flags.c_contiguous):
+        target, q0 = np.ascontiguousarray(target), np.ascontiguousarray(q0)
+    out = _empty(_BUFFER)
+    if _nearest(arm.arm, arm.links, arm.axes, arm.kinds, target, q0, others, out) != _SOLVED:
+        return None  # none within the limits, or a bad pose (the iteration says why)
+    row = out[0]
+    position, rotation = float(row[_POSITION]), float(row[_ROTATION])
+    if position > tol_position or rotation > tol_orientation:
         return None
-    for value in (q7, *others[np.argsort(np.abs(others - q7))].tolist()):
-        try:
-            solutions = at_q7(robot, target, q7=value, frame=frame)
-        except RedresError:  # not a finite homogeneous transform: the iteration says why
-            return None
-        within = np.flatnonzero(solutions.within_limits)
-        if not len(within):
-            continue
-        q = solutions.q
-        best = int(within[0])
-        if len(within) > 1:  # the nearest to q0
-            best = int(within[((q[within] - q0) ** 2).sum(axis=1).argmin()])
-        position = float(solutions.position_error[best])
-        rotation = float(solutions.rotation_error[best])
-        if position > tol_position or rotation > tol_orientation:
-            return None
-        answer = q[best].copy()
-        np.clip(answer, lo, hi, out=answer)  # within_limits allows 1e-12 rad
-        return _result(answer, position, rotation, time.perf_counter() - start, value)
-    return None
+    return _result(row[:7].copy(), position, rotation, time.perf_counter() - start, row[6])
+
+
+def _nearest_first(*args: Any) -> int:
+    """``nearest(*args)`` of :mod:`redres.ik._nearest_kernels` (compiled: :func:`covered`
+    is true), and :data:`_nearest` its dispatcher from now on."""
+    global _nearest
+    _nearest = KERNELS.required("rr.ik's closed form", "_nearest_kernels").nearest
+    return int(_nearest(*args))
+
+
+_nearest: Callable[..., int] = _nearest_first
+
+
+_BUFFER = (codes.N_ROWS, codes.N_VALUES)
+_POSITION, _ROTATION, _SOLVED = codes.POSITION_ERROR, codes.ROTATION_ERROR, codes.SOLVED
+_empty = np.empty
 
 
 _FIELDS = tuple(field.name for field in dataclasses.fields(IKResult))

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import FloatArray, as_scalar, as_transform, real_array
+from .._validate import FloatArray, as_scalar, as_transform, real_array, short_repr
 from ..errors import InvalidParameterError, ShapeError
 from ..linalg import AdaptiveDamping
 
@@ -92,13 +92,28 @@ class _Options:
     preference_tol: float
 
 
+#: The largest ``max_iterations``, ``max_restarts`` and ``patience`` (the counts are int64
+#: in the compiled kernel; a budget beyond this would run for days anyway).
+MAX_COUNT = 10**7
+
+
+def _count(value: Any, name: str, minimum: int) -> int:
+    """A budget count: an integer from ``minimum`` to :data:`MAX_COUNT`."""
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, np.integer))
+        or not minimum <= value <= MAX_COUNT
+    ):
+        raise InvalidParameterError(
+            f"{name} must be an integer from {minimum} to {MAX_COUNT:,}; got {short_repr(value)}"
+        )
+    return int(value)
+
+
 def _options(*values: Any) -> _Options:
     (tol_p, tol_o, iters, restarts, timeout, max_step, k_lim, damping, patience, pref) = values
-    for name, value in (("max_iterations", iters), ("patience", patience)):
-        if not isinstance(value, (int, np.integer)) or value < 1:
-            raise InvalidParameterError(f"{name} must be an integer >= 1; got {value!r}")
-    if not isinstance(restarts, (int, np.integer)) or restarts < 0:
-        raise InvalidParameterError(f"max_restarts must be an integer >= 0; got {restarts!r}")
+    iters, patience = _count(iters, "max_iterations", 1), _count(patience, "patience", 1)
+    restarts = _count(restarts, "max_restarts", 0)
     if damping is not None and not isinstance(damping, AdaptiveDamping):
         raise InvalidParameterError(f"damping must be an AdaptiveDamping; got {damping!r}")
     return _Options(

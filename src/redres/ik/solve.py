@@ -163,10 +163,10 @@ def ik(
         preference_tol: with a preference, the joint change (rad, max-norm) below which
             the preference has settled.
         analytic: on an arm with a closed form (:mod:`redres.ik.analytic`: Panda, FR3,
-            iiwa14, srs7), when the first attempt from ``q0`` fails on a full-pose
-            target without a preference, take the closed form's within-limits solution
-            nearest ``q0`` (at ``q0``'s last joint, or at a few other values of it)
-            before any random restart (:mod:`redres.ik.closed`); False: iterate only.
+            iiwa14, srs7), for a full-pose target without a preference, take the closed
+            form's within-limits solution nearest ``q0`` (at ``q0``'s last joint, or at a
+            few other values of it) before iterating (:mod:`redres.ik.closed`); False:
+            iterate only.
 
     Returns:
         The :class:`IKResult`.
@@ -201,16 +201,21 @@ def ik(
         q_start = as_vector(q0, "q0", robot.n)
     shortcut: Callable[[], IKResult | None] | None = None
     if analytic and q_pref is None and arm_angle is None and not position_only:
-        guess = q_start
+        guess, pose = q_start, target if raw else full_pose(spec)
+        if compiled is not None and pose is not None:  # a q0 with NaN gets no answer
+            closed = answer(robot, frame, pose, guess, options, start)  # before iterating
+            if closed is not None:
+                return closed
+        else:
 
-        def shortcut() -> IKResult | None:  # asked only when an attempt has failed
-            return answer(robot, frame, target if raw else full_pose(spec), guess, options, start)
+            def shortcut() -> IKResult | None:  # before the iteration on Pinocchio
+                return answer(robot, frame, pose, guess, options, start)
 
     if compiled is not None and (raw or spec is not None):
         problem = _problem(target if raw else spec, packed, q_pref)
         rows = 3 if position_only or (spec is not None and spec[1] is None) else 6
         result = _solve_compiled(compiled, problem, rows, q_start, q_pref is not None,
-                                 options, start + timeout, seed, start, shortcut)  # fmt: skip
+                                 options, start + timeout, seed, start)  # fmt: skip
         if result is not None:
             return result
         if q0 is not None:
@@ -436,12 +441,10 @@ def _solve_compiled(
     deadline: float,
     seed: int | np.random.Generator | None,
     start: float,
-    shortcut: Callable[[], IKResult | None] | None = None,
 ) -> IKResult | None:
     """The attempts in the kernel, the clock read between calls; None when
     the kernel refuses the start (not finite) or the target (not a finite homogeneous
-    transform). ``shortcut()``: the closed form's answer, asked for after the first
-    attempt fails, before the restarts (:mod:`redres.ik.closed`)."""
+    transform)."""
     entry, arguments = compiled
     n = q.shape[0]
     io = np.empty(2 * n + layout.N_STATE)
@@ -463,11 +466,6 @@ def _solve_compiled(
                            clock() - start, "converged" + note)  # fmt: skip
         if status < 0:
             return None
-        if made == 1 and shortcut is not None:
-            closed = shortcut()
-            if closed is not None:
-                object.__setattr__(closed, "iterations", iterations)  # the first attempt's
-                return closed
         timeout = clock() > deadline
         if timeout or made > options.max_restarts:
             break

@@ -197,7 +197,7 @@ class SRSArm:
     @functools.cached_property
     def constants(self) -> np.ndarray:
         """The packed constants of the compiled form (``solve_arm_angle`` of
-        :mod:`redres.ik._analytic_kernels`; slots ``SRS_*`` of
+        :mod:`redres.ik._arm_angle_kernels`; slots ``SRS_*`` of
         :mod:`redres.ik._analytic_codes`), read-only."""
         out = np.zeros(codes.N_ARM)
         K, P, A, B = self.elbow_law

@@ -25,7 +25,14 @@ from typing import TYPE_CHECKING, Any, TypedDict
 import numpy as np
 import pinocchio as pin
 
-from .._validate import FloatArray, unknown_keyword
+from .._validate import (
+    FloatArray,
+    as_scalar,
+    checked_keywords,
+    real_array,
+    short_repr,
+    unknown_keyword,
+)
 from ..errors import InvalidParameterError, ShapeError
 
 if TYPE_CHECKING:
@@ -70,7 +77,7 @@ def file_neutral(model: pin.Model, reference: np.ndarray | None) -> FloatArray:
 
 
 def _positive_limits(value: Any, n: int, name: str, current: FloatArray) -> FloatArray:
-    arr = np.array(value, dtype=float)
+    arr = real_array(value, name, "a number or a vector").copy()
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
     if arr.shape != (n,):
@@ -84,6 +91,36 @@ def _positive_limits(value: Any, n: int, name: str, current: FloatArray) -> Floa
             "with_limits tightens limits, it cannot raise them"
         )
     return arr
+
+
+def _checked_options(
+    tip: Any, options: LoadOptions
+) -> tuple[str | None, dict[str, float] | None, str | None, tuple[float, float], bool]:
+    """The loaders' ``tip`` and :class:`LoadOptions`, each checked by name."""
+    if tip is not None and not isinstance(tip, str):
+        raise InvalidParameterError(f"tip must be a frame name (a string); got {short_repr(tip)}")
+    name = options.get("name")
+    if name is not None and not isinstance(name, str):
+        raise InvalidParameterError(f"name must be a string; got {short_repr(name)}")
+    locked = options.get("locked")
+    if locked is not None:
+        if not isinstance(locked, Mapping) or not all(isinstance(k, str) for k in locked):
+            raise InvalidParameterError(
+                f"locked must map joint names to positions, e.g. {{'finger_joint1': 0.0}}; "
+                f"got {short_repr(locked)}"
+            )
+        locked = {k: as_scalar(v, f"locked[{k!r}]") for k, v in locked.items()}
+    limits = options.get("continuous_limits", (-_PI, _PI))
+    pair = real_array(limits, "continuous_limits", "a pair (low, high)")
+    if pair.shape != (2,) or not np.isfinite(pair).all() or not pair[0] < pair[1]:
+        raise InvalidParameterError(
+            "continuous_limits must be two finite numbers low < high, rad; got "
+            f"{short_repr(limits)}"
+        )
+    capsules = options.get("capsules", True)
+    if not isinstance(capsules, (bool, np.bool_)):
+        raise InvalidParameterError(f"capsules must be True or False; got {short_repr(capsules)}")
+    return tip, locked, name, (float(pair[0]), float(pair[1])), bool(capsules)
 
 
 @dataclass(frozen=True)
@@ -126,10 +163,7 @@ class RobotFiles:
             if loader == "from_urdf_string":
                 names.insert(1, "mesh_dir")
             raise unknown_keyword(f"Robot.{loader}", names, dict(options))
-        locked = options.get("locked")
-        name = options.get("name")
-        continuous_limits = options.get("continuous_limits", (-_PI, _PI))
-        capsules = options.get("capsules", True)
+        tip, locked, name, continuous_limits, capsules = _checked_options(tip, options)
         geometry = ("collision",) if capsules else ()
         loaded = load_model(source, tip, locked, continuous_limits, geometry=geometry)
         model = loaded.model
@@ -217,12 +251,14 @@ class RobotFiles:
 
         Raises:
             ModelFileNotFoundError: the file does not exist.
-            URDFError: the file cannot be parsed, or ``tip`` is missing or ambiguous.
+            MJCFError: the file cannot be parsed (a malformed number is named by element and
+                attribute), or ``tip`` is missing or ambiguous.
         """
         from .urdf import mjcf_source
 
         return cls._load(mjcf_source(path), tip, options, "from_mjcf")
 
+    @checked_keywords
     def with_limits(
         self,
         *,

@@ -8,6 +8,14 @@ every body below it, and of a root body with a joint, are kept.
 (``pos`` and one of ``quat``, ``axisangle``, ``euler``, ``xyaxes``, ``zaxis``, with the
 compiler's ``angle`` and ``eulerseq``; MuJoCo's XML reference, "body").
 
+Pinocchio's parser does not check the numbers it reads: ``pos="0.3 0"`` (too few),
+``pos="a b c"`` or ``range="nan 1"`` build a model from whatever memory held, ``axis="0 0 0"``
+a joint without a direction, ``mass="-1"`` a massless link. :func:`check_numbers` reads
+every numeric attribute of the bodies, joints, geoms, sites, inertials, cameras and lights
+(and of the default classes that hold them) first, with MuJoCo's counts, and refuses, naming the
+element and attribute, what is not finite, has the wrong count, is a zero direction or
+quaternion, or is a negative mass, inertia or size.
+
 Pinocchio's parser reads a joint's ``actuatorfrcrange`` (not always through the right
 default class) but not the ``forcerange`` of the actuators that drive it, which is where
 most Menagerie arms keep their torque limits (``<general joint="joint1"
@@ -30,7 +38,8 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pinocchio as pin
 
-from ..errors import URDFError
+from .._validate import MAX_LENGTH, MAX_MASS
+from ..errors import MJCFError
 
 #: The actuator elements of ``<actuator>`` and of a default class (MuJoCo's XML reference,
 #: "actuator"); the defaults of each are the one actuator default of their class.
@@ -39,6 +48,85 @@ _ACTUATORS = ("general", "motor", "position", "velocity", "intvelocity", "damper
 
 _AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]),
          "z": np.array([0.0, 0.0, 1.0])}  # fmt: skip
+
+
+#: Numeric attributes by element, with the numbers each may hold (MuJoCo's XML reference).
+_ORIENTATION = {"quat": (4,), "axisangle": (4,), "euler": (3,), "xyaxes": (6,), "zaxis": (3,)}
+_NUMERIC: dict[str, dict[str, tuple[int, ...]]] = {
+    "body": {"pos": (3,), **_ORIENTATION},
+    "inertial": {"pos": (3,), "mass": (1,), "diaginertia": (3,), "fullinertia": (6,),
+                 **_ORIENTATION},
+    "joint": {"pos": (3,), "axis": (3,), "range": (2,), "ref": (1,), "springref": (1,),
+              "damping": (1,), "stiffness": (1,), "armature": (1,), "frictionloss": (1,),
+              "actuatorfrcrange": (2,)},
+    "geom": {"pos": (3,), "size": (1, 2, 3), "fromto": (6,), "mass": (1,), "density": (1,),
+             **_ORIENTATION},
+    "site": {"pos": (3,), "size": (1, 2, 3), "fromto": (6,), **_ORIENTATION},
+    "camera": {"pos": (3,), **_ORIENTATION},
+    "light": {"pos": (3,), "dir": (3,)},
+}  # fmt: skip
+#: Attributes that must not be negative (sizes, masses, inertias, joint dynamics).
+_NONNEGATIVE = {"mass", "density", "diaginertia", "size", "damping", "stiffness", "armature",
+                "frictionloss"}  # fmt: skip
+#: Attributes that are a direction (or contain one first): not zero.
+_DIRECTIONS = {"axis": 3, "quat": 4, "axisangle": 3, "zaxis": 3, "dir": 3}
+
+
+def check_numbers(root: ET.Element, label: str) -> None:
+    """Refuse, naming the element and attribute, a numeric attribute that Pinocchio would
+    build into a wrong model (module docstring): every element of :data:`_NUMERIC`, in the
+    bodies and in the default classes.
+
+    Raises:
+        MJCFError: not a number, not finite, the wrong count, a zero direction or
+            quaternion, a negative size, mass or inertia, an offset beyond ±MAX_LENGTH, a
+            mass above MAX_MASS, a joint range with its low end above its high end.
+    """
+    for element in root.iter():
+        for key, counts in _NUMERIC.get(element.tag, {}).items():
+            text = element.get(key)
+            if text is None:
+                continue
+            name = element.get("name") or element.get("class")
+            where = f"{label}: <{element.tag}{f' name={name!r}' if name else ''} {key}={text!r}>"
+            try:
+                values = [float(v) for v in text.split()]
+            except ValueError:
+                values = []
+            if len(values) not in counts or not all(map(math.isfinite, values)):
+                many = " or ".join(str(c) for c in counts)
+                raise MJCFError(f"{where}: needs {many} finite number(s)")
+            if key in _NONNEGATIVE and min(values) < 0.0:
+                raise MJCFError(f"{where}: must not be negative")
+            if key in _DIRECTIONS and math.hypot(*values[: _DIRECTIONS[key]]) < 1e-9:
+                what = "rotation" if key == "quat" else "direction"
+                raise MJCFError(f"{where}: is all zero, no {what}")
+            if key == "pos" and max(map(abs, values)) > MAX_LENGTH:
+                raise MJCFError(f"{where}: must lie within ±{MAX_LENGTH:g} m")
+            if key == "mass" and values[0] > MAX_MASS:
+                raise MJCFError(f"{where}: must be at most {MAX_MASS:g} kg")
+            if key == "range" and values[0] > values[1]:
+                raise MJCFError(f"{where}: the low end is above the high end")
+            if key == "xyaxes" and np.linalg.norm(np.cross(values[:3], values[3:])) < 1e-9:
+                raise MJCFError(f"{where}: the two axes are parallel or zero")
+            if key == "size" and element.tag == "geom":
+                _check_geom_size(element, values, where)
+
+
+#: The sizes a geom of each type needs: (without ``fromto``, with it) (MuJoCo's reference).
+_GEOM_SIZES = {"sphere": (1, 1), "capsule": (2, 1), "cylinder": (2, 1), "box": (3, 2),
+               "ellipsoid": (3, 3)}  # fmt: skip
+
+
+def _check_geom_size(geom: ET.Element, values: list[float], where: str) -> None:
+    """A geom whose own ``type`` needs more numbers than its ``size`` holds, or a zero
+    where MuJoCo needs a positive size (a type set by a default class is not checked)."""
+    kind = geom.get("type")
+    if kind not in _GEOM_SIZES:
+        return
+    need = _GEOM_SIZES[kind][geom.get("fromto") is not None]
+    if len(values) < need or min(values[:need]) <= 0.0:
+        raise MJCFError(f"{where}: a {kind} needs {need} positive size number(s)")
 
 
 def keep_root_placements(model: pin.Model, root: ET.Element, label: str) -> None:
@@ -69,7 +157,7 @@ def _numbers(element: ET.Element, key: str, size: int, default: float = 0.0) -> 
         return np.full(size, default)
     values = np.array([float(v) for v in text.split()])
     if values.shape != (size,):
-        raise URDFError(f"<body name={element.get('name')!r}>: {key} needs {size} numbers")
+        raise MJCFError(f"<body name={element.get('name')!r}>: {key} needs {size} numbers")
     return values
 
 
@@ -86,7 +174,7 @@ def _rotation(body: ET.Element, radian: bool, sequence: str, label: str) -> np.n
     if body.get("euler") is not None:
         angles = _numbers(body, "euler", 3) * scale
         if len(sequence) != 3 or not (sequence.islower() or sequence.isupper()):
-            raise URDFError(f"{label}: eulerseq {sequence!r} mixes fixed and moving axes")
+            raise MJCFError(f"{label}: eulerseq {sequence!r} mixes fixed and moving axes")
         turns = [np.asarray(pin.exp3(_AXES[a.lower()] * t)) for a, t in zip(sequence, angles)]
         R = np.eye(3)
         for turn in turns if sequence.islower() else turns[::-1]:  # moving axes: R1 R2 R3
@@ -144,7 +232,7 @@ def torque_limits(root: ET.Element, label: str) -> dict[str, float]:
 def _bound(text: str, what: str, label: str) -> float:
     values = [float(v) for v in text.split()]
     if len(values) != 2 or not all(math.isfinite(v) for v in values):
-        raise URDFError(f"{label}: {what} needs two finite numbers; got {text!r}")
+        raise MJCFError(f"{label}: {what} needs two finite numbers; got {text!r}")
     return max(abs(values[0]), abs(values[1]))
 
 

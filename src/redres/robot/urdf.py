@@ -20,9 +20,15 @@ import numpy as np
 import pinocchio as pin
 
 from .._validate import MAX_LENGTH, MAX_MASS, short_repr
-from ..errors import ModelFileNotFoundError, URDFError, describe_os_error, shown_path
+from ..errors import (
+    MJCFError,
+    ModelFileNotFoundError,
+    URDFError,
+    describe_os_error,
+    shown_path,
+)
 from .dh import MAX_JOINTS
-from .mjcf import keep_root_placements, torque_limits
+from .mjcf import check_numbers, keep_root_placements, torque_limits
 
 # Pinocchio's unbounded revolute joints (nq = 2: cos, sin) and their bounded twins.
 _BOUNDED = {
@@ -112,6 +118,23 @@ def _root(source: ModelSource) -> ET.Element:
     return root
 
 
+def _as_utf8(source: ModelSource, root: ET.Element) -> ModelSource:
+    """Pinocchio reads names as UTF-8: a URDF file in another encoding (ISO-8859-1 with an
+    'é' in a name, declared in its XML header) is handed over as UTF-8 text, its meshes
+    still found beside the file; an MJCF must be UTF-8 (MuJoCo's own rule)."""
+    if source.file is None:
+        return source
+    try:
+        source.file.read_bytes().decode("utf-8")
+        return source
+    except UnicodeDecodeError:
+        pass
+    if source.kind == "mjcf":
+        raise URDFError(f"{source.label}: not UTF-8 text; MuJoCo reads MJCF as UTF-8: save it so")
+    text = ET.tostring(root, encoding="unicode")
+    return ModelSource(source.label, "urdf", text=text, mesh_dir=source.folder)
+
+
 def _full_model(
     source: ModelSource, geometry: tuple[str, ...], root: ET.Element
 ) -> tuple[pin.Model, Any, Any]:
@@ -161,8 +184,29 @@ def load_model(
     geometry: tuple[str, ...] = ("collision", "visual"),
 ) -> LoadedModel:
     """Parse ``source``, reduce it to the chain ending at ``tip``, with the geometry
-    models named in ``geometry``."""
+    models named in ``geometry``.
+
+    Raises:
+        URDFError, MJCFError: by the file's format (the checks shared by both formats raise
+            :class:`URDFError`; here an MJCF's become :class:`MJCFError`).
+    """
+    try:
+        return _load_model(source, tip, locked, continuous_limits, geometry)
+    except URDFError as exc:
+        if source.kind == "mjcf":
+            raise MJCFError(str(exc)) from None
+        raise
+
+
+def _load_model(
+    source: ModelSource,
+    tip: str | None,
+    locked: Mapping[str, float] | None,
+    continuous_limits: tuple[float, float],
+    geometry: tuple[str, ...],
+) -> LoadedModel:
     root = _root(source)
+    source = _as_utf8(source, root)
     label = source.label
     if source.kind == "urdf":
         if root.find("link") is None:
@@ -170,6 +214,8 @@ def load_model(
         _check_physical(root, label)
     elif root.find("worldbody") is None:
         raise URDFError(f"{label}: the MJCF has no <worldbody> element")
+    else:
+        check_numbers(root, label)
     full, collision, visual = _full_model(source, geometry, root)
     if full.nv == 0:
         raise URDFError(f"{label}: the {source.kind.upper()} has no movable joint")
@@ -286,6 +332,8 @@ def _check_physical(root: ET.Element, file: str) -> None:
         for element in owner.iter():
             if fixed and element.tag == "axis":
                 continue  # a fixed joint's axis is not used
+            if element.tag == "axis" and element.get("xyz") is None:
+                raise URDFError(f'{where}: <axis> has no xyz; give a direction, e.g. "0 0 1"')
             for key, count in _NUMERIC.get(element.tag, {}).items():
                 text = element.get(key)
                 if text is None:

@@ -142,18 +142,9 @@ class ScenarioSpec:
 
 def _robot(r: Reader, base: Path) -> tuple[Robot, np.ndarray, Path | None]:
     """The robot, its start configuration ``q0`` and its MJCF file (None for another)."""
-    keys = ("model", "urdf", "mjcf", "menagerie")
-    sources = {key: r.get(key, "string", None) for key in keys}
-    given = [key for key, value in sources.items() if value is not None]
+    key, file = r.robot_source()
     tip = r.get("tip", "string", None)
-    if len(given) != 1:
-        raise r.fail(
-            given[1] if len(given) > 1 else "model",
-            'give exactly one of model = "<built-in name>", urdf = "<path>", mjcf = '
-            '"<path>" or menagerie = "<arm>"' + (f"; got {' and '.join(given)}" if given else ""),
-        )
-    key = given[0]
-    model, file = sources["model"], sources[key]
+    model = file if key == "model" else None
     mjcf: Path | None = None
     with r.blame(key):
         if key == "model":

@@ -30,7 +30,9 @@ from __future__ import annotations
 import concurrent.futures as cf
 import multiprocessing
 import os
+import signal
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures.process import BrokenProcessPool
@@ -70,6 +72,8 @@ class SweepReport:
         shards: shards of the sweep.
         skipped: shards found finished (resumed past).
         redone: shards whose stored arrays did not match their checksum, computed again.
+        tables_rewritten: the plan's stored tables did not match their checksum (a file
+            lost or altered) and were written again.
         computed: shards computed by this call.
         queries: queries of the computed shards.
         seconds: wall-clock time of this call, s.
@@ -82,6 +86,7 @@ class SweepReport:
     shards: int
     skipped: int = 0
     redone: list[int] = field(default_factory=list)
+    tables_rewritten: bool = False
     computed: int = 0
     queries: int = 0
     seconds: float = 0.0
@@ -95,7 +100,8 @@ class SweepReport:
     def as_dict(self) -> dict[str, Any]:
         return {
             "folder": str(self.folder), "kind": self.kind, "shards": self.shards,
-            "skipped": self.skipped, "redone": self.redone, "computed": self.computed,
+            "skipped": self.skipped, "redone": self.redone,
+            "tables_rewritten": self.tables_rewritten, "computed": self.computed,
             "queries": self.queries, "seconds": round(self.seconds, 3),
             "queries_per_second": round(self.queries_per_second, 1), "engine": self.engine,
             "workers": self.workers,
@@ -162,6 +168,9 @@ def run(
     (folder / MANIFEST).mkdir(exist_ok=True)
     if not (resume and store.valid()):  # new, or killed while it was being created
         store.create(plan.tables)
+    elif store.tables_sha256() != header["tables_sha256"]:  # a table file lost or altered
+        store.write_tables(plan.tables)
+        report.tables_rewritten = True
     todo = _unfinished(folder, store, count, header, report) if resume else list(range(count))
     report.skipped = count - len(todo)
     if todo:
@@ -198,6 +207,7 @@ def _header(
         "settings_sha256": spec.digest(), "versions": versions(), "storage": storage,
         "units": plan.units, "queries_per_unit": plan.queries_per_unit,
         "shard_units": shard_units, "shards": count, "plan_sha256": checksum(arrays),
+        "tables_sha256": checksum(plan.tables),
         "fields": {k: {"dtype": f.dtype, "shape": list(f.shape), "doc": f.doc}
                    for k, f in plan.fields.items()},
         "tables": sorted(plan.tables), "meta": plan.meta,
@@ -284,9 +294,19 @@ def _dispatch(
                 tick(job.stop - job.start)
             return
         context = multiprocessing.get_context("spawn")  # numba's threads do not survive fork
-        with cf.ProcessPoolExecutor(min(count, len(jobs)), mp_context=context) as pool:
-            report.engine, report.workers = "process pool", min(count, len(jobs))
+        pool = cf.ProcessPoolExecutor(
+            min(count, len(jobs)),
+            mp_context=context,
+            initializer=die_with_parent,
+            initargs=(os.getpid(),),
+        )
+        report.engine, report.workers = "process pool", min(count, len(jobs))
+        try:
             _gather(pool, jobs, finish, tick)
+        except BaseException:  # Ctrl-C, a failed shard: no wait for the running shards
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        pool.shutdown()
         return
     if scheduler is not None:
         try:
@@ -299,11 +319,38 @@ def _dispatch(
             report.engine = "dask"
             report.workers = len(client.scheduler_info().get("workers", {})) or 1
             _gather(client.get_executor(), jobs, finish, tick)
+            # workers that joined while the sweep ran count too (the count at the start
+            # said "1" for a cluster whose second worker connected a moment later)
+            report.workers = max(report.workers, len(client.scheduler_info().get("workers", {})))
         return
     assert executor is not None
     report.engine = type(executor).__name__
     report.workers = int(getattr(executor, "_max_workers", 0) or 1)
     _gather(executor, jobs, finish, tick)
+
+
+def die_with_parent(parent: int) -> None:
+    """A pool worker's initializer: end this process when ``parent`` (the sweep) is gone,
+    even by ``kill -9`` (which runs no clean-up of its own): Linux's parent-death signal,
+    and everywhere a thread that watches for the process to be re-parented. Ctrl-C is
+    ignored here: the sweep stops the pool and says how to resume, once."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the watcher alone
+        pass
+    if os.getppid() != parent:  # gone before the signal was armed
+        os._exit(1)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the sweep's to handle
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="redres-parent-watch", daemon=True).start()
 
 
 def _gather(

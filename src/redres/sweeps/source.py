@@ -22,19 +22,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import describe_os_error, shown_path
+from ..errors import ModelFileError
 
 if TYPE_CHECKING:
     from .._toml import Reader
     from ..robot import Robot
 
-__all__ = ["SOURCES", "RobotSource", "model_digest"]
+__all__ = ["RobotSource", "model_digest"]
 
 _BUILT: dict[RobotSource, Robot] = {}  # per process: the robot of each source
-
-
-#: The ``[robot]`` keys that name where the robot comes from (exactly one is given).
-SOURCES = ("model", "menagerie", "urdf", "mjcf")
 
 
 @dataclass(frozen=True)
@@ -70,18 +66,8 @@ class RobotSource:
         folder) with ``tip``; optional ``frame`` and limits (``qd_max = 2.0``, ...)."""
         from .. import models
 
-        given = {key: r.get(key, "string", None) for key in SOURCES}
-        named = [key for key, value in given.items() if value is not None]
+        key, value = r.robot_source()
         tip, frame = r.get("tip", "string", None), r.get("frame", "string", None)
-        if len(named) != 1:
-            raise r.fail(
-                named[1] if len(named) > 1 else "model",
-                'give exactly one of model = "<built-in name>", menagerie = "<arm>", urdf = '
-                '"<path>" or mjcf = "<path>"' + (f"; got {' and '.join(named)}" if named else ""),
-            )
-        key = named[0]
-        value = given[key]
-        assert value is not None
         if key == "model":
             if value not in models.names():
                 raise r.fail("model", f"unknown robot {value!r}; built-in robots: "
@@ -92,13 +78,9 @@ class RobotSource:
         elif key == "menagerie":
             source = cls(menagerie=value, tip=tip, frame=frame, label=value)
         else:
-            file = base / value
-            try:
-                text = file.read_text(encoding="utf-8")
-            except (OSError, UnicodeDecodeError) as exc:
-                why = describe_os_error(exc) if isinstance(exc, OSError) else "not UTF-8 text"
-                raise r.fail(key, f"cannot read {shown_path(file)}: {why}") from None
-            source = cls(tip=tip, frame=frame, label=file.name, **{key: text})
+            text = r.file_text(key, base / value)
+            source = cls(urdf=text if key == "urdf" else None, mjcf=text if key == "mjcf" else None,
+                         tip=tip, frame=frame, label=Path(value).name)  # fmt: skip
         with r.blame(key):
             robot = source.build()
         limits = r.joint_limits(robot.n)
@@ -136,6 +118,8 @@ class RobotSource:
                 with os.fdopen(handle, "w", encoding="utf-8") as f:
                     f.write(text)
                 robot = load(name, tip=self.tip, name=Path(self.label).stem)
+            except ModelFileError as exc:  # named after the user's file, not the copy
+                raise type(exc)(str(exc).replace(name, self.label)) from None
             finally:
                 os.unlink(name)
         if self.limits:

@@ -14,7 +14,9 @@ Both stores hold the same arrays: every output field of the plan, shape
 
 A shard's checksum (:func:`checksum`) is the SHA-256 of its arrays' names, dtypes,
 shapes and bytes, the same in either store; the manifest keeps it, and a shard whose
-stored arrays do not give it back (a truncated or altered file) is computed again.
+stored arrays do not give it back (a truncated or altered file) is computed again. The
+tables' checksum is in the folder's header: tables that do not give it back are written
+again on resume, and reading refuses them (Zarr reads a lost chunk file as zeros).
 """
 
 from __future__ import annotations
@@ -58,6 +60,11 @@ def write_atomic(path: Path, data: bytes) -> None:
             f.flush()
             os.fsync(f.fileno())
         os.replace(temp, path)
+    except OSError as exc:  # a write to a full disk names no file: name the one meant
+        Path(temp).unlink(missing_ok=True)
+        if exc.filename is None:
+            raise OSError(exc.errno, exc.strerror, str(path)) from exc
+        raise
     except BaseException:
         Path(temp).unlink(missing_ok=True)
         raise
@@ -104,6 +111,17 @@ class Store:
     def tables(self) -> dict[str, np.ndarray]:
         raise NotImplementedError
 
+    def write_tables(self, tables: Mapping[str, np.ndarray]) -> None:
+        """Store the plan's tables again (one was lost or altered)."""
+        raise NotImplementedError
+
+    def tables_sha256(self) -> str | None:
+        """:func:`checksum` of the stored tables, or None when they cannot be read whole."""
+        try:
+            return checksum(self.tables())
+        except Exception:  # a cut or altered file: codec, format or I/O errors
+            return None
+
     def load(self, name: str) -> np.ndarray:
         """Field ``name`` over every unit (unfinished shards read as zeros)."""
         raise NotImplementedError
@@ -119,12 +137,7 @@ class ZarrStore(Store):
 
     def create(self, tables: Mapping[str, np.ndarray]) -> None:
         group = self._group("w")
-        sub = group.create_group("tables")  # first: the fields' arrays exist only after it
-        for name, table in tables.items():
-            array = np.ascontiguousarray(table)
-            chunks = tuple(max(1, size) for size in array.shape)
-            sub.create_array(name, shape=array.shape, dtype=array.dtype, chunks=chunks)
-            sub[name][...] = array
+        self._tables(group, tables)  # first: the fields' arrays exist only after them
         for name, f in self.fields.items():
             group.create_array(
                 name, shape=(self.units, *f.shape), chunks=(self.shard_units, *f.shape),
@@ -154,6 +167,18 @@ class ZarrStore(Store):
         except Exception:  # a cut or altered chunk file: codec, shape or I/O errors
             return None
 
+    @staticmethod
+    def _tables(group: Any, tables: Mapping[str, np.ndarray]) -> None:
+        sub = group.create_group("tables", overwrite=True)
+        for name, table in tables.items():
+            array = np.ascontiguousarray(table)
+            chunks = tuple(max(1, size) for size in array.shape)
+            sub.create_array(name, shape=array.shape, dtype=array.dtype, chunks=chunks)
+            sub[name][...] = array
+
+    def write_tables(self, tables: Mapping[str, np.ndarray]) -> None:
+        self._tables(self._group(), tables)
+
     def tables(self) -> dict[str, np.ndarray]:
         sub = self._group("r")["tables"]
         return {name: np.asarray(array[...]) for name, array in sub.arrays()}
@@ -169,16 +194,14 @@ class NpzStore(Store):
         return self.folder / NPZ_DIR / f"{shard:06d}.npz"
 
     def create(self, tables: Mapping[str, np.ndarray]) -> None:
+        self.write_tables(tables)
         (self.folder / NPZ_DIR).mkdir(exist_ok=True)
-        write_atomic(self.folder / NPZ_TABLES, _npz_bytes(tables))
 
     def valid(self) -> bool:
-        try:
-            with np.load(self.folder / NPZ_TABLES, allow_pickle=False):
-                pass
-        except Exception:  # absent or cut
-            return False
         return (self.folder / NPZ_DIR).is_dir()
+
+    def write_tables(self, tables: Mapping[str, np.ndarray]) -> None:
+        write_atomic(self.folder / NPZ_TABLES, _npz_bytes(tables))
 
     def write(self, shard: int, arrays: Mapping[str, np.ndarray]) -> None:
         write_atomic(self._file(shard), _npz_bytes({k: arrays[k] for k in self.fields}))

@@ -129,3 +129,18 @@ def test_nearest_bins_small_rotations_home() -> None:
     rng = np.random.default_rng(8)
     turned = np.array([r @ pin.exp3(rng.normal(size=3) * 0.02) for r in R])
     assert np.array_equal(nearest(R, turned), np.arange(len(R)))
+
+
+def test_a_grid_too_fine_to_hold_is_refused_before_it_is_allocated(tmp_path: Path) -> None:
+    """resolution = 0.0001 m over the Panda's reach is 10**13 voxels: a raw MemoryError
+    (226 TiB) before; now one line naming the count and the limit."""
+    from redres.errors import InvalidParameterError
+
+    from ..helpers import write_spec
+
+    spec = write_spec(tmp_path, resolution="0.0001", bounds="[[-1, 1], [-1, 1], [-0.5, 1.3]]")
+    with pytest.raises(InvalidParameterError, match=r"voxels; a map has at most 50,000,000"):
+        sweeps.run(spec, tmp_path / "out", workers=1, progress=False)
+    assert not (tmp_path / "out" / "manifest").exists() or not any(
+        (tmp_path / "out" / "manifest").iterdir()
+    )

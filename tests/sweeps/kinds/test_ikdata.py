@@ -118,3 +118,31 @@ def test_training_rows_refuse_another_kind_and_skip_unfinished_shards(tmp_path: 
     sweeps.run(spec, tmp_path / "map", workers=1, progress=False)
     with pytest.raises(InvalidParameterError, match="holds a capability sweep"):
         training_rows(tmp_path / "map")
+
+
+def test_distinct_counts_do_not_exceed_the_solution_set_at_a_loose_tolerance(
+    tmp_path: Path,
+) -> None:
+    """An iiwa14 with joint A3 fixed is a 6-joint arm with a spherical shoulder and wrist:
+    at most 2 x 2 x 2 = 8 solutions per pose. Accepted at 1e-4 m and counted without
+    refinement, 12 "distinct" ones came back on this spec; refined first, never above 8."""
+    urdf = Path(rr.models.__file__).parent / "data" / "iiwa14.urdf"
+    text = urdf.read_text().replace(
+        'name="joint_a3" type="revolute"', 'name="joint_a3" type="fixed"'
+    )
+    assert 'name="joint_a3" type="fixed"' in text
+    (tmp_path / "iiwa6.urdf").write_text(text)
+    spec = SPEC.replace('model = "iiwa14"', 'urdf = "iiwa6.urdf"').replace("1e-6", "1e-4")
+    spec = spec.replace("1e-5", "1e-3").replace("solutions = 4", "solutions = 12")
+    spec = spec.replace("attempts = 12", "attempts = 48").replace("poses = 50", "poses = 60")
+    (tmp_path / "ik.toml").write_text(spec)
+    sweeps.run(tmp_path / "ik.toml", tmp_path / "out", workers=1, progress=False)
+    data = sweeps.load(tmp_path / "out")
+    robot = rr.Robot.from_urdf(tmp_path / "iiwa6.urdf")
+    assert robot.n == 6
+    count = data["count"]
+    assert count.max() <= 8 and (count >= 4).any()
+    for i in range(len(count)):
+        for s in range(count[i]):
+            T = robot.fk(data["solutions"][i, s])
+            assert np.linalg.norm(T[:3, 3] - data["pose"][i][:3, 3]) <= 1e-4

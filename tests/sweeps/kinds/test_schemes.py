@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import redres as rr
 from redres import sweeps
@@ -74,3 +75,23 @@ def test_statistics_match_the_runs(tmp_path: Path) -> None:
                 assert data["success"][i, s] == (log.position_error.max() <= 1e-3)
     text = table(tmp_path / "out")
     assert "pinv" in text and "joint limits" in text
+
+
+@pytest.mark.parametrize(
+    ("scenario", "content", "message"),
+    [
+        ("notes.txt", "hello world = {", r"notes\.txt is not a scenario file \(not valid TOML"),
+        ("/dev/zero", None, r"cannot read '/dev/zero': not a regular file"),
+        ("missing.toml", None, r"cannot read .*missing\.toml; give a scenario file or one of"),
+    ],
+)
+def test_a_scenario_that_is_no_scenario_file_is_named(
+    tmp_path: Path, scenario: str, content: str | None, message: str
+) -> None:
+    """A text file that is not TOML was a raw TOMLDecodeError; /dev/zero was read until
+    memory ran out."""
+    if content is not None:
+        (tmp_path / scenario).write_text(content)
+    (tmp_path / "stats.toml").write_text(SPEC.replace("two.toml", scenario))
+    with pytest.raises(sweeps.SweepSpecError, match=rf"\[scheme_statistics\]\.scenario: {message}"):
+        sweeps.load_spec(tmp_path / "stats.toml")

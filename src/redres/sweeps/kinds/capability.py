@@ -100,9 +100,11 @@ class CapabilityParams:
 def _parse(r: Reader, base: Path) -> CapabilityParams:
     params = CapabilityParams(
         **read_grid_source(r, CapabilityParams),
-        seeds_per_voxel=r.integer("seeds_per_voxel", CapabilityParams.seeds_per_voxel, minimum=0),
-        solutions=r.integer("solutions", CapabilityParams.solutions, minimum=1),
-        refine=r.integer("refine", CapabilityParams.refine, minimum=0),
+        seeds_per_voxel=r.integer(
+            "seeds_per_voxel", CapabilityParams.seeds_per_voxel, minimum=0, maximum=64
+        ),
+        solutions=r.integer("solutions", CapabilityParams.solutions, minimum=1, maximum=1024),
+        refine=r.integer("refine", CapabilityParams.refine, minimum=0, maximum=1000),
         keep_configurations=r.boolean("keep_configurations", CapabilityParams.keep_configurations),
     )
     r.done()

@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ... import batch
+from ...errors import InvalidParameterError
 from ...robot import Robot
 
 if TYPE_CHECKING:
@@ -48,6 +49,10 @@ __all__ = [
 ]
 
 _CHUNK = 100_000  # configurations per batch.fk call (bounded memory)
+#: The most voxels a map's grid may have (a 5 mm grid over a 1.5 m cube is 27 million).
+MAX_VOXELS = 50_000_000
+#: The most configurations sampled for occupancy (about 20 s of forward kinematics).
+MAX_FK_SAMPLES = 20_000_000
 
 
 def reach_bound(robot: Robot, frame: str | None = None) -> tuple[np.ndarray, float]:
@@ -106,6 +111,12 @@ def occupancy(
     origin, rho = reach_bound(robot, frame)
     low, high = grid_range(bounds, resolution)
     shape = tuple(int(s) for s in high - low + 1)
+    voxels = shape[0] * shape[1] * shape[2]
+    if voxels > MAX_VOXELS:  # before anything of that size is allocated
+        raise InvalidParameterError(
+            f"resolution = {resolution:g} m over the bounds gives {voxels:,} voxels; a map has at "
+            f"most {MAX_VOXELS:,}: choose a coarser resolution or narrower bounds"
+        )
     grid = np.indices(shape).reshape(3, -1).T + low  # every voxel, lexicographic
     lo_corner, hi_corner = grid * resolution, (grid + 1) * resolution
     nearest = np.clip(origin, lo_corner, hi_corner)
@@ -177,8 +188,8 @@ def read_grid_source(r: Reader, params: Any) -> dict[str, Any]:
     return {
         "resolution": r.positive("resolution", params.resolution),
         "bounds": None if bounds is None else tuple((lo, hi) for lo, hi in bounds),
-        "directions": r.integer("directions", params.directions, minimum=1),
-        "rolls": r.integer("rolls", params.rolls, minimum=1),
-        "fk_samples": r.integer("fk_samples", params.fk_samples, minimum=0),
-        "dilation": r.integer("dilation", params.dilation, minimum=-1),
+        "directions": r.integer("directions", params.directions, minimum=1, maximum=10_000),
+        "rolls": r.integer("rolls", params.rolls, minimum=1, maximum=360),
+        "fk_samples": r.integer("fk_samples", params.fk_samples, minimum=0, maximum=MAX_FK_SAMPLES),
+        "dilation": r.integer("dilation", params.dilation, minimum=-1, maximum=100),
     }

@@ -13,8 +13,10 @@ one HDF5 file with two groups:
   and its orientation as a unit quaternion, scalar last (``geometry_msgs/Pose``).
 
 redres tests its poses at the voxel centre, so ``p`` equals the centre here (Reuleaux
-places its poses on a small sphere around it). The file is written to a temporary name
-and renamed into place.
+places its poses on a small sphere around it). Reuleaux's loaders join the two datasets by
+exact equality of the centres (the float32 one cast to double): the centres in both are
+rounded to float32 (within 4e-9 m of the map's at a few metres). The file is written to a
+temporary name and renamed into place.
 """
 
 from __future__ import annotations
@@ -57,10 +59,14 @@ def export_reuleaux(source: CapabilityMap | str | Path, path: str | Path) -> Pat
     m = source if isinstance(source, CapabilityMap) else load_map(source)
     index = m.reachability_index
     voxels = np.flatnonzero(index > 0)
-    spheres = np.column_stack((m.centres[voxels], index[voxels])).astype(np.float64)
+    # Reuleaux's loaders join a pose to its sphere by exact equality of the float32 centre
+    # (cast to double) with the float64 one: the centres are written float32-exact
+    # (0.05 is not), or no sphere survives loading.
+    centres = m.centres[voxels].astype(np.float32).astype(np.float64)
+    spheres = np.column_stack((centres, index[voxels]))
     v, o = np.nonzero(m.reachable[voxels])
     q = quaternions(m.rotations)
-    centre = m.centres[voxels][v]
+    centre = centres[v]
     poses = np.column_stack((centre, centre, q[o])).astype(np.float32)
     target = Path(path)
     temp = target.with_name(f".{target.name}.partial")

@@ -85,11 +85,15 @@ def _parse(r: Reader, base: Path) -> SchemeStatsParams:
     name = r.string("scenario")
     builtin = builtin_scenarios()
     path = builtin[name] if name in builtin and not (base / name).exists() else base / name
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError):
+    if not path.exists():
         raise r.fail("scenario", f"cannot read {path}; give a scenario file or one of "
-                     f"{', '.join(sorted(builtin))}") from None  # fmt: skip
+                     f"{', '.join(sorted(builtin))}")  # fmt: skip
+    text = r.file_text("scenario", path)
+    try:
+        tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        why = f"{path.name} is not a scenario file (not valid TOML: {exc})"
+        raise r.fail("scenario", why) from None
     pair = []
     for key, default in (("radius", (0.05, 0.15)), ("length", (0.1, 0.3))):
         v = r.get(key, "vector", np.array(default), size=2)
