@@ -7,11 +7,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import redres as rr
 from redres import sweeps
 from redres.scenarios.spec import builtin
+from redres.sweeps.kind import SweepSpecError
 from redres.sweeps.kinds.plans import table
+from redres.sweeps.spec import parse_spec
 
 SPEC = """
 kind = "path_plans"
@@ -57,3 +60,21 @@ def test_each_unit_is_its_plan(tmp_path: Path) -> None:
     assert units >= 4
     text = table(tmp_path / "out")
     assert "joint_limit_margin" in text and "path_length" in text and "400" in text
+
+
+@pytest.mark.parametrize(
+    ("table", "key"),
+    [
+        ({"scenarios": ["nope.toml"]}, "scenarios"),
+        ({"scenarios": []}, "scenarios"),
+        ({"scenarios": "panda_joint_limit_circle"}, "scenarios"),
+        ({"scenarios": ["panda_joint_limit_circle"], "resolutions": [1]}, "resolutions"),
+        ({"scenarios": ["panda_joint_limit_circle"], "objectives": ["x"]}, "objectives"),
+        ({"scenarios": ["panda_joint_limit_circle"], "dts": [0.0]}, "dts"),
+        ({"scenarios": ["panda_joint_limit_circle"], "qdd_max": [-1.0]}, "qdd_max"),
+        ({"scenarios": ["panda_joint_limit_circle"], "parameter": "q3"}, "parameter"),
+    ],
+)
+def test_bad_tables_are_refused(table: dict[str, object], key: str) -> None:
+    with pytest.raises(SweepSpecError, match=rf"\[path_plans\]\.{key}"):
+        parse_spec({"kind": "path_plans", "robot": {"model": "panda"}, "path_plans": table})

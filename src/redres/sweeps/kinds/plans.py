@@ -94,11 +94,16 @@ def _parse(r: Reader, base: Path) -> PathPlansParams:
     texts, files = [], []
     for name in names:
         path = builtin[name] if name in builtin and not (base / name).exists() else base / name
-        try:
-            texts.append(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError):
+        if not path.exists():
             raise r.fail("scenarios", f"cannot read {path}; give scenario files or built-in "
-                         f"names ({', '.join(sorted(builtin))})") from None  # fmt: skip
+                         f"names ({', '.join(sorted(builtin))})")  # fmt: skip
+        text = r.file_text("scenarios", path)
+        try:
+            tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            why = f"{path.name} is not a scenario file (not valid TOML: {exc})"
+            raise r.fail("scenarios", why) from None
+        texts.append(text)
         files.append(path.name)
     if not texts:
         raise r.fail("scenarios", "give at least one scenario")
