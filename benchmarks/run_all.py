@@ -133,8 +133,10 @@ BENCHES = [
           "`benchmarks/plan.py`: `rr.plan_path` on the Panda joint-limit circle (q7, from the "
           "scenario's q0) and the iiwa14 figure eight (arm angle), K samples x P parameter "
           "values x 8 branches, max-min joint-limit margin: the grid (closed-form IK), the "
-          "DP and the whole call on one thread, the grid on all cores; pairs tested after "
-          "the pruning against every feasible pair.", quick=["--quick", "--rounds", "1"]),
+          "DP and the whole call on one thread, the grid and the whole call on all cores; "
+          "pairs tested after the pruning against every feasible pair; then with "
+          "acceleration limits (qdd_max), the DP over transitions.",
+          quick=["--quick", "--rounds", "1"]),
     Bench("dynamics", "dynamics.py", "Operational-space control step (Panda)",
           "`benchmarks/dynamics.py`: the compiled operational-space step next to the same "
           "step on Pinocchio, and the pieces of a step (redres alone).",

@@ -192,6 +192,7 @@ def _plan() -> None:
     robot = iiwa14()
     T = robot.fk(robot.neutral())
     plan_path(robot, np.stack((T, T)), dt=0.1, resolution=4)
+    plan_path(robot, np.stack((T, T, T)), dt=0.1, resolution=4, qdd_max=10.0)  # over edges
 
 
 def _collision() -> None:

@@ -125,9 +125,18 @@ def test_a_folder_of_the_users_is_refused_before_anything_runs(
     assert (tmp_path / "other" / "notes.txt").read_text() == "mine"
 
 
-def test_plan_prints_the_schemes_against_the_optimum(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["plan", "panda_joint_limit_circle", "--duration", "0.5"]) == 0
+def test_plan_prints_the_schemes_against_the_optimum(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    out_dir = tmp_path / "report"
+    args = ["plan", "panda_joint_limit_circle", "--duration", "0.5", "--out", str(out_dir)]
+    assert main(args) == 0
     out = capsys.readouterr().out
     assert "global plan (DP)" in out and "% of the optimum" in out and "wln" in out
-    assert main(["plan", "iiwa_arm_angle_eight", "--objective", "obstacle_clearance"]) == 2
+    assert "wln: min margin" in out and "% of the optimum" in out
+    page = (out_dir / "report.html").read_text(encoding="utf-8")
+    assert "Against the global optimum" in page and "global-plan-panda_joint_limit_circle" in page
+    assert (out_dir / "global-plan-panda_joint_limit_circle.png").stat().st_size > 1000
+    assert main(["plan", "iiwa_arm_angle_eight", "--objective", "obstacle_clearance",
+                 "--out", str(tmp_path / "other")]) == 2  # fmt: skip
     assert "no obstacles" in capsys.readouterr().err

@@ -39,3 +39,15 @@ def test_bad_objectives_are_refused() -> None:
         compare_with_plan("panda_joint_limit_circle", objective="manipulability")  # type: ignore[arg-type]
     with pytest.raises(InvalidParameterError, match="no obstacles"):
         compare_with_plan("iiwa_arm_angle_eight", objective="obstacle_clearance", duration=0.1)
+
+
+def test_iiwa_circle_scenario_against_the_optimum() -> None:
+    """The built-in iiwa14 circle: its [plan] settings, and on its first 0.5 s every
+    scheme at or below the optimum (measured on the whole path: the plan 0.4778 rad,
+    pinv 0.4687, gradient projection 0.4739, wln 0.4732)."""
+    spec = builtin("iiwa_joint_limit_circle")
+    assert spec.plan is not None and spec.plan.resolution == 720
+    found = compare_with_plan(spec, resolution=spec.plan.resolution, duration=0.5)
+    assert found.plan.feasible and [r.scheme for r in found.rows] == [s.label for s in spec.schemes]
+    for row, log in zip(found.rows, found.logs):
+        assert row.value == float(log.joint_limit_margin.min()) <= found.optimum

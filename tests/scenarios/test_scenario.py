@@ -281,12 +281,17 @@ def test_builtin_scenarios_are_the_shipped_files() -> None:
                     phase=1.851, turns=4.0)  # fmt: skip
     iiwa = builtin("iiwa_arm_angle_eight")
     eight = FigureEight(iiwa.robot.fk(iiwa.q0), 0.15, 0.10, 5.0, normal=(1.0, 0.0, 0.0), turns=2.0)
-    for spec, reference in ((panda, circle), (iiwa, eight)):
+    ring = builtin("iiwa_joint_limit_circle")  # the circle of tests/plan/test_iiwa_circle.py
+    bent = np.array([0.3, 0.8, 0.2, -1.2, 0.3, 0.9, 0.1])
+    assert np.array_equal(ring.q0, bent)
+    round_path = Circle(ring.robot.fk(bent), 0.15, 2.5, normal=(1.0, 0.0, 0.0), turns=4.0)
+    for spec, reference in ((panda, circle), (iiwa, eight), (ring, round_path)):
         assert spec.dt == 1e-3 and spec.gain == 50.0
         assert spec.duration == reference.duration
         for t in np.linspace(0.0, reference.duration, 7):
             assert np.array_equal(spec.trajectory.sample(t).pose, reference.sample(t).pose)
-    with pytest.raises(ScenarioError, match="built-in scenarios: iiwa_arm_angle_eight, panda"):
+    listed = "built-in scenarios: iiwa_arm_angle_eight, iiwa_joint_limit_circle, panda"
+    with pytest.raises(ScenarioError, match=listed):
         builtin("panda_circle")
 
 

@@ -172,15 +172,25 @@ def _cmd_view(args: argparse.Namespace) -> int:
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
-    from ..scenarios.planned import compare_with_plan
+    from dataclasses import replace
 
-    found = compare_with_plan(args.scenario, objective=args.objective, duration=args.duration,
-                              resolution=args.resolution, progress=False)  # fmt: skip
-    stats = found.plan.stats
-    print(f"{found.scenario}: global plan over {stats.nodes:,} nodes "
-          f"({stats.feasible_nodes:,} feasible, {stats.components} component(s))")  # fmt: skip
-    print(found.table())
-    return 0
+    from ..scenarios.spec import PlanSettings, builtin_scenarios, load_scenario
+    from .demo import run_scenarios
+
+    spec = load_scenario(_scenario_path(args.scenario, builtin_scenarios()))
+    if args.duration is not None:
+        spec.duration = min(spec.duration, args.duration)
+    settings = spec.plan or PlanSettings()
+    objective = args.objective or settings.objective
+    if objective == "obstacle_clearance" and not spec.obstacles:
+        raise InvalidParameterError(
+            f"scenario {spec.name!r} has no obstacles: 'obstacle_clearance' needs [[obstacles]]"
+        )
+    spec.plan = replace(
+        settings, objective=objective, resolution=args.resolution or settings.resolution,
+        qdd_max=settings.qdd_max if args.qdd_max is None else args.qdd_max,
+    )  # fmt: skip
+    return run_scenarios([spec], _output(args), title=f"{spec.name}: against the global optimum")
 
 
 def _cmd_warmup(args: argparse.Namespace) -> int:
@@ -311,11 +321,16 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("scenario", help="scenario file or built-in scenario name")
     plan.add_argument(
         "--objective",
-        default="joint_limit_margin",
+        default=None,
         choices=("joint_limit_margin", "obstacle_clearance", "path_length"),
+        help="what to compare (default: the scenario's [plan] objective, else the margin)",
     )
-    plan.add_argument("--resolution", type=int, default=360, help="parameter values per sample")
+    plan.add_argument("--resolution", type=int, default=None,
+                      help="parameter values per sample (default: [plan], else 360)")  # fmt: skip
     plan.add_argument("--duration", type=float, default=None, help="s of the path (default all)")
+    plan.add_argument("--qdd-max", type=float, default=None,
+                      help="the plan's acceleration limit, rad/s² (default: none)")  # fmt: skip
+    _output_options(plan)
     warm = _command(
         sub, "warmup", _cmd_warmup, "compile the kernels now (a first call is then fast)"
     )

@@ -24,6 +24,7 @@ from ..control import LiveView, RunLog
 from ..errors import MissingDependencyError
 from ..objectives import JointLimitObjective
 from ..report.writer import check_out_dir, write_report
+from ..scenarios.planned import PlanComparison, compare_with_plan
 from ..scenarios.runner import (
     FrankaTarget,
     format_table,
@@ -137,11 +138,17 @@ def compiled_loop(steps: int = 1500) -> list[dict[str, object]]:
 
 
 def _write_report(
-    out: Path, runs: list[tuple[ScenarioSpec, RunLog]], title: str, description: str, force: bool
+    out: Path,
+    runs: list[tuple[ScenarioSpec, RunLog]],
+    title: str,
+    description: str,
+    force: bool,
+    comparisons: Sequence[PlanComparison] = (),
 ) -> Path | None:
     pairs = [(spec.robot, log, spec.obstacles) for spec, log in runs]
     try:
-        return Path(write_report(out, pairs, title=title, description=description, force=force))
+        return Path(write_report(out, pairs, title=title, description=description, force=force,
+                                 comparisons=comparisons))  # fmt: skip
     except MissingDependencyError as exc:
         print(f"redres: note: {exc}; no report written", file=sys.stderr)
         return None
@@ -170,6 +177,8 @@ def _compile_for(specs: Sequence[ScenarioSpec], loud: bool) -> None:
         groups.append("hard limits")
     if any(s.kind == "osc" for spec in specs for s in spec.schemes):
         groups.append("dynamics")
+    if any(spec.plan is not None for spec in specs):
+        groups += ["analytic ik", "batch", "plan"]
     warmup(groups, quiet=not loud)
 
 
@@ -213,6 +222,7 @@ def run_scenarios(
     loud = not (quiet or as_json)
     _compile_for(specs, loud)
     runs: list[tuple[ScenarioSpec, RunLog]] = []
+    comparisons: list[PlanComparison] = []
     skipped: list[dict[str, str]] = []
     for spec in specs:
         if quick:
@@ -224,6 +234,8 @@ def run_scenarios(
                             franka=franka, skipped=missing,
                             after_each=_run_done() if loud else None)  # fmt: skip
         runs += [(spec, log) for log in logs]
+        if spec.plan is not None and logs:
+            comparisons.append(against_plan(spec, logs, loud))
         skipped += [{"scenario": spec.name, "scheme": label, "reason": why}
                     for label, why in missing]  # fmt: skip
     if not runs and skipped:
@@ -232,12 +244,13 @@ def run_scenarios(
                   file=sys.stderr)  # fmt: skip
         return 2
     description = " ".join(f"{s.description}." for s in specs)
-    report = _write_report(output.folder, runs, title, description, output.force)
+    report = _write_report(output.folder, runs, title, description, output.force, comparisons)
     summaries = [summarise(spec.robot, log) for spec, log in runs]
     steps = 100 if quick else 1500
     if as_json:
         payload: dict[str, Any] = {"report": str(report) if report else None, "runs": summaries,
-                                   "skipped": skipped}  # fmt: skip
+                                   "skipped": skipped,
+                                   "plan": [c.summary() for c in comparisons]}  # fmt: skip
         if examples:
             payload.update(examples=worked_examples(), compiled_loop=compiled_loop(steps))
         print(json.dumps(payload))
@@ -247,6 +260,11 @@ def run_scenarios(
             print(line)
         for miss in skipped:
             print(f"not run: {miss['scenario']}, {miss['scheme']}: {miss['reason']}")
+        for found in comparisons:
+            print(f"\n{found.scenario}: against the global optimum (dynamic programming)")
+            print(found.table())
+            for line in found.lines():
+                print(f"- {line}")
         if report is not None:
             print(f"\nreport: {report}")
     if after is not None:
@@ -267,6 +285,20 @@ def run_scenarios(
             print(f"- {row['loop']}: {row['median_us']} µs per step, max position error "
                   f"{row['max_error_mm']} mm")  # fmt: skip
     return 0
+
+
+def against_plan(spec: ScenarioSpec, logs: Sequence[RunLog], loud: bool) -> PlanComparison:
+    """The scenario's runs against the global plan its ``[plan]`` table asks for."""
+    settings = spec.plan
+    assert settings is not None
+    if loud:
+        print(f"{spec.name}: planning the path globally ({settings.resolution} values per "
+              f"sample, dt {settings.dt:g} s)", file=sys.stderr, flush=True)  # fmt: skip
+    return compare_with_plan(
+        spec, objective=settings.objective, resolution=settings.resolution,  # type: ignore[arg-type]
+        parameter=settings.parameter, dt=settings.dt, clearance=settings.clearance,  # type: ignore[arg-type]
+        qdd_max=settings.qdd_max, logs=logs,
+    )  # fmt: skip
 
 
 def run_demo(output: Output) -> int:

@@ -108,6 +108,10 @@ def main(args: argparse.Namespace) -> int:
               f"{report.skipped} already done{redone}, {report.queries:,} queries in "
               f"{report.seconds:.1f} s ({report.queries_per_second:,.0f}/s, {report.engine}, "
               f"{report.workers} workers)")  # fmt: skip
+        if report.kind == "path_plans" and not args.quiet:
+            from ..sweeps.kinds.plans import table
+
+            print(table(args.out))
         if args.reuleaux:
             print(f"Reuleaux map: {result['reuleaux']}")
         if args.rows:

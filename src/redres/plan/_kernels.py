@@ -7,11 +7,18 @@ Entry points and their call tree::
         order of that joint (``order``, ``keys``)
     forward(q, start, order, keys, key, delta, active, value, bottleneck, edge_weight,
             best, parent, reached, counts)
-        _window, _allowed: the DP recursion (redres.plan.planner docstring)
+        _window, _allowed: the DP recursion (redres.plan.dp docstring)
     backward(q, start, order, keys, key, delta, active, ends)
         _window, _allowed: which nodes lead to the last sample
     components(q, start, order, keys, key, delta, on, root) -> count
         _window, _allowed, _find: union-find over the transitions between ``on`` nodes
+    edge_list(q, start, order, keys, key, delta, active) -> (first, source, target, tested)
+        _window, _allowed: the transitions as edges, grouped by their first node
+    edge_forward(q, first, source, target, accel, active, opening, value, bottleneck,
+                 edge_weight, best, parent, reached, counts)
+        _steady, _distance: the DP over edges (acceleration limits)
+    edge_backward(q, first, source, target, accel, active, last, ends)
+        _steady: which edges lead to the last sample
 
 The nodes of sample ``k`` are the rows ``start[k]:start[k + 1]`` of ``q`` ``(M, n)``.
 A transition from node ``i`` (sample ``k``) to node ``j`` (sample ``k + 1``) is allowed
@@ -190,3 +197,132 @@ def components(q, start, order, keys, key, delta, on, root):
             seen[root[i]] = True
             count += 1
     return count
+
+
+# ------------------------------------------------------- acceleration limits: a DP over edges
+
+
+@kernel
+def edge_list(q, start, order, keys, key, delta, active):
+    """The allowed transitions between ``active`` nodes as edges, grouped by their first
+    node in row order: returns ``(first (M + 1,), source (E,), target (E,), tested)``, the
+    edges of node ``i`` being ``first[i]:first[i + 1]`` and ``tested`` the node pairs the
+    window search ran the test on."""
+    K = len(start) - 1
+    M = q.shape[0]
+    first = np.zeros(M + 1, dtype=np.int64)
+    tested = 0
+    for k in range(K - 1):  # count
+        a1, b1 = start[k + 1], start[k + 2]
+        s = key[k + 1]
+        for i in range(start[k], start[k + 1]):
+            if not active[i]:
+                continue
+            lo, hi = _window(keys, a1, b1, q[i, s], delta[s])
+            for p in range(lo, hi):
+                j = order[p]
+                if active[j]:
+                    tested += 1
+                    if _allowed(q, i, j, delta):
+                        first[i + 1] += 1
+    for m in range(M):
+        first[m + 1] += first[m]
+    source = np.empty(first[M], dtype=np.int64)
+    target = np.empty(first[M], dtype=np.int64)
+    for k in range(K - 1):  # fill
+        a1, b1 = start[k + 1], start[k + 2]
+        s = key[k + 1]
+        for i in range(start[k], start[k + 1]):
+            if not active[i]:
+                continue
+            lo, hi = _window(keys, a1, b1, q[i, s], delta[s])
+            e = first[i]
+            for p in range(lo, hi):
+                j = order[p]
+                if active[j] and _allowed(q, i, j, delta):
+                    source[e], target[e] = i, j
+                    e += 1
+    return first, source, target, tested
+
+
+@kernel(inline=True)
+def _steady(q, h, i, j, accel):
+    """Whether ``|q[j] − 2 q[i] + q[h]| ≤ accel`` for every joint (the central second
+    difference of three consecutive samples, times ``dt²``)."""
+    for c in range(q.shape[1]):
+        if abs(q[j, c] - 2.0 * q[i, c] + q[h, c]) > accel[c]:
+            return False
+    return True
+
+
+@kernel
+def edge_forward(q, first, source, target, accel, active, opening, value, bottleneck,
+                 edge_weight, best, parent, reached, counts):  # fmt: skip
+    """The DP of :func:`forward` with an edge ``h → i`` as the state, so that a step
+    ``i → j`` is allowed only when ``|q[j] − 2 q[i] + q[h]| ≤ accel`` as well; over the
+    edges whose two nodes are ``active``; the nodes of the first sample are the rows
+    before ``opening``. ``best[e]``, ``parent[e]`` (the previous edge, −1
+    on the first samples' edges), ``reached[e]`` per edge; ``counts``: edge pairs tested,
+    allowed. The edges of the first sample start the recursion (its velocity is free)."""
+    E = len(target)
+    for e in range(E):
+        parent[e] = -1
+        reached[e] = False
+        best[e] = -math.inf if bottleneck else math.inf
+    for e in range(first[opening]):  # the first sample's edges
+        i, j = source[e], target[e]
+        if not (active[i] and active[j]):
+            continue
+        reached[e] = True
+        if bottleneck:
+            best[e] = min(value[i], value[j])
+        else:
+            best[e] = (value[i] + edge_weight * _distance(q, i, j)) + value[j]
+    for e in range(E):  # edges in the order of their first node: sample by sample
+        if not reached[e]:
+            continue
+        h, i = source[e], target[e]
+        for f in range(first[i], first[i + 1]):
+            j = target[f]
+            if not active[j]:
+                continue
+            counts[0] += 1
+            if not _steady(q, h, i, j, accel):
+                continue
+            counts[1] += 1
+            if bottleneck:
+                cand = min(best[e], value[j])
+                if cand > best[f] or not reached[f]:
+                    best[f], parent[f], reached[f] = cand, e, True
+            else:
+                cand = (best[e] + edge_weight * _distance(q, i, j)) + value[j]
+                if cand < best[f] or not reached[f]:
+                    best[f], parent[f], reached[f] = cand, e, True
+
+
+@kernel
+def edge_backward(q, first, source, target, accel, active, last, ends):
+    """``ends[e]``: an allowed path through ``active`` nodes continues edge ``e`` to the
+    last sample (whose nodes are the rows from ``last`` on)."""
+    for e in range(len(target) - 1, -1, -1):
+        i, j = source[e], target[e]
+        ends[e] = False
+        if not (active[i] and active[j]):
+            continue
+        if j >= last:
+            ends[e] = True
+            continue
+        for f in range(first[j], first[j + 1]):
+            if ends[f] and _steady(q, i, j, target[f], accel):
+                ends[e] = True
+                break
+
+
+@kernel(inline=True)
+def _distance(q, i, j):
+    """``‖q[j] − q[i]‖``, summed joint by joint in order."""
+    ss = 0.0
+    for c in range(q.shape[1]):
+        d = q[j, c] - q[i, c]
+        ss += d * d
+    return math.sqrt(ss)

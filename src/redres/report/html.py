@@ -259,6 +259,7 @@ def render_page(
     plots: Sequence[RobotPlots],
     plotly_js: str,
     version: str,
+    against_plan: str = "",
 ) -> str:
     """The whole page as one string.
 
@@ -270,6 +271,8 @@ def render_page(
         plots: the PNG plots of each robot.
         plotly_js: the plotly.js bundle, inlined once.
         version: redres version, shown in the header.
+        against_plan: the section comparing the runs with the global plan (HTML,
+            escaped; :func:`redres.report.global_plan.comparison_section`), or empty.
     """
     sections = "".join(_plot_section(p) for p in plots)
     shared, figures_list = share_meshes([fig for _, _, fig in views])
@@ -287,6 +290,7 @@ def render_page(
 one self-contained file, works offline</p>
 {_paragraphs(description)}</header>
 <section id="summary"><h2>Summary</h2>{table}</section>
+{against_plan}
 {_arm_section(views)}
 {sections}
 <footer>Made with redres {escape(version)}. Plots: matplotlib; 3D view: plotly.js (MIT).

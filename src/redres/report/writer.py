@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import InvalidParameterError, ShapeError, describe_os_error, shown_path
-from . import html, plots, view3d
+from . import global_plan, html, plots, view3d
 from ._deps import check_report_dependencies, require
 from .table import table_html
 
@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from ..control import RunLog
     from ..objectives import Obstacle
     from ..robot import Robot
+    from ..scenarios.planned import PlanComparison
 
 #: A run of the report: ``(robot, log)``, or ``(robot, log, obstacles)`` to draw them.
 Run = tuple["Robot", "RunLog"] | tuple["Robot", "RunLog", Sequence["Obstacle"]]
@@ -118,6 +119,7 @@ def _build(
     description: str,
     frames: int,
     max_points: int,
+    comparisons: Sequence[PlanComparison] = (),
 ) -> None:
     """Write every file of the report into ``staging``."""
     from .._version import __version__
@@ -125,6 +127,9 @@ def _build(
 
     colours = plots.palette([plots.run_name(log) for _, log, _ in pairs])
     robot_plots = _write_plots(staging, pairs, colours, max_points)
+    against_plan, pngs = global_plan.comparison_section(comparisons, colours)
+    for name, data in pngs.items():
+        (staging / name).write_bytes(data)
     views = []
     for robot, log, obstacles in pairs:
         anim = view3d.arm_animation(robot, log, frames=frames, obstacles=obstacles)
@@ -138,6 +143,7 @@ def _build(
         plots=robot_plots,
         plotly_js=require("plotly.offline").get_plotlyjs(),
         version=__version__,
+        against_plan=against_plan,
     )
     (staging / PAGE).write_text(page, encoding="utf-8")
 
@@ -241,6 +247,7 @@ def write_report(
     frames: int = 80,
     max_points: int = 2000,
     force: bool = False,
+    comparisons: Sequence[PlanComparison] = (),
 ) -> Path:
     """Write a report of several runs: PNG plots per robot and one self-contained page.
 
@@ -262,6 +269,9 @@ def write_report(
             :func:`redres.scenarios.runner.summarise` of each run).
         frames: animation frames per run in the 3D view (≥ 2).
         max_points: at most this many samples per plotted curve (≥ 4).
+        comparisons: the runs against the global plan of their path
+            (:func:`redres.scenarios.planned.compare_with_plan`): a section "Against the
+            global optimum" with a sentence, a table row and a bar per scheme.
 
     Returns:
         Path of ``report.html`` in ``out_dir``.
@@ -283,7 +293,7 @@ def write_report(
     _clean_stale_staging(target)
     staging = Path(tempfile.mkdtemp(prefix=STAGING, dir=target))
     try:
-        _build(staging, pairs, rows, title, description, frames, max_points)
+        _build(staging, pairs, rows, title, description, frames, max_points, comparisons)
         (staging / MARKER).write_text(_MARKER_TEXT, encoding="utf-8")
         in_the_way = [target / p.name for p in staging.iterdir() if (target / p.name).is_dir()]
         if in_the_way:

@@ -14,6 +14,7 @@ millimetres, not exactly).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
@@ -74,6 +75,35 @@ class PlanComparison:
         body += [(r.scheme, f"{r.value:+.4f}", f"{r.percent:.1f}") for r in self.rows]
         return aligned_table(head, body)
 
+    def lines(self) -> list[str]:
+        """One sentence per scheme: "gradient projection: min margin 0.277 rad, 57.4 % of
+        the optimum 0.483 rad" (the optimum's own line when no path exists)."""
+        measure = COMPARED[self.objective][0]
+        if not math.isfinite(self.optimum):
+            first = self.plan.stats.first_infeasible
+            first = self.plan.stats.first_unreachable if first is None else first
+            return [f"{self.scenario}: no admissible path for the global plan (first "
+                    f"impossible sample {first})"]  # fmt: skip
+        return [
+            f"{r.scheme}: {measure} {r.value:.3f} {self.unit}, {r.percent:.1f} % of the "
+            f"optimum {self.optimum:.3f} {self.unit}"
+            for r in self.rows
+        ]
+
+    def summary(self) -> dict[str, Any]:
+        """The comparison as plain data (JSON): scenario, objective, unit, optimum and
+        one ``{scheme, value, percent}`` per scheme."""
+
+        def number(x: float) -> float | None:
+            return x if math.isfinite(x) else None
+
+        return {
+            "scenario": self.scenario, "objective": self.objective, "unit": self.unit,
+            "optimum": number(self.optimum),
+            "rows": [{"scheme": r.scheme, "value": number(r.value), "percent": number(r.percent)}
+                     for r in self.rows],
+        }  # fmt: skip
+
 
 def compare_with_plan(
     scenario: ScenarioSpec | str,
@@ -85,6 +115,8 @@ def compare_with_plan(
     clearance: float | None = None,
     duration: float | None = None,
     progress: bool | None = False,
+    qdd_max: float | None = None,
+    logs: Sequence[RunLog] | None = None,
 ) -> PlanComparison:
     """Run the scenario's schemes and plan its path; each scheme's objective against the
     optimum (module docstring).
@@ -102,6 +134,9 @@ def compare_with_plan(
             which keeps 0).
         duration: s of the path (default the scenario's).
         progress: the runs' progress bars.
+        qdd_max: the plan's acceleration limit, rad/s² (None: none).
+        logs: the scenario's runs, if already run (``redres run`` passes its own);
+            default: run them here.
 
     Raises:
         InvalidParameterError: an objective not compared here; ``"obstacle_clearance"``
@@ -123,10 +158,10 @@ def compare_with_plan(
     count = math.floor(spec.duration / dt + 1e-9) + 1
     poses = np.array([spec.trajectory.sample(k * dt).pose for k in range(count)])
     plan = plan_path(spec.robot, poses, dt=dt, parameter=parameter, resolution=resolution,
-                     objective=objective, q0=spec.q0,
+                     objective=objective, q0=spec.q0, qdd_max=qdd_max,
                      obstacles=spec.obstacles if keep else None,
                      clearance=0.0 if clearance is None else clearance)  # fmt: skip
-    logs = tuple(run_scenario(spec, progress=progress))
+    logs = tuple(run_scenario(spec, progress=progress) if logs is None else logs)
     rows = tuple(
         ComparisonRow(log.label or log.scheme, value, 100.0 * value / plan.objective)
         for log in logs

@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib.util
 
 __all__ = [
+    "PlanSettings",
     "ScenarioError",
     "ScenarioSpec",
     "SchemeSpec",
@@ -68,6 +69,50 @@ class SchemeSpec:
     build: Callable[[], Any]  # a Scheme, or a torque law for "osc"
 
 
+@dataclass(frozen=True)
+class PlanSettings:
+    """A scenario's ``[plan]`` table: plan its path globally and compare every scheme with
+    the optimum (:func:`redres.scenarios.planned.compare_with_plan`, whose keywords these
+    are).
+
+    Attributes:
+        objective: ``"joint_limit_margin"``, ``"obstacle_clearance"`` or
+            ``"path_length"``.
+        resolution: parameter values per sample. parameter: ``"q7"``, ``"arm_angle"``
+            or None (the robot's default). dt: s between the plan's samples.
+        clearance: m the plan's nodes keep to the obstacles (None: no constraint).
+        qdd_max: rad/s² the plan's accelerations keep (None: no limit).
+    """
+
+    objective: str = "joint_limit_margin"
+    resolution: int = 360
+    parameter: str | None = None
+    dt: float = 0.01
+    clearance: float | None = None
+    qdd_max: float | None = None
+
+
+#: What a ``[plan]`` table's ``objective`` may name.
+PLAN_OBJECTIVES = ("joint_limit_margin", "obstacle_clearance", "path_length")
+
+
+def _plan(r: Reader) -> PlanSettings:
+    objective = r.string("objective", "joint_limit_margin")
+    if objective not in PLAN_OBJECTIVES:
+        raise r.fail("objective", f"use one of {list(PLAN_OBJECTIVES)}; got {objective!r}")
+    parameter = r.get("parameter", "string", None)
+    if parameter not in (None, "q7", "arm_angle"):
+        raise r.fail("parameter", f"use 'q7' or 'arm_angle'; got {parameter!r}")
+    clearance = r.get("clearance", "number", None)
+    if clearance is not None and clearance < 0:
+        raise r.fail("clearance", f"must be >= 0; got {clearance}")
+    qdd = r.get("qdd_max", "number", None)
+    if qdd is not None and qdd <= 0:
+        raise r.fail("qdd_max", f"must be > 0; got {qdd}")
+    return PlanSettings(objective, r.integer("resolution", 360, minimum=2), parameter,
+                        r.positive("dt", 0.01), clearance, qdd)  # fmt: skip
+
+
 @dataclass
 class ScenarioSpec:
     """A validated scenario."""
@@ -92,6 +137,8 @@ class ScenarioSpec:
     mjcf: Path | None = None
     #: The scenario's path from another start pose (4x4): a real robot starts where it is.
     trajectory_from: Callable[[np.ndarray], Trajectory] | None = None
+    #: Plan the path globally and compare the schemes with the optimum (``[plan]``).
+    plan: PlanSettings | None = None
 
 
 def _robot(r: Reader, base: Path) -> tuple[Robot, np.ndarray, Path | None]:
@@ -326,7 +373,7 @@ def parse_scenario(
     """Validate a parsed scenario (a dict as :mod:`tomllib` returns)."""
     top = Reader(data, "", file, ScenarioError)
     name, description = top.string("name", Path(file).stem), top.string("description", "")
-    top.used.update({"robot", "trajectory", "run", "obstacles", "schemes"})
+    top.used.update({"robot", "trajectory", "run", "obstacles", "schemes", "plan"})
     if "robot" not in data:
         raise ScenarioError(f'{file}: missing [robot] table; add [robot] with model = "panda"')
     robot, q0, mjcf = top.read(data["robot"], "[robot]", partial(_robot, base=base))
@@ -364,10 +411,11 @@ def parse_scenario(
         _SchemeReader(t, top.at("schemes", i), file, obstacles, robot.n, dt).spec()
         for i, t in enumerate(tables)
     ]
+    plan = top.read(data["plan"], "[plan]", _plan) if "plan" in data else None
     top.done()
     return ScenarioSpec(
         name, description, robot, q0, FrameTask, trajectory, dt, duration, gain, obstacles,
-        schemes, file, shaping, plant, mjcf, trajectory_from,
+        schemes, file, shaping, plant, mjcf, trajectory_from, plan,
     )  # fmt: skip
 
 
