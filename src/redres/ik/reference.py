@@ -10,6 +10,7 @@ algorithm is in the :mod:`redres.ik` docstring.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -30,7 +31,7 @@ from ._layout import (
     PREFERENCE_STEP,
     STICKY_ERROR,
 )
-from .options import IKResult, _Options, limit_arrays
+from .options import ARM_ANGLE_TOL, IKResult, _Options, limit_arrays
 
 if TYPE_CHECKING:
     from ..robot import Robot
@@ -304,3 +305,52 @@ def _cap(dq: FloatArray, largest: float) -> FloatArray:
     """``dq`` scaled down so that no entry exceeds ``largest`` in magnitude."""
     peak = float(abs(dq).max())
     return dq * (largest / peak) if peak > largest else dq
+
+
+def arm_angle_solve(
+    robot: Robot,
+    fid: int,
+    spec: tuple[FloatArray, FloatArray | None],
+    options: _Options,
+    phi: float,
+    q_start: FloatArray,
+    rng: np.random.Generator,
+    start: float,
+) -> IKResult:
+    """The reference path with the arm-angle preference, re-solved from random
+    configurations (other branches of the self-motion) while the preference is missed
+    and the budget lasts (``max_restarts`` solves, ``timeout_s``): the result closest
+    to ``phi`` is returned, with the angle reached and whether it is met."""
+    from ..tasks import ArmAngleTask, wrap_angle
+
+    arm, best, best_miss = ArmAngleTask(), None, math.inf
+    q, deadline = q_start, start + options.timeout_s
+    for _ in range(options.max_restarts + 1):
+        solver = ReferenceSolver(robot, fid, spec, options, None, phi)
+        result = solver.solve(q, partial(_uniform, rng, solver.sample_lo, solver.sample_hi), start)
+        if result.converged:
+            reached = float(arm.value(robot, result.q))
+            miss = abs(wrap_angle(reached - phi))
+            if miss < best_miss:
+                best, best_miss = dataclasses.replace(result, arm_angle=reached), miss
+        elif best is None:
+            best = result
+        if best_miss <= ARM_ANGLE_TOL or time.perf_counter() > deadline:
+            break
+        q = rng.uniform(solver.sample_lo, solver.sample_hi)
+    assert best is not None
+    if not best.converged:
+        return best
+    met = best_miss <= ARM_ANGLE_TOL
+    note = "" if met else (
+        f"; arm-angle preference not met: reached {best.arm_angle:.4f} rad, wanted "
+        f"{phi:.4f} rad (the closest of the solutions found)"
+    )  # fmt: skip
+    return dataclasses.replace(best, preference_met=met, message=best.message + note,
+                               time_s=time.perf_counter() - start)  # fmt: skip
+
+
+def _uniform(rng: np.random.Generator, lo: FloatArray, hi: FloatArray, _: int) -> FloatArray:
+    """A configuration drawn by ``rng`` within ``[lo, hi]`` (restarts of the arm-angle
+    preference)."""
+    return np.asarray(rng.uniform(lo, hi))

@@ -88,7 +88,6 @@ import math
 import secrets
 import time
 from collections.abc import Callable
-from functools import partial
 from typing import TYPE_CHECKING, Any
 from weakref import WeakKeyDictionary
 
@@ -100,8 +99,8 @@ from ..errors import InvalidParameterError
 from ..linalg import AdaptiveDamping, rate_step
 from . import _layout as layout
 from .closed import answer, full_pose
-from .options import ARM_ANGLE_TOL, IKResult, _Options, _options, _parse_target, limit_arrays
-from .reference import ReferenceSolver
+from .options import IKResult, _Options, _options, _parse_target, limit_arrays
+from .reference import ReferenceSolver, arm_angle_solve
 
 if TYPE_CHECKING:
     from ..robot import Robot
@@ -242,16 +241,10 @@ def ik(
     options = dataclasses.replace(options, timeout_s=timeout)
     if arm_angle is not None:
         rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-        return _arm_angle_solve(robot, fid, spec, options, as_scalar(arm_angle, "arm_angle"),
+        return arm_angle_solve(robot, fid, spec, options, as_scalar(arm_angle, "arm_angle"),
                                 q_start, rng, start)  # fmt: skip
     solver = ReferenceSolver(robot, fid, spec, options, q_pref, None)
     return solver.solve(q_start, _restarts(seed, solver.sample_lo, solver.sample_hi), start)
-
-
-def _uniform(rng: np.random.Generator, lo: FloatArray, hi: FloatArray, _: int) -> FloatArray:
-    """A configuration drawn by ``rng`` within ``[lo, hi]`` (restarts of the arm-angle
-    preference)."""
-    return np.asarray(rng.uniform(lo, hi))
 
 
 def _restarts(
@@ -265,49 +258,6 @@ def _restarts(
     assert module is not None  # the plain twin needs no numba
     uniform = module.uniform
     return lambda r: lo + (hi - lo) * np.array([uniform(key, 0, r, j) for j in range(len(lo))])
-
-
-def _arm_angle_solve(
-    robot: Robot,
-    fid: int,
-    spec: tuple[FloatArray, FloatArray | None],
-    options: _Options,
-    phi: float,
-    q_start: FloatArray,
-    rng: np.random.Generator,
-    start: float,
-) -> IKResult:
-    """The reference path with the arm-angle preference, re-solved from random
-    configurations (other branches of the self-motion) while the preference is missed
-    and the budget lasts (``max_restarts`` solves, ``timeout_s``): the result closest
-    to ``phi`` is returned, with the angle reached and whether it is met."""
-    from ..tasks import ArmAngleTask, wrap_angle
-
-    arm, best, best_miss = ArmAngleTask(), None, math.inf
-    q, deadline = q_start, start + options.timeout_s
-    for _ in range(options.max_restarts + 1):
-        solver = ReferenceSolver(robot, fid, spec, options, None, phi)
-        result = solver.solve(q, partial(_uniform, rng, solver.sample_lo, solver.sample_hi), start)
-        if result.converged:
-            reached = float(arm.value(robot, result.q))
-            miss = abs(wrap_angle(reached - phi))
-            if miss < best_miss:
-                best, best_miss = dataclasses.replace(result, arm_angle=reached), miss
-        elif best is None:
-            best = result
-        if best_miss <= ARM_ANGLE_TOL or time.perf_counter() > deadline:
-            break
-        q = rng.uniform(solver.sample_lo, solver.sample_hi)
-    assert best is not None
-    if not best.converged:
-        return best
-    met = best_miss <= ARM_ANGLE_TOL
-    note = "" if met else (
-        f"; arm-angle preference not met: reached {best.arm_angle:.4f} rad, wanted "
-        f"{phi:.4f} rad (the closest of the solutions found)"
-    )  # fmt: skip
-    return dataclasses.replace(best, preference_met=met, message=best.message + note,
-                               time_s=time.perf_counter() - start)  # fmt: skip
 
 
 _WARM: set[str] = set()
