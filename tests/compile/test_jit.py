@@ -381,6 +381,9 @@ def test_a_lock_left_by_a_dead_compiler_does_not_stop_compiling_behind(
     code = "import time; time.sleep(120)"
     other = subprocess.Popen([sys.executable, "-c", code])
     compiler = subprocess.Popen([sys.executable, "-c", code, "redres._warmup", "--behind", "x"])
+    deadline = time.monotonic() + 60  # its command line in /proc (set at its exec)
+    while not _background._is_compiler(compiler.pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
     try:
         old = time.time() - 3600
         lock.write_text(str(other.pid))
