@@ -179,6 +179,8 @@ def _compile_for(specs: Sequence[ScenarioSpec], loud: bool) -> None:
         groups.append("dynamics")
     if any(spec.plan is not None for spec in specs):
         groups += ["analytic ik", "batch", "plan"]
+    if any(spec.obstacles for spec in specs):  # clearances and the obstacle objective
+        groups.append("collision")
     warmup(groups, quiet=not loud)
 
 
