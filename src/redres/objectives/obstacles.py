@@ -85,9 +85,10 @@ def proximities(
     """Surface distances of every (capsule, obstacle) pair at ``q``, m (< 0: penetration);
     the witness on the link is on its centre line (on the obstacle: :class:`~redres.
     collision.PairDistances`)."""
+    qv = as_vector(q, "q", robot.n)  # the argument first, as every public entry point
     model = CollisionModel(robot, obstacles, capsules=capsules, self_collision=False,
                            neutral="self")  # fmt: skip
-    return _proximities(model, as_vector(q, "q", robot.n))
+    return _proximities(model, qv)
 
 
 class ObstacleObjective(Objective):
