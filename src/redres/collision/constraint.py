@@ -69,7 +69,7 @@ class CollisionDetails:
 
 
 class Collisions:
-    """Settings of collision avoidance as a hard constraint (:class:`~redres.QPScheme`).
+    """Settings of collision avoidance as a hard constraint (:class:`~redres.resolution.QPScheme`).
 
     Args:
         obstacles: spheres, points, capsules, boxes and half-spaces, world coordinates

@@ -83,8 +83,8 @@ def proximities(
     robot: Robot, q: FloatArray, obstacles: Sequence[Obstacle], capsules: Sequence[Capsule]
 ) -> list[Proximity]:
     """Surface distances of every (capsule, obstacle) pair at ``q``, m (< 0: penetration);
-    the witness on the link is on its centre line (on the obstacle: :class:`~redres.
-    collision.PairDistances`)."""
+    the witness on the link is on its centre line (on the obstacle:
+    :class:`~redres.collision.PairDistances`)."""
     qv = as_vector(q, "q", robot.n)  # the argument first, as every public entry point
     model = CollisionModel(robot, obstacles, capsules=capsules, self_collision=False,
                            neutral="self")  # fmt: skip
