@@ -38,7 +38,6 @@ Run: ``python benchmarks/collision_mink.py [--scenes 50] [--steps 500]`` (about 
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import time
@@ -51,6 +50,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from _common import load_text, machine, table
 from collision_step import _ring, per_call
+from collision_validation import scene_parser
 from peers import capsule_gap, import_mink, mujoco_capsule_arm
 
 import redres as rr
@@ -225,11 +225,7 @@ def closed_loops(mink: Any, mujoco: Any, scenes: int, steps: int, seed: int) -> 
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", type=int, default=50)
-    parser.add_argument("--steps", type=int, default=500)
-    parser.add_argument("--seed", type=int, default=39)
-    args = parser.parse_args()
+    args = scene_parser(__doc__, 50, 500).parse_args()
     found = import_mink()
     print(f"## {TITLE}\n\n{machine()}\n")
     if found is None:

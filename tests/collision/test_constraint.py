@@ -51,16 +51,21 @@ def test_random_scenes_never_go_below_the_safety_distance(name: str) -> None:
     assert min(soft) < min(hard)  # the scenes do drive the arm into the obstacles
 
 
+def _ball_ahead(ahead: float, radius: float, self_collision: bool) -> tuple:
+    """The Panda at its neutral pose, a ball ``ahead`` m along x from its tip, and a QP
+    scheme constrained by it: ``(robot, q, collisions, scheme, model)``."""
+    robot = rr.models.panda()
+    q = robot.neutral()
+    ball = SphereObstacle(robot.fk(q)[:3, 3] + [ahead, 0.0, 0.0], radius, "ball")
+    collisions = Collisions([ball], influence=0.10, safety=0.01, self_collision=self_collision)
+    return robot, q, collisions, QPScheme(DT, collisions=collisions), collisions.model(robot)
+
+
 def test_a_path_into_an_obstacle_yields_the_task_not_the_row() -> None:
     """The tip driven through a ball: the rows bind, the task is not met
     (``feasible=False``), the distance stays at or above d_s, and the details say so."""
-    robot = rr.models.panda()
-    q = robot.neutral()
+    robot, q, _, scheme, model = _ball_ahead(0.15, 0.05, False)
     tip = robot.fk(q)[:3, 3]
-    ball = SphereObstacle(tip + [0.15, 0.0, 0.0], 0.05, "ball")
-    collisions = Collisions([ball], influence=0.10, safety=0.01, self_collision=False)
-    scheme = QPScheme(DT, collisions=collisions)
-    model = collisions.model(robot)
     task = FrameTask(rows=POSITION)
     controller = rr.Controller(robot, task, scheme, dt=DT, gain=50.0)
     trajectory = Line(robot.fk(q), tip + [0.30, 0.0, 0.0], 1.0)
@@ -213,13 +218,7 @@ def test_warm_started_rows_give_the_cold_solution() -> None:
     where it is not."""
     import daqp
 
-    robot = rr.models.panda()
-    q = robot.neutral()
-    tip = robot.fk(q)[:3, 3]
-    ball = SphereObstacle(tip + [0.12, 0.0, 0.0], 0.04, "ball")
-    collisions = Collisions([ball], influence=0.10, safety=0.01, self_collision=True)
-    scheme = QPScheme(DT, collisions=collisions)
-    model = collisions.model(robot)
+    robot, q, collisions, scheme, model = _ball_ahead(0.12, 0.04, True)
     rate = -collisions.gain / (collisions.influence - collisions.safety)
     compared = {True: 0, False: 0}
     for _ in range(400):

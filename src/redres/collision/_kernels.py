@@ -41,7 +41,7 @@ import math
 import numpy as np
 
 from .._compile import kernel
-from ..robot._chain_kernels import PRISMATIC, _chain_pass
+from ..robot._chain_kernels import _chain_pass, point_columns
 
 _TINY = 1e-30  # squared lengths below this are points / coincident witnesses
 _GOLDEN = 0.6180339887498949  # (√5 − 1)/2
@@ -378,17 +378,7 @@ def chain_frames(links, axes, kinds, depth, q, T, R, t, J):
             t[f, i] = T[i, 3]
             for c in range(3):
                 R[f, i, c] = T[i, c]
-    k = depth[deepest]
-    for j in range(k):  # _chain_pass left [p_j; z_j] (revolute) or [z_j; 0] (prismatic)
-        if kinds[j] != PRISMATIC:
-            px, py, pz = J[0, j], J[1, j], J[2, j]
-            zx, zy, zz = J[3, j], J[4, j], J[5, j]
-            J[0, j] = py * zz - pz * zy
-            J[1, j] = pz * zx - px * zz
-            J[2, j] = px * zy - py * zx
-    for j in range(k, J.shape[1]):
-        for i in range(6):
-            J[i, j] = 0.0
+    point_columns(kinds[: depth[deepest]], 0.0, 0.0, 0.0, J)  # Pinocchio's WORLD columns
 
 
 @kernel

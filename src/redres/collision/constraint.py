@@ -167,6 +167,7 @@ class DamperRows:
         lower: ``−ξ (d − d_s)/(d_i − d_s)`` for the pairs closer than ``d_i``, m/s;
             ``−1e30`` for the others.
         active: how many pairs are closer than ``d_i`` at the last :meth:`update`.
+        bound: whether the answer of the last :meth:`details` call sits on a row.
     """
 
     def __init__(
@@ -175,7 +176,7 @@ class DamperRows:
         self.model, self.G, self.lower = model, G, lower
         self.influence, self.safety = collisions.influence, collisions.safety
         self.rate = -collisions.gain / (collisions.influence - collisions.safety)
-        self.active = 0
+        self.active, self.bound = 0, False
 
     def update(self, q: FloatArray) -> int:
         """The rows at ``q`` (a float vector of size ``n``, checked by the caller), in one
@@ -198,6 +199,8 @@ class DamperRows:
         found = self.model.last(self.G)
         d = found.distance.copy()
         slack = self.G @ qd - self.lower if self.active else None
+        #: whether ``qd`` sits on a row (``ḋ`` within BINDING_TOLERANCE of its bound)
+        self.bound = slack is not None and bool(slack.min() <= BINDING_TOLERANCE)
         resolved, pairs_all, influence = found.resolved, found.pairs, self.influence
 
         def build() -> CollisionDetails:

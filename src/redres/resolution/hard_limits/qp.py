@@ -52,6 +52,7 @@ References:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -169,7 +170,7 @@ class QPScheme(BoxScheme):
         self.damping = as_scalar(damping, "damping", minimum=0.0, strict=True)
         self._qp = QPSolver(solver, solver_options)
         self.solver, self.solver_options = self._qp.name, self._qp.options
-        self._infeasible_before = self._rows_infeasible = False
+        self._infeasible_before = self._rows_infeasible = self._rows_bound = False
         if collisions is not None and not isinstance(collisions, Collisions):
             raise InvalidParameterError(
                 f"collisions must be a redres.Collisions(...); got {type(collisions).__name__}"
@@ -193,7 +194,7 @@ class QPScheme(BoxScheme):
 
     def _reset(self) -> None:
         super()._reset()
-        self._infeasible_before = self._rows_infeasible = False
+        self._infeasible_before = self._rows_infeasible = self._rows_bound = False
 
     def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
         n, m = robot.n, J.shape[0]
@@ -223,6 +224,8 @@ class QPScheme(BoxScheme):
         # warm-up calls with full=False: they must not solve with a factor of this J
         self._end = _compile.entry_point(kq.qp_end, (J, xd, ws.zero, out[0], ws.M, ws.wm, False))
         self._finish = _compile.entry_point(k.epilogue, (J, xd, out[0], ws.M, ws.wm, False, False))
+        self._normal = _compile.entry_point(kq._qp_normal, (J, xd, w, 1e-6, ws.zero, self._P,
+                                                            self._c))  # fmt: skip
         if self._qp.daqp:
             flags, eye, daqp, options = sense(n, m), np.eye(n), self._qp.module, self._qp.options
             self._exact_qp = WarmQP(daqp, options, H=eye, f=self._f, A=J, bupper=self._bu,
@@ -243,12 +246,16 @@ class QPScheme(BoxScheme):
         )  # fmt: skip
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
-        finished, single = None, False
+        damper = self._damper if self.collisions is not None else None
+        near = damper is not None and damper.update(q) > 0
+        finished, single, collided = None, False, False
         if self.levels or not (inside or self._qp.daqp):  # other backends: no warm start
             rows, targets = self._stack(robot, q, J, xd)
             qd, exact, residuals = solve_levels(self._qp, rows, targets, (out[2], out[3]), qd0,
                                                 self.task_weights, self.damping)  # fmt: skip
             out[0] = qd
+        elif near and self._rows_bound:  # the last answer sat on a row: the rows' QPs at once
+            exact, collided = [self._collide(q, J, xd, qd0, out, True, not inside)], True
         elif inside:
             exact = [True]
         else:
@@ -261,15 +268,17 @@ class QPScheme(BoxScheme):
         if single and residual * residual > _MET2 * (xd @ xd):
             exact[0], active, residual = self._refine(J, xd, qd0, out, full, active, residual)
         contact = None
-        if self.collisions is not None:
-            rows = self._damper
-            if rows.update(q) and rows.violated(out[0]):
-                exact[0] = self._collide(q, J, xd, qd0, out, exact[0])
+        if damper is not None:
+            if not collided and near and damper.violated(out[0]):
+                exact[0] = self._collide(q, J, xd, qd0, out, exact[0], not inside)
                 active, residual = self._finish(J, xd, out, ws.M, ws.wm, full, False)
+                collided = True
+            if collided:
                 exact[0] = exact[0] and task_met(J, xd, out[0])
-            elif not rows.active:
+            elif not near:
                 self._rows_infeasible = False
-            contact = rows.details(out[0])
+            contact = damper.details(out[0])
+            self._rows_bound = damper.bound
         levels = residuals if self.levels else [residual]
         return self._result(
             out, codes, Jc, all(exact), active,
@@ -297,7 +306,7 @@ class QPScheme(BoxScheme):
 
     def _collide(
         self, q: FloatArray, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray,
-        met: bool,
+        met: bool, normal: bool,
     ) -> bool:  # fmt: skip
         """The step again with the collision rows ``G q̇ ≥ lower`` (module docstring): the
         exact QP, else the least-violating one, else the same with the acceleration limits
@@ -307,18 +316,20 @@ class QPScheme(BoxScheme):
         cannot make an infeasible QP feasible). The first two are DAQP problems
         warm-started from the previous step's; after a step whose exact QP was infeasible
         the least-violating one comes first, and the exact one is skipped when its answer
-        proves it infeasible (:meth:`_rows_proved`)."""
+        proves it infeasible (:meth:`_rows_proved`). ``normal``: ``qp_begin`` built the
+        least-violating QP's ``P``, ``c`` this step (its optimum was not in the box).
+        After a step whose answer sat on a row, the step comes here without solving the
+        QPs without rows first (``met`` is then only a hint: the exact QP with the rows is
+        tried, unless infeasible at the last step)."""
         n, m = J.shape[1], J.shape[0]
         later = met and self._rows_infeasible
         if met and not later:
             self._rows_infeasible = not self._rows_exact(J, out)
             if not self._rows_infeasible:
                 return True
-        lam2 = self.damping * self.damping
-        JW = J.T * self._w
-        P = JW @ J
-        P.flat[:: n + 1] += lam2
-        c = -(JW @ xd) - lam2 * qd0
+        P, c = self._P, self._c
+        if not normal:
+            self._normal(J, xd, self._w, self.damping * self.damping, qd0, P, c)
         G, lower = self._A_all[m:], self._bl_all[n + m :]
         self._lv_bl[n:] = lower
         self._lv_bu[:n], self._lv_bl[:n] = out[3], out[2]
@@ -363,9 +374,8 @@ class QPScheme(BoxScheme):
         least-violating QP, so its optimum has ``‖J x − ẋ‖_W ≤ λ max_box ‖q̇ − q̇_0‖``;
         a larger residual (beyond round-off) rules ``x_e`` out."""
         r = J @ x - xd
-        far = np.maximum(np.abs(out[3] - qd0), np.abs(out[2] - qd0))
-        bound = self.damping * float(np.sqrt(far @ far))
-        return float(np.sqrt(self._w @ (r * r))) > 1.001 * bound + 1e-12
+        far = float(np.abs(out[2:4] - qd0).max()) * math.sqrt(len(x))  # ≥ max_box ‖q̇ − q̇_0‖
+        return float(np.sqrt(self._w @ (r * r))) > 1.001 * self.damping * far + 1e-12
 
     def _single(
         self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray, full: bool
