@@ -67,6 +67,16 @@ TIP_BODY = "panda_hand_tcp"
 TITLE = "Collision avoidance as a hard constraint: redres and mink"
 
 
+NOT_THE_SAME = """
+Where the two are not the same: redres' task is exact (CLIK, gain 50/s, the reference
+velocity fed forward), mink's a least-squares cost solved for the whole error in one step;
+redres also bounds joint accelerations and mink does not (the path is faster than the arm
+may accelerate: most of the final tip error is that, more of it for redres); below d_s
+mink only forbids approach (Δd ≥ 0) where redres demands separation (neither run went
+there); a step is each library's whole control step, its own kinematics included (mink's
+`Configuration.update`: MuJoCo's; redres': the compiled chain and Pinocchio)."""
+
+
 def mink_gain() -> float:
     """mink's ``gain`` that gives redres' damper row above ``d_s`` (module docstring)."""
     return GAIN * DT * DT / (INFLUENCE - SAFETY)
@@ -237,6 +247,7 @@ def main() -> None:
           f"{SAFETY}, gain = ξ dt²/(d_i − d_s) = {mink_gain():.4g}.\n")  # fmt: skip
     one_step(mink, mujoco)
     closed_loops(mink, mujoco, args.scenes, args.steps, args.seed)
+    print(NOT_THE_SAME)
 
 
 if __name__ == "__main__":

@@ -373,9 +373,12 @@ class QPScheme(BoxScheme):
         infeasible: a feasible ``x_e`` would cost ``½λ²‖x_e − q̇_0‖²`` in the
         least-violating QP, so its optimum has ``‖J x − ẋ‖_W ≤ λ max_box ‖q̇ − q̇_0‖``;
         a larger residual (beyond round-off) rules ``x_e`` out."""
-        r = J @ x - xd
-        far = float(np.abs(out[2:4] - qd0).max()) * math.sqrt(len(x))  # ≥ max_box ‖q̇ − q̇_0‖
-        return float(np.sqrt(self._w @ (r * r))) > 1.001 * self.damping * far + 1e-12
+        r = J @ x
+        r -= xd
+        size2 = float(r @ r) if self.task_weights is None else float(r @ (self._w * r))
+        gap = out[2:4] - qd0
+        far = max(float(gap.max()), -float(gap.min())) * math.sqrt(len(x))  # ≥ max_box ‖q̇ − q̇_0‖
+        return math.sqrt(size2) > 1.001 * self.damping * far + 1e-12
 
     def _single(
         self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray, full: bool
