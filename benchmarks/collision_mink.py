@@ -65,6 +65,7 @@ INFLUENCE, SAFETY, GAIN = 0.10, 0.01, 0.5
 POSITION = ["x", "y", "z"]
 TIP_BODY = "panda_hand_tcp"
 TITLE = "Collision avoidance as a hard constraint: redres and mink"
+DEFAULT_GAIN = "mink, its default gain 0.85"
 
 
 NOT_THE_SAME = """
@@ -72,9 +73,12 @@ Where the two are not the same: redres' task is exact (CLIK, gain 50/s, the refe
 velocity fed forward), mink's a least-squares cost solved for the whole error in one step;
 redres also bounds joint accelerations and mink does not (the path is faster than the arm
 may accelerate: most of the final tip error is that, more of it for redres); below d_s
-mink only forbids approach (Δd ≥ 0) where redres demands separation (neither run went
-there); a step is each library's whole control step, its own kinematics included (mink's
-`Configuration.update`: MuJoCo's; redres': the compiled chain and Pinocchio)."""
+mink only forbids approach (Δd ≥ 0) where redres demands separation (the first two runs
+never went there); a step is each library's whole control step, its own kinematics included (mink's
+`Configuration.update`: MuJoCo's; redres': the compiled chain and Pinocchio). The last
+row keeps mink's default gain 0.85 with the same distances: its bound
+``Δd ≥ −gain (d − d_min)/dt`` is then 850 times the gap per 1 ms step, no braking
+before ``d_min``."""
 
 
 def mink_gain() -> float:
@@ -105,7 +109,8 @@ class MinkLoop:
     """mink's control step on the same arm: a position task, the three limits, DAQP."""
 
     def __init__(self, mink: Any, mujoco: Any, robot: rr.Robot, obstacles: list[Any],
-                 pairs: list[Any], collide: bool = True) -> None:  # fmt: skip
+                 pairs: list[Any], collide: bool = True,
+                 gain: float | None = None) -> None:  # fmt: skip
         self.mink, self.mujoco = mink, mujoco
         self.model = mujoco_capsule_arm(mujoco, robot, obstacles)
         self.configuration = mink.Configuration(self.model)
@@ -114,7 +119,8 @@ class MinkLoop:
         self.limits = [mink.ConfigurationLimit(self.model),
                        mink.VelocityLimit(self.model, dict(zip(names, robot.qd_max)))]  # fmt: skip
         self.collision = mink.CollisionAvoidanceLimit(
-            self.model, [([p.first], [p.second]) for p in pairs], gain=mink_gain(),
+            self.model, [([p.first], [p.second]) for p in pairs],
+            gain=mink_gain() if gain is None else gain,
             minimum_distance_from_collisions=SAFETY, collision_detection_distance=INFLUENCE,
         )  # fmt: skip
         if collide:
@@ -196,9 +202,10 @@ def _run(loop: Any, q0: np.ndarray, trajectory: Line, steps: int) -> tuple[np.nd
 def closed_loops(mink: Any, mujoco: Any, scenes: int, steps: int, seed: int) -> None:
     robot = rr.models.panda()
     rng = np.random.default_rng(seed)
-    found: dict[str, list[tuple[float, float]]] = {"redres": [], "mink": []}
-    step_times: dict[str, list[np.ndarray]] = {"redres": [], "mink": []}
-    failures = {"redres": 0, "mink": 0}
+    names = ("redres", "mink", DEFAULT_GAIN)
+    found: dict[str, list[tuple[float, float]]] = {name: [] for name in names}
+    step_times: dict[str, list[np.ndarray]] = {name: [] for name in names}
+    failures = dict.fromkeys(names, 0)
     check = 0.0
     before = os.getloadavg()
     for _ in range(scenes):
@@ -206,8 +213,10 @@ def closed_loops(mink: Any, mujoco: Any, scenes: int, steps: int, seed: int) -> 
         redres_loop = RedresLoop(robot, scene.obstacles)
         model = redres_loop.collisions.model(robot)
         mink_loop = MinkLoop(mink, mujoco, robot, scene.obstacles, model.pairs)
+        mink_default = MinkLoop(mink, mujoco, robot, scene.obstacles, model.pairs, gain=0.85)
         trajectory = Line(robot.fk(scene.q0), scene.end, steps * DT)
-        for name, loop in (("redres", redres_loop), ("mink", mink_loop)):
+        loops = {"redres": redres_loop, "mink": mink_loop, DEFAULT_GAIN: mink_default}
+        for name, loop in loops.items():
             qs, times = _run(loop, scene.q0, trajectory, steps)
             d = np.array([model.distances(q).min() for q in qs])
             worst = int(np.argmin(d))
@@ -220,7 +229,7 @@ def closed_loops(mink: Any, mujoco: Any, scenes: int, steps: int, seed: int) -> 
     print(f"{scenes} random scenes (seed {seed}), {steps} steps each at {1 / DT:.0f} Hz, "
           f"d_s = {SAFETY} m; {load_text(before, after)}\n")  # fmt: skip
     rows = []
-    for name in ("redres", "mink"):
+    for name in names:
         d = np.array([r[0] for r in found[name]])
         end = np.array([r[1] for r in found[name]])
         t = np.concatenate(step_times[name])
