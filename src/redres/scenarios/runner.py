@@ -37,6 +37,9 @@ def summarise(robot: Robot, log: RunLog) -> dict[str, Any]:
         log = replace(log, joint_names=tuple(robot.joint_names), q_min=robot.q_min.copy(),
                       q_max=robot.q_max.copy())  # fmt: skip
     out = log.summary()
+    record = log.extra.get("collision_pairs")
+    if record is not None and record.constrained:  # steps where a collision row bound q̇
+        out["collision_binding_steps"] = record.binding_steps
     if not np.isfinite(robot.qd_max).any():  # no velocity limit (an MJCF file): no ratio to it
         out["peak_speed_ratio"] = None
     return out
@@ -61,14 +64,16 @@ COLUMNS = (
     ("min_joint_limit_margin_rad", "min\nmargin\nrad", "{:+.3f}"),
     ("min_sigma", "min\nsigma", "{:.3f}"),
     ("min_obstacle_clearance_m", "min\nclear\nmm", "{:+.1f}"),
+    ("min_self_clearance_m", "min\nself\nmm", "{:+.1f}"),
     ("peak_speed_ratio", "peak\nqd/\nqd_max", "{:.2f}"),
     ("path_length_rad", "path\nrad", "{:.2f}"),
     ("step_time_us_median", "step\nus", "{:.1f}"),
 )
 #: Scheme labels longer than this go on to a second line (the table fits 100 columns).
 LABEL_WIDTH = 28
-_MM = {"max_position_error_m", "rms_position_error_m", "min_obstacle_clearance_m"}
-_OPTIONAL = {"min_obstacle_clearance_m"}  # shown when a run has it
+_MM = {"max_position_error_m", "rms_position_error_m", "min_obstacle_clearance_m",
+       "min_self_clearance_m"}  # fmt: skip
+_OPTIONAL = {"min_obstacle_clearance_m", "min_self_clearance_m"}  # shown when a run has it
 
 
 @dataclass(frozen=True)
@@ -113,6 +118,7 @@ def run_scenario(
                 duration=spec.duration, gain=spec.gain, label=s.label, progress=progress,
             ))  # fmt: skip
         return logs
+    settings, compared = None, []  # the first scheme's collisions; runs measured against it
     for s in spec.schemes:
         common: dict[str, Any] = {"dt": spec.dt, "duration": spec.duration, "q0": spec.q0,
                                   "label": s.label, "progress": progress}  # fmt: skip
@@ -128,7 +134,10 @@ def run_scenario(
                                 viewer=viewer, **common))  # fmt: skip
                 collisions = getattr(scheme, "collisions", None)
                 if collisions is not None:  # the clearances the constraint kept
-                    collision_clearance(logs[-1], collisions.model(spec.robot))
+                    collision_clearance(logs[-1], spec.robot, collisions)
+                    settings = settings or collisions
+                else:
+                    compared.append(logs[-1])
         except MissingDependencyError as exc:
             if skipped is None:
                 raise
@@ -136,6 +145,9 @@ def run_scenario(
             continue
         if after_each is not None:
             after_each(logs[-1])
+    if settings is not None:  # the other runs measured on the same pairs, for the table
+        for log in compared:
+            collision_clearance(log, spec.robot, settings, constrained=False)
     return logs
 
 
