@@ -59,8 +59,8 @@ def warning_lines(summaries: Sequence[dict[str, Any]]) -> list[str]:
 COLUMNS = (
     ("robot", "robot", "{}"),
     ("label", "scheme", "{}"),
-    ("max_position_error_m", "max err\nmm", "{:.4f}"),
-    ("rms_position_error_m", "rms err\nmm", "{:.4f}"),
+    ("max_position_error_m", "max\nerr\nmm", "{:.4f}"),
+    ("rms_position_error_m", "rms\nerr\nmm", "{:.4f}"),
     ("min_joint_limit_margin_rad", "min\nmargin\nrad", "{:+.3f}"),
     ("min_sigma", "min\nsigma", "{:.3f}"),
     ("min_obstacle_clearance_m", "min\nclear\nmm", "{:+.1f}"),
