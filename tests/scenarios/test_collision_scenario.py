@@ -39,8 +39,8 @@ def test_it_is_a_builtin_with_a_table_a_shelf_and_the_constraint() -> None:
     assert {o.name for o in spec.obstacles} == {"table", "shelf"}
     settings = [s.build().collisions for s in spec.schemes if s.kind == "qp"]
     assert settings[1] is None
-    assert (settings[0].influence, settings[0].safety, settings[0].self_collision) == (0.10, 0.01,
-                                                                                       True)  # fmt: skip
+    first = settings[0]
+    assert (first.influence, first.safety, first.self_collision) == (0.10, 0.01, True)
     assert any(s.kind == "gradient_projection" for s in spec.schemes)
 
 
