@@ -131,6 +131,7 @@ class Viewer:
         self._slider: Any = None
         self._pair_model, self._influence = _pair_model(robot, collisions)
         self._pairs: Any = None  # the segments to draw with the next configuration
+        self._shown_pairs: Any = None
         self._build_scene(list(obstacles))
         self._place(list(obstacles))  # the side panel names each obstacle and its place
         self.push(robot.neutral())
@@ -337,7 +338,6 @@ class Viewer:
             self._obstacle_nodes.append(node)
             self._obstacle_meshes.append(self._add_shape(node.name, obs, anchor))
             self._obstacle_shapes.append(shape)
-        self._shown_pairs: Any = None
         self._pair_nodes = {kind: scene.add_line_segments(
             f"/pairs/{kind}", points=np.zeros((1, 2, 3), np.float32), colors=_rgb(colour),
             thickness=0.003 if kind == "free" else 0.006, visible=False,

@@ -169,7 +169,7 @@ def obstacle_anchor(obstacle: Obstacle) -> tuple[FloatArray, FloatArray]:
     if isinstance(obstacle, SphereObstacle):
         return np.asarray(obstacle.center, float), np.array([0.0, 0.0, 0.0, obstacle.radius])
     if isinstance(obstacle, BoxObstacle):
-        shape = np.concatenate([obstacle.half_extents, np.ravel(obstacle.rotation)])
+        shape = np.concatenate([obstacle.half_extents, np.ravel(np.asarray(obstacle.rotation, float))])
         return np.asarray(obstacle.center, float), shape
     if isinstance(obstacle, PlaneObstacle):
         return obstacle.offset * obstacle.normal, np.array(obstacle.normal, float)
