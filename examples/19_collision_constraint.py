@@ -73,4 +73,5 @@ ax.fill_between(constrained.t, 0, 1, where=bound, transform=ax.get_xaxis_transfo
                 color="#d62728", alpha=0.15, label="a collision row binds")  # fmt: skip
 ax.set(xlabel="time (s)", ylabel="mm", title=constrained.label)
 ax.legend(fontsize=8)
+fig.tight_layout()
 plt.show()
