@@ -160,3 +160,42 @@ def test_report_of_a_urdf_robot_draws_its_meshes(tmp_path: Path, fixtures_dir: P
     np.testing.assert_allclose(meshes["min"], every.min(axis=0), atol=2e-4)
     np.testing.assert_allclose(meshes["max"], every.max(axis=0), atol=2e-4)
     assert scene["moving"] == scene["frames"] == 10  # every frame poses them
+
+
+def test_report_draws_boxes_planes_and_the_collision_pairs(tmp_path: Path) -> None:
+    """A constrained QP run into a box, with a floor: Chromium draws the box at its corners,
+    the floor's square on its plane and the pairs' two traces, without a console error."""
+    import json
+
+    pytest.importorskip("daqp")
+    from redres.collision import BoxObstacle, Collisions, PlaneObstacle
+    from redres.control import Line
+    from redres.control.analysis import collision_clearance
+    from redres.resolution import QPScheme
+
+    panda = rr.models.panda()
+    start = panda.fk(panda.neutral())
+    box = BoxObstacle(start[:3, 3] - [0.0, 0.0, 0.18], [0.15, 0.2, 0.08], name="box")
+    floor = PlaneObstacle([0.0, 0.0, 1.0], -0.2, name="floor")
+    settings = Collisions([box, floor])
+    line = Line(start, start[:3, 3] - [0.0, 0.0, 0.15], 0.3)
+    log = rr.run(panda, FrameTask(), line, QPScheme(dt=5e-3, collisions=settings), dt=5e-3,
+                 gain=20.0)  # fmt: skip
+    record = collision_clearance(log, panda, settings)
+    page = write_report(tmp_path / "report", [(panda, log, [box, floor])], title="Pairs")
+    proc = dump_dom(page.as_uri(), tmp_path / "profile")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert console_problems(proc.stderr) == []
+    view = _Subtree("arm-view")
+    view.feed(proc.stdout)
+    assert view.attrs.get("data-status") == "rendered"
+    scene = json.loads(view.attrs["data-scene"])
+    drawn = {o["name"]: o for o in scene["drawn"] if o["kind"] == "obstacle"}
+    assert (drawn["box"]["shape"], drawn["floor"]["shape"]) == ("box", "plane")
+    np.testing.assert_allclose(drawn["box"]["min"], box.center - box.half_extents, atol=2e-5)
+    np.testing.assert_allclose(drawn["box"]["max"], box.center + box.half_extents, atol=2e-5)
+    assert drawn["floor"]["min"][2] == pytest.approx(-0.2) == drawn["floor"]["max"][2]
+    pairs = [o for o in scene["drawn"] if o["kind"] == "pairs"]
+    assert [o["name"] for o in pairs] == ["collision pairs within d_i", "binding collision pairs"]
+    # frame 0: each pair within d_i at step 0 is one segment (two points and a gap)
+    assert pairs[0]["vertices"] == 3 * (record.at(0).stop - record.at(0).start) > 0
