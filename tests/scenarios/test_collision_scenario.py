@@ -53,6 +53,7 @@ def test_the_constrained_run_never_comes_closer_than_d_s(ran) -> None:  # type: 
     # where the path asks for a collision the task yields, and the run says so
     assert qp["collision_binding_steps"] > 0
     assert qp["max_position_error_m"] > 0.005
+    assert 0.005 < qp["max_position_error_where_bound_m"] <= qp["max_position_error_m"]
     assert "not_reached" in {w["kind"] for w in qp["warnings"]}
 
 

@@ -169,8 +169,9 @@ def obstacle_anchor(obstacle: Obstacle) -> tuple[FloatArray, FloatArray]:
     if isinstance(obstacle, SphereObstacle):
         return np.asarray(obstacle.center, float), np.array([0.0, 0.0, 0.0, obstacle.radius])
     if isinstance(obstacle, BoxObstacle):
-        shape = np.concatenate([obstacle.half_extents, np.ravel(np.asarray(obstacle.rotation, float))])
-        return np.asarray(obstacle.center, float), shape
+        rotation = np.asarray(obstacle.rotation, float)
+        return np.asarray(obstacle.center, float), np.concatenate([obstacle.half_extents,
+                                                                   rotation.ravel()])  # fmt: skip
     if isinstance(obstacle, PlaneObstacle):
         return obstacle.offset * obstacle.normal, np.array(obstacle.normal, float)
     a = np.asarray(obstacle.a, float)

@@ -32,14 +32,19 @@ __all__ = ["aligned_table", "format_table", "run_scenario", "summarise", "warnin
 def summarise(robot: Robot, log: RunLog) -> dict[str, Any]:
     """:meth:`RunLog.summary` of a run of ``robot`` (tables, ``--json``); a log that did not
     record its joint limits (one built by hand) is measured against ``robot``'s. A robot
-    without velocity limits has no ``peak_speed_ratio`` (None: a dash in the tables)."""
+    without velocity limits has no ``peak_speed_ratio`` (None: a dash in the tables). A
+    run under the collision constraint adds ``collision_binding_steps`` (steps where a
+    collision row bound the velocity) and ``max_position_error_where_bound_m``."""
     if log.q_min is None or log.q_max is None:
         log = replace(log, joint_names=tuple(robot.joint_names), q_min=robot.q_min.copy(),
                       q_max=robot.q_max.copy())  # fmt: skip
     out = log.summary()
     record = log.extra.get("collision_pairs")
-    if record is not None and record.constrained:  # steps where a collision row bound q̇
-        out["collision_binding_steps"] = record.binding_steps
+    if record is not None and record.constrained:  # where a collision row bound q̇: the
+        bound = np.unique(record.step[record.binding])  # task yielded there, by how much
+        out["collision_binding_steps"] = int(bound.size)
+        error = log.position_error[bound]
+        out["max_position_error_where_bound_m"] = float(error.max()) if error.size else 0.0
     if not np.isfinite(robot.qd_max).any():  # no velocity limit (an MJCF file): no ratio to it
         out["peak_speed_ratio"] = None
     return out
