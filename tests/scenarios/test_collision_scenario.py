@@ -76,3 +76,4 @@ def test_the_report_draws_the_boxes_and_the_pairs(ran) -> None:  # type: ignore[
     html = (out / "report.html").read_text(encoding="utf-8")
     assert len(re.findall(r'"shape":\s*"box"', html)) >= 2
     assert "binding collision pairs" in html and "collision pairs within d_i" in html
+    assert "min self clearance" in html and "collision-bound steps" in html  # the table
