@@ -313,8 +313,16 @@ def test_boxes_planes_and_the_pairs_within_d_i_are_drawn() -> None:
             assert expected > 0
             node = v._pair_nodes["free"]
             assert node.visible and np.asarray(node.points).shape == (expected, 2, 3)
+        v._pair_toggle.value = False  # the checkbox hides them at once
+        assert _wait(lambda: not v._pair_nodes["free"].visible)
+        v._pair_toggle.value = True
+        assert _wait(lambda: v._pair_nodes["free"].visible)
     finally:
         v.close()
+    with pytest.raises(rr.errors.InvalidParameterError, match="collisions must be"):
+        Viewer(panda, collisions=[box], port=_free_port())
+    with pytest.raises(rr.errors.InvalidParameterError, match="obstacles must be"):
+        Viewer(panda, obstacles=["table"], port=_free_port())  # type: ignore[list-item]
 
 
 def test_a_scrubbed_run_shows_its_binding_pairs() -> None:

@@ -8,11 +8,9 @@
 
 :class:`Viewer` draws the robot — its visual meshes when its file has them
 (``robot.visuals``), else its link capsules, else the polyline through its frame origins —
-the obstacles (spheres, points, capsules, boxes, and a square of a half-space's
-surface), a floor grid, the tool frame and the target; given ``collisions``
-(:class:`~redres.collision.Collisions`), the pairs within its influence distance as
-segments between their witness points (a scrubbed run that recorded them shows the
-binding ones in red; a checkbox hides them). :meth:`Viewer.push` only
+the obstacles (a half-space as a square of its surface), a floor grid, the tool frame, the
+target, and the collision pairs within ``d_i`` as segments between witness points (of
+``collisions=``, or a scrubbed run's record, binding ones red). :meth:`Viewer.push` only
 stores the configuration (a copy, under a lock) and returns; a sender thread sends the
 latest one at most ``rate`` times a second, so a loop is never slowed by the viewer and,
 when the browser lags, intermediate configurations are dropped, never queued.
@@ -89,9 +87,8 @@ class Viewer:
             :data:`MAX_RATE`).
         geometry: ``"auto"`` (meshes, else capsules, else lines), ``"meshes"``,
             ``"capsules"`` or ``"lines"``.
-        collisions: draw the pairs of this constraint closer than its influence distance
-            at each configuration shown (computed by the viewer's thread on its own
-            collision model, against the constraint's obstacles).
+        collisions: draw the pairs of this constraint closer than its ``influence`` at each
+            configuration shown (computed in the viewer's thread, on its own model).
 
     Raises:
         MissingDependencyError: viser is not installed.
@@ -119,6 +116,7 @@ class Viewer:
         if geometry == "auto":
             geometry = "meshes" if robot.visuals else "capsules" if robot.capsules else "lines"
         self.geometry = geometry
+        self._pair_model, self._influence = _pair_model(robot, collisions, obstacles)
         self.server = viser.ViserServer(host=host, port=port, label=f"redres · {robot.name}",
                                          verbose=False)  # fmt: skip
         self._lock = threading.Lock()
@@ -129,7 +127,6 @@ class Viewer:
         self._stop = threading.Event()
         self._runs: list[RunLog] = []
         self._slider: Any = None
-        self._pair_model, self._influence = _pair_model(robot, collisions)
         self._pairs: Any = None  # the segments to draw with the next configuration
         self._shown_pairs: Any = None
         self._build_scene(list(obstacles))
@@ -343,6 +340,7 @@ class Viewer:
             thickness=0.003 if kind == "free" else 0.006, visible=False,
         ) for kind, colour in PAIR_COLOURS.items()}  # fmt: skip
         self._pair_toggle = self.server.gui.add_checkbox("collision pairs", initial_value=True)
+        self._pair_toggle.on_update(self._redraw)
         self._pair_status = self.server.gui.add_markdown("")
         self._tool = scene.add_frame("/tool", axes_length=0.08, axes_radius=0.004)
         self._goal = scene.add_icosphere("/target", radius=0.012, color=(214, 39, 40),
@@ -388,9 +386,15 @@ class Viewer:
             self._draw_pairs(q)
         self._shown = q
 
+    def _redraw(self, _: Any = None) -> None:
+        """Send the shown configuration again, with its pairs (the checkbox changed)."""
+        with self._lock:
+            self._pairs = self._shown_pairs
+        if self._shown is not None:
+            self.push(self._shown)
+
     def _draw_pairs(self, q: FloatArray) -> None:
-        """The pair segments at ``q``: a scrubbed run's record, else the viewer's own
-        collision model's pairs within ``d_i``; the side panel counts them."""
+        """The pairs at ``q``: a scrubbed run's record, else the viewer's model's within d_i."""
         from .report.view3d import near_pairs
 
         pairs = self._shown_pairs
@@ -409,21 +413,18 @@ class Viewer:
         self._pair_status.content = "; ".join([head, *every[:4]])
 
 
-def _pair_model(robot: Robot, collisions: Any) -> tuple[Any, float]:
-    """The viewer's own collision model of ``collisions`` (its thread's; the run's is the
-    scheme's) and ``d_i``; ``(None, 0)`` without."""
+def _pair_model(robot: Robot, c: Any, obstacles: Sequence[Obstacle]) -> tuple[Any, float]:
+    """Checked first: the obstacles; ``c``'s model for the viewer's thread, ``d_i``."""
     from .collision import CollisionModel, Collisions
+    from .report.scene3d import obstacle_anchor
 
-    if collisions is None:
+    [obstacle_anchor(obs) for obs in obstacles]  # raises for what is not an obstacle
+    if c is None:
         return None, 0.0
-    if not isinstance(collisions, Collisions):
-        raise InvalidParameterError(f"collisions must be a Collisions(...); got {collisions!r}")
-    model = CollisionModel(
-        robot, collisions.obstacles, capsules=collisions.capsules,
-        self_collision=collisions.self_collision, allowed=collisions.allowed,
-        srdf=collisions.srdf, safety=collisions.safety,
-    )  # fmt: skip
-    return model, collisions.influence
+    if not isinstance(c, Collisions):
+        raise InvalidParameterError(f"collisions must be a Collisions(...); got {c!r}")
+    return CollisionModel(robot, c.obstacles, capsules=c.capsules, self_collision=c.self_collision,
+                          allowed=c.allowed, srdf=c.srdf, safety=c.safety), c.influence  # fmt: skip
 
 
 def _check_address(host: Any, port: Any) -> None:

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._validate import FloatArray
+from ..errors import InvalidParameterError
 from ..robot.meshes import ring_faces
 
 if TYPE_CHECKING:
@@ -164,10 +165,15 @@ def obstacle_anchor(obstacle: Obstacle) -> tuple[FloatArray, FloatArray]:
     ``a``, a half-space's surface point nearest the origin) and the numbers of its shape
     relative to it: ``(b − a, radius)`` for a sphere (``b = a``) or a capsule, ``(half
     extents, rotation)`` for a box, the unit normal for a half-space."""
-    from ..collision import BoxObstacle, PlaneObstacle, SphereObstacle
+    from ..collision import BoxObstacle, CapsuleObstacle, PlaneObstacle, SphereObstacle
 
     if isinstance(obstacle, SphereObstacle):
         return np.asarray(obstacle.center, float), np.array([0.0, 0.0, 0.0, obstacle.radius])
+    if not isinstance(obstacle, (BoxObstacle, CapsuleObstacle, PlaneObstacle)):
+        raise InvalidParameterError(
+            "obstacles must be SphereObstacle, PointObstacle, CapsuleObstacle, BoxObstacle or "
+            f"PlaneObstacle; got {obstacle!r}"
+        )
     if isinstance(obstacle, BoxObstacle):
         rotation = np.asarray(obstacle.rotation, float)
         return np.asarray(obstacle.center, float), np.concatenate([obstacle.half_extents,
