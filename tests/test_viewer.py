@@ -358,3 +358,28 @@ def test_a_scrubbed_run_shows_its_binding_pairs() -> None:
         assert f"binding: {len(bound)}" in v._pair_status.content
     finally:
         v.close()
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="needs Debian's chromium")
+def test_chromium_shows_boxes_planes_and_pairs(tmp_path: Path) -> None:
+    """The page renders a box, a half-space and the pair segments without a console error,
+    and its side panel counts the pairs."""
+    from _chromium import live_page
+
+    from redres.collision import BoxObstacle, Collisions, PlaneObstacle
+    from redres.viewer import Viewer
+
+    panda = rr.models.panda()
+    box = BoxObstacle(panda.fk(panda.neutral())[:3, 3] - [0.0, 0.0, 0.18], [0.15, 0.2, 0.08],
+                      name="box")  # fmt: skip
+    floor = PlaneObstacle([0.0, 0.0, 1.0], -0.2, name="floor")
+    v = Viewer(panda, obstacles=[box, floor], collisions=Collisions([box, floor]),
+               port=_free_port(), rate=50.0)  # fmt: skip
+    try:
+        assert _wait(lambda: v._pair_status.content.startswith("pairs within d_i: "))
+        done = 'document.body.innerText.includes("pairs within") && document.querySelector("canvas")'
+        text, console = live_page(v.url, tmp_path / "profile", done, seconds=90.0)
+    finally:
+        v.close()
+    assert "pairs within d_i" in text and "box at (" in text, text[-2000:]
+    assert [m for m in console if m[0] in ("error", "exception", "assert")] == []
