@@ -377,7 +377,7 @@ def test_chromium_shows_boxes_planes_and_pairs(tmp_path: Path) -> None:
                port=_free_port(), rate=50.0)  # fmt: skip
     try:
         assert _wait(lambda: v._pair_status.content.startswith("pairs within d_i: "))
-        done = 'document.body.innerText.includes("pairs within") && document.querySelector("canvas")'
+        done = 'document.querySelector("canvas") && document.body.innerText.includes("pairs wi")'
         text, console = live_page(v.url, tmp_path / "profile", done, seconds=90.0)
     finally:
         v.close()
