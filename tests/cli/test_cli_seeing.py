@@ -104,3 +104,18 @@ def test_run_view_plays_the_runs_while_they_are_computed(
     args = ["run", str(scenario), "--quiet", "--out", str(tmp_path / "report"), "--view"]
     assert main([*args, "--port", str(port), "--seconds", "0.1"]) == 0
     assert "push" in events and events.index("push") < events.index("show_runs")
+
+
+def test_run_view_draws_the_pairs_of_the_scenarios_collision_constraint() -> None:
+    """``redres run --view`` gives the live viewer the first collision constraint among the
+    scenario's schemes (its pairs drawn while the runs are computed), none without one."""
+    pytest.importorskip("daqp")
+    from redres.cli import _collisions_of
+    from redres.scenarios.spec import builtin, builtin_scenarios
+
+    found = _collisions_of(builtin("panda_table_shelf"))
+    assert isinstance(found, rr.Collisions)
+    assert (found.influence, found.safety, found.self_collision) == (0.10, 0.01, True)
+    assert {o.name for o in found.obstacles} == {"table", "shelf"}
+    assert "panda_joint_limit_circle" in builtin_scenarios()
+    assert _collisions_of(builtin("panda_joint_limit_circle")) is None

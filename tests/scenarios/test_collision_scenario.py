@@ -67,7 +67,16 @@ def test_the_runs_without_the_constraint_touch(ran) -> None:  # type: ignore[no-
         assert run["min_self_clearance_m"] < 0.01
     soft = runs["gradient projection: obstacle penalty"]
     assert soft["min_self_clearance_m"] < 0.0  # the hand or forearm into the base
-    assert "collision" in {w["kind"] for w in soft["warnings"]}
+    warned = {w["kind"]: w for w in soft["warnings"]}
+    # each warning names the deepest pair of its kind and its depth is the logged clearance
+    assert warned["collision"]["joint"] in {"table", "shelf"}
+    assert warned["collision"]["value"] == pytest.approx(-soft["min_obstacle_clearance_m"])
+    into_self = warned["self_collision"]
+    assert into_self["value"] == pytest.approx(-soft["min_self_clearance_m"])
+    assert into_self["message"].startswith("self-collision: link '")
+    assert f"mm into link '{into_self['joint']}'" in into_self["message"]
+    qp = runs["qp: collision constraint"]
+    assert not {"collision", "self_collision"} & {w["kind"] for w in qp["warnings"]}
 
 
 def test_the_report_draws_the_boxes_and_the_pairs(ran) -> None:  # type: ignore[no-untyped-def]

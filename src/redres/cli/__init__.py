@@ -119,7 +119,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return run_scenarios([spec], _output(args), title=spec.name)
     from ..viewer import Viewer, serve_runs
 
-    viewer = Viewer(spec.robot, obstacles=spec.obstacles, port=args.port)  # live while it runs
+    viewer = Viewer(
+        spec.robot, obstacles=spec.obstacles, collisions=_collisions_of(spec), port=args.port
+    )  # live while it runs; the pairs of its collision constraint
     print(f"redres: {spec.name}: playing the runs at {viewer.url}", file=sys.stderr, flush=True)
 
     def after(runs: list) -> None:  # type: ignore[type-arg]
@@ -129,6 +131,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return run_scenarios([spec], _output(args), title=spec.name, after=after, viewer=viewer)
     finally:
         viewer.close()
+
+
+def _collisions_of(spec: Any) -> Any:
+    """The collision constraint of the first scheme of ``spec`` that has one (the pairs a
+    live view draws), or None; a scheme that cannot be built here (a missing extra) has
+    none to show."""
+    for scheme in spec.schemes:
+        if scheme.kind == "qp":
+            try:
+                found = getattr(scheme.build(), "collisions", None)
+            except RedresError:
+                continue
+            if found is not None:
+                return found
+    return None
 
 
 def _description(path: Path) -> str:

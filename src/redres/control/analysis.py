@@ -212,10 +212,15 @@ def collision_clearance(
                            ("bind", binding & constrained)):  # fmt: skip
             parts[key].append(value)
     if len(mask) and log.steps:
-        if (~mask).any():
-            log.objectives["obstacle_distance_m"] = d[:, ~mask].min(axis=1)
-        if mask.any():
-            log.objectives["self_distance_m"] = d[:, mask].min(axis=1)
+        for key, contact, kept in (("obstacle_distance_m", "deepest_contact", ~mask),
+                                   ("self_distance_m", "deepest_self_contact", mask)):  # fmt: skip
+            if not kept.any():
+                continue
+            log.objectives[key] = d[:, kept].min(axis=1)
+            k = int(np.argmin(log.objectives[key]))
+            if log.objectives[key][k] < 0.0:  # which shapes went into each other
+                pair = model.pairs[int(np.flatnonzero(kept)[np.argmin(d[k, kept])])]
+                log.extra[contact] = {"obstacle": pair.second, "link": pair.first}
 
     def joined(key: str, shape: tuple[int, ...], dtype: Any = float) -> np.ndarray:
         return np.concatenate(parts[key]).astype(dtype) if parts[key] else np.zeros(shape, dtype)

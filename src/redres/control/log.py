@@ -22,7 +22,7 @@ NOT_REACHED_M = 5e-3
 #: A joint this far past a limit, rad or m, has left its limits (rounding is not).
 LIMIT_TOL = 1e-9
 
-WarningKind = Literal["joint_limits", "collision", "singular", "not_reached"]
+WarningKind = Literal["joint_limits", "collision", "self_collision", "singular", "not_reached"]
 
 
 @dataclass(frozen=True)
@@ -37,6 +37,9 @@ class RunWarning:
     - ``collision``: the arm went into an obstacle (the arm–obstacle clearance, logged when
       the run has an obstacle objective, fell below zero): which obstacle and link, how
       deep (m), when, for how many steps and in how many separate events.
+    - ``self_collision``: two link capsules went into each other (the self clearance,
+      logged when the run is measured on collision pairs, fell below zero): which links,
+      how deep, when, for how many steps and events.
     - ``singular``: σ_min of the task Jacobian fell under ``SINGULAR_SIGMA = 1e-3``: its
       smallest value, when, for how many steps and in how many separate events.
     - ``not_reached``: the position error went over ``NOT_REACHED_M = 5e-3`` m: the
@@ -45,12 +48,14 @@ class RunWarning:
     ``str(warning)`` is its message.
 
     Attributes:
-        kind: ``"joint_limits"``, ``"collision"``, ``"singular"`` or ``"not_reached"``.
+        kind: ``"joint_limits"``, ``"collision"``, ``"self_collision"``, ``"singular"``
+            or ``"not_reached"``.
         message: the line printed by ``redres run`` and ``redres demo``.
         value: the worst figure: how far past the limit (rad or m), how deep into the
             obstacle (m), the smallest σ_min, or the largest position error (m).
         t: the time of that figure, s.
-        joint: the joint concerned (``joint_limits``), or the obstacle (``collision``).
+        joint: the joint concerned (``joint_limits``), the obstacle (``collision``) or
+            the other link (``self_collision``).
         steps: how many steps it lasted.
     """
 
@@ -97,21 +102,26 @@ def _joint_limits(log: RunLog) -> RunWarning | None:
     )  # fmt: skip
 
 
-def _collision(log: RunLog) -> RunWarning | None:
-    distance = log.objectives.get("obstacle_distance_m")
+def _collision(log: RunLog, self_pairs: bool = False) -> RunWarning | None:
+    key, contact = (
+        ("self", "deepest_self_contact") if self_pairs else ("obstacle", "deepest_contact")
+    )
+    distance = log.objectives.get(f"{key}_distance_m")
     if distance is None or not len(distance) or not distance.min() < 0.0:
         return None
     inside = distance < 0.0
     k = int(np.argmin(distance))
-    contact = log.extra.get("deepest_contact", {})
-    obstacle, link = contact.get("obstacle", "an obstacle"), contact.get("link", "the arm")
+    names = log.extra.get(contact, {})  # the deepest pair, when the run was measured on pairs
+    other = names.get("obstacle", "another link" if self_pairs else "an obstacle")
+    link = names.get("link", "the arm")
+    into = f"link {other!r}" if self_pairs else f"obstacle {other!r}"
     count, events = int(inside.sum()), _intervals(inside)
     return RunWarning(
-        "collision",
-        f"collision: link {link!r} went {1e3 * -distance[k]:.1f} mm into obstacle "
-        f"{obstacle!r} at t = {log.t[k]:.3f} s ({count} steps in contact, {events} "
-        f"event{'s' if events > 1 else ''})",
-        float(-distance[k]), float(log.t[k]), str(obstacle), count,
+        "self_collision" if self_pairs else "collision",
+        f"{'self-collision' if self_pairs else 'collision'}: link {link!r} went "
+        f"{1e3 * -distance[k]:.1f} mm into {into} at t = {log.t[k]:.3f} s ({count} steps "
+        f"in contact, {events} event{'s' if events > 1 else ''})",
+        float(-distance[k]), float(log.t[k]), str(other), count,
     )  # fmt: skip
 
 
@@ -149,7 +159,8 @@ def _not_reached(log: RunLog) -> RunWarning | None:
 def run_warnings(log: RunLog) -> list[RunWarning]:
     """The warnings of ``log`` (module docstring), in a fixed order; use
     :attr:`RunLog.warnings <redres.control.RunLog.warnings>`."""
-    found = (_joint_limits(log), _collision(log), _singular(log), _not_reached(log))
+    found = (_joint_limits(log), _collision(log), _collision(log, self_pairs=True),
+             _singular(log), _not_reached(log))  # fmt: skip
     return [w for w in found if w is not None]
 
 
