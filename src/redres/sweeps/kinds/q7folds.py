@@ -4,23 +4,27 @@ where two branches of the closed form meet and the self-motion turns back in ``q
 A branch of code ``b = 4 i4 + 2 iφ + is`` exists where both of its roots do: the elbow's
 (``|x| ≤ 1``, step 2 of :mod:`redres.ik.analytic`) and the joint-5/6 condition's
 (``|y| ≤ 1``, step 3); the kernel returns both arguments
-(:attr:`redres.ik.analytic.IKSolutionsBatch.roots`). Two kinds of folds are found:
+(``roots`` of :class:`redres.ik.analytic.IKSolutionsBatch`). Two kinds of folds are found:
 
 * **Between grid values** where a branch appears or vanishes (:func:`folds`): it is paired
   with the branch whose root merges with its own there (``b ^ 2``: step 3; ``b ^ 4``: the
   elbow), and the fold is found by the secant method on the squared joint-space distance
-  ``d²`` between them (linear in ``q7`` near the fold: ``d ∝ √|q7 − q7*|``).
-* **Hidden between two samples** (:func:`hidden`): the margin ``e = 1 − |y|`` of elbow
-  root ``i4``'s condition, read at every ``q7`` evaluated so far, has the same sign at
-  three neighbouring values and an extreme toward 0 between them: its extreme is found
-  by successive parabolic interpolation, and where ``e`` changes sign there, the pair
-  ``(b, b ^ 2)`` lives on an *island* between two values where it does not (``e`` rises
-  above 0), or has a *hole* between two values where it does (``e`` dips below 0). Both
-  ends are then folds, found as above from the side where the pair exists, and a sample
-  without a branch is put just past each (it ends the run of samples there). An island
-  or hole of the elbow's root (``x``) is not looked for: ``|W − S|²`` is a sinusoid in
-  ``q7`` on these arms, so ``|x| ≤ 1`` holds on at most two arcs of the circle, each
-  seen by the grid unless narrower than its step.
+  ``d²`` between them (linear in ``q7`` near the fold: ``d ∝ √|q7 − q7*|``); for the
+  elbow's pair on ``h = 1 − |x|`` instead (``d²`` to first order there), so that a
+  branch that vanishes and comes back on the way does not stop the search.
+* **Hidden between two samples** (:func:`hidden`), from the margin ``e = 1 − |y|`` of
+  elbow root ``i4``'s condition at every ``q7`` evaluated so far: where ``e`` changes
+  sign between two neighbouring values and no fold was found there (a search for
+  another fold stepped over a hole of the pair), and where it has the same sign at
+  three neighbouring values and an extreme toward 0 between them. That extreme is
+  found by successive parabolic interpolation, and where ``e`` changes sign there, the
+  pair ``(b, b ^ 2)`` lives on an *island* between two values where it does not (``e``
+  rises above 0), or has a *hole* between two values where it does (``e`` dips below
+  0). Each end is a fold, found as above from the side where the pair exists, and a
+  sample without a branch is put just past it (it ends the run of samples there). An
+  island or hole of the elbow's root (``x``) is not looked for: ``|W − S|²`` is a
+  sinusoid in ``q7`` on these arms, so ``|x| ≤ 1`` holds on at most two arcs of the
+  circle, each seen by the grid unless narrower than its step.
 
 At each fold both branches are sampled where they are closer than :data:`FOLD_GAP`
 (joint space), with their twins of the other shoulder sign (``b ^ 1``, folding at the

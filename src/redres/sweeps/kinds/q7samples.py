@@ -30,12 +30,8 @@ __all__ = [
     "BranchSolver",
     "Samples",
     "branch_at",
-    "distance2",
-    "joint_turns",
-    "limit_ends",
     "narrowed",
     "parabola_vertex",
-    "refine",
     "turns",
     "wrap",
 ]
@@ -73,7 +69,7 @@ class BranchSolver:
 
     def evaluate(self, T: np.ndarray, q7: np.ndarray) -> tuple[np.ndarray, ...]:
         """:meth:`all_branches`, and the arguments of the roots that decide which branch
-        exists ``(M, 3)`` (:attr:`redres.ik.analytic.IKSolutionsBatch.roots`)."""
+        exists ``(M, 3)`` (``roots`` of :class:`redres.ik.analytic.IKSolutionsBatch`)."""
         if len(q7) < _SMALL:  # a parallel launch waits for its slowest thread
             previous = _compile.threads(1)
             try:
@@ -118,6 +114,8 @@ def wrap(x: np.ndarray) -> np.ndarray:
 
 
 def distance2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Squared joint-space distance of configurations ``(..., 7)``, rad², each joint's
+    difference wrapped into ``[-π, π]``."""
     return np.sum(wrap(a - b) ** 2, axis=-1)
 
 
