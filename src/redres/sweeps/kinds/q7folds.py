@@ -53,8 +53,8 @@ _ELBOW_TOL = 1e-10  # 1 − |x| at an elbow's fold: the pair there ~1e-5 rad apa
 _MERGE = 1e-12  # 1 − |x| below which the kernel returns one elbow root (MERGE_TOL)
 _EXTRA = 3  # samples between a fold and the value its search started from
 _HIDDEN_RANGE = 0.5  # an extreme of e this near 0 (from the samples) is looked into
-_HIDDEN_ROUNDS = 24  # rounds of successive parabolic interpolation at most
-_HIDDEN_TOL = 1e-10  # rad: a step of q7 below which the extreme is found
+_HIDDEN_ROUNDS = 16  # rounds of successive parabolic interpolation at most
+_HIDDEN_TOL = 1e-7  # rad: a step of q7 below which the extreme is found
 
 
 class Evaluated:
