@@ -31,12 +31,12 @@ Measures, each in a fresh temporary folder, after a warm-up (compiled kernels ca
   manifolds, as above) and by ``method = "closed_form"`` (:mod:`redres.sweeps.kinds.q7arcs`),
   timed in the same run after an untimed sweep of 120 poses by each (a process's first
   sweep loads the kernels' overloads from the cache, and the first parallel launch
-  starts the threads: about 1 s, more than the closed form's 200 poses), then the closed form alone on 2,000 poses (one shard); and the
-  agreement: each traced arc against the connected piece of the closed form's
-  self-motion with the same number of pieces and the nearest ends (within 1e-3 rad
-  counts as agreeing); each disagreeing arc of ``q_true`` (slot 0) is traced again with
-  steps of 0.001 rad (the independent check: the trace's arm-angle extremes are its
-  samples').
+  starts the threads: about 1 s, more than the closed form's 200 poses), then the
+  closed form alone on 2,000 poses (one shard); and the agreement: each traced arc
+  against the connected piece of the closed form's self-motion with the same number of
+  pieces and the nearest ends (within 1e-3 rad counts as agreeing); each disagreeing arc
+  of ``q_true`` (slot 0) is traced again with steps of 0.001 rad (the independent check:
+  the trace's arm-angle extremes are its samples').
 
 Every figure is one run (the sweeps take seconds to minutes; repeat to see the spread);
 the load average before and after is printed with them.
