@@ -93,7 +93,7 @@ def test_every_stretch_of_a_dense_scan_is_a_run(panda: rr.Robot) -> None:
     a dense scan (20,001 values, step 2.9e-4 rad) lies inside one run of that branch, on
     the poses of the 200-pose test whose branches live, or vanish, between two grid
     values (17, 35, 191: 32 stretches missed before the folds hidden between samples
-    were looked for). Not on every pose: of the 200, 52 stretches are still missed, none
+    were looked for). Not on every pose: of the 200, 23 stretches are still missed, none
     of them of these folds (docs/sweeps.md)."""
     _, hard = random_poses(panda, 200, 4)
     T = hard[[17, 35, 191]]

@@ -87,10 +87,12 @@ class BranchSolver:
         return q, inside, found.roots
 
     def margin(self, q: np.ndarray) -> np.ndarray:
-        """The smallest distance of a joint inside its limits, rad (negative outside,
-        measured on the circle from the middle of the limits; NaN where ``q`` is NaN)."""
-        q = self.centre + wrap(q - self.centre)  # a joint past π is reported wrapped
-        return np.minimum(q - self.q_min, self.q_max - q).min(axis=-1)
+        """The smallest distance of joints 1-6 inside their limits, rad (negative outside,
+        measured on the circle from the middle of the limits; NaN where ``q`` is NaN).
+        Not ``q7``'s: the walk's parameter stays within its range, and at the range's ends
+        its margin, 0, stopped the search for where another joint meets its limit."""
+        q = self.centre[:6] + wrap(q[..., :6] - self.centre[:6])  # past π: wrapped
+        return np.minimum(q - self.q_min[:6], self.q_max[:6] - q).min(axis=-1)
 
     def margins(self, q: np.ndarray) -> np.ndarray:
         """Each joint's distance inside its nearer limit, rad, ``(..., 7)`` (negative
