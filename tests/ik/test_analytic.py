@@ -358,3 +358,35 @@ def test_solution_counts_match_a_numerical_enumeration(name: str) -> None:
 def test_solution_counts_match_a_numerical_enumeration_500(name: str) -> None:
     share = _enumeration_agrees(ARMS[name](), 500, 128, 5)
     assert share >= 0.8, share
+
+
+def test_root_arguments_decide_which_branches_exist() -> None:
+    """``roots``: the elbow's argument is ``cos(q4 − δ)`` of the configuration that made the
+    pose (not solved for: drawn), and at other values of ``q7`` a pair ``(b, b ^ 2)`` of
+    elbow root ``i4`` exists exactly where its ``|y| < 1`` (away from ±1, where the roots
+    merge or vanish); none where ``|x| > 1``."""
+    robot = rr.models.panda()
+    arm = analytic_arm(robot)
+    q, T = _poses(robot, 200, 11)
+    own = at_q7_batch(robot, T, q[:, 6], residuals=False)
+    delta = arm.arm[codes.DELTA]
+    np.testing.assert_allclose(own.roots[:, 0], np.cos(q[:, 3] - delta), rtol=0, atol=1e-9)
+    rng = np.random.default_rng(12)
+    q7 = rng.uniform(robot.q_min[6], robot.q_max[6], 200)
+    found = at_q7_batch(robot, T, q7, residuals=False)
+    x = found.roots[:, 0]
+    exists = np.zeros((200, 8), dtype=bool)
+    rows, slots = np.nonzero(found.branch >= 0)
+    exists[rows, found.branch[rows, slots]] = True
+    out_of_reach = np.abs(x) > 1.0 + 1e-6
+    assert not exists[out_of_reach].any() and np.isnan(found.roots[out_of_reach, 1:]).all()
+    checked = 0
+    for i4 in (0, 1):
+        y = found.roots[:, 1 + i4]
+        clear = np.isfinite(y) & (np.abs(np.abs(y) - 1.0) > 1e-6)
+        pair = exists[:, 4 * i4] & exists[:, 4 * i4 + 2]
+        none = ~exists[:, 4 * i4 : 4 * i4 + 4].any(axis=1)
+        assert (pair[clear] == (np.abs(y[clear]) < 1.0)).all()
+        assert (none[clear] == (np.abs(y[clear]) > 1.0)).all()
+        checked += int(clear.sum())
+    assert checked > 200  # both roots seen, on both sides of ±1

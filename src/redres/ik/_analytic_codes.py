@@ -70,7 +70,13 @@ N_VALUES = N_JOINTS + 5
 #: The buffer's last row: the pose solved, ``T[:3, :4]`` row by row (12 values, the
 #: reference of the FK errors).
 POSE = MAX_SOLUTIONS
-N_ROWS = MAX_SOLUTIONS + 1
+#: The row after it: the arguments of the ``acos`` that decide which branches exist (a
+#: root exists where its argument lies within ±1): the elbow's ``x`` (step 2 of
+#: :mod:`.analytic`) in column 0 and, in column ``1 + i4``, the joint-5/6 condition's ``y``
+#: of elbow root ``i4`` (step 3); NaN where not reached (the elbow out of reach, one
+#: elbow root, or a condition that does not involve the angle about ``S → W``).
+ROOTS = MAX_SOLUTIONS + 1
+N_ROWS = MAX_SOLUTIONS + 2
 #: ``solve_pose`` returns one int: a negative :class:`AnalyticStatus`, or
 #: ``count + (flags << FLAG_SHIFT)`` when solved; ``COUNT_MASK`` takes the count.
 FLAG_SHIFT = 4

@@ -4,7 +4,8 @@
 Entry points and their call tree::
 
     solve_pose(arm, T, q7, out) -> count + (flags << FLAG_SHIFT), or a negative status
-        _is_pose, _frame6, _unit, _perpendicular, _angle, _limit, _shoulder -> _emit
+        _is_pose, _frame6, _unit, _perpendicular, _in_frame, _mix, _angle, _limit,
+        _shoulder -> _emit
         (the shared geometry in :mod:`._geometry_kernels`)
     solve_many(arm, links, axes, kinds, T, q7, out, summary, residuals)
         solve_pose, and :func:`._residual_kernels.errors` when residuals, over a parallel
@@ -14,7 +15,8 @@ Entry points and their call tree::
 :func:`redres.ik.structure.analytic_arm`); ``links, axes, kinds`` are
 :attr:`redres.robot.SerialChain.arrays` of the 7 joints and the frame; ``T`` the frame's
 pose ``(4, 4)``; ``out`` ``(N_ROWS, N_VALUES)`` receives the solutions (joints, FK
-errors, branch, flags, within the limits) and, in its last row, the pose. The
+errors, branch, flags, within the limits), then the pose and the arguments of the
+``acos`` of steps 2 and 3 (rows ``POSE``, ``ROOTS``). The
 derivation is in :mod:`redres.ik.analytic`; the steps, with ``Rot(a, θ)`` Rodrigues'
 rotation:
 
@@ -84,6 +86,7 @@ from ._analytic_codes import (
     Q6,
     Q50,
     REACH_TOL,
+    ROOTS,
     ROTATION_ERROR,
     SELF_MOTION,
     SHOULDER_SINGULAR,
@@ -119,9 +122,18 @@ prange = parallel_range()
 
 
 @kernel(inline=True)
-def _dot(arm, i, x, y, z):
-    """``arm[i : i + 3] · v``, for ``v = (x, y, z)``."""
-    return arm[i] * x + arm[i + 1] * y + arm[i + 2] * z
+def _in_frame(x, y, z, ax, ay, az, bx, by, bz, cx, cy, cz):
+    """``(v·a, v·b, v·c)`` for ``v = (x, y, z)``: ``v``'s components along the axes
+    ``a, b, c`` of a frame."""
+    return (x * ax + y * ay + z * az, x * bx + y * by + z * bz,
+            x * cx + y * cy + z * cz)  # fmt: skip
+
+
+@kernel(inline=True)
+def _mix(s0, s1, s2, ax, ay, az, bx, by, bz, cx, cy, cz):
+    """``s0 a + s1 b + s2 c``: a vector from its components along the axes ``a, b, c``."""
+    return (s0 * ax + s1 * bx + s2 * cx, s0 * ay + s1 * by + s2 * cy,
+            s0 * az + s1 * bz + s2 * cz)  # fmt: skip
 
 
 @kernel(inline=True)
@@ -169,6 +181,8 @@ def solve_pose(arm, T, q7, out):
     for i in range(3):  # the pose, for the FK errors
         for j in range(4):
             out[POSE, 4 * i + j] = T[i, j]
+    for j in range(N_VALUES):  # the roots' arguments, filled as they are reached
+        out[ROOTS, j] = math.nan
     # 1. frame 6, the wrist point W, the joint-6 axis z6
     R6 = _frame6(arm, T, math.cos(q7), math.sin(q7))
     e0, e1, e2 = _apply(R6, arm, WE)
@@ -179,6 +193,7 @@ def solve_pose(arm, T, q7, out):
     vx, vy, vz, dist = _unit(wx - arm[S], wy - arm[S + 1], wz - arm[S + 2])
     # 2. the elbow: cos(q4 − δ) = x
     x = ((arm[K_ELBOW] - dist * dist) / 2.0 - arm[P_ELBOW]) * arm[INV_H]
+    out[ROOTS, 0] = x
     if abs(x) > 1.0 + REACH_TOL:
         return UNREACHABLE << FLAG_SHIFT
     pose_flags = 0
@@ -202,16 +217,8 @@ def solve_pose(arm, T, q7, out):
     # q6's two vectors (world) dotted with v̂, n, m
     p0, p1, p2 = _apply(R6, arm, P6)
     g0, g1, g2 = _apply(R6, arm, Q6)
-    pv, pn, pm = (
-        p0 * vx + p1 * vy + p2 * vz,
-        p0 * nx + p1 * ny + p2 * nz,
-        p0 * mx + p1 * my + p2 * mz,
-    )
-    gv, gn, gm = (
-        g0 * vx + g1 * vy + g2 * vz,
-        g0 * nx + g1 * ny + g2 * nz,
-        g0 * mx + g1 * my + g2 * mz,
-    )
+    pv, pn, pm = _in_frame(p0, p1, p2, vx, vy, vz, nx, ny, nz, mx, my, mz)
+    gv, gn, gm = _in_frame(g0, g1, g2, vx, vy, vz, nx, ny, nz, mx, my, mz)
     # v̂, n, m in the placement frame of joint 1 (the shoulder's)
     bvx, bvy, bvz = _base(arm, vx, vy, vz)
     bnx, bny, bnz = _base(arm, nx, ny, nz)
@@ -245,6 +252,7 @@ def solve_pose(arm, T, q7, out):
                 n3x, n3y, n3z = _perpendicular(hx, hy, hz)
         else:
             y = rhs / (nu * nzp)
+            out[ROOTS, 1 + i4] = y
             if abs(y) > 1.0 + REACH_TOL:
                 continue
             if 1.0 - abs(y) < MERGE_TOL:
@@ -257,27 +265,13 @@ def solve_pose(arm, T, q7, out):
         # q5's two vectors in frame 3 (for this q4) dotted with ĥ, n3, m3
         a0, a1, a2 = _combo(arm, P50, P5C, P5S, c4, s4)
         b0, b1, b2 = _combo(arm, Q50, Q5C, Q5S, c4, s4)
-        ah, an, am = (
-            a0 * hx + a1 * hy + a2 * hz,
-            a0 * n3x + a1 * n3y + a2 * n3z,
-            a0 * m3x + a1 * m3y + a2 * m3z,
-        )
-        bh, bn, bm = (
-            b0 * hx + b1 * hy + b2 * hz,
-            b0 * n3x + b1 * n3y + b2 * n3z,
-            b0 * m3x + b1 * m3y + b2 * m3z,
-        )
+        ah, an, am = _in_frame(a0, a1, a2, hx, hy, hz, n3x, n3y, n3z, m3x, m3y, m3z)
+        bh, bn, bm = _in_frame(b0, b1, b2, hx, hy, hz, n3x, n3y, n3z, m3x, m3y, m3z)
         # the shoulder's two frame-3 vectors (a3, Cᵀ m3) dotted with ĥ, n3, m3
-        th, tn, tm = (
-            _dot(arm, A3, hx, hy, hz),
-            _dot(arm, A3, n3x, n3y, n3z),
-            _dot(arm, A3, m3x, m3y, m3z),
-        )
-        ch, cn, cm = (
-            _dot(arm, M3C, hx, hy, hz),
-            _dot(arm, M3C, n3x, n3y, n3z),
-            _dot(arm, M3C, m3x, m3y, m3z),
-        )
+        th, tn, tm = _in_frame(arm[A3], arm[A3 + 1], arm[A3 + 2],
+                               hx, hy, hz, n3x, n3y, n3z, m3x, m3y, m3z)  # fmt: skip
+        ch, cn, cm = _in_frame(arm[M3C], arm[M3C + 1], arm[M3C + 2],
+                               hx, hy, hz, n3x, n3y, n3z, m3x, m3y, m3z)  # fmt: skip
         for i_phi in range(n_phi):
             s = sp if i_phi == 0 else -sp
             # R3 = v̂ ĥᵀ + f n3ᵀ + b m3ᵀ, f = c n + s m, b = c m − s n (R3 ĥ = v̂)
@@ -291,16 +285,8 @@ def solve_pose(arm, T, q7, out):
             # 4. the shoulder: t = R(X0)ᵀ R3 a3, w = R(X0)ᵀ R3 Cᵀ m3
             fx, fy, fz = cp * bnx + s * bmx, cp * bny + s * bmy, cp * bnz + s * bmz
             gx, gy, gz = cp * bmx - s * bnx, cp * bmy - s * bny, cp * bmz - s * bnz
-            tx, ty, tz = (
-                th * bvx + tn * fx + tm * gx,
-                th * bvy + tn * fy + tm * gy,
-                th * bvz + tn * fz + tm * gz,
-            )
-            kx, ky, kz = (
-                ch * bvx + cn * fx + cm * gx,
-                ch * bvy + cn * fy + cm * gy,
-                ch * bvz + cn * fz + cm * gz,
-            )
+            tx, ty, tz = _mix(th, tn, tm, bvx, bvy, bvz, fx, fy, fz, gx, gy, gz)
+            kx, ky, kz = _mix(ch, cn, cm, bvx, bvy, bvz, fx, fy, fz, gx, gy, gz)
             branch = 4 * i4 + 2 * i_phi
             x5, ok5 = _limit(arm, 4, q5)
             x6, ok6 = _limit(arm, 5, q6)

@@ -208,6 +208,12 @@ class IKSolutionsBatch:
         within_limits: ``(N, 8)``. position_error, rotation_error: ``(N, 8)``, m, rad.
         count: solutions per pose, ``(N,)``. flags: per pose, ``(N,)`` int64
         (:class:`AnalyticFlag` bits).
+        roots: the arguments of the ``acos`` that decide which branches exist, ``(N, 3)``
+            (a root exists where its argument lies within ±1): the elbow's ``x`` (step 2
+            of the module docstring), then the joint-5/6 condition's ``y`` of each elbow
+            root (step 3; NaN where not reached: the elbow out of reach, one elbow root,
+            or a condition that does not involve ``φ``; all NaN from the closed form at
+            the arm angle).
     """
 
     q: FloatArray
@@ -218,6 +224,7 @@ class IKSolutionsBatch:
     solution_flags: NDArray[np.int64]
     count: NDArray[np.int64]
     flags: NDArray[np.int64]
+    roots: FloatArray
 
     @property
     def residual(self) -> FloatArray:
@@ -312,6 +319,7 @@ def at_q7_batch(
         solution_flags=rows[:, :, codes.FLAGS].astype(np.int64),
         count=summary[:, 1].copy(),
         flags=summary[:, 2].copy(),
+        roots=out[:, codes.ROOTS, :3],
     )
 
 
@@ -369,34 +377,25 @@ def _native(module: str, name: str, args: tuple[Any, ...]) -> tuple[Any, Callabl
     return entry(*args), entry
 
 
-def _solve_first(*args: Any) -> int:
-    """``solve_pose(*args)``, and :data:`_solve` its entry point from now on."""
-    global _solve
-    code, entry = _native("_q7_kernels", "solve_pose", args)
-    if entry is not None:
-        _solve = entry
-    return int(code)
+def _swapping(module: str, name: str, slot: str) -> Callable[..., Any]:
+    """A stand-in for kernel ``name`` of kernel module ``module``: it runs the kernel
+    (:func:`_native`) and, once an entry point is made, puts it in this module's global
+    ``slot``, where callers look it up, in its own place from then on."""
+
+    def first(*args: Any) -> Any:
+        result, entry = _native(module, name, args)
+        if entry is not None:
+            globals()[slot] = entry
+        return result
+
+    first.__name__ = first.__qualname__ = f"{name}_first"
+    return first
 
 
-def _solve_srs_first(*args: Any) -> int:
-    """``solve_arm_angle(*args)``, and :data:`solve_srs` its entry point from now on."""
-    global solve_srs
-    code, entry = _native("_arm_angle_kernels", "solve_arm_angle", args)
-    if entry is not None:
-        solve_srs = entry
-    return int(code)
-
-
-def _errors_first(*args: Any) -> None:
-    """``errors(*args)``, and :data:`_errors` its entry point from now on."""
-    global _errors
-    _, entry = _native("_residual_kernels", "errors", args)
-    if entry is not None:
-        _errors = entry
-
-
-_solve: Callable[..., int] = _solve_first
-_errors: Callable[..., None] = _errors_first
+#: ``solve_pose(arm, T, q7, out)``, compiled: the closed form at ``q7``.
+_solve: Callable[..., int] = _swapping("_q7_kernels", "solve_pose", "_solve")
+#: ``errors(links, axes, kinds, values, count)``, compiled: the solutions' FK errors.
+_errors: Callable[..., None] = _swapping("_residual_kernels", "errors", "_errors")
 #: ``solve_arm_angle(srs, T, phi, out)`` (for :mod:`.solutions`): the S-R-S closed form
 #: at one arm angle, compiled.
-solve_srs: Callable[..., int] = _solve_srs_first
+solve_srs: Callable[..., int] = _swapping("_arm_angle_kernels", "solve_arm_angle", "solve_srs")

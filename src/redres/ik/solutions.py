@@ -336,4 +336,4 @@ def _at_arm_angle(robot: Robot, poses: FloatArray, arm_angle: Any, frame: str | 
             rot_err[i, k] = float(np.linalg.norm(log3(F[:3, :3].T @ poses[i, :3, :3])))
     flags = np.where(count == 0, int(AnalyticFlag.UNREACHABLE), 0).astype(np.int64)
     return IKSolutionsBatch(q, branch, within, pos_err, rot_err, np.zeros((n, 8), np.int64),
-                            count, flags)  # fmt: skip
+                            count, flags, np.full((n, 3), np.nan))  # fmt: skip

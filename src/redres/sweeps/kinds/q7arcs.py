@@ -21,6 +21,10 @@ function along it. So, per pose, on arrays over all poses of a batch:
    :data:`FOLD_GAP` (joint space). The piece of the curve between the two samples is
    short enough that step 6 adds each side's arm angle to the other (at 1e-2 rad apart
    the arm angle there was off by up to 1.4e-3 rad: it turns back sharply at folds).
+   Then the folds hidden between two values of ``q7`` evaluated (a pair of branches
+   that lives between two of them, or vanishes between two where it exists): from the
+   argument ``y`` of the root of step 3 at each value, where ``1 − |y|`` has an extreme
+   toward 0 between three values of the same sign (:mod:`.q7folds`).
 3. **Swings.** Each step between neighbouring samples of a branch where a joint moves
    more than :data:`.q7samples._JUMP` is halved, and its halves again, until none does (or the
    step is :data:`.q7samples._NARROW`): near the shoulder's singularity joints 1 and 3 swing
@@ -49,10 +53,10 @@ function along it. So, per pose, on arrays over all poses of a batch:
 What a map stores is then the stored form of the sweep's closed form: per branch slot,
 its runs' arcs as pieces; the union over the branches. Not certified: steps 3, 4 and 6
 find a turn or a swing from the samples around it (a joint that turns twice within one
-step unseen is missed), and step 2 sees the folds of a branch only where its existence
-changes between grid values: a branch pair that lives between two grid values, or a
-second fold in one grid interval, is missed (grid step ``5.8/(grid − 1)`` rad for the
-Panda; docs/sweeps.md gives the measured cases).
+step unseen is missed), and step 2 finds a hidden pair of folds from the values of
+``1 − |y|`` around it (one that rises above 0, or dips below, between values where it
+does not turn toward 0 is missed; grid step ``5.8/(grid − 1)`` rad for the Panda;
+docs/sweeps.md gives the measured cases).
 """
 
 from __future__ import annotations
@@ -64,17 +68,19 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...tasks.arm_angle import ArmAngleTask
+from .q7folds import FOLD_GAP, Evaluated, folds, hidden
 from .q7samples import (
     END_TOL,
-    FOLD_GAP,
     TURN_ROUNDS,
     TURN_TOL,
     BranchSolver,
     Samples,
     branch_at,
+    joint_turns,
+    limit_ends,
     narrowed,
     parabola_vertex,
-    sample_along_q7,
+    refine,
     turns,
     wrap,
 )
@@ -230,9 +236,33 @@ def merged(lo: np.ndarray, hi: np.ndarray, owner: np.ndarray, owners: int, slots
 
 
 def _chunk(solver: BranchSolver, T: np.ndarray, grid: int) -> Q7Arcs:
-    """:func:`q7_arcs` of at most :data:`.q7samples._CHUNK` poses."""
+    """:func:`q7_arcs` of at most ``_CHUNK`` poses."""
     s, folds = sample_along_q7(solver, T, grid)
     return _runs(solver, T, s, folds)
+
+
+def sample_along_q7(solver: BranchSolver, T: np.ndarray, grid: int) -> tuple[Samples, int]:
+    """Every branch of the poses ``T`` ``(N, 4, 4)`` sampled along ``q7`` (steps 1-5 of
+    the module docstring): the samples, sorted, and how many folds (the samples of the
+    two sides of fold ``f`` are tagged ``2f`` and ``2f + 1``)."""
+    count = len(T)
+    g = np.linspace(solver.range[0], solver.range[1], grid)
+    q, inside, roots = solver.evaluate(np.repeat(T, grid, axis=0), np.tile(g, count))
+    seen = Evaluated()
+    seen.add(np.repeat(np.arange(count), grid), np.tile(g, count), roots)
+    q = q.reshape(count, grid, 8, 7).transpose(0, 2, 1, 3)  # (N, 8, G, 7)
+    inside = inside.reshape(count, grid, 8).transpose(0, 2, 1)
+    rows = np.repeat(np.arange(8 * count), grid)
+    s = Samples(rows, np.tile(g, 8 * count), inside.ravel(), q.reshape(-1, 7),
+                np.full(len(rows), -1))  # fmt: skip
+    x = roots[:, 0].reshape(count, grid)
+    found = hidden(solver, T, s, seen, folds(solver, T, g, (q, inside, x), s, seen))
+    s.sort()
+    refine(solver, T, s)
+    joint_turns(solver, T, s)
+    limit_ends(solver, T, s)
+    s.sort()
+    return s, found
 
 
 def _runs(solver: BranchSolver, T: np.ndarray, s: Samples, folds: int) -> Q7Arcs:

@@ -1,8 +1,8 @@
 """Samples of each branch of the Panda's closed form along ``q7``, placed where the
-redundancy map needs them (steps 1-5 of :mod:`redres.sweeps.kinds.q7arcs`: the grid, the
-folds where two branches meet, the shoulder's swings, joints turning near their limits,
-the ends where a joint meets its limit); :mod:`.q7arcs` turns the runs of samples within
-the limits into arm-angle arcs (step 6).
+redundancy map needs them (steps 3-5 of :mod:`redres.sweeps.kinds.q7arcs`: the shoulder's
+swings, joints turning near their limits, the ends where a joint meets its limit; the
+folds, step 2, are :mod:`.q7folds`'); :mod:`.q7arcs` turns the runs of samples within the
+limits into arm-angle arcs (step 6).
 
 Everything is on flat arrays over every pose of a chunk and every branch (row
 ``8 n + b``): each step evaluates the closed form (:func:`redres.ik.analytic.at_q7_batch`)
@@ -25,7 +25,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "END_TOL",
-    "FOLD_GAP",
     "TURN_ROUNDS",
     "TURN_TOL",
     "BranchSolver",
@@ -33,15 +32,11 @@ __all__ = [
     "branch_at",
     "narrowed",
     "parabola_vertex",
-    "sample_along_q7",
     "turns",
     "wrap",
 ]
 
 END_TOL = 1e-8  #: rad: a limit end's bracket in q7, or its margin
-FOLD_GAP = 1e-4  #: rad: the two sides of a fold, apart in joint space (2-norm)
-_FOLD_TOL = 1e-12  # rad: a bracket in q7 narrower than this: not a fold of the pair
-_EXTRA = 3  # samples between a fold and its grid value
 _JUMP = 0.5  # rad: a joint's move between samples above which the step is halved
 _LEVELS = 48  # halvings at most (a swing narrower than 2**-48 of the grid step is one)
 _NARROW = 1e-13  # rad: a step of q7 not halved further
@@ -69,6 +64,12 @@ class BranchSolver:
     def all_branches(self, T: np.ndarray, q7: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every branch: configurations ``(M, 8, 7)`` (NaN: no such branch), and whether
         each is within the limits ``(M, 8)``."""
+        q, inside, _ = self.evaluate(T, q7)
+        return q, inside
+
+    def evaluate(self, T: np.ndarray, q7: np.ndarray) -> tuple[np.ndarray, ...]:
+        """:meth:`all_branches`, and the arguments of the roots that decide which branch
+        exists ``(M, 3)`` (``roots`` of :class:`redres.ik.analytic.IKSolutionsBatch`)."""
         if len(q7) < _SMALL:  # a parallel launch waits for its slowest thread
             previous = _compile.threads(1)
             try:
@@ -83,13 +84,15 @@ class BranchSolver:
         b = found.branch[rows, slots]
         q[rows, b] = found.q[rows, slots]
         inside[rows, b] = found.within_limits[rows, slots]
-        return q, inside
+        return q, inside, found.roots
 
     def margin(self, q: np.ndarray) -> np.ndarray:
-        """The smallest distance of a joint inside its limits, rad (negative outside,
-        measured on the circle from the middle of the limits; NaN where ``q`` is NaN)."""
-        q = self.centre + wrap(q - self.centre)  # a joint past π is reported wrapped
-        return np.minimum(q - self.q_min, self.q_max - q).min(axis=-1)
+        """The smallest distance of joints 1-6 inside their limits, rad (negative outside,
+        measured on the circle from the middle of the limits; NaN where ``q`` is NaN).
+        Not ``q7``'s: the walk's parameter stays within its range, and at the range's ends
+        its margin, 0, stopped the search for where another joint meets its limit."""
+        q = self.centre[:6] + wrap(q[..., :6] - self.centre[:6])  # past π: wrapped
+        return np.minimum(q - self.q_min[:6], self.q_max[:6] - q).min(axis=-1)
 
     def margins(self, q: np.ndarray) -> np.ndarray:
         """Each joint's distance inside its nearer limit, rad, ``(..., 7)`` (negative
@@ -112,7 +115,9 @@ def wrap(x: np.ndarray) -> np.ndarray:
     return np.asarray(x - _TWO_PI * np.round(x / _TWO_PI))
 
 
-def _distance2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def distance2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Squared joint-space distance of configurations ``(..., 7)``, rad², each joint's
+    difference wrapped into ``[-π, π]``."""
     return np.sum(wrap(a - b) ** 2, axis=-1)
 
 
@@ -150,77 +155,6 @@ class Samples:
     def neighbours(self) -> np.ndarray:
         """Indices ``i`` where samples ``i`` and ``i + 1`` are of the same row."""
         return np.flatnonzero(self.row[1:] == self.row[:-1])
-
-
-def sample_along_q7(solver: BranchSolver, T: np.ndarray, grid: int) -> tuple[Samples, int]:
-    """Every branch of the poses ``T`` ``(N, 4, 4)`` sampled along ``q7`` (steps 1-5 of
-    :mod:`.q7arcs`): the samples, sorted, and how many folds (the samples of the two sides
-    of fold ``f`` are tagged ``2f`` and ``2f + 1``)."""
-    count = len(T)
-    g = np.linspace(solver.range[0], solver.range[1], grid)
-    q, inside = solver.all_branches(np.repeat(T, grid, axis=0), np.tile(g, count))
-    q = q.reshape(count, grid, 8, 7).transpose(0, 2, 1, 3)  # (N, 8, G, 7)
-    inside = inside.reshape(count, grid, 8).transpose(0, 2, 1)
-    rows = np.repeat(np.arange(8 * count), grid)
-    s = Samples(rows, np.tile(g, 8 * count), inside.ravel(), q.reshape(-1, 7),
-                np.full(len(rows), -1))  # fmt: skip
-    found = folds(solver, T, g, q, inside, s)
-    s.sort()
-    refine(solver, T, s)
-    joint_turns(solver, T, s)
-    limit_ends(solver, T, s)
-    s.sort()
-    return s, found
-
-
-def folds(solver: BranchSolver, T: np.ndarray, g: np.ndarray, q: np.ndarray, inside: np.ndarray,
-           s: Samples) -> int:  # fmt: skip
-    """Find the folds between grid values (:mod:`.q7arcs`, step 2) and sample both
-    branches there and on the way to it. Returns how many folds: the samples of the two
-    sides of fold ``f`` are tagged ``2f`` and ``2f + 1``."""
-    exists = np.isfinite(q[..., 0])
-    change = exists[..., :-1] != exists[..., 1:]
-    n, b, k = np.nonzero(change)
-    side = np.where(exists[n, b, k], k, k + 1)  # where both exist
-
-    def mate(x: np.ndarray) -> np.ndarray:  # a partner that vanishes there too
-        return change[n, x, k] & exists[n, x, side]
-
-    # the elbow's mate first when it vanishes too (every root ends: out of reach), else
-    # the mate of step 3; then the other one where the first is no fold
-    elbow = mate(b ^ 4)
-    first, second = np.where(elbow, b ^ 4, b ^ 2), np.where(elbow, b ^ 2, b ^ 4)
-    lead = (b & 1) == 0  # the shoulder's other sign (code b ^ 1) folds at the same q7
-    done = np.zeros(change.shape, dtype=bool)
-    tags = 0
-    for partner in (first, second):
-        fits = mate(partner) & (partner > b) & lead & ~done[n, b, k] & ~done[n, partner, k]
-        at = (n[fits], b[fits], k[fits], side[fits], partner[fits])
-        a, qa, ina, ok = _fold(solver, T, g, q, inside, at)
-        fn, fb, fp, fa, fs = at[0][ok], at[1][ok], at[4][ok], a[ok], at[3][ok]
-        done[fn, fb, at[2][ok]] = done[fn, fp, at[2][ok]] = True
-        qa, ina = qa[ok], ina[ok]
-        four = (fb, fp, fb ^ 1, fp ^ 1)  # the pair and its twin of the other shoulder
-        for j, branch in enumerate(four):
-            has = np.isfinite(qa[:, j, 0])
-            tag = 2 * (tags + 2 * np.arange(len(fn)) + (j >= 2)) + j % 2  # fold, side
-            s.add((fn * 8 + branch)[has], fa[has], qa[has, j], ina[has, j], tag[has])
-        tags += 2 * len(fn)
-        # samples evenly spaced in the curve's length from the grid value to the fold
-        # (q7 moves as its square there): a joint may leave its limits and come back
-        t = (np.arange(1, _EXTRA + 1) / (_EXTRA + 1)) ** 2
-        x = (fa[:, None] + (g[fs] - fa)[:, None] * t).ravel()
-        _sample(solver, T, np.repeat(fn, _EXTRA), x, s)
-    return tags
-
-
-def _sample(
-    solver: BranchSolver, T: np.ndarray, pose: np.ndarray, x: np.ndarray, s: Samples
-) -> None:
-    """Add every branch that exists at poses ``pose`` and ``q7`` values ``x``."""
-    every, within = solver.all_branches(T[pose], x)
-    i, b = np.nonzero(np.isfinite(every[..., 0]))
-    s.add(pose[i] * 8 + b, x[i], every[i, b], within[i, b])
 
 
 def _evaluate(solver: BranchSolver, T: np.ndarray, pose: np.ndarray, x: np.ndarray, s: Samples
@@ -340,48 +274,6 @@ def joint_turns(solver: BranchSolver, T: np.ndarray, s: Samples) -> None:
         px[active], py[active] = narrowed(px[active], py[active], x, y, top[active])
     if added:
         s.sort()
-
-
-def _fold(solver: BranchSolver, T: np.ndarray, g: np.ndarray, q: np.ndarray, inside: np.ndarray,
-          at: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:  # fmt: skip
-    """The secant on ``d²`` of pairs ``(pose, branch, interval, side, partner)`` from the
-    side where both exist, bracketed by the other. Returns the ``q7`` reached, the
-    configurations there of the pair and of its twin of the other shoulder sign (codes
-    ``^ 1``; NaN where there is none) ``(F, 4, 7)``, whether each is within the limits,
-    and whether the pair met (``d <`` :data:`FOLD_GAP`)."""
-    n, b, k, side, partner = at
-    grid = len(g)
-    a, z = g[side], g[2 * k + 1 - side]
-    back = np.clip(2 * side - (2 * k + 1 - side), 0, grid - 1)  # one grid value further
-    four = (b, partner, b ^ 1, partner ^ 1)  # the pair, and its twin of the other shoulder
-    qa = np.stack([q[n, x, side] for x in four], axis=1)
-    da = _distance2(qa[:, 0], qa[:, 1])
-    p = g[back]
-    dp = _distance2(q[n, b, back], q[n, partner, back])  # NaN where either is missing
-    ina = np.stack([inside[n, x, side] for x in four], axis=1)
-    missed = np.zeros(len(a), dtype=bool)
-    busy = (np.abs(z - a) > _FOLD_TOL) & (da > FOLD_GAP**2)
-    while busy.any():
-        act = np.flatnonzero(busy)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            c = a[act] - da[act] * (a[act] - p[act]) / (da[act] - dp[act])
-        # past the bracket (the secant's root is just past the fold): most of the way
-        # to its end, or half-way after such a step missed
-        secant = np.isfinite(c) & ((c - a[act]) * (z[act] - c) > 0.0)
-        c = np.where(secant, c, a[act] + np.where(missed[act], 0.5, 0.9) * (z[act] - a[act]))
-        every, within = solver.all_branches(T[n[act]], c)
-        pick = np.arange(len(act))
-        pair = np.stack([every[pick, x[act]] for x in four], axis=1)
-        both = np.isfinite(pair[:, :2, 0]).all(axis=1)
-        hit, miss = act[both], act[~both]
-        p[hit], dp[hit] = a[hit], da[hit]
-        a[hit], da[hit] = c[both], _distance2(pair[both, 0], pair[both, 1])
-        qa[hit] = pair[both]
-        ina[hit] = np.stack([within[pick, x[act]] for x in four], axis=1)[both]
-        z[miss] = c[~both]
-        missed[act] = ~both & ~secant
-        busy[act] = (np.abs(z[act] - a[act]) > _FOLD_TOL) & (da[act] > FOLD_GAP**2)
-    return a, qa, ina, da <= FOLD_GAP**2
 
 
 def branch_at(solver: BranchSolver, T: np.ndarray, q7: np.ndarray, branch: np.ndarray
