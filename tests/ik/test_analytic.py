@@ -31,7 +31,13 @@ def _fr3() -> rr.Robot:
     return rr.Robot(model, tip="tcp", name="fr3")
 
 
-ARMS = {"panda": rr.models.panda, "fr3": _fr3, "iiwa14": rr.models.iiwa14, "srs7": rr.models.srs7}
+def _file_iiwa14() -> rr.Robot:
+    """A file arm, detected from its axes: MuJoCo Menagerie's iiwa14 MJCF (not DH)."""
+    return rr.models.menagerie("iiwa14")
+
+
+ARMS = {"panda": rr.models.panda, "fr3": _fr3, "iiwa14": rr.models.iiwa14, "srs7": rr.models.srs7,
+        "iiwa14 file": _file_iiwa14}  # fmt: skip
 
 
 @pytest.fixture(scope="module", params=sorted(ARMS))
