@@ -21,6 +21,18 @@ pose error ``[p_d − p; log(R_d Rᵀ)]`` with gain 50/s, the joint velocity, th
   mink frame + posture tasks with their configuration and velocity limits (solver DAQP).
   KDL and robotics-toolbox have no velocity-QP API.
 
+PlaCo (``KinematicsSolver``: set the joints, ``update_kinematics``, ``solve(True)``, read
+the new ``q``) does each operation with its soft frame task: ``pinv`` alone, ``damped``
+with its regularization task of weight λ², ``secondary`` with a joints task toward
+mid-range (weight 1e-6, the square of pink's and mink's posture cost 1e-3: PlaCo weighs
+squared residuals), ``qp`` with that and its joint-position and velocity limits
+(``solver.dt`` = 1 ms, redres' limits); it has no acceleration limits. Not comparable in
+two ways: its frame task asks for the whole pose error per step (no gain: a dead-beat
+step, as pink and mink with gain 1, where redres and KDL use gain 50/s), which changes
+the answer, not the work; and it pins its own Pinocchio, so it runs in its own
+interpreter (``PLACO_PYTHON``, ``peers.placo_run``), timed the same way (each call alone,
+shuffled blocks) but not interleaved with the others.
+
 Two redres rows per operation: the step composed by hand from the public parts
 (``FrameTask.compute``, ``Scheme.step``, integration), and ``Controller.step``, the
 library's loop step (the fused kernel for a frame task; its frame front end and
@@ -303,7 +315,28 @@ LABELS = {
     "robotics-toolbox": "robotics-toolbox (jacob0 + NumPy)",
     "pink": "pink solve_ik",
     "mink": "mink solve_ik",
+    "PlaCo": "PlaCo KinematicsSolver (own process)",
 }
+
+#: PlaCo's setup of each operation (placo_peer.py's fields).
+PLACO_SETUPS = {
+    "pinv": {},
+    "damped": {"regularization": DAMPING**2},
+    "secondary": {"posture_weight": POSTURE_COST**2},
+    "qp": {"posture_weight": POSTURE_COST**2, "joint_limits": True, "velocity_limits": True},
+}
+
+
+def placo_times(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray, rounds: int,
+                calls: int, tmp: Path) -> dict[str, np.ndarray]:  # fmt: skip
+    """Per operation, PlaCo's per-call times (µs) in its own process (empty without it)."""
+    job = peers.placo_job(name, "step", tmp, q=q, target=T.ravel(), dt=DT,
+                          posture=(robot.q_min + robot.q_max) / 2, setups=PLACO_SETUPS,
+                          rounds=rounds, calls=calls)  # fmt: skip
+    result = peers.placo_run(name, job)
+    if result is None:
+        return {}
+    return {op: np.asarray(t) for op, t in result["times"].items()}
 
 
 def measure(name: str, rounds: int, calls: int, tmp: Path) -> dict[str, dict[str, np.ndarray]]:
@@ -323,6 +356,9 @@ def measure(name: str, rounds: int, calls: int, tmp: Path) -> dict[str, dict[str
         contenders = {lib: steps[op] for lib, steps in by_library.items() if op in steps}
         if "redres" in contenders:
             results[op] = sample(contenders, rounds, calls)
+    for op, times in placo_times(name, robot, q, T, rounds, calls, tmp).items():
+        if op in results:
+            results[op]["PlaCo"] = times
     return results
 
 

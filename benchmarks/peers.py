@@ -340,3 +340,70 @@ def check_same_robot(name: str, directory: Path, count: int = 5, seed: int = 0) 
                     f"q = {np.round(q, 4).tolist()}; fix benchmarks/peers.py before comparing"
                 )
     return list(fks)
+
+
+# --- PlaCo, in its own interpreter (step.py, differential.py, quality.py)
+
+PLACO_WORKER = Path(__file__).with_name("placo_peer.py")
+
+
+def placo_python() -> str | None:
+    """The Python that imports ``placo``: ``$PLACO_PYTHON``, else this one if it has it.
+
+    PlaCo 0.10.2 pins ``pin==3.8.0`` (through cmeel), which cannot be installed beside
+    redres' Pinocchio 4: install it in its own environment (``python -m venv ...; pip
+    install placo``) and name that environment's ``python`` in ``PLACO_PYTHON``."""
+    path = os.environ.get("PLACO_PYTHON")
+    if path:
+        return path
+    import importlib.util
+
+    if importlib.util.find_spec("placo") is not None:
+        return sys.executable
+    note("PlaCo (pip install placo, in its own venv: it pins pin 3.8) not found: set "
+         "PLACO_PYTHON to that venv's python; skipped")  # fmt: skip
+    return None
+
+
+def placo_job(name: str, kind: str, directory: Path, **fields: Any) -> dict[str, Any]:
+    """A job for ``placo_peer.py`` on arm ``name``: its URDF written to ``directory``, the
+    tip link, the joints, redres' limits of that arm (those every peer uses), and
+    ``fields`` (``dt``, ``q``, ``target``, ``setups``, ... as the worker reads them)."""
+    robot = rr.models.load(name)
+    joints = [j for j, revolute, _ in urdf_joints(arm_urdf(name), TIP_LINK[name]) if revolute]
+    rng = np.random.default_rng(5)
+    check = [robot.random_configuration(rng).tolist() for _ in range(3)]
+    job: dict[str, Any] = {
+        "kind": kind, "urdf": str(write_urdf(name, directory)), "tip": TIP_LINK[name],
+        "joints": joints, "q_min": robot.q_min.tolist(), "q_max": robot.q_max.tolist(),
+        "qd_max": robot.qd_max.tolist(), "check_q": check,
+    }  # fmt: skip
+    job.update({k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else v
+                for k, v in fields.items()})  # fmt: skip
+    return job
+
+
+def placo_run(name: str, job: dict[str, Any], timeout: float = 900.0) -> dict[str, Any] | None:
+    """Run one job in PlaCo's interpreter; None (with a note) when PlaCo is absent or
+    fails. Aborts loudly when PlaCo's tip poses differ from redres' on arm ``name``."""
+    import json
+    import subprocess
+
+    python = placo_python()
+    if python is None:
+        return None
+    done = subprocess.run([python, str(PLACO_WORKER)], input=json.dumps(job),
+                          capture_output=True, text=True, timeout=timeout, check=False)  # fmt: skip
+    if done.returncode != 0:
+        note(f"PlaCo failed: {done.stderr.strip().splitlines()[-1:]}; skipped")
+        return None
+    result: dict[str, Any] = json.loads(done.stdout)
+    robot = rr.models.load(name)
+    for q, pose in zip(job["check_q"], result["fk"]):
+        gap = float(np.abs(np.reshape(pose, (4, 4)) - robot.fk(q, TIP_FRAME[name])).max())
+        if not gap < 1e-9:
+            raise AssertionError(
+                f"PlaCo's {name} is not redres' {name}: tip poses differ "
+                f"by {gap:.3g}; fix benchmarks/peers.py before comparing"
+            )
+    return result

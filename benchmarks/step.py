@@ -12,7 +12,17 @@ equivalent step on the same Panda:
 * pink ``solve_ik`` and mink ``solve_ik``: a frame task plus a posture task, solved as a
   QP with joint-limit constraints (their only mode), then integration;
 * KDL: forward kinematics, pose error, ``ChainIkSolverVel_wdls`` (weighted damped least
-  squares), integration.
+  squares), integration;
+* PlaCo ``KinematicsSolver.solve`` (Rhoban; C++ over Pinocchio, QP by qpmad): set the
+  joints, ``update_kinematics``, a soft frame task plus a soft joints task toward the
+  neutral pose (weight 1e-6: pink's and mink's posture cost 1e-3, squared, as PlaCo weighs
+  squared residuals) under its joint-position and velocity limits (``solver.dt`` = 1 ms,
+  the same limits as redres'), read the new ``q``. PlaCo pins its own Pinocchio, so it
+  runs in its own interpreter (``PLACO_PYTHON``, ``peers.placo_run``), timed there in the
+  same blocks of 200 calls but not interleaved with the rest: its rows are marked "own
+  process". Its frame task asks for the whole pose error in one step (no gain), as pink's
+  and mink's with gain 1; the QP has the same size and constraints as the hard-limit rows'
+  (less redres' acceleration limits).
 
 The hard-limit rows do the same frame task under hard position, velocity and
 acceleration limits: ``QPScheme`` (a QP through DAQP) and ``SNSScheme`` (saturation in the
@@ -32,6 +42,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from tempfile import TemporaryDirectory
 
 import numpy as np
 import pinocchio as pin
@@ -39,7 +50,15 @@ import pinocchio as pin
 sys.path.insert(0, str(Path(__file__).parent))
 
 from _common import interleaved, machine, median, table
-from peers import import_kdl, import_mink, import_pink, kdl_panda, mujoco_panda
+from peers import (
+    import_kdl,
+    import_mink,
+    import_pink,
+    kdl_panda,
+    mujoco_panda,
+    placo_job,
+    placo_run,
+)
 
 import redres as rr
 from redres.control import Controller
@@ -199,13 +218,41 @@ def kdl_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[],
     return step
 
 
+PLACO = "PlaCo KinematicsSolver (frame + posture QP, limits; own process)"
+
+
+def placo_times(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> dict[str, np.ndarray]:
+    """PlaCo's step on the same Panda, state, target and limits, timed in its own process
+    (empty without PlaCo)."""
+    setup = {"posture_weight": 1e-6, "joint_limits": True, "velocity_limits": True}
+    with TemporaryDirectory() as tmp:
+        job = placo_job(
+            "panda",
+            "step",
+            Path(tmp),
+            q=q,
+            target=target.ravel(),
+            dt=DT,
+            posture=robot.neutral(),
+            setups={"qp": setup},
+            rounds=25,
+            calls=200,
+            per_call=False,
+        )
+        result = placo_run("panda", job)
+    if result is None:
+        return {}
+    print(f"PlaCo {result['placo']}: q after one step {np.round(result['q_after']['qp'], 4)}")
+    return {PLACO: np.asarray(result["times"]["qp"])}
+
+
 def report(hard: dict[str, Callable[[], object]], times: dict[str, np.ndarray]) -> None:
-    """The path of each hard-limit step and its speed-up over pink and mink."""
-    peers = ("pink solve_ik (frame + posture QP)", "mink solve_ik (frame + posture QP)")
+    """The path of each hard-limit step and each QP peer's time over its own."""
+    peers = ("pink solve_ik (frame + posture QP)", "mink solve_ik (frame + posture QP)", PLACO)
     for name, fn in hard.items():
         last = fn.last()  # type: ignore[attr-defined]
         ratios = [
-            f"{median(times[peer]) / median(times[name]):.1f}x faster than {peer.split()[0]}"
+            f"{peer.split()[0]} takes {median(times[peer]) / median(times[name]):.2f}x its time"
             for peer in peers
             if peer in times
         ]
@@ -239,6 +286,7 @@ def main() -> int:
     contenders.update({k: v for k, v in peers.items() if v is not None})
     print(f"Panda control step, {machine()}")
     times = interleaved(contenders, rounds=5, batch=200, batches=5)
+    times.update(placo_times(robot, q, target))
     base = median(times[next(iter(contenders))])
     rows = []
     for name, t in times.items():
@@ -260,6 +308,7 @@ def main() -> int:
         if fn is not None:
             contenders[name] = fn
     times = interleaved(contenders, rounds=5, batch=200, batches=5)
+    times.update(placo_times(robot, q, target))
     rows = [[name, f"{median(t):.1f}", f"{float(np.percentile(t, 99)):.1f}"]
             for name, t in times.items()]  # fmt: skip
     print("\nTracking problem (target 0.4 mm away)")

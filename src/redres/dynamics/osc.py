@@ -59,11 +59,11 @@ from ..linalg.dynamics import mass_matrix_factor
 from ..objectives import PostureObjective, quadratic_coefficients
 from ..resolution.gradient_projection import WeightedObjective
 from ..tasks import FrameTask
-from ._codes import OUT_EXTRA, OUT_POSE, OUT_STATS, OUT_TARGET
+from ._codes import OUT_MASS, OUT_STATS
 from ._servo import ServoLaw, ServoState
 from .base import ControlStep
 from .chain import KERNELS as CHAIN_KERNELS
-from .chain import ChainDynamics, chain_dynamics
+from .chain import ChainDynamics, KernelControlStep, chain_dynamics
 
 if TYPE_CHECKING:
     from .._toml import ScenarioParams
@@ -75,6 +75,7 @@ Compensation = Literal["joint", "task"]
 _PROJECTORS: tuple[str, ...] = get_args(Projector)
 _COMPENSATIONS: tuple[str, ...] = get_args(Compensation)
 _S = TypeVar("_S", bound=str)
+_F64 = np.dtype(np.float64)
 
 
 def check_choice(value: _S, name: str, choices: tuple[str, ...]) -> _S:
@@ -337,11 +338,14 @@ class OperationalSpaceController(ServoLaw):
 
 class _CompiledStep:
     """The arrays of :func:`redres.dynamics._kernels.osc_step` for one controller and robot
-    (built when the law allows it, :meth:`OperationalSpaceController.step`)."""
+    (built when the law allows it, :meth:`OperationalSpaceController.step`), checked and
+    filled here once: a step copies ``q``, ``q̇`` (and a new reference) in, calls the kernel
+    and hands its output to a :class:`~redres.dynamics.chain.KernelControlStep`."""
 
     def __init__(self, law: OperationalSpaceController, dynamics: ChainDynamics) -> None:
         n, rows = dynamics.n, law.servo.rows
         self.dynamics = dynamics
+        self.n = n
         self.rows = np.array(rows, dtype=np.int64)
         self.gains = np.array([law.servo.gains.kp, law.servo.gains.kd])
         mode, lam, lam_max, eps = parse_damping(law.damping)
@@ -349,13 +353,14 @@ class _CompiledStep:
                                   law.rcond])  # fmt: skip
         self.quad = np.zeros((2, n))
         self.method = method_label(mode, True, "")
-        self.feed = np.zeros(12)
-        self.J = np.empty((6, n))
-        self.out = np.empty(4 * n + OUT_EXTRA)
-        self.q, self.qd = np.zeros(n), np.zeros(n)
+        self.state = np.zeros(2 * n + 12)  # q, q̇, the reference twist and acceleration
+        self.out = np.empty(4 * n + OUT_MASS + n * n + len(rows) * n)
+        self._shape = (n,)
+        self._feed: tuple[Any, Any] = (None, None)  # the servo's arrays copied into state
         self._target = law.task.target_block
         self.args = self._arguments()
         self._entry: Any = None
+        self._stats: Any = None
 
     @classmethod
     def build(cls, law: OperationalSpaceController, robot: Robot) -> _CompiledStep | None:
@@ -376,8 +381,8 @@ class _CompiledStep:
 
     def _arguments(self) -> tuple[Any, ...]:
         d = self.dynamics
-        return (*d.arrays, d.damping, self.q, self.qd, self._target, self.feed, self.gains,
-                self.rows, self.quad, self.settings, self.J, self.out)  # fmt: skip
+        return (*d.arrays, d.damping, self.state, self._target, self.gains, self.rows,
+                self.quad, self.settings, self.out)  # fmt: skip
 
     def ready(self) -> bool:
         """Whether the kernel runs compiled (it compiles behind until then)."""
@@ -387,28 +392,40 @@ class _CompiledStep:
 
     def step(self, law: OperationalSpaceController, q: Any, qd: Any) -> ControlStep:
         """The torque at ``(q, q̇)`` with the servo's reference."""
-        n = self.dynamics.n
-        shape = self.q.shape
-        if not (type(q) is type(qd) is np.ndarray and q.dtype == qd.dtype == np.float64
-                and q.shape == qd.shape == shape):  # fmt: skip
-            q, qd = as_vector(q, "q", n), as_vector(qd, "qd", n)
-        self.q[:], self.qd[:] = q, qd  # their finiteness: the kernel's check
-        servo, task = law.servo, law.task
+        n, state = self.n, self.state
+        if (type(q) is np.ndarray and type(qd) is np.ndarray and q.dtype is _F64
+                and qd.dtype is _F64 and q.shape == self._shape == qd.shape):  # fmt: skip
+            state[:n] = q  # their finiteness: the kernel's check
+            state[n : 2 * n] = qd
+        else:
+            state[:n], state[n : 2 * n] = as_vector(q, "q", n), as_vector(qd, "qd", n)
+        servo = law.servo
         if not servo.has_target:
             servo.hold(self.dynamics.pose(as_vector(q, "q", n)))
-        if task.target_block is not self._target:  # the task was given another block
-            self._target = task.target_block
+        if servo.twist is not self._feed[0] or servo.acceleration is not self._feed[1]:
+            self._feed = (servo.twist, servo.acceleration)
+            state[2 * n : 2 * n + 6], state[2 * n + 6 :] = self._feed
+        if law.task.target_block is not self._target:  # the task was given another block
+            self._target = law.task.target_block
             self.args = self._arguments()
-        self.feed[:6], self.feed[6:] = servo.twist, servo.acceleration
         status = self._entry(*self.args)
         if status:
             as_vector(q, "q", n), as_vector(qd, "qd", n)  # names the non-finite one
             raise_status(status, {"J": "the task Jacobian", "W": "M"})
-        out = self.out.copy()
+        return KernelControlStep(self.out.copy(), n, self.info)
+
+    def info(self, out: FloatArray) -> InverseInfo:
+        """The inverse's diagnostics in the output ``out`` of one step; its singular values
+        computed now if the step skipped them (:func:`redres.dynamics._kernels.inverse_stats`)."""
+        n, m = self.n, len(self.rows)
         b = 4 * n
-        rank, smin, smax, used = out[b + OUT_STATS : b + OUT_EXTRA].tolist()
-        info = InverseInfo(int(rank), rank == min(len(self.rows), n), smin, smax, used, self.method)
-        return ControlStep(out[:n], info, out[b : b + OUT_POSE],
-                           out[b + OUT_POSE : b + OUT_TARGET].reshape(4, 4),
-                           out[b + OUT_TARGET : b + OUT_STATS].reshape(4, 4), out[2 * n : 3 * n],
-                           {"tau0": out[3 * n : b]})  # fmt: skip
+        rank, smin, smax, used = out[b + OUT_STATS : b + OUT_MASS].tolist()
+        if smin != smin:  # NaN: skipped
+            M = out[b + OUT_MASS : b + OUT_MASS + n * n].reshape(n, n)
+            J = out[b + OUT_MASS + n * n :].reshape(m, n)
+            if self._stats is None:
+                self._stats = CHAIN_KERNELS.entry("inverse_stats", (J, M, self.settings))
+            status, rank, smin, smax, used = self._stats(J, M, self.settings)
+            if status:  # pragma: no cover - the step factored the same matrices
+                raise_status(status, {"J": "the task Jacobian", "W": "M"})
+        return InverseInfo(int(rank), rank == min(m, n), smin, smax, used, self.method)
