@@ -4,9 +4,7 @@ without importing numba; covered by the kernels' cache stamp (a ``_codes.py`` fi
 
 For ``n`` joints: ``τ``, its task part, its null part, ``τ₀`` (``n`` each), then from
 ``4 n`` on the task error (6), the frame's pose and the target pose (16 each, row-major),
-and the inverse's rank, σ_min, σ_max and damping (4: σ NaN when the step skipped them),
-then the mass matrix (``n²``, row-major) and the task rows of the Jacobian (``m n``), from
-which the caller computes the skipped σ when they are read.
+and the inverse's rank, σ_min, σ_max and damping (4).
 """
 
-OUT_ERROR, OUT_POSE, OUT_TARGET, OUT_STATS, OUT_MASS = 0, 6, 22, 38, 42
+OUT_ERROR, OUT_POSE, OUT_TARGET, OUT_STATS, OUT_EXTRA = 0, 6, 22, 38, 42

@@ -40,11 +40,11 @@ import math
 import numpy as np
 
 from .._compile import kernel
-from ..linalg._codes import EXACT, EXACT_LAZY, FULL, OK, Q_NONFINITE
+from ..linalg._codes import FULL, OK, Q_NONFINITE
 from ..linalg._kernels import inverse
 from ..robot._chain_codes import PRISMATIC
 from ..robot._chain_kernels import rotation_error
-from ._codes import OUT_ERROR, OUT_MASS, OUT_POSE, OUT_STATS, OUT_TARGET
+from ._codes import OUT_ERROR, OUT_POSE, OUT_STATS, OUT_TARGET
 
 # Columns of the per-joint work array: world origin, axis, angular velocity, angular and
 # linear acceleration at q̈ = 0, the rotation (row-major).
@@ -273,27 +273,21 @@ def chain_dynamics(links, axes, kinds, body, armature, gravity, q, qd, T, J, jdq
 
 
 @kernel
-def osc_step(links, axes, kinds, body, armature, gravity, damp, state, target, gains, rows,
-             quad, settings, out):  # fmt: skip
+def osc_step(links, axes, kinds, body, armature, gravity, damp, q, qd, feed, target, gains,
+             rows, quad, settings, out):  # fmt: skip
     """One operational-space torque (module docstring) into ``out`` (the layout of
     :mod:`redres.dynamics._codes`): the total ``τ``, the task part ``Jᵀ Λ (ẍ* − J̇ q̇)``,
     the null part ``(I − Jᵀ J̄ᵀ) τ₀`` and ``τ₀``, the compensation being ``b + d ∘ q̇``
     (``damp`` = d); then the frame's error against ``target`` (18: the rotation row-major,
     the position and the twist, :class:`redres.tasks.FrameTask`'s block), its pose, the
-    target pose, rank, σ_min, σ_max, damping of ``J M^{-1/2}``, ``M`` and the task rows of
-    ``J``. ``state`` (2 n + 12): ``q``, ``q̇``, the reference twist and acceleration;
-    ``gains`` (2 x m): ``K_p``, ``K_d`` of the ``rows`` (m, int64); ``quad`` (2 x n):
-    ``(a, r)`` of ``Σ wᵢ ∇Dᵢ = a ∘ (q − r)``; ``settings``: ``null_kp, null_kd,
-    has_objectives, damping mode, λ, λ_max, ε, rcond``. An exact inverse skips its
-    singular values when a bound proves them harmless (``EXACT_LAZY``: σ NaN in ``out``,
-    :func:`inverse_stats` gives them). Returns a status
+    target pose, and rank, σ_min, σ_max, damping of ``J M^{-1/2}``. ``feed`` (12): the
+    reference twist and acceleration; ``gains`` (2 x m): ``K_p``, ``K_d`` of the ``rows``
+    (m, int64); ``quad`` (2 x n): ``(a, r)`` of ``Σ wᵢ ∇Dᵢ = a ∘ (q − r)``; ``settings``:
+    ``null_kp, null_kd, has_objectives, damping mode, λ, λ_max, ε, rcond``. Returns a status
     (:class:`redres.linalg._codes.Status`)."""
     n = kinds.shape[0]
     m = rows.shape[0]
     base = 4 * n
-    q = state[:n]
-    qd = state[n : 2 * n]
-    feed = state[2 * n :]
     J = np.empty((6, n))
     e = out[base + OUT_ERROR : base + OUT_POSE]
     T = out[base + OUT_POSE : base + OUT_TARGET].reshape(4, 4)
@@ -322,21 +316,14 @@ def osc_step(links, axes, kinds, body, armature, gravity, damp, state, target, g
         cmd[r] = feed[6 + i] + gains[1, r] * (feed[i] - acc) + gains[0, r] * e[i] - jdqd[i]
     Jbar = np.empty((n, m))
     empty = np.empty((0, 0))
-    mode = int(settings[3])
     status, rank, smin, smax, used = inverse(
-        Jm, np.empty(0), M, Jbar, empty, empty, FULL, EXACT_LAZY if mode == EXACT else mode,
-        settings[4], settings[5], settings[6], settings[7],
+        Jm, np.empty(0), M, Jbar, empty, empty, FULL, int(settings[3]), settings[4], settings[5],
+        settings[6], settings[7],
     )  # fmt: skip
     if status != OK:
         return status
     stats = base + OUT_STATS
     out[stats], out[stats + 1], out[stats + 2], out[stats + 3] = rank, smin, smax, used
-    mass = base + OUT_MASS
-    for a in range(n):
-        for c in range(n):
-            out[mass + a * n + c] = M[a, c]
-        for r in range(m):
-            out[mass + n * n + r * n + a] = Jm[r, a]
     # q̈₀ = −k_d q̇ − k_p a ∘ (q − r), τ₀ = M q̈₀ (out[3n:4n]); τ_task = M J̄ cmd (out[n:2n])
     qdd0 = np.empty(n)
     x = np.empty(n)
@@ -369,13 +356,3 @@ def osc_step(links, axes, kinds, body, armature, gravity, damp, state, target, g
         out[2 * n + a] = out[3 * n + a] - acc
         out[a] = out[n + a] + b[a] + damp[a] * qd[a] + out[2 * n + a]
     return OK
-
-
-@kernel
-def inverse_stats(J, M, settings):
-    """``(status, rank, σ_min, σ_max, damping)`` of the inverse of :func:`osc_step` for the
-    task rows ``J`` (m x n) and ``M`` (n x n) it wrote out: the same factorisation, hence
-    the same figures as when the step computes them."""
-    empty = np.empty((0, 0))
-    return inverse(J, np.empty(0), M, empty, empty, empty, FULL, int(settings[3]), settings[4],
-                   settings[5], settings[6], settings[7])  # fmt: skip

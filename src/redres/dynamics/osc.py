@@ -59,7 +59,7 @@ from ..linalg.dynamics import mass_matrix_factor
 from ..objectives import PostureObjective, quadratic_coefficients
 from ..resolution.gradient_projection import WeightedObjective
 from ..tasks import FrameTask
-from ._codes import OUT_MASS, OUT_STATS
+from ._codes import OUT_EXTRA, OUT_STATS
 from ._servo import ServoLaw, ServoState
 from .base import ControlStep
 from .chain import KERNELS as CHAIN_KERNELS
@@ -261,6 +261,7 @@ class OperationalSpaceController(ServoLaw):
         super().__init__(task, kp, kd, objectives, null_kp, null_kd, damping, rcond)
         self.name = name or f"osc_{projector}"
         self._compiled: tuple[Robot, _CompiledStep | None] | None = None
+        self._fast: tuple[Robot, _CompiledStep] | None = None  # once it runs compiled
 
     @classmethod
     def from_scenario(cls, params: ScenarioParams) -> OperationalSpaceController:
@@ -294,7 +295,7 @@ class OperationalSpaceController(ServoLaw):
         """Forget the reference, and the compiled step's copy of the settings (gains,
         damping, objectives: it reads them again at the next step)."""
         super().reset()
-        self._compiled = None
+        self._compiled = self._fast = None
 
     def step(
         self, robot: Robot, q: FloatArray, qd: FloatArray, sample: Sample | None = None
@@ -308,11 +309,17 @@ class OperationalSpaceController(ServoLaw):
         Pinocchio's algorithms and NumPy compute the same torque. The compiled step copies
         the law's settings when it is built (first step on a robot, and after
         :meth:`reset`): change them between runs, not within one."""
+        fast = self._fast
+        if fast is not None and fast[0] is robot:  # the compiled step, ready
+            if sample is not None:
+                self.servo.update(sample)
+            return fast[1].step(self, q, qd)
         if self._compiled is None or self._compiled[0] is not robot:
             self._compiled = (robot, _CompiledStep.build(self, robot))
         compiled = self._compiled[1]
         if compiled is None or not compiled.ready():
             return super().step(robot, q, qd, sample)
+        self._fast = (robot, compiled)
         self.servo.update(sample)
         return compiled.step(self, q, qd)
 
@@ -353,14 +360,13 @@ class _CompiledStep:
                                   law.rcond])  # fmt: skip
         self.quad = np.zeros((2, n))
         self.method = method_label(mode, True, "")
-        self.state = np.zeros(2 * n + 12)  # q, q̇, the reference twist and acceleration
-        self.out = np.empty(4 * n + OUT_MASS + n * n + len(rows) * n)
-        self._shape = (n,)
-        self._feed: tuple[Any, Any] = (None, None)  # the servo's arrays copied into state
+        self.feed = np.zeros(12)  # the reference twist and acceleration
+        self.out = np.empty(4 * n + OUT_EXTRA)
+        self._shape, self._strides = (n,), (8,)
+        self._feed: tuple[Any, Any] = (None, None)  # the servo's arrays copied into feed
         self._target = law.task.target_block
         self.args = self._arguments()
         self._entry: Any = None
-        self._stats: Any = None
 
     @classmethod
     def build(cls, law: OperationalSpaceController, robot: Robot) -> _CompiledStep | None:
@@ -379,53 +385,46 @@ class _CompiledStep:
             step.settings[2] = 1.0
         return step
 
-    def _arguments(self) -> tuple[Any, ...]:
+    def _arguments(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        """The kernel's arguments before ``q, q̇`` and after them."""
         d = self.dynamics
-        return (*d.arrays, d.damping, self.state, self._target, self.gains, self.rows,
-                self.quad, self.settings, self.out)  # fmt: skip
+        return (*d.arrays, d.damping), (self.feed, self._target, self.gains, self.rows, self.quad,
+                                        self.settings, self.out)  # fmt: skip
 
     def ready(self) -> bool:
         """Whether the kernel runs compiled (it compiles behind until then)."""
         if self._entry is None and CHAIN_KERNELS.ready():
-            self._entry = CHAIN_KERNELS.entry("osc_step", self.args)
+            q = np.zeros(self.n)
+            self._entry = CHAIN_KERNELS.entry("osc_step", (*self.args[0], q, q, *self.args[1]))
         return self._entry is not None
 
     def step(self, law: OperationalSpaceController, q: Any, qd: Any) -> ControlStep:
         """The torque at ``(q, q̇)`` with the servo's reference."""
-        n, state = self.n, self.state
-        if (type(q) is np.ndarray and type(qd) is np.ndarray and q.dtype is _F64
-                and qd.dtype is _F64 and q.shape == self._shape == qd.shape):  # fmt: skip
-            state[:n] = q  # their finiteness: the kernel's check
-            state[n : 2 * n] = qd
-        else:
-            state[:n], state[n : 2 * n] = as_vector(q, "q", n), as_vector(qd, "qd", n)
+        n = self.n
+        # The kernel takes q and q̇ as they are when they are contiguous float64 vectors
+        # of length n (its entry point's types; their finiteness is the kernel's check).
+        if not (type(q) is np.ndarray and type(qd) is np.ndarray and q.dtype is _F64
+                and qd.dtype is _F64 and q.shape == self._shape == qd.shape
+                and q.strides == self._strides == qd.strides):  # fmt: skip
+            q, qd = as_vector(q, "q", n).copy(), as_vector(qd, "qd", n).copy()
         servo = law.servo
         if not servo.has_target:
             servo.hold(self.dynamics.pose(as_vector(q, "q", n)))
-        if servo.twist is not self._feed[0] or servo.acceleration is not self._feed[1]:
-            self._feed = (servo.twist, servo.acceleration)
-            state[2 * n : 2 * n + 6], state[2 * n + 6 :] = self._feed
+        feed = (servo.twist, servo.acceleration)
+        if feed[0] is not self._feed[0] or feed[1] is not self._feed[1]:  # a new reference
+            self.feed[:6], self.feed[6:] = self._feed = feed
         if law.task.target_block is not self._target:  # the task was given another block
             self._target = law.task.target_block
             self.args = self._arguments()
-        status = self._entry(*self.args)
+        head, tail = self.args
+        status = self._entry(*head, q, qd, *tail)
         if status:
             as_vector(q, "q", n), as_vector(qd, "qd", n)  # names the non-finite one
             raise_status(status, {"J": "the task Jacobian", "W": "M"})
         return KernelControlStep(self.out.copy(), n, self.info)
 
     def info(self, out: FloatArray) -> InverseInfo:
-        """The inverse's diagnostics in the output ``out`` of one step; its singular values
-        computed now if the step skipped them (:func:`redres.dynamics._kernels.inverse_stats`)."""
+        """The inverse's diagnostics in the output ``out`` of one step."""
         n, m = self.n, len(self.rows)
-        b = 4 * n
-        rank, smin, smax, used = out[b + OUT_STATS : b + OUT_MASS].tolist()
-        if smin != smin:  # NaN: skipped
-            M = out[b + OUT_MASS : b + OUT_MASS + n * n].reshape(n, n)
-            J = out[b + OUT_MASS + n * n :].reshape(m, n)
-            if self._stats is None:
-                self._stats = CHAIN_KERNELS.entry("inverse_stats", (J, M, self.settings))
-            status, rank, smin, smax, used = self._stats(J, M, self.settings)
-            if status:  # pragma: no cover - the step factored the same matrices
-                raise_status(status, {"J": "the task Jacobian", "W": "M"})
+        rank, smin, smax, used = out[4 * n + OUT_STATS : 4 * n + OUT_EXTRA].tolist()
         return InverseInfo(int(rank), rank == min(m, n), smin, smax, used, self.method)

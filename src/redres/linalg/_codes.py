@@ -58,9 +58,6 @@ SELECTIVE = 3
 # FIXED when nobody reads the singular values (a controller's own loop, ``damped_pinv``
 # without ``return_info``): the kernels may then skip them (rank -1, sigma NaN).
 LAZY = 4
-# EXACT when nobody reads the singular values yet (the compiled operational-space step):
-# the kernels skip them when a bound proves the Cholesky path (rank full, sigma NaN).
-EXACT_LAZY = 5
 
 # Weight modes.
 NO_WEIGHTS = 0

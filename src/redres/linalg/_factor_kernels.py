@@ -14,15 +14,12 @@ import numpy as np
 from .._compile import kernel
 from ._codes import (
     ADAPTIVE,
-    EXACT,
-    EXACT_LAZY,
     FIXED,
     LAZY,
     SELECTIVE,
 )
 from ._dense_kernels import (
     _cholesky,
-    _cholesky_solve,
     _gram,
 )
 from ._eigen_kernels import _EPS, _count_below, _extreme_eigenvalues, _jacobi_rows, _tridiagonalize
@@ -89,10 +86,6 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, mats, dvec, work):
         if shift >= _LAZY_MIN_SHIFT * trace and _cholesky(A, C, m, shift):
             return True, -1, math.nan, math.nan, lam
         dmode = FIXED
-    if dmode == EXACT_LAZY:  # exact, no singular values wanted: a bound instead of them
-        if kmin == m and _cholesky(A, C, m, 0.0) and _surely_cholesky(C, trace, rcond, m, p):
-            return True, m, math.nan, math.nan, 0.0
-        dmode = EXACT
     for i in range(m):
         for j in range(i + 1):
             T[i, j] = A[i, j]
@@ -117,26 +110,6 @@ def _core(Js, scale, dmode, lam, lam_max, eps, rcond, mats, dvec, work):
                 rank = m - _count_below(mu, off, m, tau * (1.0 + 4.0 * _EPS))
             return True, rank, smin_s * scale, smax_s * scale, math.sqrt(lam2)
     return _svd_core(Js, scale, dmode, lam, lam_max, eps, rcond, C, dvec)
-
-
-@kernel
-def _surely_cholesky(L, trace, rcond, size, p):
-    """Whether the exact path of :func:`_core` surely takes its Cholesky branch with full
-    rank for ``A = L Lᵀ`` (``L`` its Cholesky factor, ``trace`` = tr A): whether
-    ``σ_min² / σ_max² = λ_min / λ_max`` exceeds ``max(_CHOLESKY_MIN_RATIO, rcond)²``
-    twice over, by ``λ_max ≤ tr A`` and ``λ_min ≥ 1 / tr A⁻¹`` (``(A⁻¹)_bb`` by one solve
-    per column; ``p``: scratch of ``size``). The bound is loose by at most ``size²``; the
-    factor 2 covers the rounding of both sides (relative ``κ(A) ε`` with ``κ(A) ≤ 1e6``),
-    so the branch and its floating-point operations are those of the eigenvalue test."""
-    inverse_trace = 0.0
-    for b in range(size):
-        for i in range(size):
-            p[i] = 0.0
-        p[b] = 1.0
-        _cholesky_solve(L, p, size)
-        inverse_trace += p[b]
-    floor = max(_CHOLESKY_MIN_RATIO, rcond) ** 2
-    return 2.0 * floor * trace * inverse_trace <= 1.0
 
 
 @kernel
