@@ -43,7 +43,7 @@ References:
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Literal, NamedTuple, TypeVar, get_args
 
 import numpy as np
@@ -57,15 +57,16 @@ from ..linalg._engine import method_label
 from ..linalg._status import raise_status
 from ..linalg.dynamics import mass_matrix_factor
 from ..objectives import PostureObjective, quadratic_coefficients
-from ..resolution.gradient_projection import WeightedObjective
 from ..tasks import FrameTask
 from ._codes import OUT_EXTRA, OUT_STATS
-from ._servo import ServoLaw, ServoState
+from ._servo import ServoLaw, ServoSettings, ServoState
 from .base import ControlStep
 from .chain import KERNELS as CHAIN_KERNELS
 from .chain import ChainDynamics, KernelControlStep, chain_dynamics
 
 if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
     from .._toml import ScenarioParams
     from ..control import Sample
     from ..robot import Robot
@@ -240,17 +241,10 @@ class OperationalSpaceController(ServoLaw):
         self,
         task: FrameTask | None = None,
         *,
-        kp: Any = 400.0,
-        kd: Any = None,
-        objectives: Sequence[WeightedObjective] = (),
-        null_kp: float = 25.0,
-        null_kd: float = 10.0,
         null_torque: Callable[[Robot, FloatArray, FloatArray], Any] | None = None,
         projector: Projector = "dynamic",
         compensation: Compensation = "joint",
-        damping: float | AdaptiveDamping = 0.0,
-        rcond: float = RCOND,
-        name: str | None = None,
+        **settings: Unpack[ServoSettings],
     ) -> None:
         """The arguments are described in ``help(OperationalSpaceController)``."""
         if null_torque is not None and not callable(null_torque):
@@ -258,8 +252,8 @@ class OperationalSpaceController(ServoLaw):
         self.null_torque = null_torque
         self.projector = check_choice(projector, "projector", _PROJECTORS)
         self.compensation = check_choice(compensation, "compensation", _COMPENSATIONS)
-        super().__init__(task, kp, kd, objectives, null_kp, null_kd, damping, rcond)
-        self.name = name or f"osc_{projector}"
+        self.name = f"osc_{projector}"
+        super().__init__(task, **settings)
         self._compiled: tuple[Robot, _CompiledStep | None] | None = None
         self._fast: tuple[Robot, _CompiledStep] | None = None  # once it runs compiled
 
