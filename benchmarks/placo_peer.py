@@ -20,6 +20,9 @@ Jobs (``"kind"``):
   period ahead, as pink and mink track a moving target in quality.py) from ``"q0"``;
   returns the configuration at the start of each step and each step's time (µs).
 
+* ``--serve`` (one job as the first line of standard input): time blocks of a setup on
+  request (:func:`serve`), for a benchmark that interleaves PlaCo with its own contenders.
+
 Run by hand: ``PLACO_PYTHON=... python benchmarks/step.py`` (the benchmark starts this);
 ``python placo_peer.py < job.json`` for one job.
 """
@@ -103,6 +106,37 @@ def run_step(job: dict[str, Any]) -> dict[str, Any]:
     return {"times": times, "q_after": after}
 
 
+def serve(job: dict[str, Any]) -> None:
+    """Time blocks on request, so that the caller interleaves them with its own contenders:
+    after a first line (the tip poses and each setup's ``q`` after one step), each input
+    line ``KEY CALLS PER_CALL`` gets one line back, the per-call times (µs) of one block of
+    that setup (each call alone if PER_CALL is 1, else the block's mean); ``quit`` ends."""
+    q = np.asarray(job["q"], dtype=float)
+    steps = {key: stepper(job, setup, q) for key, setup in job["setups"].items()}
+    first = {"fk": tip_poses(job), "q_after": {key: fn().tolist() for key, fn in steps.items()}}
+    for fn in steps.values():
+        for _ in range(20):
+            fn()
+    print(json.dumps(first), flush=True)
+    clock = time.perf_counter_ns
+    for line in sys.stdin:
+        if line.strip() == "quit":
+            return
+        key, calls, per_call = line.split()
+        fn, count, out = steps[key], int(calls), []
+        if per_call == "1":
+            for _ in range(count):
+                t0 = clock()
+                fn()
+                out.append((clock() - t0) / 1e3)
+        else:
+            t0 = clock()
+            for _ in range(count):
+                fn()
+            out.append((clock() - t0) / count / 1e3)
+        print(json.dumps(out), flush=True)
+
+
 def run_loop(job: dict[str, Any]) -> dict[str, Any]:
     _, robot, solver, frame = build(job, job["setup"])
     names = list(job["joints"])
@@ -137,6 +171,9 @@ def tip_poses(job: dict[str, Any]) -> list[list[float]]:
 
 
 def main() -> int:
+    if sys.argv[1:] == ["--serve"]:
+        serve(json.loads(sys.stdin.readline()))
+        return 0
     job = json.load(sys.stdin)
     from importlib.metadata import version
 

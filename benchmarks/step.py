@@ -18,11 +18,11 @@ equivalent step on the same Panda:
   neutral pose (weight 1e-6: pink's and mink's posture cost 1e-3, squared, as PlaCo weighs
   squared residuals) under its joint-position and velocity limits (``solver.dt`` = 1 ms,
   the same limits as redres'), read the new ``q``. PlaCo pins its own Pinocchio, so it
-  runs in its own interpreter (``PLACO_PYTHON``, ``peers.placo_run``), timed there in the
-  same blocks of 200 calls but not interleaved with the rest: its rows are marked "own
-  process". Its frame task asks for the whole pose error in one step (no gain), as pink's
-  and mink's with gain 1; the QP has the same size and constraints as the hard-limit rows'
-  (less redres' acceleration limits).
+  runs in its own interpreter (``PLACO_PYTHON``, ``peers.PlacoSteps``), which times its
+  blocks of 200 calls there, on request after each round of the others' (so that load
+  hits it alike): its rows are marked "own process". Its frame task asks for the whole
+  pose error in one step (no gain), as pink's and mink's with gain 1; the QP has the same
+  size and constraints as the hard-limit rows' (less redres' acceleration limits).
 
 The hard-limit rows do the same frame task under hard position, velocity and
 acceleration limits: ``QPScheme`` (a QP through DAQP) and ``SNSScheme`` (saturation in the
@@ -43,6 +43,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 from tempfile import TemporaryDirectory
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -57,7 +58,7 @@ from peers import (
     kdl_panda,
     mujoco_panda,
     placo_job,
-    placo_run,
+    placo_steps,
 )
 
 import redres as rr
@@ -221,29 +222,31 @@ def kdl_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[],
 PLACO = "PlaCo KinematicsSolver (frame + posture QP, limits; own process)"
 
 
-def placo_times(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> dict[str, np.ndarray]:
-    """PlaCo's step on the same Panda, state, target and limits, timed in its own process
-    (empty without PlaCo)."""
+def placo_server(robot: rr.Robot, q: np.ndarray, target: np.ndarray, tmp: Path) -> Any:
+    """PlaCo's step on the same Panda, state, target and limits, in its own process (None
+    without PlaCo)."""
     setup = {"posture_weight": 1e-6, "joint_limits": True, "velocity_limits": True}
-    with TemporaryDirectory() as tmp:
-        job = placo_job(
-            "panda",
-            "step",
-            Path(tmp),
-            q=q,
-            target=target.ravel(),
-            dt=DT,
-            posture=robot.neutral(),
-            setups={"qp": setup},
-            rounds=25,
-            calls=200,
-            per_call=False,
-        )
-        result = placo_run("panda", job)
-    if result is None:
-        return {}
-    print(f"PlaCo {result['placo']}: q after one step {np.round(result['q_after']['qp'], 4)}")
-    return {PLACO: np.asarray(result["times"]["qp"])}
+    job = placo_job("panda", "step", tmp, q=q, target=target.ravel(), dt=DT,
+                    posture=robot.neutral(), setups={"qp": setup})  # fmt: skip
+    server = placo_steps("panda", job)
+    if server is not None:
+        print(f"PlaCo: q after one step {np.round(server.q_after['qp'], 4)}")
+    return server
+
+
+def timed(contenders: dict[str, Callable[[], object]], server: Any) -> dict[str, np.ndarray]:
+    """``_common.interleaved`` (5 rounds of 5 blocks of 200 calls), with PlaCo's blocks,
+    timed in its process, after each round's."""
+    times: dict[str, list[float]] = {name: [] for name in contenders}
+    if server is not None:
+        times[PLACO] = []
+    for _ in range(5):
+        for name, t in interleaved(contenders, rounds=1, batch=200, batches=5).items():
+            times[name].extend(t.tolist())
+        if server is not None:
+            for _ in range(5):
+                times[PLACO].extend(server.block("qp", 200, per_call=False))
+    return {name: np.asarray(t) for name, t in times.items()}
 
 
 def report(hard: dict[str, Callable[[], object]], times: dict[str, np.ndarray]) -> None:
@@ -285,8 +288,9 @@ def main() -> int:
     }
     contenders.update({k: v for k, v in peers.items() if v is not None})
     print(f"Panda control step, {machine()}")
-    times = interleaved(contenders, rounds=5, batch=200, batches=5)
-    times.update(placo_times(robot, q, target))
+    with TemporaryDirectory() as tmp:
+        server = placo_server(robot, q, target, Path(tmp))
+        times = timed(contenders, server)
     base = median(times[next(iter(contenders))])
     rows = []
     for name, t in times.items():
@@ -307,8 +311,12 @@ def main() -> int:
         fn = make(robot, q, target)
         if fn is not None:
             contenders[name] = fn
-    times = interleaved(contenders, rounds=5, batch=200, batches=5)
-    times.update(placo_times(robot, q, target))
+    with TemporaryDirectory() as tmp:
+        server2 = placo_server(robot, q, target, Path(tmp))
+        times = timed(contenders, server2)
+    for each in (server, server2):
+        if each is not None:
+            each.close()
     rows = [[name, f"{median(t):.1f}", f"{float(np.percentile(t, 99)):.1f}"]
             for name, t in times.items()]  # fmt: skip
     print("\nTracking problem (target 0.4 mm away)")
