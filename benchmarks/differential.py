@@ -30,8 +30,8 @@ squared residuals), ``qp`` with that and its joint-position and velocity limits
 two ways: its frame task asks for the whole pose error per step (no gain: a dead-beat
 step, as pink and mink with gain 1, where redres and KDL use gain 50/s), which changes
 the answer, not the work; and it pins its own Pinocchio, so it runs in its own
-interpreter (``PLACO_PYTHON``, ``peers.placo_run``), timed the same way (each call alone,
-shuffled blocks) but not interleaved with the others.
+interpreter (``PLACO_PYTHON``, ``peers.PlacoSteps``), which times its calls the same way
+(each alone) in blocks requested in their turn among the shuffled contenders.
 
 Two redres rows per operation: the step composed by hand from the public parts
 (``FrameTask.compute``, ``Scheme.step``, integration), and ``Controller.step``, the
@@ -289,16 +289,28 @@ def mink_steps(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray) -> dict
     }
 
 
-def sample(contenders: dict[str, Step], rounds: int, calls: int) -> dict[str, np.ndarray]:
-    """Per-call times (µs), contenders interleaved in a new random order every round."""
+def sample(
+    contenders: dict[str, Step],
+    rounds: int,
+    calls: int,
+    remote: Callable[[int], list[float]] | None = None,
+) -> dict[str, np.ndarray]:
+    """Per-call times (µs), contenders interleaved in a new random order every round;
+    ``remote(calls)``: a block of PlaCo's calls timed in its process, its turn among them."""
     for fn in contenders.values():
         for _ in range(20):
             fn()
     out: dict[str, list[float]] = {k: [] for k in contenders}
     clock, order = time.perf_counter_ns, list(contenders)
+    if remote is not None:
+        out["PlaCo"] = []
+        order.append("PlaCo")
     for _ in range(rounds):
         random.shuffle(order)
         for key in order:
+            if key == "PlaCo" and remote is not None:
+                out[key].extend(remote(calls))
+                continue
             fn, times = contenders[key], out[key]
             for _ in range(calls):
                 t0 = clock()
@@ -327,16 +339,11 @@ PLACO_SETUPS = {
 }
 
 
-def placo_times(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray, rounds: int,
-                calls: int, tmp: Path) -> dict[str, np.ndarray]:  # fmt: skip
-    """Per operation, PlaCo's per-call times (µs) in its own process (empty without it)."""
+def placo_server(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray, tmp: Path) -> Any:
+    """PlaCo's four steps on the arm, in its own process (None without PlaCo)."""
     job = peers.placo_job(name, "step", tmp, q=q, target=T.ravel(), dt=DT,
-                          posture=(robot.q_min + robot.q_max) / 2, setups=PLACO_SETUPS,
-                          rounds=rounds, calls=calls)  # fmt: skip
-    result = peers.placo_run(name, job)
-    if result is None:
-        return {}
-    return {op: np.asarray(t) for op, t in result["times"].items()}
+                          posture=(robot.q_min + robot.q_max) / 2, setups=PLACO_SETUPS)  # fmt: skip
+    return peers.placo_steps(name, job)
 
 
 def measure(name: str, rounds: int, calls: int, tmp: Path) -> dict[str, dict[str, np.ndarray]]:
@@ -351,14 +358,15 @@ def measure(name: str, rounds: int, calls: int, tmp: Path) -> dict[str, dict[str
         "pink": pink_steps(name, robot, q, T),
         "mink": mink_steps(name, robot, q, T),
     }
+    server = placo_server(name, robot, q, T, tmp)
     results = {}
     for op in tqdm(OPERATIONS, desc=f"differential {name}", leave=False):
         contenders = {lib: steps[op] for lib, steps in by_library.items() if op in steps}
+        remote = None if server is None else functools.partial(server.block, op, per_call=True)
         if "redres" in contenders:
-            results[op] = sample(contenders, rounds, calls)
-    for op, times in placo_times(name, robot, q, T, rounds, calls, tmp).items():
-        if op in results:
-            results[op]["PlaCo"] = times
+            results[op] = sample(contenders, rounds, calls, remote)
+    if server is not None:
+        server.close()
     return results
 
 
