@@ -283,7 +283,9 @@ WHY = {
     "qp": "*Why:* redres' `QPScheme` builds position, velocity *and acceleration* bounds each "
     "step, solves the task as an equality-constrained QP and, when that is infeasible, a "
     "second least-violation QP, with Python between the pieces; pink and mink solve one QP "
-    "without acceleration limits.",
+    "without acceleration limits. PlaCo (C++ over Pinocchio, qpmad) builds and solves its "
+    "QP in one call and has no acceleration limits: the compiled hard-limit step of issue "
+    "40 is what would close that gap.",
     "ik": "*Why:* robotics-toolbox's `ik_LM` and KDL's `NR_JL` run their whole iteration "
     "loop in C++, one call per attempt; redres' `ik` runs its iterations in one compiled "
     "call per attempt too, but validates its arguments and reads the clock in Python "
