@@ -11,8 +11,7 @@ in one serial chain from the base to the frame (:class:`redres.robot.SerialChain
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 import numpy as np
 
@@ -113,34 +112,49 @@ def chain_dynamics(robot: Robot, frame: str | None = None) -> ChainDynamics | No
         return None
 
 
+class StepOutput(Protocol):
+    """What a :class:`KernelControlStep` reads its output with: the joints, and the
+    inverse's diagnostics in one output array (the compiled step that wrote it)."""
+
+    n: int
+
+    def info(self, out: FloatArray) -> InverseInfo:
+        """The inverse's diagnostics in ``out``."""
+        ...
+
+
 class KernelControlStep(ControlStep):
     """The :class:`~redres.dynamics.ControlStep` of the compiled operational-space step,
     read from the kernel's output (one array, the layout of :mod:`redres.dynamics._codes`)
-    when a field is first asked for: ``tau`` at once, ``info`` (and the singular values the
-    step may have skipped) on first read. Immutable, as every ``ControlStep``.
+    when a field is read: nothing is built before. Immutable, as every ``ControlStep``.
 
     Args:
         out: the output of one step (the step's own copy), ``(4 n + …,)``.
-        n: joints.
-        info: ``info(out) -> InverseInfo``, the diagnostics of that output.
+        source: the compiled step that wrote it (its joints ``n``, its ``info(out)``).
     """
 
-    def __init__(self, out: FloatArray, n: int, info: Callable[[FloatArray], InverseInfo]) -> None:
+    def __init__(self, out: FloatArray, source: StepOutput) -> None:
         """The arguments are described in ``help(KernelControlStep)``."""
         fields = self.__dict__  # frozen: set once, without the dataclass' checks
-        fields["tau"] = out[:n]
-        fields["_out"], fields["_n"], fields["_info"], fields["_read"] = out, n, None, info
+        fields["_out"], fields["_source"] = out, source
+
+    @property
+    def tau(self) -> FloatArray:  # type: ignore[override]
+        """Commanded joint torques, ``(n,)``, N·m."""
+        fields = self.__dict__
+        return fields["_out"][: fields["_source"].n]  # type: ignore[no-any-return]
 
     @property
     def info(self) -> InverseInfo:  # type: ignore[override]
-        """Diagnostics of ``J̄`` (singular values of ``J M^{-1/2}``), computed on first read."""
+        """Diagnostics of ``J̄`` (singular values of ``J M^{-1/2}``), built on first read."""
         fields = self.__dict__
-        if fields["_info"] is None:
-            fields["_info"] = fields["_read"](fields["_out"])
-        return fields["_info"]  # type: ignore[no-any-return]
+        found = fields.get("_info")
+        if found is None:
+            found = fields["_info"] = fields["_source"].info(fields["_out"])
+        return found  # type: ignore[no-any-return]
 
     def _part(self, start: int, stop: int) -> FloatArray:
-        out, n = self.__dict__["_out"], self.__dict__["_n"]
+        out, n = self.__dict__["_out"], self.__dict__["_source"].n
         return out[4 * n + start : 4 * n + stop]  # type: ignore[no-any-return]
 
     @property
@@ -161,11 +175,11 @@ class KernelControlStep(ControlStep):
     @property
     def tau_null(self) -> FloatArray:  # type: ignore[override]
         """Null-space part ``(I − Jᵀ J̄ᵀ) τ₀`` of ``tau``, ``(n,)``, N·m."""
-        n = self.__dict__["_n"]
+        n = self.__dict__["_source"].n
         return self.__dict__["_out"][2 * n : 3 * n]  # type: ignore[no-any-return]
 
     @property
     def extra(self) -> dict[str, Any]:  # type: ignore[override]
         """``{"tau0": τ₀}``, the null-space torque before projection, ``(n,)``, N·m."""
-        n = self.__dict__["_n"]
+        n = self.__dict__["_source"].n
         return {"tau0": self.__dict__["_out"][3 * n : 4 * n]}

@@ -407,15 +407,15 @@ class _CompiledStep:
         feed = (servo.twist, servo.acceleration)
         if feed[0] is not self._feed[0] or feed[1] is not self._feed[1]:  # a new reference
             self.feed[:6], self.feed[6:] = self._feed = feed
-        if law.task.target_block is not self._target:  # the task was given another block
-            self._target = law.task.target_block
+        if servo.task.target_block is not self._target:  # the task was given another block
+            self._target = servo.task.target_block
             self.args = self._arguments()
         head, tail = self.args
         status = self._entry(*head, q, qd, *tail)
         if status:
             as_vector(q, "q", n), as_vector(qd, "qd", n)  # names the non-finite one
             raise_status(status, {"J": "the task Jacobian", "W": "M"})
-        return KernelControlStep(self.out.copy(), n, self.info)
+        return KernelControlStep(self.out.copy(), self)
 
     def info(self, out: FloatArray) -> InverseInfo:
         """The inverse's diagnostics in the output ``out`` of one step."""
