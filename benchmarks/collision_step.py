@@ -80,7 +80,9 @@ def qp_steps() -> None:
         "QP + collisions, ~20 active": QPScheme(DT, collisions=Collisions(near,
                                                                            self_collision=False)),
     }  # fmt: skip
-    count = schemes["QP + collisions, ~20 active"].collisions.rows(robot, q)[0].shape[0]  # type: ignore[union-attr]
+    probe = schemes["QP + collisions, ~20 active"].step(robot, q, J, np.zeros(6))
+    count = len(probe.details.collisions.active)  # type: ignore[union-attr]
+    schemes["QP + collisions, ~20 active"].reset()
     print(f"Panda, {len(near)} balls near its {len(robot.capsules)} capsules: {count} pairs "
           f"within d_i = 0.10 m\n")  # fmt: skip
     for label, xd in (("inside", 0.05 * np.array([0, 0, 0, 0, 0, 0.2])),

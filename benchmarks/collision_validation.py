@@ -174,11 +174,18 @@ def self_paths() -> None:
                   f"{e.max():.4f} | {where} |")  # fmt: skip
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", type=int, default=200)
-    parser.add_argument("--steps", type=int, default=500)
+def scene_parser(doc: str, scenes: int, steps: int) -> argparse.ArgumentParser:
+    """The command line of a benchmark over random scenes: ``--scenes``, ``--steps``,
+    ``--seed`` (the collision benchmarks share it)."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--scenes", type=int, default=scenes)
+    parser.add_argument("--steps", type=int, default=steps)
     parser.add_argument("--seed", type=int, default=39)
+    return parser
+
+
+def main() -> None:
+    parser = scene_parser(__doc__, 200, 500)
     parser.add_argument("--skip-scenes", action="store_true")
     args = parser.parse_args()
     print(f"# Collision validation — {machine()}\n")

@@ -342,6 +342,88 @@ def check_same_robot(name: str, directory: Path, count: int = 5, seed: int = 0) 
     return list(fks)
 
 
+# --- Collision geometry for mink: redres' link capsules and obstacles as MuJoCo geoms
+
+
+def mujoco_capsule_arm(mujoco: Any, robot: Any, obstacles: Any, name: str = "panda") -> Any:
+    """MuJoCo model of ``arm_urdf(name)`` whose only geoms are ``robot``'s link capsules
+    (``<geom type="capsule" fromto=... size=radius>`` on the body its joint moves, named
+    after the capsule) and ``obstacles`` (redres shapes) as geoms named after them:
+    spheres, boxes and capsules on a mocap body (mink leaves out pairs of bodies welded
+    to each other or parent and child, so a world geom would never be paired with the
+    first link), a half-space as a world plane (its solid side below).
+
+    The capsules are placed from their world ends at the neutral pose and checked at random
+    configurations against redres' (``capsule_gap``); joint ranges are set to redres'.
+    """
+    from redres.collision import BoxObstacle, CapsuleObstacle, PlaneObstacle, SphereObstacle
+
+    text = re.sub(r"(<robot name=\"[^\"]*\">)", r"\1" + _MUJOCO_TAG, arm_urdf(name), count=1)
+    spec = mujoco.MjSpec.from_string(text)
+    bare = spec.compile()
+    data = mujoco.MjData(bare)
+    q = robot.neutral()
+    data.qpos[:] = q
+    mujoco.mj_kinematics(bare, data)
+    kind = mujoco.mjtGeom
+    for cap in robot.capsules:
+        joint = robot.model.frames[robot.frame_id(cap.frame)].parentJoint  # Pinocchio, 1-based
+        body = int(bare.jnt_bodyid[joint - 1])
+        T = robot.fk(q, cap.frame)
+        R_b, x_b = data.xmat[body].reshape(3, 3), data.xpos[body]
+        ends = [R_b.T @ (T[:3, :3] @ p + T[:3, 3] - x_b) for p in (cap.a, cap.b)]
+        spec.body(bare.body(body).name).add_geom(
+            name=cap.name, type=kind.mjGEOM_CAPSULE, fromto=np.concatenate(ends),
+            size=[cap.radius, 0.0, 0.0],
+        )  # fmt: skip
+    world = spec.worldbody
+    holder = world.add_body(name="obstacles", mocap=True)
+    for obs in obstacles:
+        if isinstance(obs, SphereObstacle):
+            holder.add_geom(name=obs.name, type=kind.mjGEOM_SPHERE, pos=obs.center,
+                            size=[max(obs.radius, 1e-9), 0.0, 0.0])  # fmt: skip
+        elif isinstance(obs, CapsuleObstacle):
+            holder.add_geom(name=obs.name, type=kind.mjGEOM_CAPSULE, size=[obs.radius, 0.0, 0.0],
+                            fromto=np.concatenate([obs.a, obs.b]))  # fmt: skip
+        elif isinstance(obs, BoxObstacle):
+            quat = np.empty(4)
+            mujoco.mju_mat2Quat(quat, np.ascontiguousarray(obs.rotation).ravel())
+            holder.add_geom(name=obs.name, type=kind.mjGEOM_BOX, pos=obs.center, quat=quat,
+                            size=obs.half_extents)  # fmt: skip
+        elif isinstance(obs, PlaneObstacle):
+            quat = np.empty(4)  # the plane's z axis along the normal: solid below
+            mujoco.mju_quatZ2Vec(quat, obs.normal)
+            world.add_geom(name=obs.name, type=kind.mjGEOM_PLANE, pos=obs.offset * obs.normal,
+                           quat=quat, size=[0.0, 0.0, 1.0])  # fmt: skip
+        else:
+            raise TypeError(f"no MuJoCo geom for {type(obs).__name__}")
+    model = spec.compile()
+    model.jnt_range[: robot.n] = np.column_stack([robot.q_min, robot.q_max])
+    return model
+
+
+def capsule_gap(mujoco: Any, model: Any, robot: Any, count: int = 5, seed: int = 0) -> float:
+    """Largest distance (m) between a capsule's ends in ``model`` (MuJoCo) and in redres
+    at random configurations: 0 up to round-off when both place the same capsules."""
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(seed)
+    worst = 0.0
+    for _ in range(count):
+        q = robot.random_configuration(rng)
+        data.qpos[: robot.n] = q
+        mujoco.mj_kinematics(model, data)
+        for cap in robot.capsules:
+            g = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, cap.name)
+            axis = data.geom_xmat[g].reshape(3, 3)[:, 2] * model.geom_size[g, 1]
+            T = robot.fk(q, cap.frame)
+            a, b = (T[:3, :3] @ p + T[:3, 3] for p in (cap.a, cap.b))
+            ours = np.concatenate([a, b])
+            theirs = np.concatenate([data.geom_xpos[g] - axis, data.geom_xpos[g] + axis])
+            flipped = np.concatenate([theirs[3:], theirs[:3]])
+            worst = max(worst, min(np.abs(ours - theirs).max(), np.abs(ours - flipped).max()))
+    return worst
+
+
 # --- PlaCo, in its own interpreter (step.py, differential.py, quality.py)
 
 PLACO_WORKER = Path(__file__).with_name("placo_peer.py")

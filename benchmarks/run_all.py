@@ -89,6 +89,15 @@ BENCHES = [
           "5 cm circle through its position servos, commanded by redres' `Controller` and by "
           "mink's `solve_ik` on the same plant (and with mink's own habit, `ctrl = q` on the "
           "bare servos): time per control step and the tracking error MuJoCo measures."),
+    Bench("collision_mink", "collision_mink.py",
+          "Collision avoidance as a hard constraint: redres and mink",
+          "`benchmarks/collision_mink.py`: redres' `QPScheme` with `Collisions` (the velocity "
+          "damper of Faverjon & Tournassoud 1987, Kanoun et al. 2011) next to mink's "
+          "`solve_ik` with `CollisionAvoidanceLimit` (DAQP) on the same Panda, capsules, "
+          "obstacles and pairs, the damper's parameters mapped onto mink's: the time of one "
+          "control step with about 20 pairs within the influence distance, then both closed "
+          "loops on the same random scenes driving into obstacles, every pair's distance "
+          "measured at every step.", quick=["--scenes", "3", "--steps", "100"]),
     Bench("scaling", "scaling.py", "Scaling with the number of joints",
           "Planar chains of 3 to 50 joints (3 task rows) and a 14-joint chain (two S-R-S "
           "arms in series, 6 rows). The algebra predicts, for m fixed task rows: O(n) for "

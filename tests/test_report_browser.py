@@ -97,9 +97,21 @@ def test_report_renders_in_chromium(tmp_path: Path) -> None:
     assert proc.stdout.count('<img alt="') == 7  # every plot is in the page
 
 
-def test_report_draws_the_obstacles_at_their_place_and_size(tmp_path: Path) -> None:
+def _rendered_scene(page: Path, tmp_path: Path) -> tuple[dict, str]:
+    """The 3D view's ``data-scene`` as Chromium rendered ``page`` (no console problem),
+    and the page's DOM."""
     import json
 
+    proc = dump_dom(page.as_uri(), tmp_path / "profile")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert console_problems(proc.stderr) == []
+    view = _Subtree("arm-view")
+    view.feed(proc.stdout)
+    assert view.attrs.get("data-status") == "rendered"
+    return json.loads(view.attrs["data-scene"]), proc.stdout
+
+
+def test_report_draws_the_obstacles_at_their_place_and_size(tmp_path: Path) -> None:
     from redres.objectives import CapsuleObstacle, ObstacleObjective, SphereObstacle
 
     panda = rr.models.panda()
@@ -109,13 +121,7 @@ def test_report_draws_the_obstacles_at_their_place_and_size(tmp_path: Path) -> N
     log = rr.run(panda, FrameTask(), circle, PseudoInverseScheme(),
                  log_objectives=[ObstacleObjective([ball, pole])])  # fmt: skip
     page = write_report(tmp_path / "report", [(panda, log, [ball, pole])], title="Obstacles")
-    proc = dump_dom(page.as_uri(), tmp_path / "profile")
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    assert console_problems(proc.stderr) == []
-    view = _Subtree("arm-view")
-    view.feed(proc.stdout)
-    assert view.attrs.get("data-status") == "rendered"
-    scene = json.loads(view.attrs["data-scene"])
+    scene, html = _rendered_scene(page, tmp_path)
     drawn = {o["name"]: o for o in scene["drawn"] if o["kind"] == "obstacle"}
     assert set(drawn) == {"ball", "pole"}
     # What plotly holds for each mesh spans exactly the true body (oracle: the inputs).
@@ -126,12 +132,10 @@ def test_report_draws_the_obstacles_at_their_place_and_size(tmp_path: Path) -> N
     np.testing.assert_allclose(low, np.minimum(pole.a, pole.b) - pole.radius, atol=2e-5)
     np.testing.assert_allclose(high, np.maximum(pole.a, pole.b) + pole.radius, atol=2e-5)
     assert drawn["ball"]["type"] == drawn["pole"]["type"] == "mesh3d"
-    assert "min obstacle clearance" in proc.stdout  # the table's column
+    assert "min obstacle clearance" in html  # the table's column
 
 
 def test_report_of_a_urdf_robot_draws_its_meshes(tmp_path: Path, fixtures_dir: Path) -> None:
-    import json
-
     robot = rr.Robot.from_urdf(fixtures_dir / "arm3.urdf")
     assert len(robot.visuals) == 4  # base plate, cylinder, box and the STL mesh
     q0 = np.array([0.4, 0.5, -0.7])
@@ -140,13 +144,7 @@ def test_report_of_a_urdf_robot_draws_its_meshes(tmp_path: Path, fixtures_dir: P
     log = rr.run(robot, FrameTask(rows=[0, 1, 2]), Hold(target, 0.05), PseudoInverseScheme(),
                  q0=q0)  # fmt: skip
     page = write_report(tmp_path / "report", [(robot, log)], title="Meshes", frames=10)
-    proc = dump_dom(page.as_uri(), tmp_path / "profile")
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    assert console_problems(proc.stderr) == []
-    view = _Subtree("arm-view")
-    view.feed(proc.stdout)
-    assert view.attrs.get("data-status") == "rendered"
-    scene = json.loads(view.attrs["data-scene"])
+    scene, _ = _rendered_scene(page, tmp_path)
     meshes, capsules = [d for d in scene["drawn"] if d["kind"] == "robot"]
     assert meshes["name"] == "robot meshes" and meshes["type"] == "mesh3d"
     assert meshes["visible"] is True and capsules["visible"] == "legendonly"
@@ -160,3 +158,34 @@ def test_report_of_a_urdf_robot_draws_its_meshes(tmp_path: Path, fixtures_dir: P
     np.testing.assert_allclose(meshes["min"], every.min(axis=0), atol=2e-4)
     np.testing.assert_allclose(meshes["max"], every.max(axis=0), atol=2e-4)
     assert scene["moving"] == scene["frames"] == 10  # every frame poses them
+
+
+def test_report_draws_boxes_planes_and_the_collision_pairs(tmp_path: Path) -> None:
+    """A constrained QP run into a box, with a floor: Chromium draws the box at its corners,
+    the floor's square on its plane and the pairs' two traces, without a console error."""
+    pytest.importorskip("daqp")
+    from redres.collision import BoxObstacle, Collisions, PlaneObstacle
+    from redres.control import Line
+    from redres.control.analysis import collision_clearance
+    from redres.resolution import QPScheme
+
+    panda = rr.models.panda()
+    start = panda.fk(panda.neutral())
+    box = BoxObstacle(start[:3, 3] - [0.0, 0.0, 0.18], [0.15, 0.2, 0.08], name="box")
+    floor = PlaneObstacle([0.0, 0.0, 1.0], -0.2, name="floor")
+    settings = Collisions([box, floor])
+    line = Line(start, start[:3, 3] - [0.0, 0.0, 0.15], 0.3)
+    log = rr.run(panda, FrameTask(), line, QPScheme(dt=5e-3, collisions=settings), dt=5e-3,
+                 gain=20.0)  # fmt: skip
+    record = collision_clearance(log, panda, settings)
+    page = write_report(tmp_path / "report", [(panda, log, [box, floor])], title="Pairs")
+    scene, _ = _rendered_scene(page, tmp_path)
+    drawn = {o["name"]: o for o in scene["drawn"] if o["kind"] == "obstacle"}
+    assert (drawn["box"]["shape"], drawn["floor"]["shape"]) == ("box", "plane")
+    np.testing.assert_allclose(drawn["box"]["min"], box.center - box.half_extents, atol=2e-5)
+    np.testing.assert_allclose(drawn["box"]["max"], box.center + box.half_extents, atol=2e-5)
+    assert drawn["floor"]["min"][2] == pytest.approx(-0.2) == drawn["floor"]["max"][2]
+    pairs = [o for o in scene["drawn"] if o["kind"] == "pairs"]
+    assert [o["name"] for o in pairs] == ["collision pairs within d_i", "binding collision pairs"]
+    # frame 0: each pair within d_i at step 0 is one segment (two points and a gap)
+    assert pairs[0]["vertices"] == 3 * (record.at(0).stop - record.at(0).start) > 0

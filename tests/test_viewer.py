@@ -278,3 +278,108 @@ def test_a_malformed_push_is_refused_in_the_caller_not_in_the_sender(viewer) -> 
     q = viewer.robot.neutral() + 0.1
     viewer.push(q, target=np.eye(4))  # the sender is still alive: this one arrives
     assert _wait(lambda: viewer.shown is not None and np.allclose(viewer.shown, q))
+
+
+def test_boxes_planes_and_the_pairs_within_d_i_are_drawn() -> None:
+    """A box and a half-space get nodes at their place and meshes of their size; with
+    ``collisions=`` the pairs closer than ``d_i`` at the pushed configuration are drawn
+    as segments between witness points, counted in the side panel (checked against a
+    collision model of the viewer's own)."""
+    from redres.collision import BoxObstacle, CollisionModel, Collisions, PlaneObstacle
+    from redres.viewer import Viewer
+
+    panda = rr.models.panda()
+    hand = panda.fk(panda.neutral())[:3, 3]
+    box = BoxObstacle(hand - [0.0, 0.0, 0.18], [0.15, 0.2, 0.08], name="box")
+    floor = PlaneObstacle([0.0, 0.0, 1.0], -0.2, name="floor")
+    settings = Collisions([box, floor])
+    v = Viewer(panda, obstacles=[box, floor], collisions=settings, port=_free_port(), rate=50.0)
+    try:
+        np.testing.assert_allclose(v._obstacle_nodes[0].position, box.center)
+        np.testing.assert_allclose(v._obstacle_nodes[1].position, [0.0, 0.0, -0.2])
+        corners = np.asarray(v._obstacle_meshes[0].vertices) + box.center
+        np.testing.assert_allclose(np.abs(corners - box.center).max(axis=0), box.half_extents,
+                                   atol=1e-6)  # fmt: skip
+        floor_z = np.asarray(v._obstacle_meshes[1].vertices)[:, 2] - 0.2
+        np.testing.assert_allclose(floor_z, -0.2, atol=1e-6)
+        rng = np.random.default_rng(7)
+        model = CollisionModel(panda, [box, floor], safety=settings.safety)
+        for q in (panda.neutral(), panda.neutral() + rng.normal(0.0, 0.05, 7)):
+            q = np.clip(q, panda.q_min, panda.q_max)
+            expected = int(np.sum(model.distances(q) < settings.influence))
+            v.push(q)
+            assert _wait(lambda q=q: v.shown is not None and np.array_equal(v.shown, q))
+            assert v._pair_status.content.startswith(f"pairs within d_i: {expected}, binding: 0")
+            assert expected > 0
+            node = v._pair_nodes["free"]
+            assert node.visible and np.asarray(node.points).shape == (expected, 2, 3)
+        v._pair_toggle.value = False  # the checkbox hides them at once
+        assert _wait(lambda: not v._pair_nodes["free"].visible)
+        v._pair_toggle.value = True
+        assert _wait(lambda: v._pair_nodes["free"].visible)
+    finally:
+        v.close()
+    with pytest.raises(rr.errors.InvalidParameterError, match="collisions must be"):
+        Viewer(panda, collisions=[box], port=_free_port())
+    with pytest.raises(rr.errors.InvalidParameterError, match="obstacles must be"):
+        Viewer(panda, obstacles=["table"], port=_free_port())  # type: ignore[list-item]
+
+
+def test_a_scrubbed_run_shows_its_binding_pairs() -> None:
+    """``show_runs`` of a run that recorded its pairs (a constrained QP run into a box):
+    at a step where a row bound, the binding node holds that step's binding segments."""
+    pytest.importorskip("daqp")
+    from redres.collision import BoxObstacle, Collisions
+    from redres.control import Line
+    from redres.control.analysis import collision_clearance
+    from redres.resolution import QPScheme
+    from redres.tasks import FrameTask
+    from redres.viewer import Viewer
+
+    panda = rr.models.panda()
+    start = panda.fk(panda.neutral())
+    box = BoxObstacle(start[:3, 3] - [0.0, 0.0, 0.18], [0.15, 0.2, 0.08], name="box")
+    settings = Collisions([box])
+    dt = 5e-3
+    line = Line(start, start[:3, 3] - [0.0, 0.0, 0.15], 0.3)
+    log = rr.run(panda, FrameTask(), line, QPScheme(dt=dt, collisions=settings), dt=dt, gain=20.0)
+    record = collision_clearance(log, panda, settings)
+    k = int(record.step[record.binding][-1])
+    rows = record.at(k)
+    bound = np.stack([record.point_a[rows], record.point_b[rows]], axis=1)[record.binding[rows]]
+    v = Viewer(panda, obstacles=[box], port=_free_port(), rate=50.0)
+    try:
+        v.show_runs([log])
+        v._slider.value = float(log.t[k])
+        node = v._pair_nodes["bound"]
+        assert _wait(lambda: v.shown is not None and np.array_equal(v.shown, log.q[k]))
+        assert _wait(lambda: node.visible)
+        np.testing.assert_allclose(np.asarray(node.points), bound, atol=1e-6)
+        assert f"binding: {len(bound)}" in v._pair_status.content
+    finally:
+        v.close()
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="needs Debian's chromium")
+def test_chromium_shows_boxes_planes_and_pairs(tmp_path: Path) -> None:
+    """The page renders a box, a half-space and the pair segments without a console error,
+    and its side panel counts the pairs."""
+    from _chromium import live_page
+
+    from redres.collision import BoxObstacle, Collisions, PlaneObstacle
+    from redres.viewer import Viewer
+
+    panda = rr.models.panda()
+    box = BoxObstacle(panda.fk(panda.neutral())[:3, 3] - [0.0, 0.0, 0.18], [0.15, 0.2, 0.08],
+                      name="box")  # fmt: skip
+    floor = PlaneObstacle([0.0, 0.0, 1.0], -0.2, name="floor")
+    v = Viewer(panda, obstacles=[box, floor], collisions=Collisions([box, floor]),
+               port=_free_port(), rate=50.0)  # fmt: skip
+    try:
+        assert _wait(lambda: v._pair_status.content.startswith("pairs within d_i: "))
+        done = 'document.querySelector("canvas") && document.body.innerText.includes("pairs wi")'
+        text, console = live_page(v.url, tmp_path / "profile", done, seconds=90.0)
+    finally:
+        v.close()
+    assert "pairs within d_i" in text and "box at (" in text, text[-2000:]
+    assert [m for m in console if m[0] in ("error", "exception", "assert")] == []

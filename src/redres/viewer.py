@@ -8,7 +8,9 @@
 
 :class:`Viewer` draws the robot — its visual meshes when its file has them
 (``robot.visuals``), else its link capsules, else the polyline through its frame origins —
-the obstacles, a floor grid, the tool frame and the target. :meth:`Viewer.push` only
+the obstacles (a half-space as a square of its surface), a floor grid, the tool frame, the
+target, and the collision pairs within ``d_i`` as segments between witness points (of
+``collisions=``, or a scrubbed run's record, binding ones red). :meth:`Viewer.push` only
 stores the configuration (a copy, under a lock) and returns; a sender thread sends the
 latest one at most ``rate`` times a second, so a loop is never slowed by the viewer and,
 when the browser lags, intermediate configurations are dropped, never queued.
@@ -40,6 +42,7 @@ from .errors import (
 )
 
 if TYPE_CHECKING:
+    from .collision import Collisions
     from .control import RunLog
     from .objectives import Obstacle
     from .robot import Robot
@@ -77,12 +80,15 @@ class Viewer:
 
     Args:
         robot: the robot to show.
-        obstacles: spheres, points and capsules to draw (world coordinates).
+        obstacles: spheres, points, capsules, boxes and half-spaces to draw (world
+            coordinates).
         host, port: where viser serves the page (``port=0``: a free port).
         rate: at most this many scene updates per second, Hz (:data:`MIN_RATE` to
             :data:`MAX_RATE`).
         geometry: ``"auto"`` (meshes, else capsules, else lines), ``"meshes"``,
             ``"capsules"`` or ``"lines"``.
+        collisions: draw the pairs of this constraint closer than its ``influence`` at each
+            configuration shown (computed in the viewer's thread, on its own model).
 
     Raises:
         MissingDependencyError: viser is not installed.
@@ -97,6 +103,7 @@ class Viewer:
         port: int = 8080,
         rate: float = 30.0,
         geometry: str = "auto",
+        collisions: Collisions | None = None,
     ) -> None:
         viser = _viser()
         self.robot = robot
@@ -109,6 +116,7 @@ class Viewer:
         if geometry == "auto":
             geometry = "meshes" if robot.visuals else "capsules" if robot.capsules else "lines"
         self.geometry = geometry
+        self._pair_model, self._influence = _pair_model(robot, collisions, obstacles)
         self.server = viser.ViserServer(host=host, port=port, label=f"redres · {robot.name}",
                                          verbose=False)  # fmt: skip
         self._lock = threading.Lock()
@@ -119,6 +127,8 @@ class Viewer:
         self._stop = threading.Event()
         self._runs: list[RunLog] = []
         self._slider: Any = None
+        self._pairs: Any = None  # the segments to draw with the next configuration
+        self._shown_pairs: Any = None
         self._build_scene(list(obstacles))
         self._place(list(obstacles))  # the side panel names each obstacle and its place
         self.push(robot.neutral())
@@ -185,8 +195,13 @@ class Viewer:
             return self._runs[labels.index(pick.value)]
 
         def scrub(_: Any = None) -> None:
+            from .report.view3d import pair_segments
+
             log = current()
             k = int(np.clip(round(slider.value / log.dt), 0, log.steps - 1))
+            record = log.extra.get("collision_pairs")
+            with self._lock:  # the run's own pairs, the binding ones among them
+                self._pairs = None if record is None else pair_segments(record, k)
             self.push(log.q[k], log.target[k] if np.any(log.target) else None)
 
         def repick(_: Any = None) -> None:
@@ -232,6 +247,7 @@ class Viewer:
             with self._lock:
                 q, target, self._pending = self._pending, self._target, None
                 moved, self._moved = self._moved, None
+                self._shown_pairs, self._pairs = self._pairs, None
             if moved is not None:
                 self._place(moved)
             if q is not None:
@@ -239,31 +255,33 @@ class Viewer:
 
     def _place(self, obstacles: list[Obstacle]) -> None:
         """Move the obstacles' scene nodes to ``obstacles`` (a new shape is drawn anew)."""
-        from .report.scene3d import OBSTACLE_COLOUR
+        from .report.scene3d import obstacle_anchor
 
         with self.server.atomic():
             lines = []
             for i, obs in enumerate(obstacles):
-                anchor, shape = _obstacle_shape(obs)
+                anchor, shape = obstacle_anchor(obs)
                 node = self._obstacle_nodes[i]
                 node.position = tuple(float(x) for x in anchor)
-                if not np.allclose(shape, self._obstacle_shapes[i], rtol=0.0, atol=1e-12):
+                same = shape.shape == self._obstacle_shapes[i].shape and np.allclose(
+                    shape, self._obstacle_shapes[i], rtol=0.0, atol=1e-12)  # fmt: skip
+                if not same:
                     self._obstacle_meshes[i].remove()
-                    self._obstacle_meshes[i] = self._add_shape(node.name, shape, OBSTACLE_COLOUR)
+                    self._obstacle_meshes[i] = self._add_shape(node.name, obs, anchor)
                     self._obstacle_shapes[i] = shape
                 lines.append(f"{obs.name} at (" + ", ".join(f"{x:.4f}" for x in anchor) + ")")
             self._obstacles = obstacles
             self._obstacle_status.content = "; ".join(lines)
 
-    def _add_shape(self, node: str, shape: FloatArray, colour: str) -> Any:
-        """An obstacle's mesh under ``node``: a capsule from the node's origin to
-        ``shape[:3]`` of radius ``shape[3]``."""
-        from .report.scene3d import capsule_mesh
+    def _add_shape(self, node: str, obstacle: Obstacle, anchor: FloatArray) -> Any:
+        """An obstacle's mesh under ``node`` (at ``anchor``); a point as a 5 mm ball."""
+        from .report.scene3d import OBSTACLE_COLOUR, obstacle_mesh
 
-        vertices, faces = capsule_mesh(np.zeros(3), shape[:3], max(float(shape[3]), 0.005))
+        vertices, faces = obstacle_mesh(obstacle, min_radius=0.005)
         return self.server.scene.add_mesh_simple(
-            f"{node}/shape", vertices=vertices.astype(np.float32),
-            faces=faces.astype(np.uint32), color=_rgb(colour), opacity=0.6,
+            f"{node}/shape", vertices=(vertices - anchor).astype(np.float32),
+            faces=faces.astype(np.uint32), color=_rgb(OBSTACLE_COLOUR), opacity=0.6,
+            side="double",
         )  # fmt: skip
 
     def _frames(self) -> list[str]:
@@ -274,7 +292,7 @@ class Viewer:
         return []
 
     def _build_scene(self, obstacles: list[Obstacle]) -> None:
-        from .report.scene3d import CAPSULE_COLOUR, OBSTACLE_COLOUR, capsule_mesh
+        from .report.scene3d import CAPSULE_COLOUR, PAIR_COLOURS, capsule_mesh, obstacle_anchor
 
         scene = self.server.scene
         scene.set_up_direction("+z")
@@ -311,12 +329,19 @@ class Viewer:
         self._obstacle_meshes: list[Any] = []
         self._obstacle_shapes: list[FloatArray] = []
         for i, obs in enumerate(obstacles):
-            anchor, shape = _obstacle_shape(obs)
+            anchor, shape = obstacle_anchor(obs)
             node = scene.add_frame(f"/obstacles/{i}_{obs.name}", show_axes=False,
                                    position=tuple(float(x) for x in anchor))  # fmt: skip
             self._obstacle_nodes.append(node)
-            self._obstacle_meshes.append(self._add_shape(node.name, shape, OBSTACLE_COLOUR))
+            self._obstacle_meshes.append(self._add_shape(node.name, obs, anchor))
             self._obstacle_shapes.append(shape)
+        self._pair_nodes = {kind: scene.add_line_segments(
+            f"/pairs/{kind}", points=np.zeros((1, 2, 3), np.float32), colors=_rgb(colour),
+            thickness=0.003 if kind == "free" else 0.006, visible=False,
+        ) for kind, colour in PAIR_COLOURS.items()}  # fmt: skip
+        self._pair_toggle = self.server.gui.add_checkbox("collision pairs", initial_value=True)
+        self._pair_toggle.on_update(self._redraw)
+        self._pair_status = self.server.gui.add_markdown("")
         self._tool = scene.add_frame("/tool", axes_length=0.08, axes_radius=0.004)
         self._goal = scene.add_icosphere("/target", radius=0.012, color=(214, 39, 40),
                                          visible=False)  # fmt: skip
@@ -358,22 +383,48 @@ class Viewer:
                 self._goal.position = tuple(float(x) for x in position)
                 self._goal.visible = True
             self._status.content = "q = [" + ", ".join(f"{x:.4f}" for x in q) + "]"
+            self._draw_pairs(q)
         self._shown = q
 
+    def _redraw(self, _: Any = None) -> None:
+        """Send the shown configuration again, with its pairs (the checkbox changed)."""
+        with self._lock:
+            self._pairs = self._shown_pairs
+        if self._shown is not None:
+            self.push(self._shown)
 
-def _obstacle_shape(obstacle: Obstacle) -> tuple[FloatArray, FloatArray]:
-    """Where an obstacle's scene node sits (a sphere's centre, a capsule's end ``a``) and
-    its shape relative to it: ``(b − a, radius)``."""
-    from .objectives import CapsuleObstacle, SphereObstacle
+    def _draw_pairs(self, q: FloatArray) -> None:
+        """The pairs at ``q``: a scrubbed run's record, else the viewer's model's within d_i."""
+        from .report.view3d import near_pairs
 
-    if isinstance(obstacle, SphereObstacle):
-        return np.asarray(obstacle.center, dtype=float), np.array([0.0, 0.0, 0.0, obstacle.radius])
-    if not isinstance(obstacle, CapsuleObstacle):
-        raise InvalidParameterError(
-            f"the viewer draws spheres, points and capsules; got {type(obstacle).__name__}"
-        )
-    a = np.asarray(obstacle.a, dtype=float)
-    return a, np.append(np.asarray(obstacle.b, dtype=float) - a, obstacle.radius)
+        pairs = self._shown_pairs
+        if pairs is None and self._pair_model is not None:
+            pairs = near_pairs(self._pair_model, q, self._influence)
+        show = bool(self._pair_toggle.value) and pairs is not None
+        for kind, node in self._pair_nodes.items():
+            seg = getattr(pairs, kind, ())
+            if show and len(seg):
+                node.points = np.asarray(seg, np.float32)
+            node.visible = show and bool(len(seg))
+        if pairs is None:
+            return
+        every = [*pairs.bound_labels, *pairs.free_labels]
+        head = f"pairs within d_i: {len(every)}, binding: {len(pairs.bound_labels)}"
+        self._pair_status.content = "; ".join([head, *every[:4]])
+
+
+def _pair_model(robot: Robot, c: Any, obstacles: Sequence[Obstacle]) -> tuple[Any, float]:
+    """Checked first: the obstacles; ``c``'s model for the viewer's thread, ``d_i``."""
+    from .collision import CollisionModel, Collisions
+    from .report.scene3d import obstacle_anchor
+
+    [obstacle_anchor(obs) for obs in obstacles]  # raises for what is not an obstacle
+    if c is None:
+        return None, 0.0
+    if not isinstance(c, Collisions):
+        raise InvalidParameterError(f"collisions must be a Collisions(...); got {c!r}")
+    return CollisionModel(robot, c.obstacles, capsules=c.capsules, self_collision=c.self_collision,
+                          allowed=c.allowed, srdf=c.srdf, safety=c.safety), c.influence  # fmt: skip
 
 
 def _check_address(host: Any, port: Any) -> None:

@@ -51,16 +51,21 @@ def test_random_scenes_never_go_below_the_safety_distance(name: str) -> None:
     assert min(soft) < min(hard)  # the scenes do drive the arm into the obstacles
 
 
+def _ball_ahead(ahead: float, radius: float, self_collision: bool) -> tuple:
+    """The Panda at its neutral pose, a ball ``ahead`` m along x from its tip, and a QP
+    scheme constrained by it: ``(robot, q, collisions, scheme, model)``."""
+    robot = rr.models.panda()
+    q = robot.neutral()
+    ball = SphereObstacle(robot.fk(q)[:3, 3] + [ahead, 0.0, 0.0], radius, "ball")
+    collisions = Collisions([ball], influence=0.10, safety=0.01, self_collision=self_collision)
+    return robot, q, collisions, QPScheme(DT, collisions=collisions), collisions.model(robot)
+
+
 def test_a_path_into_an_obstacle_yields_the_task_not_the_row() -> None:
     """The tip driven through a ball: the rows bind, the task is not met
     (``feasible=False``), the distance stays at or above d_s, and the details say so."""
-    robot = rr.models.panda()
-    q = robot.neutral()
+    robot, q, _, scheme, model = _ball_ahead(0.15, 0.05, False)
     tip = robot.fk(q)[:3, 3]
-    ball = SphereObstacle(tip + [0.15, 0.0, 0.0], 0.05, "ball")
-    collisions = Collisions([ball], influence=0.10, safety=0.01, self_collision=False)
-    scheme = QPScheme(DT, collisions=collisions)
-    model = collisions.model(robot)
     task = FrameTask(rows=POSITION)
     controller = rr.Controller(robot, task, scheme, dt=DT, gain=50.0)
     trajectory = Line(robot.fk(q), tip + [0.30, 0.0, 0.0], 1.0)
@@ -203,3 +208,42 @@ def test_a_run_reports_self_and_obstacle_clearances() -> None:
     self_pairs = model.self_mask()
     want = min(model.distances(q)[self_pairs].min() for q in log.q)
     assert summary["min_self_clearance_m"] == pytest.approx(want, abs=1e-12)
+
+
+def test_warm_started_rows_give_the_cold_solution() -> None:
+    """Along a path into a ball (the rows active and binding over many steps, DAQP warm
+    started from step to step), each answer equals a cold solve of the QP written out from
+    its definition: the rows from ``CollisionModel.compute`` (not the scheme's buffers),
+    the box the step reports; the exact QP where the task is met, the least-violating one
+    where it is not."""
+    import daqp
+
+    robot, q, collisions, scheme, model = _ball_ahead(0.12, 0.04, True)
+    rate = -collisions.gain / (collisions.influence - collisions.safety)
+    compared = {True: 0, False: 0}
+    for _ in range(400):
+        J = robot.jacobian(q)[:3]
+        xd = np.array([0.4, 0.0, -0.05])
+        result = scheme.step(robot, q, J, xd)
+        found = model.compute(q, collisions.influence)
+        near = found.distance < collisions.influence
+        contact = result.details.collisions
+        if contact.bound:
+            G, h = found.gradient[near], rate * (found.distance[near] - collisions.safety)
+            lo, hi = result.details.bounds
+            n, free = robot.n, np.full(int(near.sum()), 1e30)
+            if result.feasible:
+                A = np.vstack([J, G])
+                sense = np.r_[np.zeros(n), np.full(3, 5), np.zeros(len(h))].astype(np.intc)
+                x, _, flag, _ = daqp.solve(np.eye(n), np.zeros(n), A, np.r_[hi, xd, free],
+                                           np.r_[lo, xd, h], sense, primal_tol=1e-10)  # fmt: skip
+            else:
+                P = J.T @ J + scheme.damping**2 * np.eye(n)
+                sense = np.zeros(n + len(h), np.intc)
+                x, _, flag, _ = daqp.solve(P, -J.T @ xd, G, np.r_[hi, free], np.r_[lo, h], sense,
+                                           primal_tol=1e-10)  # fmt: skip
+            assert flag > 0
+            assert np.allclose(result.qd, x, atol=1e-7)
+            compared[bool(result.feasible)] += 1
+        q = q + DT * result.qd
+    assert compared[False] > 20  # the ball stops the task

@@ -215,3 +215,43 @@ def test_self_pairs_leave_out_adjacent_links_and_contact_at_neutral() -> None:
     from_srdf = CollisionModel(robot, [], srdf=srdf)
     assert ("base", "hand") not in [p.names for p in from_srdf.pairs]
     assert len(from_srdf.pairs) == len(model.pairs) - 1
+
+
+@pytest.mark.parametrize("name", ["panda", "iiwa14", "menagerie iiwa14"])
+def test_compiled_chain_equals_pinocchio(name: str, rng: np.random.Generator) -> None:
+    """The joints' poses and Jacobian from the compiled serial chain (the default on a
+    serial arm) against Pinocchio's ``computeJointJacobians`` (the path of a model that is
+    not one): the same distances, witnesses and rows, on built-in and fitted capsules."""
+    robot = rr.models.menagerie("iiwa14") if name.startswith("menagerie") else getattr(
+        rr.models, name)()  # fmt: skip
+    chained = CollisionModel(robot, _scene())
+    pinocchio = CollisionModel(robot, _scene())
+    assert chained._chain is not None
+    pinocchio._chain = None
+    for _ in range(10):
+        q = rng.uniform(robot.q_min, robot.q_max)
+        got, want = chained.compute(q), pinocchio.compute(q)
+        assert np.allclose(got.distance, want.distance, atol=1e-12)
+        assert np.allclose(got.gradient, want.gradient, atol=1e-12)
+        assert np.allclose(got.point_a, want.point_a, atol=1e-12)
+
+
+def test_damper_rows_are_the_distances_rows(rng: np.random.Generator) -> None:
+    """``CollisionModel.damper``: ``G`` equals ``compute``'s ``∂d/∂q`` for the pairs the
+    broad phase resolves and the bound is ``rate·(d − d_s)`` exactly for the pairs closer
+    than ``d_i``, ``−1e30`` (no bound) for the others."""
+    robot = rr.models.panda()
+    model = CollisionModel(robot, _scene())
+    P, seen = len(model.pairs), 0
+    G, lower = np.full((P, robot.n), np.nan), np.full(P, np.nan)
+    for _ in range(20):
+        q = rng.uniform(robot.q_min, robot.q_max)
+        active = model.damper(q, 0.1, 0.01, -5.0, G, lower)
+        found = model.compute(q, 0.1)
+        near = found.distance < 0.1
+        assert active == int(near.sum())
+        assert np.allclose(G, found.gradient, atol=1e-14)
+        assert np.allclose(lower[near], -5.0 * (found.distance[near] - 0.01), atol=1e-14)
+        assert np.all(lower[~near] == -1e30)
+        seen += active
+    assert seen > 0

@@ -18,6 +18,7 @@ import subprocess
 import sys
 import textwrap
 import time
+import types
 from pathlib import Path
 
 import pytest
@@ -260,6 +261,33 @@ def test_warmup_says_what_compiles_and_how_far_and_nothing_when_cached(
     assert len(err) == 2 + len(ticks)  # nothing about the cached "chain"
     assert _warmup.timed([("quiet", lambda: time.sleep(1.2))], quiet=True) >= 1.2
     assert capsys.readouterr().err == ""
+
+
+def test_progress_says_when_compiling_takes_longer_than_its_estimate(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ticks say "N s of about E s on one core" while within the estimate, then that it runs
+    longer than an idle core takes (a busy machine), never "12 s of about 5 s". The clock
+    the ticks read is a counter (one second a reading), so no wall time is asserted."""
+    readings = iter(range(10_000))
+    clock = types.SimpleNamespace(perf_counter=lambda: float(next(readings)))
+    monkeypatch.setattr(_warmup, "time", clock)
+    monkeypatch.setattr(_warmup, "TICK", 0.01)
+    group = types.SimpleNamespace(cold_estimate=lambda: 2.5)
+    monkeypatch.setattr(_jit, "groups", lambda: {"linalg": group})
+    err: list[str] = []
+    with _warmup._progress("linalg", quiet=False):
+        deadline = time.monotonic() + 120.0  # generous: only how many ticks matters
+        while sum(line.startswith("redres:   ... ") for line in err) < 4:
+            assert time.monotonic() < deadline, err
+            time.sleep(0.02)
+            err += capsys.readouterr().err.splitlines()
+    ticks = [line for line in err if line.startswith("redres:   ... ")]
+    assert err[0].endswith("for its first use, about 2 s on one core...")  # 2.5 s, rounded
+    assert ticks[:2] == ["redres:   ... 1 s of about 2 s on one core",
+                         "redres:   ... 2 s of about 2 s on one core"]  # fmt: skip
+    assert ticks[2] == "redres:   ... 3 s, longer than the 2 s it takes on an idle core"
+    assert all("of about" not in line for line in ticks[2:])
 
 
 def test_import_redres_loads_only_what_a_program_touches() -> None:

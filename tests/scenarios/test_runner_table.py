@@ -30,7 +30,21 @@ def test_the_demos_table_fits_100_columns_and_keeps_every_word() -> None:
     i = cells.index("gradient projection:")  # broken after the colon
     assert cells[i + 1] == "  joint limits"
     assert len(format_table([_summary("pinv")]).splitlines()) == rule + 2  # short: one line
+    # every column but the self-collision clearance (shown when a run measured it)
+    assert len(COLUMNS) - 1 == len(lines[rule].split())
+
+
+def test_a_collision_scenarios_table_fits_100_columns() -> None:
+    """With the self-collision column too, the labels of panda_table_shelf fit."""
+    labels = ["qp: collision constraint", "qp: joint limits only",
+              "gradient projection: obstacle penalty"]  # fmt: skip
+    rows = [{**_summary(label), "robot": "panda", "min_self_clearance_m": -0.0845}
+            for label in labels]  # fmt: skip
+    lines = format_table(rows).splitlines()
+    assert max(map(len, lines)) <= 100
+    rule = next(i for i, line in enumerate(lines) if line.startswith("---"))
     assert len(COLUMNS) == len(lines[rule].split())
+    assert "-84.5" in lines[rule + 1]
 
 
 def test_aligned_table_stacks_lines_of_headers_and_cells() -> None:

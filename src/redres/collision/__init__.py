@@ -6,10 +6,11 @@ Jacobians, and the velocity-damper constraint of the QP scheme.
 - :mod:`.geometry`: closest points of segments and points (NumPy).
 - :mod:`.pairs`: which pairs are checked (:class:`Pair`, :func:`read_srdf`).
 - :mod:`.distances`: :class:`CollisionModel` → :class:`PairDistances` (compiled).
-- :mod:`.constraint`: :class:`Collisions`, the settings of the hard constraint.
+- :mod:`.constraint`: :class:`Collisions`, the settings of the hard constraint, and
+  :class:`DamperRows`, its rows refreshed in place at each step.
 """
 
-from .constraint import DEFAULT_GAIN, CollisionDetails, Collisions
+from .constraint import DEFAULT_GAIN, CollisionDetails, Collisions, DamperRows
 from .distances import CollisionModel, PairDistances
 from .pairs import Pair, read_srdf
 from .shapes import (
@@ -31,6 +32,7 @@ __all__ = [
     "CollisionDetails",
     "CollisionModel",
     "Collisions",
+    "DamperRows",
     "Obstacle",
     "Pair",
     "PairDistances",

@@ -6,7 +6,12 @@ Plain Python written for numba, compiled through :mod:`redres._compile` (kernel 
 - :func:`pair_distances` — every pair at one ``q`` from the capsule frames' poses and
   world-aligned Jacobians; calls :func:`_capsule_obstacle` (→ :func:`_segment_segment`,
   :func:`_segment_box`, :func:`_segment_plane`) or :func:`_segment_segment` for a self
-  pair, then :func:`_row`.
+  pair, then :func:`_add_row`.
+- :func:`chain_frames` — those poses and that Jacobian of a serial chain without
+  Pinocchio: :func:`redres.robot._chain_kernels._chain_pass` per capsule joint.
+- :func:`damper_rows` — :func:`chain_frames` (for a serial chain), :func:`pair_distances`,
+  then each pair's damper bound (the rows of :mod:`redres.collision.constraint`, one per
+  pair at a fixed position), in one call from ``q``.
 
 Every pair gives the signed surface distance ``d`` (< 0: penetration), the witness points
 ``p_a`` on the first capsule's centre line and ``p_b`` on the other shape, and the unit
@@ -36,6 +41,7 @@ import math
 import numpy as np
 
 from .._compile import kernel
+from ..robot._chain_kernels import _chain_pass, point_columns
 
 _TINY = 1e-30  # squared lengths below this are points / coincident witnesses
 _GOLDEN = 0.6180339887498949  # (√5 − 1)/2
@@ -58,11 +64,6 @@ def _mul_t(R, x):
     for i in range(3):
         out[i] = R[0, i] * x[0] + R[1, i] * x[1] + R[2, i] * x[2]
     return out
-
-
-@kernel(inline=True)
-def _norm(g):
-    return math.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
 
 
 @kernel(inline=True)
@@ -299,17 +300,17 @@ def pair_distances(R, t, J, cap_frame, cap_cols, cap_a, cap_b, cap_r, kinds, row
         The number of pairs resolved (within ``cutoff`` of each other).
     """
     C = cap_a.shape[0]
-    wa = np.empty((C, 3))
-    wb = np.empty((C, 3))
-    mid = np.empty((C, 3))
-    reach = np.empty(C)
+    work = np.empty((C, 10))  # one allocation: ends, midpoint, bounding radius
+    wa, wb, mid, reach = work[:, 0:3], work[:, 3:6], work[:, 6:9], work[:, 9]
     for i in range(C):
         f = cap_frame[i]
-        wa[i] = _mul(R[f], cap_a[i]) + t[f]
-        wb[i] = _mul(R[f], cap_b[i]) + t[f]
-        mid[i] = 0.5 * (wa[i] + wb[i])
-        half = wb[i] - mid[i]
-        reach[i] = _norm(half) + cap_r[i]
+        for r in range(3):
+            wa[i, r] = (R[f, r, 0] * cap_a[i, 0] + R[f, r, 1] * cap_a[i, 1]
+                        + R[f, r, 2] * cap_a[i, 2] + t[f, r])  # fmt: skip
+            wb[i, r] = (R[f, r, 0] * cap_b[i, 0] + R[f, r, 1] * cap_b[i, 1]
+                        + R[f, r, 2] * cap_b[i, 2] + t[f, r])  # fmt: skip
+            mid[i, r] = 0.5 * (wa[i, r] + wb[i, r])
+        reach[i] = 0.5 * _gap(wa[i], wb[i, 0], wb[i, 1], wb[i, 2]) + cap_r[i]
     resolved = 0
     for k in range(pairs.shape[0]):
         kind, i, j = pairs[k, 0], pairs[k, 1], pairs[k, 2]
@@ -346,3 +347,59 @@ def pair_distances(R, t, J, cap_frame, cap_cols, cap_a, cap_b, cap_r, kinds, row
         if kind != 0:
             _add_row(J, cap_cols[j], pb[k], normal[k], -1.0, grad[k])
     return resolved
+
+
+@kernel
+def chain_frames(links, axes, kinds, depth, q, T, R, t, J):
+    """The capsules' joints' poses and Pinocchio's ``WORLD`` joint Jacobian of a serial
+    chain (joints ``1 … k`` of the model, :class:`redres.robot.chain.SerialChain`), the
+    inputs of :func:`pair_distances`, without Pinocchio.
+
+    Args:
+        links: ``(F, k + 1, 3, 4)``: row ``f`` holds the chain's first ``depth[f]`` joint
+            placements, then the identity (the joint's own frame as the chain's tool).
+        axes, kinds: the chain's joint axes ``(k, 3)`` and kinds ``(k,)``.
+        depth: ``(F,)``: how many joints move frame ``f`` (0: fixed to the base).
+        q: ``(n,)``, rad or m.
+        T: scratch ``(4, 4)``.
+        R, t: outputs ``(F, 3, 3)``, ``(F, 3)``: ``oMi`` of each capsule's joint.
+        J: output ``(6, n)``: columns ``[v; ω]``, ``v = p_j × z_j`` the velocity of the point
+            at the world origin for a revolute joint about ``z_j`` through ``p_j``, ``[z_j; 0]``
+            for a prismatic one; zero past the deepest capsule joint.
+    """
+    deepest = 0
+    for f in range(depth.shape[0]):
+        if depth[f] > depth[deepest]:
+            deepest = f
+    for f in range(depth.shape[0]):
+        k = depth[f]
+        _chain_pass(links[f, : k + 1], axes[:k], kinds[:k], q, T, J, f == deepest)
+        for i in range(3):
+            t[f, i] = T[i, 3]
+            for c in range(3):
+                R[f, i, c] = T[i, c]
+    point_columns(kinds[: depth[deepest]], 0.0, 0.0, 0.0, J)  # Pinocchio's WORLD columns
+
+
+@kernel
+def damper_rows(links, axes, chain_kinds, depth, q, T, R, t, J, cap_frame, cap_cols, cap_a,
+                cap_b, cap_r, kinds, rows, pairs, influence, safety, rate, dist, pa, pb,
+                normal, grad, lower):  # fmt: skip
+    """:func:`chain_frames` (its arguments first; skipped when ``depth`` is empty: ``R``,
+    ``t``, ``J`` then come from Pinocchio), :func:`pair_distances` with ``cutoff =
+    influence`` (``grad`` is then the rows ``∂d/∂q``), and ``lower[k] = rate · (d_k −
+    safety)`` for a pair closer than ``influence``, ``−1e30`` (no bound: DAQP's infinity)
+    for the others. ``rate`` is ``−ξ/(d_i − d_s)`` (1/s). Returns ``(#resolved,
+    #active)``."""
+    if depth.shape[0] > 0:
+        chain_frames(links, axes, chain_kinds, depth, q, T, R, t, J)
+    resolved = pair_distances(R, t, J, cap_frame, cap_cols, cap_a, cap_b, cap_r, kinds,
+                              rows, pairs, influence, dist, pa, pb, normal, grad)  # fmt: skip
+    active = 0
+    for k in range(dist.shape[0]):
+        if dist[k] < influence:
+            lower[k] = rate * (dist[k] - safety)
+            active += 1
+        else:
+            lower[k] = -1e30
+    return resolved, active

@@ -33,7 +33,7 @@ import numpy as np
 
 from .._validate import FloatArray, as_scalar
 from ..errors import InvalidParameterError
-from .distances import CollisionModel, PairDistances
+from .distances import CollisionModel
 from .pairs import Pair
 
 if TYPE_CHECKING:
@@ -148,35 +148,68 @@ class Collisions:
             )  # fmt: skip
         return self._model
 
-    def rows(
-        self, robot: Robot, q: FloatArray
-    ) -> tuple[FloatArray, FloatArray, PairDistances, np.ndarray]:
-        """The constraint ``G q̇ ≥ h`` at ``q`` (a float vector of size ``n``, checked by
-        the caller): ``G`` ``(k, n)``, ``h`` ``(k,)`` for the ``k`` pairs closer than
-        ``d_i`` (their indices, the last item), and the distances."""
-        model = self._model if self._model is not None and self._model.robot is robot else None
-        found = (model or self.model(robot)).compute(q, self.influence, checked=True)
-        active = np.flatnonzero(found.distance < self.influence)
-        d = found.distance[active]
-        h = (-self.gain / (self.influence - self.safety)) * (d - self.safety)
-        return found.gradient[active], h, found, active
+    def damper(self, robot: Robot, G: FloatArray, lower: FloatArray) -> DamperRows:
+        """The rows ``G q̇ ≥ lower`` of ``robot``'s pairs, written into ``G`` ``(P, n)``
+        and ``lower`` ``(P,)`` (C-contiguous float arrays the caller owns, e.g. views
+        into a QP's matrices) at each :meth:`DamperRows.update`."""
+        return DamperRows(self, self.model(robot), G, lower)
 
-    def details(
-        self, found: PairDistances, active: np.ndarray, G: FloatArray, h: FloatArray,
-        qd: FloatArray,
-    ) -> Callable[[], CollisionDetails]:  # fmt: skip
+
+class DamperRows:
+    """The velocity-damper rows of every pair of a :class:`CollisionModel`, one row per
+    pair at a fixed position, refreshed in place (:meth:`Collisions.damper`): a pair
+    farther than ``d_i`` keeps its row with no bound (``lower = −1e30``), so a QP solver
+    warm-started from one step to the next sees the same rows.
+
+    Attributes:
+        G: ``∂d/∂q`` of every pair, ``(P, n)``, m/rad (zero for a pair beyond the broad
+            phase).
+        lower: ``−ξ (d − d_s)/(d_i − d_s)`` for the pairs closer than ``d_i``, m/s;
+            ``−1e30`` for the others.
+        active: how many pairs are closer than ``d_i`` at the last :meth:`update`.
+        bound: whether the answer of the last :meth:`details` call sits on a row.
+    """
+
+    def __init__(
+        self, collisions: Collisions, model: CollisionModel, G: FloatArray, lower: FloatArray
+    ) -> None:
+        self.model, self.G, self.lower = model, G, lower
+        self.influence, self.safety = collisions.influence, collisions.safety
+        self.rate = -collisions.gain / (collisions.influence - collisions.safety)
+        self.active, self.bound = 0, False
+
+    def update(self, q: FloatArray) -> int:
+        """The rows at ``q`` (a float vector of size ``n``, checked by the caller), in one
+        compiled call; returns :attr:`active`."""
+        self.active = self.model.damper(q, self.influence, self.safety, self.rate, self.G,
+                                        self.lower)  # fmt: skip
+        return self.active
+
+    def violated(self, qd: FloatArray) -> bool:
+        """Whether ``qd`` breaks a row (beyond round-off)."""
+        if not self.active:
+            return False
+        slack = self.G @ qd
+        slack -= self.lower  # ~1e30 for a row without bound
+        return bool(slack.min() < -1e-12)
+
+    def details(self, qd: FloatArray) -> Callable[[], CollisionDetails]:
         """The :class:`CollisionDetails` of a step that answered ``qd``, built on first
-        call (what it needs is copied now: ``found`` is overwritten by the next step)."""
-        slack = G @ qd - h if len(active) else np.zeros(0)
-        d = found.distance[active]  # a copy (fancy indexing)
-        k = int(np.argmin(found.distance)) if found.resolved else -1
-        closest_d = float(found.distance[k]) if k >= 0 else 0.0
-        pairs_all = found.pairs
+        call (what it needs is copied now: the next :meth:`update` overwrites the rows)."""
+        found = self.model.last(self.G)
+        d = found.distance.copy()
+        slack = self.G @ qd - self.lower if self.active else None
+        #: whether ``qd`` sits on a row (``ḋ`` within BINDING_TOLERANCE of its bound)
+        self.bound = slack is not None and bool(slack.min() <= BINDING_TOLERANCE)
+        resolved, pairs_all, influence = found.resolved, found.pairs, self.influence
 
         def build() -> CollisionDetails:
+            active = np.flatnonzero(d < influence)
             pairs = [pairs_all[i] for i in active]
-            binding = [p for p, s in zip(pairs, slack) if s <= BINDING_TOLERANCE]
-            closest = (pairs_all[k], closest_d) if k >= 0 else None
-            return CollisionDetails(pairs, d, closest, binding)
+            binding = ([pairs_all[i] for i in active if slack[i] <= BINDING_TOLERANCE]
+                       if slack is not None else [])  # fmt: skip
+            k = int(np.argmin(d)) if resolved else -1
+            closest = (pairs_all[k], float(d[k])) if k >= 0 else None
+            return CollisionDetails(pairs, d[active], closest, binding)
 
         return build

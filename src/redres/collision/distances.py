@@ -1,9 +1,12 @@
 """Every pair's distance and ``∂d/∂q`` at one configuration, in one compiled call.
 
 :class:`CollisionModel` fixes a robot's link capsules, the obstacles and the pairs
-(:mod:`redres.collision.pairs`) once; :meth:`CollisionModel.compute` then takes one
-Pinocchio pass (``computeJointJacobians``: the joints' poses and ``WORLD`` Jacobian) and
-hands them to the kernel :func:`redres.collision._kernels.pair_distances` (formulas there).
+(:mod:`redres.collision.pairs`) once; :meth:`CollisionModel.compute` then takes the
+joints' poses and ``WORLD`` Jacobian, from the compiled serial chain
+(:func:`redres.collision._kernels.chain_frames`, :class:`redres.robot.chain.SerialChain`'s
+arrays) or, for a model that is not one, from one Pinocchio pass
+(``computeJointJacobians``), and hands them to the kernel
+:func:`redres.collision._kernels.pair_distances` (formulas there).
 """
 
 from __future__ import annotations
@@ -34,11 +37,11 @@ def _kernels() -> Any:
     return KERNELS.required("collision distances")
 
 
-def _entry(args: tuple[Any, ...]) -> tuple[Any, bool]:
-    """The kernel ``pair_distances`` for ``args``' types, and whether it is compiled (a
-    plain twin answers while it compiles behind: the caller asks again later)."""
+def _entry(name: str, args: tuple[Any, ...]) -> tuple[Any, bool]:
+    """The kernel ``name`` for ``args``' types, and whether it is compiled (a plain twin
+    answers while it compiles behind: the caller asks again later)."""
     module = _kernels()
-    return _compile.entry_point(module.pair_distances, args), _compile.is_compiled(module)
+    return _compile.entry_point(getattr(module, name), args), _compile.is_compiled(module)
 
 
 @dataclass(slots=True)
@@ -134,11 +137,15 @@ class CollisionModel:
                                             for f, c in zip(frames, caps)])  # fmt: skip
         self._cap_r = np.array([float(c.radius) for c in caps])
         self._data = model.createData()
-        self._call: Any = None
-        self._compiled = False
+        self._calls: dict[str, Any] = {}  # kernel entry points, compiled ones kept
         F = len(joints)
         self._T = np.zeros((F, 4, 4))
         self._R, self._t = self._T[:, :3, :3], self._T[:, :3, 3]  # views the kernel reads
+        self._T4, self._J, self._resolved = np.zeros((4, 4)), np.zeros((6, robot.n)), 0
+        self._chain = self._chain_arrays(robot, joints, [c.frame for c in caps])
+        self._no_chain = (np.zeros((0, 1, 3, 4)), np.zeros((0, 3)), np.zeros(0, np.int64),
+                          np.zeros(0, np.int64))  # fmt: skip
+        self._q0 = np.zeros(robot.n)
         permitted = allowed_set(allowed, srdf)
         candidates = [(0, i, j) for i, cap in enumerate(caps)
                       for j, obs in enumerate(self.obstacles)
@@ -166,21 +173,88 @@ class CollisionModel:
         self._d, self._gradient = np.zeros(P), np.zeros((P, n))
         self._pa, self._pb, self._n = np.zeros((P, 3)), np.zeros((P, 3)), np.zeros((P, 3))
 
+    @staticmethod
+    def _chain_arrays(robot: Robot, joints: list[int], frames: list[str]) -> tuple[Any, ...] | None:
+        """The arguments of :func:`~redres.collision._kernels.chain_frames` before ``q``:
+        the serial chain to the deepest capsule joint, one row of placements per capsule
+        joint; None when the model is not a serial chain there (Pinocchio answers)."""
+        from ..robot import NotSerialChainError
+
+        model = robot.model
+        deepest = max(joints)
+        frame = max(frames, key=lambda name: model.frames[robot.frame_id(name)].parentJoint)
+        try:
+            links, axes, kinds = robot.chain(frame).arrays
+        except NotSerialChainError:
+            return None
+        if deepest == 0 or len(kinds) != deepest:
+            return None
+        packed = np.zeros((len(joints), len(kinds) + 1, 3, 4))
+        for f, j in enumerate(joints):  # joints 1 … k of a serial chain: joint j is depth j
+            packed[f, :j] = links[:j]
+            packed[f, j, :, :3] = np.eye(3)
+        depth = np.array(joints, np.int64)
+        return packed, np.ascontiguousarray(axes), np.ascontiguousarray(kinds), depth
+
+    def _call(self, name: str, args: tuple[Any, ...]) -> Any:
+        """Kernel ``name`` on ``args`` (its entry point found on first call, kept once
+        compiled)."""
+        call = self._calls.get(name)
+        if call is None:
+            call, compiled = _entry(name, args)
+            if compiled:
+                self._calls[name] = call
+        return call(*args)
+
     def _kinematics(self, q: FloatArray) -> None:
+        if self._chain is not None:  # q as the typed entry point wants it (a no-op on a step's q)
+            q = np.ascontiguousarray(q, dtype=np.float64)
+            self._call("chain_frames", (*self._chain, q, self._T4, self._R, self._t, self._J))
+            return
         model, data = self.robot.model, self._data
-        self._J = pin.computeJointJacobians(model, data, q)  # one pass: poses and data.J
+        # one pass: poses and data.J, copied (C order: the kernels' entry points are typed)
+        self._J[:] = pin.computeJointJacobians(model, data, q)
         oMi, T = data.oMi, self._T
         for k, j in enumerate(self._joints):
             T[k] = oMi[j].homogeneous  # one conversion per joint
 
+    def _geometry(self) -> tuple[Any, ...]:
+        return (self._R, self._t, self._J, self._cap_frame, self._cap_cols, self._cap_a,
+                self._cap_b, self._cap_r, self._kinds, self._rows, self._pairs)  # fmt: skip
+
     def _run(self, q: FloatArray, cutoff: float) -> tuple[FloatArray, int]:
         self._kinematics(q)
-        args = (self._R, self._t, self._J, self._cap_frame, self._cap_cols, self._cap_a,
-                self._cap_b, self._cap_r, self._kinds, self._rows, self._pairs, float(cutoff),
-                self._d, self._pa, self._pb, self._n, self._gradient)  # fmt: skip
-        if not self._compiled:
-            self._call, self._compiled = _entry(args)
-        return self._d, int(self._call(*args))
+        args = (*self._geometry(), float(cutoff), self._d, self._pa, self._pb, self._n,
+                self._gradient)  # fmt: skip
+        return self._d, int(self._call("pair_distances", args))
+
+    def damper(
+        self, q: FloatArray, influence: float, safety: float, rate: float, G: FloatArray,
+        lower: FloatArray,
+    ) -> int:  # fmt: skip
+        """The velocity-damper rows of every pair at ``q`` (a checked float vector ``(n,)``)
+        in one compiled call (:func:`~redres.collision._kernels.damper_rows`): ``G``
+        ``(P, n)`` ← ``∂d/∂q``, ``lower`` ``(P,)`` ← ``rate · (d − safety)`` for the pairs
+        closer than ``influence`` (m) and ``−1e30`` for the others (``rate`` in 1/s).
+        The distances and witnesses go to the model's arrays (:meth:`last`). Returns how
+        many pairs are closer than ``influence``."""
+        if self._chain is None:
+            self._kinematics(q)
+            q = self._q0  # (the chain arrays are empty: the kernel skips the chain)
+        else:
+            q = np.ascontiguousarray(q, dtype=np.float64)
+        args = (*(self._chain or self._no_chain), q, self._T4, *self._geometry(),
+                float(influence), float(safety), float(rate), self._d, self._pa, self._pb,
+                self._n, G, lower)  # fmt: skip
+        resolved, active = self._call("damper_rows", args)
+        self._resolved = int(resolved)
+        return int(active)
+
+    def last(self, gradient: FloatArray) -> PairDistances:
+        """The :class:`PairDistances` of the last :meth:`damper` call (``gradient``: its
+        ``G``)."""
+        return PairDistances(self.pairs, self._d, self._pa, self._pb, self._n, gradient,
+                             self._resolved)  # fmt: skip
 
     def compute(self, q: Any, cutoff: float = np.inf, *, checked: bool = False) -> PairDistances:
         """Every pair at ``q`` (shape ``(n,)``, rad); pairs whose bounding spheres are

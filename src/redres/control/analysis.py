@@ -6,12 +6,14 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .._validate import FloatArray, as_scalar, as_vector
-from ..collision import CollisionModel
+from ..collision import Collisions, Pair
+from ..collision.constraint import BINDING_TOLERANCE
 from ..errors import InvalidParameterError, JointLimitError
 from ..objectives import Objective, ObstacleObjective
 from .log import RunLog
@@ -136,17 +138,92 @@ def analyse_run(
     return s
 
 
-def collision_clearance(log: RunLog, model: CollisionModel) -> None:
-    """Log the clearances of a run under collision avoidance: at every step of ``log.q``
-    the smallest distance of ``model``'s environment pairs (``obstacle_distance_m``, when
-    it has any) and of its self pairs (``self_distance_m``, when it has any), m; the pairs
-    are the constraint's (adjacent links, contacts at the neutral pose and allowed pairs
-    left out: :class:`~redres.collision.CollisionModel`)."""
+@dataclass(frozen=True)
+class CollisionRecord:
+    """The collision pairs closer than the influence distance ``d_i`` at every step of a
+    run, with their witness points, and whether the velocity damper's row (Faverjon &
+    Tournassoud 1987; ``redres.collision.constraint``) bound the applied velocity.
+
+    One row per (step, pair within ``d_i``), in step order; :meth:`at` gives a step's rows.
+
+    Attributes:
+        pairs: every pair of the collision model (:class:`~redres.collision.Pair`).
+        influence, safety, gain: ``d_i`` (m), ``d_s`` (m) and ``ξ`` (m/s) of the damper.
+        constrained: whether the run was under the constraint (without it no row binds:
+            ``binding`` is all False, and the rows are those a constraint would have had).
+        step: each row's step, ``(R,)``.
+        pair: each row's index in ``pairs``, ``(R,)``.
+        distance: the pair's signed distance, ``(R,)``, m.
+        point_a, point_b: the witness points on the link capsule and on the other shape,
+            ``(R, 3)``, m (:class:`~redres.collision.PairDistances`).
+        binding: ``ḋ = n̂ᵀ(J_a − J_b) q̇`` of the logged ``q̇`` within ``1e-7`` m/s of
+            the damper's bound ``−ξ (d − d_s)/(d_i − d_s)``, ``(R,)``.
+    """
+
+    pairs: list[Pair]
+    influence: float
+    safety: float
+    gain: float
+    constrained: bool
+    step: np.ndarray
+    pair: np.ndarray
+    distance: FloatArray
+    point_a: FloatArray
+    point_b: FloatArray
+    binding: np.ndarray
+
+    def at(self, k: int) -> slice:
+        """The rows of step ``k``."""
+        lo, hi = np.searchsorted(self.step, [k, k + 1])
+        return slice(int(lo), int(hi))
+
+    @property
+    def binding_steps(self) -> int:
+        """How many steps had a binding pair."""
+        return int(np.unique(self.step[self.binding]).size)
+
+
+def collision_clearance(
+    log: RunLog, robot: Robot, collisions: Collisions, *, constrained: bool = True
+) -> CollisionRecord:
+    """Log the clearances of a run under collision avoidance (or, ``constrained=False``,
+    of a run to compare with one): at every step of ``log.q`` the smallest distance of the
+    constraint's environment pairs (``obstacle_distance_m``, when it has any) and of its
+    self pairs (``self_distance_m``, when it has any), m; the pairs are the constraint's
+    (adjacent links, contacts at the neutral pose and allowed pairs left out:
+    :class:`~redres.collision.CollisionModel`). The pairs within ``d_i`` at each step
+    are kept in ``log.extra["collision_pairs"]``, the returned :class:`CollisionRecord`."""
+    model = collisions.model(robot)
     mask = model.self_mask()
-    if not log.steps or not len(mask):
-        return
-    d = np.array([model.distances(q) for q in log.q])
-    if (~mask).any():
-        log.objectives["obstacle_distance_m"] = d[:, ~mask].min(axis=1)
-    if mask.any():
-        log.objectives["self_distance_m"] = d[:, mask].min(axis=1)
+    d_i, d_s, gain = collisions.influence, collisions.safety, collisions.gain
+    d = np.full((log.steps, len(mask)), np.inf)
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("step", "pair", "d", "a", "b", "bind")}
+    for k, q in enumerate(log.q):
+        found = model.compute(q)
+        d[k] = found.distance
+        near = np.flatnonzero(found.distance < d_i)
+        if not len(near):
+            continue
+        dn = found.distance[near]
+        bound = (-gain / (d_i - d_s)) * (dn - d_s)  # the damper's right-hand side
+        binding = found.gradient[near] @ log.qd[k] - bound <= BINDING_TOLERANCE
+        for key, value in (("step", np.full(len(near), k)), ("pair", near), ("d", dn),
+                           ("a", found.point_a[near]), ("b", found.point_b[near]),
+                           ("bind", binding & constrained)):  # fmt: skip
+            parts[key].append(value)
+    if len(mask) and log.steps:
+        if (~mask).any():
+            log.objectives["obstacle_distance_m"] = d[:, ~mask].min(axis=1)
+        if mask.any():
+            log.objectives["self_distance_m"] = d[:, mask].min(axis=1)
+
+    def joined(key: str, shape: tuple[int, ...], dtype: Any = float) -> np.ndarray:
+        return np.concatenate(parts[key]).astype(dtype) if parts[key] else np.zeros(shape, dtype)
+
+    record = CollisionRecord(
+        list(model.pairs), d_i, d_s, gain, constrained, joined("step", (0,), np.int64),
+        joined("pair", (0,), np.int64), joined("d", (0,)), joined("a", (0, 3)),
+        joined("b", (0, 3)), joined("bind", (0,), bool),
+    )  # fmt: skip
+    log.extra["collision_pairs"] = record
+    return record

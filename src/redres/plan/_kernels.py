@@ -7,13 +7,13 @@ Entry points and their call tree::
         order of that joint (``order``, ``keys``)
     forward(q, start, order, keys, key, delta, active, value, bottleneck, edge_weight,
             best, parent, reached, counts)
-        _window, _allowed: the DP recursion (redres.plan.dp docstring)
+        _successors (_window, _allowed): the DP recursion (redres.plan.dp docstring)
     backward(q, start, order, keys, key, delta, active, ends)
-        _window, _allowed: which nodes lead to the last sample
+        _successors: which nodes lead to the last sample
     components(q, start, order, keys, key, delta, on, root) -> count
-        _window, _allowed, _find: union-find over the transitions between ``on`` nodes
+        _successors, _find: union-find over the transitions between ``on`` nodes
     edge_list(q, start, order, keys, key, delta, active) -> (first, source, target, tested)
-        _window, _allowed: the transitions as edges, grouped by their first node
+        _successors: the transitions as edges, grouped by their first node
     edge_forward(q, first, source, target, accel, active, opening, value, bottleneck,
                  edge_weight, best, parent, reached, counts)
         _steady, _distance: the DP over edges (acceleration limits)
@@ -81,6 +81,25 @@ def _window(keys, a, b, x, d):
     return lo, hi
 
 
+@kernel(inline=True)
+def _successors(q, start, order, keys, key, delta, on, k, i, out):
+    """The ``on`` nodes of sample ``k + 1`` that node ``i`` (of sample ``k``) may move to,
+    in window order, into ``out``; returns ``(tested, allowed)``: the ``on`` nodes inside
+    the window and how many of them are allowed (the first ``allowed`` rows of ``out``)."""
+    s = key[k + 1]
+    lo, hi = _window(keys, start[k + 1], start[k + 2], q[i, s], delta[s])
+    tested = 0
+    allowed = 0
+    for p in range(lo, hi):
+        j = order[p]
+        if on[j]:
+            tested += 1
+            if _allowed(q, i, j, delta):
+                out[allowed] = j
+                allowed += 1
+    return tested, allowed
+
+
 @kernel
 def forward(q, start, order, keys, key, delta, active, value, bottleneck, edge_weight,
             best, parent, reached, counts):  # fmt: skip
@@ -102,21 +121,16 @@ def forward(q, start, order, keys, key, delta, active, value, bottleneck, edge_w
         if active[i]:
             reached[i] = True
             best[i] = value[i]
+    out = np.empty(q.shape[0], dtype=np.int64)
     for k in range(K - 1):
-        a1, b1 = start[k + 1], start[k + 2]
-        s = key[k + 1]
         for i in range(start[k], start[k + 1]):
             if not reached[i]:
                 continue
-            lo, hi = _window(keys, a1, b1, q[i, s], delta[s])
-            for p in range(lo, hi):
-                j = order[p]
-                if not active[j]:
-                    continue
-                counts[0] += 1
-                if not _allowed(q, i, j, delta):
-                    continue
-                counts[1] += 1
+            tested, allowed = _successors(q, start, order, keys, key, delta, active, k, i, out)
+            counts[0] += tested
+            counts[1] += allowed
+            for t in range(allowed):
+                j = out[t]
                 if bottleneck:
                     cand = min(best[i], value[j])
                     if cand > best[j] or not reached[j]:
@@ -143,18 +157,11 @@ def backward(q, start, order, keys, key, delta, active, ends):
         ends[m] = False
     for i in range(start[K - 1], start[K]):
         ends[i] = active[i]
+    out = np.empty(q.shape[0], dtype=np.int64)
     for k in range(K - 2, -1, -1):
-        a1, b1 = start[k + 1], start[k + 2]
-        s = key[k + 1]
         for i in range(start[k], start[k + 1]):
-            if not active[i]:
-                continue
-            lo, hi = _window(keys, a1, b1, q[i, s], delta[s])
-            for p in range(lo, hi):
-                j = order[p]
-                if ends[j] and _allowed(q, i, j, delta):
-                    ends[i] = True
-                    break
+            if active[i]:
+                ends[i] = _successors(q, start, order, keys, key, delta, ends, k, i, out)[1] > 0
 
 
 @kernel(inline=True)
@@ -175,19 +182,16 @@ def components(q, start, order, keys, key, delta, on, root):
     M = q.shape[0]
     for m in range(M):
         root[m] = m
+    out = np.empty(M, dtype=np.int64)
     for k in range(K - 1):
-        a1, b1 = start[k + 1], start[k + 2]
-        s = key[k + 1]
         for i in range(start[k], start[k + 1]):
             if not on[i]:
                 continue
-            lo, hi = _window(keys, a1, b1, q[i, s], delta[s])
-            for p in range(lo, hi):
-                j = order[p]
-                if on[j] and _allowed(q, i, j, delta):
-                    ri, rj = _find(root, i), _find(root, j)
-                    if ri != rj:
-                        root[max(ri, rj)] = min(ri, rj)
+            allowed = _successors(q, start, order, keys, key, delta, on, k, i, out)[1]
+            for t in range(allowed):
+                ri, rj = _find(root, i), _find(root, out[t])
+                if ri != rj:
+                    root[max(ri, rj)] = min(ri, rj)
     for m in range(M):
         root[m] = _find(root, m)
     seen = np.zeros(M, dtype=np.bool_)
@@ -212,36 +216,23 @@ def edge_list(q, start, order, keys, key, delta, active):
     M = q.shape[0]
     first = np.zeros(M + 1, dtype=np.int64)
     tested = 0
+    out = np.empty(M, dtype=np.int64)
     for k in range(K - 1):  # count
-        a1, b1 = start[k + 1], start[k + 2]
-        s = key[k + 1]
         for i in range(start[k], start[k + 1]):
-            if not active[i]:
-                continue
-            lo, hi = _window(keys, a1, b1, q[i, s], delta[s])
-            for p in range(lo, hi):
-                j = order[p]
-                if active[j]:
-                    tested += 1
-                    if _allowed(q, i, j, delta):
-                        first[i + 1] += 1
+            if active[i]:
+                t, a = _successors(q, start, order, keys, key, delta, active, k, i, out)
+                tested += t
+                first[i + 1] += a
     for m in range(M):
         first[m + 1] += first[m]
     source = np.empty(first[M], dtype=np.int64)
     target = np.empty(first[M], dtype=np.int64)
     for k in range(K - 1):  # fill
-        a1, b1 = start[k + 1], start[k + 2]
-        s = key[k + 1]
         for i in range(start[k], start[k + 1]):
-            if not active[i]:
-                continue
-            lo, hi = _window(keys, a1, b1, q[i, s], delta[s])
-            e = first[i]
-            for p in range(lo, hi):
-                j = order[p]
-                if active[j] and _allowed(q, i, j, delta):
-                    source[e], target[e] = i, j
-                    e += 1
+            if active[i]:
+                a = _successors(q, start, order, keys, key, delta, active, k, i, out)[1]
+                for t in range(a):
+                    source[first[i] + t], target[first[i] + t] = i, out[t]
     return first, source, target, tested
 
 

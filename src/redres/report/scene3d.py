@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._validate import FloatArray
+from ..errors import InvalidParameterError
 from ..robot.meshes import ring_faces
 
 if TYPE_CHECKING:
@@ -32,6 +33,8 @@ LATITUDES = 12
 LONGITUDES = 24
 OBSTACLE_COLOUR = "#e07b39"
 CAPSULE_COLOUR = "#9aa5b1"
+#: Colours of the collision pairs' segments: within the influence distance, and binding.
+PAIR_COLOURS = {"free": "#2a9d8f", "bound": "#d62728"}
 
 
 def _basis(axis: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -109,51 +112,116 @@ def mesh_trace(
     return trace
 
 
-def obstacle_points(obstacles: Sequence[Obstacle]) -> FloatArray:
-    """Points that bound every obstacle (for the scene's range), shape ``(k, 3)``, m."""
-    from ..objectives import CapsuleObstacle, SphereObstacle
+#: Half the side of the square drawn for a half-space (its surface near the robot), m.
+PLANE_HALF_SIDE = 1.0
+#: The faces of a box of corners ``(±1, ±1, ±1)`` in the order of :func:`box_mesh`
+#: (bit 2: x, bit 1: y, bit 0: z), outward.
+_BOX_FACES = np.reshape(
+    [0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1]  # x = -1, x = +1, y = -1
+    + [2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3],  # y = +1, z = -1, z = +1
+    (12, 3),
+)
 
+
+def box_mesh(center: Any, half_extents: Any, rotation: Any) -> tuple[FloatArray, np.ndarray]:
+    """The 8 corners ``center + R (±h)`` of a box, ``(8, 3)`` m, and its 12 triangles."""
+    signs = np.array([[(i >> 2) & 1, (i >> 1) & 1, i & 1] for i in range(8)]) * 2.0 - 1.0
+    R = np.asarray(rotation, float)
+    corners = np.asarray(center, float) + (signs * np.asarray(half_extents, float)) @ R.T
+    return corners, _BOX_FACES.copy()
+
+
+def plane_mesh(normal: Any, offset: float, half_side: float) -> tuple[FloatArray, np.ndarray]:
+    """A square of side ``2 half_side`` (m) on the plane ``normal · x = offset``, centred
+    on the plane's point closest to the world origin (the robot's base), and its two
+    triangles."""
+    n = np.asarray(normal, float)
+    _, e1, e2 = _basis(n)
+    centre = offset * n
+    signs = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+    corners = centre + half_side * (signs[:, :1] * e1 + signs[:, 1:] * e2)
+    return corners, np.array([[0, 1, 2], [0, 2, 3]])
+
+
+def obstacle_mesh(
+    obstacle: Obstacle, *, plane_half_side: float = PLANE_HALF_SIDE, min_radius: float = 0.0
+) -> tuple[FloatArray, np.ndarray]:
+    """A triangle mesh of an obstacle at its place and size, world coordinates, m: a
+    sphere or capsule (radius at least ``min_radius``), a box, or a square patch of a
+    half-space's surface (:func:`plane_mesh`)."""
+    from ..collision import BoxObstacle, PlaneObstacle, SphereObstacle
+
+    if isinstance(obstacle, BoxObstacle):
+        return box_mesh(obstacle.center, obstacle.half_extents, obstacle.rotation)
+    if isinstance(obstacle, PlaneObstacle):
+        return plane_mesh(obstacle.normal, obstacle.offset, plane_half_side)
+    if isinstance(obstacle, SphereObstacle):
+        return capsule_mesh(obstacle.center, obstacle.center, max(obstacle.radius, min_radius))
+    return capsule_mesh(obstacle.a, obstacle.b, max(obstacle.radius, min_radius))
+
+
+def obstacle_anchor(obstacle: Obstacle) -> tuple[FloatArray, FloatArray]:
+    """Where an obstacle's scene node sits (a sphere's or box's centre, a capsule's end
+    ``a``, a half-space's surface point nearest the origin) and the numbers of its shape
+    relative to it: ``(b − a, radius)`` for a sphere (``b = a``) or a capsule, ``(half
+    extents, rotation)`` for a box, the unit normal for a half-space."""
+    from ..collision import BoxObstacle, CapsuleObstacle, PlaneObstacle, SphereObstacle
+
+    if isinstance(obstacle, SphereObstacle):
+        return np.asarray(obstacle.center, float), np.array([0.0, 0.0, 0.0, obstacle.radius])
+    if not isinstance(obstacle, (BoxObstacle, CapsuleObstacle, PlaneObstacle)):
+        raise InvalidParameterError(
+            "obstacles must be SphereObstacle, PointObstacle, CapsuleObstacle, BoxObstacle or "
+            f"PlaneObstacle; got {obstacle!r}"
+        )
+    if isinstance(obstacle, BoxObstacle):
+        rotation = np.asarray(obstacle.rotation, float)
+        return np.asarray(obstacle.center, float), np.concatenate([obstacle.half_extents,
+                                                                   rotation.ravel()])  # fmt: skip
+    if isinstance(obstacle, PlaneObstacle):
+        return obstacle.offset * obstacle.normal, np.array(obstacle.normal, float)
+    a = np.asarray(obstacle.a, float)
+    return a, np.append(np.asarray(obstacle.b, float) - a, obstacle.radius)
+
+
+def _shape(obstacle: Obstacle) -> str:
+    from ..collision import BoxObstacle, PlaneObstacle, SphereObstacle
+
+    if isinstance(obstacle, SphereObstacle):
+        return "point" if obstacle.radius == 0.0 else "sphere"
+    return "box" if isinstance(obstacle, BoxObstacle) else (
+        "plane" if isinstance(obstacle, PlaneObstacle) else "capsule")  # fmt: skip
+
+
+def obstacle_points(
+    obstacles: Sequence[Obstacle], plane_half_side: float = PLANE_HALF_SIDE
+) -> FloatArray:
+    """Points that bound every obstacle (for the scene's range), shape ``(k, 3)``, m."""
     out = [np.zeros((0, 3))]
     for obs in obstacles:
-        if not isinstance(obs, (SphereObstacle, CapsuleObstacle)):
-            continue  # boxes and half-spaces are not drawn yet
-        ends = [obs.center] if isinstance(obs, SphereObstacle) else [obs.a, obs.b]
-        for p in ends:
-            out.append(p + obs.radius * np.vstack([np.eye(3), -np.eye(3)]))
+        out.append(obstacle_mesh(obs, plane_half_side=plane_half_side)[0])
     return np.concatenate(out)
 
 
-def obstacle_traces(obstacles: Sequence[Obstacle]) -> list[dict[str, Any]]:
-    """One trace per obstacle: a mesh at its place and size, a marker for a point (boxes
-    and half-spaces are not drawn yet)."""
-    from ..objectives import CapsuleObstacle, SphereObstacle
-
+def obstacle_traces(
+    obstacles: Sequence[Obstacle], plane_half_side: float = PLANE_HALF_SIDE
+) -> list[dict[str, Any]]:
+    """One trace per obstacle: a mesh at its place and size (a half-space: a square of its
+    surface, :func:`plane_mesh`), a marker for a point."""
     traces = []
     for obs in obstacles:
-        if not isinstance(obs, (SphereObstacle, CapsuleObstacle)):
+        shape = _shape(obs)
+        meta = {"kind": "obstacle", "shape": shape, "name": obs.name}
+        if shape == "point":
+            traces.append({"type": "scatter3d", "mode": "markers", "name": obs.name,
+                           **xyz(obs.center[None, :], 6),  # type: ignore[union-attr]
+                           "marker": {"size": 5, "color": OBSTACLE_COLOUR, "symbol": "x"},
+                           "meta": meta})  # fmt: skip
             continue
-        sphere = isinstance(obs, SphereObstacle)
-        meta = {"kind": "obstacle", "shape": "sphere" if sphere else "capsule", "name": obs.name}
-        a, b = (obs.center, obs.center) if isinstance(obs, SphereObstacle) else (obs.a, obs.b)
-        if sphere and obs.radius == 0.0:
-            meta["shape"] = "point"
-            traces.append(
-                {
-                    "type": "scatter3d",
-                    "mode": "markers",
-                    "name": obs.name,
-                    "x": [float(a[0])],
-                    "y": [float(a[1])],
-                    "z": [float(a[2])],
-                    "marker": {"size": 5, "color": OBSTACLE_COLOUR, "symbol": "x"},
-                    "meta": meta,
-                }
-            )
-            continue
-        vertices, triangles = capsule_mesh(a, b, obs.radius)
-        traces.append(
-            mesh_trace(vertices, triangles, name=obs.name, colour=OBSTACLE_COLOUR, meta=meta)
-        )
+        vertices, triangles = obstacle_mesh(obs, plane_half_side=plane_half_side)
+        opacity = 0.25 if shape == "plane" else 0.55
+        traces.append(mesh_trace(vertices, triangles, name=obs.name, colour=OBSTACLE_COLOUR,
+                                 meta=meta, opacity=opacity))  # fmt: skip
     return traces
 
 

@@ -58,6 +58,23 @@ COLUMNS: tuple[Column, ...] = (
         "negative: they overlapped",
         optional=True,
     ),
+    Column(
+        "min_self_clearance_m",
+        "min self clearance",
+        "mm",
+        _mm,
+        "smallest distance between two link capsules the collision constraint pairs over the "
+        "run; negative: the arm went into itself",
+        optional=True,
+    ),
+    Column(
+        "collision_binding_steps",
+        "collision-bound steps",
+        "",
+        lambda v: f"{int(v):,}",
+        "steps where a collision row bound the velocity (the task yielded there)",
+        optional=True,
+    ),
     Column("path_length_rad", "path length", "rad", lambda v: f"{v:.2f}", "Σ ‖Δq‖ over the run"),
     Column("step_time_us_median", "median step time", "µs", lambda v: f"{v:.1f}"),
 )
@@ -68,7 +85,8 @@ def _cell(column: Column, row: Mapping[str, Any]) -> str:
     if value is None:
         return '<td class="num missing">–</td>'
     css = "num"
-    if column.key in ("min_joint_limit_margin_rad", "min_obstacle_clearance_m") and value < 0:
+    if column.key in ("min_joint_limit_margin_rad", "min_obstacle_clearance_m",
+                      "min_self_clearance_m") and value < 0:  # fmt: skip
         css += " bad"
     return f'<td class="{css}">{escape(column.fmt(float(value)))}</td>'
 

@@ -4,9 +4,11 @@
 and :func:`animation_figure` turns it into a plotly figure (plain JSON-ready dicts, so
 plotly.js draws it without the Python plotly objects): the arm, its visual meshes and its
 link capsules (behind a legend entry when it has meshes), the obstacles at their place and
-size, the closest arm–obstacle pair at each instant, the target and actual paths of the
-task frame and a time slider (play/pause are the page's), equal scale. The meshes are
-built in :mod:`.scene3d`.
+size (a half-space as a square of its surface), the closest arm–obstacle pair at each
+instant, the pairs the collision constraint watched (those within its influence distance,
+as segments between their witness points, the binding ones in red: each a legend entry,
+so a click hides them), the target and actual paths of the task frame and a time slider
+(play/pause are the page's), equal scale. The meshes are built in :mod:`.scene3d`.
 """
 
 from __future__ import annotations
@@ -83,6 +85,11 @@ class ArmAnimation:
         bodies: what moves with the arm, posed at each frame
             (:class:`~.scene3d.RigidBodies`): the robot's visual meshes, then its link
             capsules (``hidden`` when there are meshes); empty when it has neither.
+        pairs: at each frame, the collision pairs within the influence distance that did
+            not bind and those that did, as segments between their witness points
+            (``(k, 2, 3)`` each, m) with a label per segment (pair and distance); None
+            when the run has no record of them (``log.extra["collision_pairs"]``, kept
+            by a scenario run with ``collisions``).
     """
 
     robot: str
@@ -97,6 +104,44 @@ class ArmAnimation:
     closest: FloatArray | None = None
     clearance: FloatArray | None = None
     bodies: tuple[scene3d.RigidBodies, ...] = ()
+    pairs: tuple[PairSegments, ...] | None = None
+
+
+@dataclass(frozen=True)
+class PairSegments:
+    """The collision pairs of one frame: ``free`` and ``bound`` segments ``(k, 2, 3)``
+    (m, from the link capsule's witness point to the other shape's) and their labels."""
+
+    free: FloatArray
+    bound: FloatArray
+    free_labels: list[str]
+    bound_labels: list[str]
+
+
+def _labels(pairs: Sequence[Any], index: Any, distance: Any) -> list[str]:
+    return [f"{pairs[i].first}–{pairs[i].second}: {1e3 * d:.1f} mm"
+            for i, d in zip(index, distance)]  # fmt: skip
+
+
+def pair_segments(record: Any, k: int) -> PairSegments:
+    """The pairs of step ``k`` of a run's collision record (``log.extra["collision_pairs"]``,
+    ``redres.control.analysis.CollisionRecord``)."""
+    rows = record.at(k)
+    seg = np.stack([record.point_a[rows], record.point_b[rows]], axis=1).reshape(-1, 2, 3)
+    labels = _labels(record.pairs, record.pair[rows], record.distance[rows])
+    bound = np.asarray(record.binding[rows], bool)
+    return PairSegments(seg[~bound], seg[bound], [t for t, b in zip(labels, bound) if not b],
+                        [t for t, b in zip(labels, bound) if b])  # fmt: skip
+
+
+def near_pairs(model: Any, q: FloatArray, influence: float) -> PairSegments:
+    """The pairs of a :class:`~redres.collision.CollisionModel` within ``influence`` (m)
+    at ``q``, all ``free`` (whether a row binds needs the step's velocity)."""
+    found = model.compute(q, influence)
+    near = np.flatnonzero(found.distance < influence)
+    seg = np.stack([found.point_a[near], found.point_b[near]], axis=1).reshape(-1, 2, 3)
+    labels = _labels(found.pairs, near, found.distance[near])
+    return PairSegments(seg, np.zeros((0, 2, 3)), labels, [])
 
 
 def arm_animation(
@@ -114,8 +159,9 @@ def arm_animation(
         log: the run.
         frames: number of animation frames (≥ 2; fewer for shorter runs).
         path_points: at most this many points per path.
-        obstacles: spheres, points and capsules to draw; with link capsules on the robot
-            the closest pair between arm and obstacles is found at every frame.
+        obstacles: spheres, points, capsules, boxes and half-spaces to draw; with link
+            capsules on the robot the closest pair between arm and obstacles is found at
+            every frame. The collision pairs are drawn when the log has their record.
     """
     names = arm_frames(robot)
     idx = even_indices(log.steps, frames)
@@ -137,9 +183,11 @@ def arm_animation(
         clearance = np.array([d for d, _ in pairs])
         closest = np.stack([p for _, p in pairs])
     bodies = scene3d.rigid_bodies(robot, log.q[idx])
+    record = log.extra.get("collision_pairs")
+    segments = None if record is None else tuple(pair_segments(record, int(k)) for k in idx)
     return ArmAnimation(
         robot.name, run_name(log), log.t[idx], idx, arm, target, position, now,
-        tuple(obstacles), closest, clearance, bodies,
+        tuple(obstacles), closest, clearance, bodies, segments,
     )  # fmt: skip
 
 
@@ -147,9 +195,14 @@ def _xyz(points: FloatArray) -> dict[str, list[float]]:
     return scene3d.xyz(points, DECIMALS)
 
 
+def _plane_half_side(anim: ArmAnimation) -> float:
+    """Half the side of a half-space's square: the arm's reach and 10 cm."""
+    return float(np.linalg.norm(anim.arm, axis=-1).max()) + 0.1
+
+
 def _scene(anim: ArmAnimation) -> dict[str, Any]:
     clouds = [anim.arm.reshape(-1, 3), anim.position, np.zeros((1, 3))]
-    clouds.append(scene3d.obstacle_points(anim.obstacles))
+    clouds.append(scene3d.obstacle_points(anim.obstacles, _plane_half_side(anim)))
     for b in anim.bodies:  # the hidden ones too: shown, they stay in the scene
         clouds += [b.world(0), b.world(len(anim.arm) - 1)]
     if anim.target is not None:
@@ -185,9 +238,39 @@ def _path(name: str, points: FloatArray, mode: str = "lines", **style: Any) -> d
 MESH_DECIMALS = 4
 
 
+def _segments(seg: FloatArray, labels: list[str]) -> dict[str, Any]:
+    """Segments ``(k, 2, 3)`` as one plotly line trace's coordinates (``None`` between
+    segments) and hover texts."""
+    cols: dict[str, list[Any]] = {"x": [], "y": [], "z": [], "hovertext": []}
+    for (a, b), label in zip(np.round(seg, DECIMALS).tolist(), labels):
+        for c, axis in enumerate("xyz"):
+            cols[axis] += [a[c], b[c], None]
+        cols["hovertext"] += [label, label, None]
+    return cols
+
+
+def _pair_traces(anim: ArmAnimation, f: int, styled: bool) -> list[dict[str, Any]]:
+    """The two traces of the collision pairs at frame ``f`` (none without a record)."""
+    if anim.pairs is None:
+        return []
+    p = anim.pairs[f]
+    out = []
+    for kind, seg, labels in (("free", p.free, p.free_labels), ("bound", p.bound, p.bound_labels)):
+        trace = {"type": "scatter3d", **_segments(seg, labels)}
+        if styled:
+            name = "collision pairs within d_i" if kind == "free" else "binding collision pairs"
+            width = 3 if kind == "free" else 7
+            trace.update(mode="lines", name=name, hoverinfo="text",
+                         line={"color": scene3d.PAIR_COLOURS[kind], "width": width},
+                         meta={"kind": "pairs", "binding": kind == "bound"})  # fmt: skip
+        out.append(trace)
+    return out
+
+
 def _animated(anim: ArmAnimation, f: int, colour: str) -> list[dict[str, Any]]:
     """The traces that move, at frame ``f``: arm, target now, then the closest pair when
-    there is one (:func:`_traces` puts them first, in this order)."""
+    there is one, then the collision pairs when recorded (:func:`_traces` puts them first,
+    in this order)."""
     markers = {"size": 4, "color": "#333"}
     diamond = {"size": 5, "color": "#d62728", "symbol": "diamond"}
     now = "target now" if anim.target is not None else "tip now"
@@ -201,7 +284,7 @@ def _animated(anim: ArmAnimation, f: int, colour: str) -> list[dict[str, Any]]:
         style = {"line": {"color": "#c0392b", "width": 3, "dash": "dot"}, "marker": {"size": 3}}
         out.append({**_path("closest pair", anim.closest[f], "lines+markers", **style),
                     "hovertext": gap, "hoverinfo": "text"})  # fmt: skip
-    return out
+    return out + _pair_traces(anim, f, styled=True)
 
 
 def _traces(anim: ArmAnimation, colour: str) -> list[dict[str, Any]]:
@@ -216,7 +299,7 @@ def _traces(anim: ArmAnimation, colour: str) -> list[dict[str, Any]]:
         dashed = {"color": "#555", "width": 2, "dash": "dash"}
         traces.append(_path("target path", anim.target, line=dashed))
     traces += [_body_trace(b) for b in anim.bodies]  # posed at frame 0; the page moves them
-    return traces + scene3d.obstacle_traces(anim.obstacles)
+    return traces + scene3d.obstacle_traces(anim.obstacles, _plane_half_side(anim))
 
 
 def _body_trace(b: scene3d.RigidBodies) -> dict[str, Any]:
@@ -243,6 +326,7 @@ def _frames(anim: ArmAnimation) -> list[dict[str, Any]]:
         ]
         if anim.closest is not None:
             data.append({"type": "scatter3d", **_xyz(anim.closest[f])})
+        data += _pair_traces(anim, f, styled=False)
         out.append({"name": str(f), "traces": list(range(len(data))), "data": data})
     return out
 

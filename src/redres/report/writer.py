@@ -64,7 +64,7 @@ def _check_runs(runs: Sequence[Run]) -> list[tuple[Robot, RunLog, tuple[Obstacle
         robot, log = pair[0], pair[1]
         obstacles = tuple(pair[2]) if len(pair) == 3 else ()  # type: ignore[misc]
         for obs in obstacles:
-            if not isinstance(obs, OBSTACLE_TYPES):  # boxes and half-spaces: not drawn yet
+            if not isinstance(obs, OBSTACLE_TYPES):
                 raise InvalidParameterError(
                     f"runs[{i}]: obstacles must be SphereObstacle, CapsuleObstacle, BoxObstacle "
                     f"or PlaneObstacle; got {obs!r}"

@@ -183,14 +183,13 @@ def fk(links, axes, kinds, q, T):
 
 
 @kernel
-def jacobian(links, axes, kinds, q, local, T, J):
-    """``T`` (4x4) <- the frame's pose and ``J`` (6 x n, n >= k) <- its geometric
-    Jacobian, rows ``[v; ω]``: world-aligned, or in the frame's own axes when ``local``
-    (module docstring). Columns past the chain's ``k`` joints are zero. Returns False
-    when ``q`` holds NaN or ±inf."""
-    finite = _chain_pass(links, axes, kinds, q, T, J, True)
+def point_columns(kinds, px, py, pz, J):
+    """The columns ``[p_j; z_j]`` (revolute) and ``[z_j; 0]`` (prismatic) that
+    :func:`_chain_pass` leaves for the chain's ``k`` joints become the world-aligned
+    Jacobian of the point ``(px, py, pz)``: ``[z_j × (p − p_j); z_j]`` (module docstring);
+    columns past ``k`` are zeroed. At the world origin that is Pinocchio's ``WORLD`` joint
+    Jacobian (``v_j = p_j × z_j``, the velocity of the point at the origin)."""
     k = kinds.shape[0]
-    px, py, pz = T[0, 3], T[1, 3], T[2, 3]
     for j in range(k):
         if kinds[j] != PRISMATIC:
             dx, dy, dz = px - J[0, j], py - J[1, j], pz - J[2, j]
@@ -201,6 +200,17 @@ def jacobian(links, axes, kinds, q, local, T, J):
     for j in range(k, J.shape[1]):
         for i in range(6):
             J[i, j] = 0.0
+
+
+@kernel
+def jacobian(links, axes, kinds, q, local, T, J):
+    """``T`` (4x4) <- the frame's pose and ``J`` (6 x n, n >= k) <- its geometric
+    Jacobian, rows ``[v; ω]``: world-aligned, or in the frame's own axes when ``local``
+    (module docstring). Columns past the chain's ``k`` joints are zero. Returns False
+    when ``q`` holds NaN or ±inf."""
+    finite = _chain_pass(links, axes, kinds, q, T, J, True)
+    k = kinds.shape[0]
+    point_columns(kinds, T[0, 3], T[1, 3], T[2, 3], J)
     if local:
         for j in range(k):
             for half in (0, 3):

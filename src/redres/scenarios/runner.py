@@ -32,11 +32,19 @@ __all__ = ["aligned_table", "format_table", "run_scenario", "summarise", "warnin
 def summarise(robot: Robot, log: RunLog) -> dict[str, Any]:
     """:meth:`RunLog.summary` of a run of ``robot`` (tables, ``--json``); a log that did not
     record its joint limits (one built by hand) is measured against ``robot``'s. A robot
-    without velocity limits has no ``peak_speed_ratio`` (None: a dash in the tables)."""
+    without velocity limits has no ``peak_speed_ratio`` (None: a dash in the tables). A
+    run under the collision constraint adds ``collision_binding_steps`` (steps where a
+    collision row bound the velocity) and ``max_position_error_where_bound_m``."""
     if log.q_min is None or log.q_max is None:
         log = replace(log, joint_names=tuple(robot.joint_names), q_min=robot.q_min.copy(),
                       q_max=robot.q_max.copy())  # fmt: skip
     out = log.summary()
+    record = log.extra.get("collision_pairs")
+    if record is not None and record.constrained:  # where a collision row bound q̇: the
+        bound = np.unique(record.step[record.binding])  # task yielded there, by how much
+        out["collision_binding_steps"] = int(bound.size)
+        error = log.position_error[bound]
+        out["max_position_error_where_bound_m"] = float(error.max()) if error.size else 0.0
     if not np.isfinite(robot.qd_max).any():  # no velocity limit (an MJCF file): no ratio to it
         out["peak_speed_ratio"] = None
     return out
@@ -56,19 +64,21 @@ def warning_lines(summaries: Sequence[dict[str, Any]]) -> list[str]:
 COLUMNS = (
     ("robot", "robot", "{}"),
     ("label", "scheme", "{}"),
-    ("max_position_error_m", "max err\nmm", "{:.4f}"),
-    ("rms_position_error_m", "rms err\nmm", "{:.4f}"),
+    ("max_position_error_m", "max\nerr\nmm", "{:.4f}"),
+    ("rms_position_error_m", "rms\nerr\nmm", "{:.4f}"),
     ("min_joint_limit_margin_rad", "min\nmargin\nrad", "{:+.3f}"),
     ("min_sigma", "min\nsigma", "{:.3f}"),
     ("min_obstacle_clearance_m", "min\nclear\nmm", "{:+.1f}"),
+    ("min_self_clearance_m", "min\nself\nmm", "{:+.1f}"),
     ("peak_speed_ratio", "peak\nqd/\nqd_max", "{:.2f}"),
     ("path_length_rad", "path\nrad", "{:.2f}"),
     ("step_time_us_median", "step\nus", "{:.1f}"),
 )
 #: Scheme labels longer than this go on to a second line (the table fits 100 columns).
 LABEL_WIDTH = 28
-_MM = {"max_position_error_m", "rms_position_error_m", "min_obstacle_clearance_m"}
-_OPTIONAL = {"min_obstacle_clearance_m"}  # shown when a run has it
+_MM = {"max_position_error_m", "rms_position_error_m", "min_obstacle_clearance_m",
+       "min_self_clearance_m"}  # fmt: skip
+_OPTIONAL = {"min_obstacle_clearance_m", "min_self_clearance_m"}  # shown when a run has it
 
 
 @dataclass(frozen=True)
@@ -113,6 +123,7 @@ def run_scenario(
                 duration=spec.duration, gain=spec.gain, label=s.label, progress=progress,
             ))  # fmt: skip
         return logs
+    settings, compared = None, []  # the first scheme's collisions; runs measured against it
     for s in spec.schemes:
         common: dict[str, Any] = {"dt": spec.dt, "duration": spec.duration, "q0": spec.q0,
                                   "label": s.label, "progress": progress}  # fmt: skip
@@ -128,7 +139,10 @@ def run_scenario(
                                 viewer=viewer, **common))  # fmt: skip
                 collisions = getattr(scheme, "collisions", None)
                 if collisions is not None:  # the clearances the constraint kept
-                    collision_clearance(logs[-1], collisions.model(spec.robot))
+                    collision_clearance(logs[-1], spec.robot, collisions)
+                    settings = settings or collisions
+                else:
+                    compared.append(logs[-1])
         except MissingDependencyError as exc:
             if skipped is None:
                 raise
@@ -136,6 +150,9 @@ def run_scenario(
             continue
         if after_each is not None:
             after_each(logs[-1])
+    if settings is not None:  # the other runs measured on the same pairs, for the table
+        for log in compared:
+            collision_clearance(log, spec.robot, settings, constrained=False)
     return logs
 
 

@@ -32,7 +32,7 @@ import numpy as np
 import pinocchio as pin
 
 from .. import models
-from .._toml import Reader, load
+from .._toml import Reader, load, tomllib
 from ..collision import DEFAULT_GAIN, BoxObstacle, Collisions, PlaneObstacle
 from ..control.analysis import run_steps
 from ..control.trajectories import Circle, FigureEight, Hold, Line, MinimumJerk, Trajectory
@@ -423,6 +423,27 @@ def builtin_scenarios() -> dict[str, Path]:
     """Name -> path of the scenario files shipped with redres (``redres run --list``)."""
     folder = resources.files("redres") / "scenarios" / "data"
     return {Path(str(p)).stem: Path(str(p)) for p in folder.iterdir() if str(p).endswith(".toml")}
+
+
+def scenario_text(r: Reader, key: str, name: str, base: Path) -> tuple[str, str]:
+    """The text and file name of the scenario that ``key`` of a spec names: a file relative
+    to ``base`` or, when no such file exists, a built-in name; checked to be TOML.
+
+    Raises:
+        The reader's error naming ``key``: no such file or built-in, unreadable, not TOML.
+    """
+    builtin = builtin_scenarios()
+    path = builtin[name] if name in builtin and not (base / name).exists() else base / name
+    if not path.exists():
+        raise r.fail(key, f"cannot read {path}; give a scenario file or one of "
+                     f"{', '.join(sorted(builtin))}")  # fmt: skip
+    text = r.file_text(key, path)
+    try:
+        tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        why = f"{path.name} is not a scenario file (not valid TOML: {exc})"
+        raise r.fail(key, why) from None
+    return text, path.name
 
 
 def builtin(name: str) -> ScenarioSpec:

@@ -52,6 +52,7 @@ References:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -169,7 +170,7 @@ class QPScheme(BoxScheme):
         self.damping = as_scalar(damping, "damping", minimum=0.0, strict=True)
         self._qp = QPSolver(solver, solver_options)
         self.solver, self.solver_options = self._qp.name, self._qp.options
-        self._infeasible_before = False
+        self._infeasible_before = self._rows_infeasible = self._rows_bound = False
         if collisions is not None and not isinstance(collisions, Collisions):
             raise InvalidParameterError(
                 f"collisions must be a redres.Collisions(...); got {type(collisions).__name__}"
@@ -193,7 +194,7 @@ class QPScheme(BoxScheme):
 
     def _reset(self) -> None:
         super()._reset()
-        self._infeasible_before = False
+        self._infeasible_before = self._rows_infeasible = self._rows_bound = False
 
     def _prepare(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> None:
         n, m = robot.n, J.shape[0]
@@ -209,7 +210,10 @@ class QPScheme(BoxScheme):
                 "one period; give them with robot.with_limits(qd_max=...) or QPScheme(qd_max=...)"
             )
         ws = Workspace(limits, m)
-        self._bu, self._bl, self._f = np.empty(n + m), np.empty(n + m), np.empty(n)
+        # DAQP's bounds: the box, the task rows, then (with collisions) one row per pair
+        P = 0 if self.collisions is None else len(self.collisions.model(robot).pairs)
+        self._bu_all, self._bl_all = np.full(n + m + P, _INF), np.full(n + m + P, -_INF)
+        self._bu, self._bl, self._f = self._bu_all[: n + m], self._bl_all[: n + m], np.empty(n)
         self._P, self._c, self._w = np.empty((n, n)), np.empty(n), w
         kq, out = kernels("_qp_kernels"), ws.outputs()
         k = kernels(plain=not _compile.is_compiled(kq))  # both compiled or both plain (no stall)
@@ -220,6 +224,8 @@ class QPScheme(BoxScheme):
         # warm-up calls with full=False: they must not solve with a factor of this J
         self._end = _compile.entry_point(kq.qp_end, (J, xd, ws.zero, out[0], ws.M, ws.wm, False))
         self._finish = _compile.entry_point(k.epilogue, (J, xd, out[0], ws.M, ws.wm, False, False))
+        self._normal = _compile.entry_point(kq._qp_normal, (J, xd, w, 1e-6, ws.zero, self._P,
+                                                            self._c))  # fmt: skip
         if self._qp.daqp:
             flags, eye, daqp, options = sense(n, m), np.eye(n), self._qp.module, self._qp.options
             self._exact_qp = WarmQP(daqp, options, H=eye, f=self._f, A=J, bupper=self._bu,
@@ -227,6 +233,8 @@ class QPScheme(BoxScheme):
             self._box_qp = WarmQP(daqp, options, H=eye, f=self._f, A=np.zeros((0, n)),
                                   bupper=self._bu[:n], blower=self._bl[:n],
                                   sense=flags[:n])  # fmt: skip
+            if self.collisions is not None:
+                self._prepare_rows(robot, J, P)
         self._ws, self._robot, self._pending = ws, robot, pending("_kernels", "_qp_kernels")
 
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
@@ -238,12 +246,16 @@ class QPScheme(BoxScheme):
         )  # fmt: skip
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
-        finished, single = None, False
+        damper = self._damper if self.collisions is not None else None
+        near = damper is not None and damper.update(q) > 0
+        finished, single, collided = None, False, False
         if self.levels or not (inside or self._qp.daqp):  # other backends: no warm start
             rows, targets = self._stack(robot, q, J, xd)
             qd, exact, residuals = solve_levels(self._qp, rows, targets, (out[2], out[3]), qd0,
                                                 self.task_weights, self.damping)  # fmt: skip
             out[0] = qd
+        elif near and self._rows_bound:  # the last answer sat on a row: the rows' QPs at once
+            exact, collided = [self._collide(q, J, xd, qd0, out, True, not inside)], True
         elif inside:
             exact = [True]
         else:
@@ -256,13 +268,17 @@ class QPScheme(BoxScheme):
         if single and residual * residual > _MET2 * (xd @ xd):
             exact[0], active, residual = self._refine(J, xd, qd0, out, full, active, residual)
         contact = None
-        if self.collisions is not None:
-            G, h, found, pairs = self.collisions.rows(robot, q)
-            if len(pairs) and np.any(G @ out[0] < h - 1e-12 * (1.0 + np.abs(h))):
-                exact[0] = self._collide(q, J, xd, qd0, out, G, h, exact[0])
+        if damper is not None:
+            if not collided and near and damper.violated(out[0]):
+                exact[0] = self._collide(q, J, xd, qd0, out, exact[0], not inside)
                 active, residual = self._finish(J, xd, out, ws.M, ws.wm, full, False)
+                collided = True
+            if collided:
                 exact[0] = exact[0] and task_met(J, xd, out[0])
-            contact = self.collisions.details(found, pairs, G, h, out[0])
+            elif not near:
+                self._rows_infeasible = False
+            contact = damper.details(out[0])
+            self._rows_bound = damper.bound
         levels = residuals if self.levels else [residual]
         return self._result(
             out, codes, Jc, all(exact), active,
@@ -270,48 +286,99 @@ class QPScheme(BoxScheme):
                               None if contact is None else contact()),
         )  # fmt: skip
 
+    def _prepare_rows(self, robot: Robot, J: FloatArray, P: int) -> None:
+        """The collision rows' buffers and warm DAQP problems: the exact QP with ``[J; G]``
+        (``n + m + P`` bounds: the box, ``ẋ``, the rows) and the least-violating one with
+        ``G`` (``n + P``), ``G`` written in place by :class:`~redres.collision.DamperRows`."""
+        n, m = robot.n, J.shape[0]
+        self._A_all = np.zeros((m + P, n))
+        self._damper = self.collisions.damper(robot, self._A_all[m:], self._bl_all[n + m :])  # type: ignore[union-attr]
+        self._lv_bu, self._lv_bl = np.full(n + P, _INF), np.full(n + P, -_INF)
+        self._lv_sense = np.zeros(n + P, dtype=np.intc)
+        flags = np.zeros(n + m + P, dtype=np.intc)
+        flags[n : n + m] = 5  # DAQP: equality rows
+        daqp, options = self._qp.module, self._qp.options
+        self._rows_qp = WarmQP(daqp, options, H=np.eye(n), f=self._f, A=self._A_all,
+                               bupper=self._bu_all, blower=self._bl_all, sense=flags)  # fmt: skip
+        self._rows_lv = WarmQP(daqp, options, H=np.eye(n), f=self._f, A=self._A_all[m:],
+                               bupper=self._lv_bu, blower=self._lv_bl,
+                               sense=self._lv_sense)  # fmt: skip
+
     def _collide(
         self, q: FloatArray, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray,
-        G: FloatArray, h: FloatArray, met: bool,
+        met: bool, normal: bool,
     ) -> bool:  # fmt: skip
-        """The step again with the collision rows ``G q̇ ≥ h`` (module docstring): the exact
-        QP, else the least-violating one, else the same with the acceleration limits
+        """The step again with the collision rows ``G q̇ ≥ lower`` (module docstring): the
+        exact QP, else the least-violating one, else the same with the acceleration limits
         dropped from the box, else with no box. Writes ``out[0]`` (and the box used into
         ``out[2]``, ``out[3]``: the epilogue clips to them); returns whether the exact QP
         was solved (tried only when the task was ``met`` without the rows: more rows
-        cannot make an infeasible QP feasible)."""
-        n, m, k = J.shape[1], J.shape[0], G.shape[0]
-        daqp, options = self._qp.module, self._qp.options
-        free = np.full(k, _INF)
-        flags = np.zeros(n + m + k, dtype=np.intc)
-        flags[n : n + m] = 5  # DAQP: equality rows
-        if met:
-            A = np.ascontiguousarray(np.vstack([J, G]))
-            upper, lower = np.concatenate([out[3], xd, free]), np.concatenate([out[2], xd, h])
-            x, _, flag, _ = daqp.solve(np.eye(n), -qd0, A, upper, lower, flags, **options)
-            if flag > 0:
-                out[0] = x
+        cannot make an infeasible QP feasible). The first two are DAQP problems
+        warm-started from the previous step's; after a step whose exact QP was infeasible
+        the least-violating one comes first, and the exact one is skipped when its answer
+        proves it infeasible (:meth:`_rows_proved`). ``normal``: ``qp_begin`` built the
+        least-violating QP's ``P``, ``c`` this step (its optimum was not in the box).
+        After a step whose answer sat on a row, the step comes here without solving the
+        QPs without rows first (``met`` is then only a hint: the exact QP with the rows is
+        tried, unless infeasible at the last step)."""
+        n, m = J.shape[1], J.shape[0]
+        later = met and self._rows_infeasible
+        if met and not later:
+            self._rows_infeasible = not self._rows_exact(J, out)
+            if not self._rows_infeasible:
                 return True
-        w = np.ones(m) if self.task_weights is None else self.task_weights
-        lam2 = self.damping * self.damping
-        P = (J.T * w) @ J + lam2 * np.eye(n)
-        c = -((J.T * w) @ xd + lam2 * qd0)
-        lim = self._ws.lim
+        P, c = self._P, self._c
+        if not normal:
+            self._normal(J, xd, self._w, self.damping * self.damping, qd0, P, c)
+        G, lower = self._A_all[m:], self._bl_all[n + m :]
+        self._lv_bl[n:] = lower
+        self._lv_bu[:n], self._lv_bl[:n] = out[3], out[2]
+        x, flag = self._rows_lv.solve(P, c, G, self._lv_bu, self._lv_bl)
+        if flag > 0:
+            if later and not self._rows_proved(J, xd, qd0, out, x):
+                self._rows_infeasible = not self._rows_exact(J, out)
+                if not self._rows_infeasible:
+                    return True
+            out[0] = x
+            return False
+        lim = self._ws.lim  # fallbacks, solved cold: no acceleration limits, then no box
         lo = np.maximum(-lim[2], (lim[0] - q) / self.dt)
         hi = np.minimum(lim[2], (lim[1] - q) / self.dt)
-        lo = np.minimum(lo, hi)
-        boxes = ((out[2], out[3]), (lo, hi), (np.full(n, -_INF), np.full(n, _INF)))
-        G = np.ascontiguousarray(G)
-        for lower, upper in boxes:
-            x, _, flag, _ = daqp.solve(P, c, G, np.concatenate([upper, free]),
-                                       np.concatenate([lower, h]), np.zeros(n + k, np.intc),
-                                       **options)  # fmt: skip
+        for low, up in ((np.minimum(lo, hi), hi), (np.full(n, -_INF), np.full(n, _INF))):
+            self._lv_bu[:n], self._lv_bl[:n] = up, low
+            x, _, flag, _ = self._qp.module.solve(
+                P, c, G, self._lv_bu, self._lv_bl, self._lv_sense, **self._qp.options
+            )
             if flag > 0:
-                out[0], out[2], out[3] = x, lower, upper
+                out[0], out[2], out[3] = x, low, up
                 return False
-        out[0] = np.linalg.lstsq(G, h, rcond=None)[0]  # the rows contradict each other
-        out[2], out[3] = boxes[-1]
+        active = lower > -_INF  # the rows contradict each other
+        out[0] = np.linalg.lstsq(G[active], lower[active], rcond=None)[0]
+        out[2], out[3] = low, up
         return False
+
+    def _rows_exact(self, J: FloatArray, out: FloatArray) -> bool:
+        """The exact QP with the rows (``[J; G]``, the box and ``ẋ`` as ``qp_begin`` wrote
+        them); writes ``out[0]`` and returns True when it is feasible."""
+        self._A_all[: J.shape[0]] = J
+        x, flag = self._rows_qp.solve(None, self._f, self._A_all, self._bu_all, self._bl_all)
+        if flag > 0:
+            out[0] = x
+        return bool(flag > 0)
+
+    def _rows_proved(
+        self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray, x: FloatArray
+    ) -> bool:
+        """Whether the least-violating answer ``x`` proves the exact QP with the rows
+        infeasible: a feasible ``x_e`` would cost ``½λ²‖x_e − q̇_0‖²`` in the
+        least-violating QP, so its optimum has ``‖J x − ẋ‖_W ≤ λ max_box ‖q̇ − q̇_0‖``;
+        a larger residual (beyond round-off) rules ``x_e`` out."""
+        r = J @ x
+        r -= xd
+        size2 = float(r @ r) if self.task_weights is None else float(r @ (self._w * r))
+        gap = out[2:4] - qd0
+        far = max(float(gap.max()), -float(gap.min())) * math.sqrt(len(x))  # ≥ max_box ‖q̇ − q̇_0‖
+        return math.sqrt(size2) > 1.001 * self.damping * far + 1e-12
 
     def _single(
         self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray, full: bool

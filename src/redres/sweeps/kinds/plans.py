@@ -87,24 +87,13 @@ class PathPlansParams:
 
 
 def _parse(r: Reader, base: Path) -> PathPlansParams:
-    from ...scenarios.spec import builtin_scenarios
+    from ...scenarios.spec import scenario_text
 
-    builtin = builtin_scenarios()
-    names = _strings(r, "scenarios", None)
     texts, files = [], []
-    for name in names:
-        path = builtin[name] if name in builtin and not (base / name).exists() else base / name
-        if not path.exists():
-            raise r.fail("scenarios", f"cannot read {path}; give scenario files or built-in "
-                         f"names ({', '.join(sorted(builtin))})")  # fmt: skip
-        text = r.file_text("scenarios", path)
-        try:
-            tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            why = f"{path.name} is not a scenario file (not valid TOML: {exc})"
-            raise r.fail("scenarios", why) from None
+    for name in _strings(r, "scenarios", None):
+        text, file = scenario_text(r, "scenarios", name, base)
         texts.append(text)
-        files.append(path.name)
+        files.append(file)
     if not texts:
         raise r.fail("scenarios", "give at least one scenario")
     resolutions = r.get("resolutions", "vector", np.array([90.0, 180.0, 360.0]))

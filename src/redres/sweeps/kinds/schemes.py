@@ -80,20 +80,9 @@ class SchemeStatsParams:
 
 
 def _parse(r: Reader, base: Path) -> SchemeStatsParams:
-    from ...scenarios.spec import builtin_scenarios
+    from ...scenarios.spec import scenario_text
 
-    name = r.string("scenario")
-    builtin = builtin_scenarios()
-    path = builtin[name] if name in builtin and not (base / name).exists() else base / name
-    if not path.exists():
-        raise r.fail("scenario", f"cannot read {path}; give a scenario file or one of "
-                     f"{', '.join(sorted(builtin))}")  # fmt: skip
-    text = r.file_text("scenario", path)
-    try:
-        tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        why = f"{path.name} is not a scenario file (not valid TOML: {exc})"
-        raise r.fail("scenario", why) from None
+    text, file = scenario_text(r, "scenario", r.string("scenario"), base)
     pair = []
     for key, default in (("radius", (0.05, 0.15)), ("length", (0.1, 0.3))):
         v = r.get(key, "vector", np.array(default), size=2)
@@ -104,7 +93,7 @@ def _parse(r: Reader, base: Path) -> SchemeStatsParams:
     if circles > 1:
         raise r.fail("circles", f"is a share, between 0 and 1; got {circles}")
     params = SchemeStatsParams(
-        text, path.name, r.integer("paths", 100, minimum=1), circles, pair[0], pair[1],
+        text, file, r.integer("paths", 100, minimum=1), circles, pair[0], pair[1],
         r.positive("duration", 2.0), r.nonnegative("margin", 0.3),
         r.positive("success_tol", 1e-3), r.nonnegative("singular_sigma", 0.05),
     )  # fmt: skip
