@@ -62,11 +62,13 @@ def _forward(links, axes, kinds, q, qd, work, T):
     """Joint frames, angular velocities and accelerations at ``q̈ = 0`` into ``work``
     (k, 24), the frame's pose into ``T``. Returns whether ``q`` and ``qd`` are finite, and
     ``[a; α]`` of the frame origin (``J̇ q̇``) as a tuple."""
-    bad = 0.0
+    finite = True  # math.isfinite, not x * 0: the plain-Python twin warns on inf * 0
     for x in q:
-        bad += x * 0.0
+        finite = finite and math.isfinite(x)
     for x in qd:
-        bad += x * 0.0
+        finite = finite and math.isfinite(x)
+    if not finite:  # nothing to compute (the plain twin's math.cos would raise on inf)
+        return False, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     k = kinds.shape[0]
     R = np.eye(3)
     p = np.zeros(3)
@@ -141,7 +143,7 @@ def _forward(links, axes, kinds, q, qd, work, T):
         T[i, 3] = p[i]
         T[3, i] = 0.0
     T[3, 3] = 1.0
-    return bad == 0.0, (a[0], a[1], a[2], al[0], al[1], al[2])
+    return True, (a[0], a[1], a[2], al[0], al[1], al[2])
 
 
 @kernel
@@ -182,6 +184,8 @@ def chain_dynamics(links, axes, kinds, body, armature, gravity, q, qd, T, J, jdq
     n = kinds.shape[0]
     work = np.empty((n, _WORK))
     finite, acc = _forward(links, axes, kinds, q, qd, work, T)
+    if not finite:
+        return False
     for i in range(6):
         jdqd[i] = acc[i]
     for j in range(n):  # the Jacobian
@@ -269,7 +273,7 @@ def chain_dynamics(links, axes, kinds, body, armature, gravity, q, qd, T, J, jdq
             M[j, i] = value
             M[i, j] = value
         M[j, j] += armature[j]
-    return finite
+    return True
 
 
 @kernel
