@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from ..linalg import InverseInfo
     from ..robot import Robot
 
-__all__ = ["ChainDynamics", "ChainTerms", "KernelControlStep"]
+__all__ = ["ChainDynamics", "ChainTerms", "KernelControlStep", "StepOutput"]
 
 #: The compiled torque step. Cold: a first operational-space step 19.4 s in all with the
 #: linalg and chain kernels it calls (empty cache, load 0.7); warm 0.7 s.
