@@ -21,6 +21,18 @@ pose error ``[p_d − p; log(R_d Rᵀ)]`` with gain 50/s, the joint velocity, th
   mink frame + posture tasks with their configuration and velocity limits (solver DAQP).
   KDL and robotics-toolbox have no velocity-QP API.
 
+PlaCo (``KinematicsSolver``: set the joints, ``update_kinematics``, ``solve(True)``, read
+the new ``q``) does each operation with its soft frame task: ``pinv`` alone, ``damped``
+with its regularization task of weight λ², ``secondary`` with a joints task toward
+mid-range (weight 1e-6, the square of pink's and mink's posture cost 1e-3: PlaCo weighs
+squared residuals), ``qp`` with that and its joint-position and velocity limits
+(``solver.dt`` = 1 ms, redres' limits); it has no acceleration limits. Not comparable in
+two ways: its frame task asks for the whole pose error per step (no gain: a dead-beat
+step, as pink and mink with gain 1, where redres and KDL use gain 50/s), which changes
+the answer, not the work; and it pins its own Pinocchio, so it runs in its own
+interpreter (``PLACO_PYTHON``, ``peers.PlacoSteps``), which times its calls the same way
+(each alone) in blocks requested in their turn among the shuffled contenders.
+
 Two redres rows per operation: the step composed by hand from the public parts
 (``FrameTask.compute``, ``Scheme.step``, integration), and ``Controller.step``, the
 library's loop step (the fused kernel for a frame task; its frame front end and
@@ -277,16 +289,28 @@ def mink_steps(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray) -> dict
     }
 
 
-def sample(contenders: dict[str, Step], rounds: int, calls: int) -> dict[str, np.ndarray]:
-    """Per-call times (µs), contenders interleaved in a new random order every round."""
+def sample(
+    contenders: dict[str, Step],
+    rounds: int,
+    calls: int,
+    remote: Callable[[int], list[float]] | None = None,
+) -> dict[str, np.ndarray]:
+    """Per-call times (µs), contenders interleaved in a new random order every round;
+    ``remote(calls)``: a block of PlaCo's calls timed in its process, its turn among them."""
     for fn in contenders.values():
         for _ in range(20):
             fn()
     out: dict[str, list[float]] = {k: [] for k in contenders}
     clock, order = time.perf_counter_ns, list(contenders)
+    if remote is not None:
+        out["PlaCo"] = []
+        order.append("PlaCo")
     for _ in range(rounds):
         random.shuffle(order)
         for key in order:
+            if key == "PlaCo" and remote is not None:
+                out[key].extend(remote(calls))
+                continue
             fn, times = contenders[key], out[key]
             for _ in range(calls):
                 t0 = clock()
@@ -303,7 +327,23 @@ LABELS = {
     "robotics-toolbox": "robotics-toolbox (jacob0 + NumPy)",
     "pink": "pink solve_ik",
     "mink": "mink solve_ik",
+    "PlaCo": "PlaCo KinematicsSolver (own process)",
 }
+
+#: PlaCo's setup of each operation (placo_peer.py's fields).
+PLACO_SETUPS = {
+    "pinv": {},
+    "damped": {"regularization": DAMPING**2},
+    "secondary": {"posture_weight": POSTURE_COST**2},
+    "qp": {"posture_weight": POSTURE_COST**2, "joint_limits": True, "velocity_limits": True},
+}
+
+
+def placo_server(name: str, robot: rr.Robot, q: np.ndarray, T: np.ndarray, tmp: Path) -> Any:
+    """PlaCo's four steps on the arm, in its own process (None without PlaCo)."""
+    job = peers.placo_job(name, "step", tmp, q=q, target=T.ravel(), dt=DT,
+                          posture=(robot.q_min + robot.q_max) / 2, setups=PLACO_SETUPS)  # fmt: skip
+    return peers.placo_steps(name, job)
 
 
 def measure(name: str, rounds: int, calls: int, tmp: Path) -> dict[str, dict[str, np.ndarray]]:
@@ -318,11 +358,15 @@ def measure(name: str, rounds: int, calls: int, tmp: Path) -> dict[str, dict[str
         "pink": pink_steps(name, robot, q, T),
         "mink": mink_steps(name, robot, q, T),
     }
+    server = placo_server(name, robot, q, T, tmp)
     results = {}
     for op in tqdm(OPERATIONS, desc=f"differential {name}", leave=False):
         contenders = {lib: steps[op] for lib, steps in by_library.items() if op in steps}
+        remote = None if server is None else functools.partial(server.block, op, per_call=True)
         if "redres" in contenders:
-            results[op] = sample(contenders, rounds, calls)
+            results[op] = sample(contenders, rounds, calls, remote)
+    if server is not None:
+        server.close()
     return results
 
 

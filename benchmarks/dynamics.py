@@ -6,7 +6,8 @@ Run from the repository root::
 
 Times ``OperationalSpaceController.step`` (6-D task at the TCP, posture objective in the
 null space) with each projector — the dynamic one compiled (one kernel call,
-:mod:`redres.dynamics.chain`) and on its Pinocchio path —, the acceleration-level
+:mod:`redres.dynamics.chain`; its inverse's singular values computed only when the
+step's ``info`` is read: a second row reads it) and on its Pinocchio path —, the acceleration-level
 controller, and the pieces one step is made of (the Robot calls into Pinocchio, the
 compiled terms, the inverse, the bare-array torque law), plus one semi-implicit Euler step
 of the simulator (ABA). Cases are interleaved in
@@ -72,6 +73,8 @@ def cases() -> dict[str, Callable[[], object]]:
     out: dict[str, Callable[[], object]] = {
         name: (lambda law=law: law.step(robot, q, qd)) for name, law in laws.items()
     }
+    dynamic = laws["osc step (dynamic)"]
+    out["osc step (dynamic), info read"] = lambda: dynamic.step(robot, q, qd).info
     out.update(
         {
             "  robot.kinematics": lambda: robot.kinematics(q),

@@ -422,3 +422,129 @@ def capsule_gap(mujoco: Any, model: Any, robot: Any, count: int = 5, seed: int =
             flipped = np.concatenate([theirs[3:], theirs[:3]])
             worst = max(worst, min(np.abs(ours - theirs).max(), np.abs(ours - flipped).max()))
     return worst
+
+
+# --- PlaCo, in its own interpreter (step.py, differential.py, quality.py)
+
+PLACO_WORKER = Path(__file__).with_name("placo_peer.py")
+
+
+def placo_python() -> str | None:
+    """The Python that imports ``placo``: ``$PLACO_PYTHON``, else this one if it has it.
+
+    PlaCo 0.10.2 pins ``pin==3.8.0`` (through cmeel), which cannot be installed beside
+    redres' Pinocchio 4: install it in its own environment (``python -m venv ...; pip
+    install placo``) and name that environment's ``python`` in ``PLACO_PYTHON``."""
+    path = os.environ.get("PLACO_PYTHON")
+    if path:
+        return path
+    import importlib.util
+
+    if importlib.util.find_spec("placo") is not None:
+        return sys.executable
+    note("PlaCo (pip install placo, in its own venv: it pins pin 3.8) not found: set "
+         "PLACO_PYTHON to that venv's python; skipped")  # fmt: skip
+    return None
+
+
+def placo_job(name: str, kind: str, directory: Path, **fields: Any) -> dict[str, Any]:
+    """A job for ``placo_peer.py`` on arm ``name``: its URDF written to ``directory``, the
+    tip link, the joints, redres' limits of that arm (those every peer uses), and
+    ``fields`` (``dt``, ``q``, ``target``, ``setups``, ... as the worker reads them)."""
+    robot = rr.models.load(name)
+    joints = [j for j, revolute, _ in urdf_joints(arm_urdf(name), TIP_LINK[name]) if revolute]
+    rng = np.random.default_rng(5)
+    check = [robot.random_configuration(rng).tolist() for _ in range(3)]
+    job: dict[str, Any] = {
+        "kind": kind, "urdf": str(write_urdf(name, directory)), "tip": TIP_LINK[name],
+        "joints": joints, "q_min": robot.q_min.tolist(), "q_max": robot.q_max.tolist(),
+        "qd_max": robot.qd_max.tolist(), "check_q": check,
+    }  # fmt: skip
+    job.update({k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else v
+                for k, v in fields.items()})  # fmt: skip
+    return job
+
+
+def _check_placo_poses(name: str, job: dict[str, Any], poses: list[list[float]]) -> None:
+    robot = rr.models.load(name)
+    for q, pose in zip(job["check_q"], poses):
+        gap = float(np.abs(np.reshape(pose, (4, 4)) - robot.fk(q, TIP_FRAME[name])).max())
+        if not gap < 1e-9:
+            raise AssertionError(
+                f"PlaCo's {name} is not redres' {name}: tip poses differ "
+                f"by {gap:.3g}; fix benchmarks/peers.py before comparing"
+            )
+
+
+class PlacoSteps:
+    """PlaCo's steps of a ``"step"`` job in its own process, timed there one block at a time
+    on request (``placo_peer.py --serve``): a benchmark interleaves :meth:`block` with its
+    own contenders, so that the machine's load hits PlaCo as it hits them. ``q_after``:
+    each setup's ``q`` after one step. Use :func:`placo_steps` (None without PlaCo)."""
+
+    def __init__(self, name: str, job: dict[str, Any], python: str) -> None:
+        """The arguments are described in ``help(PlacoSteps)``."""
+        import json
+        import subprocess
+
+        self._json = json
+        self._process = subprocess.Popen(
+            [python, str(PLACO_WORKER), "--serve"], stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        first = self._ask(json.dumps(job))
+        _check_placo_poses(name, job, first["fk"])
+        self.q_after: dict[str, list[float]] = first["q_after"]
+
+    def _ask(self, line: str) -> Any:
+        stdin, stdout = self._process.stdin, self._process.stdout
+        if stdin is None or stdout is None:  # pragma: no cover - Popen was given pipes
+            raise RuntimeError("PlaCo's process has no pipes")
+        stdin.write(line + "\n")
+        stdin.flush()
+        answer = stdout.readline()
+        if not answer:
+            raise RuntimeError("PlaCo's process ended; its error is above")
+        return self._json.loads(answer)
+
+    def block(self, key: str, calls: int, per_call: bool) -> list[float]:
+        """One block of ``calls`` calls of setup ``key``: each call's time, or the block's
+        mean per call (µs)."""
+        return list(self._ask(f"{key} {calls} {int(per_call)}"))
+
+    def close(self) -> None:
+        """End PlaCo's process."""
+        if self._process.poll() is None:
+            self._ask_quit()
+
+    def _ask_quit(self) -> None:
+        stdin = self._process.stdin
+        if stdin is not None:
+            stdin.write("quit\n")
+            stdin.flush()
+        self._process.wait(timeout=60)
+
+
+def placo_steps(name: str, job: dict[str, Any]) -> PlacoSteps | None:
+    """:class:`PlacoSteps` of ``job`` on arm ``name``, or None (with a note) without PlaCo."""
+    python = placo_python()
+    return None if python is None else PlacoSteps(name, job, python)
+
+
+def placo_run(name: str, job: dict[str, Any], timeout: float = 900.0) -> dict[str, Any] | None:
+    """Run one job in PlaCo's interpreter; None (with a note) when PlaCo is absent or
+    fails. Aborts loudly when PlaCo's tip poses differ from redres' on arm ``name``."""
+    import json
+    import subprocess
+
+    python = placo_python()
+    if python is None:
+        return None
+    done = subprocess.run([python, str(PLACO_WORKER)], input=json.dumps(job),
+                          capture_output=True, text=True, timeout=timeout, check=False)  # fmt: skip
+    if done.returncode != 0:
+        note(f"PlaCo failed: {done.stderr.strip().splitlines()[-1:]}; skipped")
+        return None
+    result: dict[str, Any] = json.loads(done.stdout)
+    _check_placo_poses(name, job, result["fk"])
+    return result

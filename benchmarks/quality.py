@@ -29,6 +29,12 @@ from rest on a circle that starts at full speed), and the smallest joint-limit m
   ahead, gain 1 (their tasks take no feed-forward twist; this is how they track moving
   targets), a posture task toward mid-range (cost 1e-3, gain 1e-2) and their
   configuration and velocity limits, solved by DAQP.
+* PlaCo ``KinematicsSolver``: the same one-period-ahead frame target (its frame task has
+  no gain: the whole error per step), a joints task toward mid-range (weight 1e-6, the
+  square of the posture cost: PlaCo weighs squared residuals, and this task has no gain
+  either), its joint-position and velocity limits with ``solver.dt`` = 1 ms; run in its
+  own interpreter (``PLACO_PYTHON``: it pins its own Pinocchio), which times each step
+  there.
 
 Run: ``python benchmarks/quality.py``; prints Markdown.
 """
@@ -207,6 +213,19 @@ def mink_loop(robot: rr.Robot, trajectory: Any) -> Loop | None:
     return step
 
 
+def placo_loop(robot: rr.Robot, trajectory: Any, q0: np.ndarray, steps: int,
+               tmp: Path) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+    """PlaCo's closed loop in its own process: configurations and step times (µs)."""
+    targets = np.array([trajectory.sample((k + 1) * DT).pose.ravel() for k in range(steps)])
+    setup = {"posture_weight": POSTURE_COST**2, "joint_limits": True, "velocity_limits": True}
+    job = peers.placo_job("panda", "loop", tmp, q0=q0, targets=targets, dt=DT,
+                          posture=(robot.q_min + robot.q_max) / 2, setup=setup)  # fmt: skip
+    result = peers.placo_run("panda", job)
+    if result is None:
+        return None
+    return np.asarray(result["q"]), np.asarray(result["times"])
+
+
 def simulate(loop: Loop, q0: np.ndarray, steps: int, label: str) -> tuple[np.ndarray, np.ndarray]:
     """Configurations at the start of each step, and each step's wall time (µs)."""
     Q, times, q = np.empty((steps, q0.size)), np.empty(steps), q0.copy()
@@ -257,6 +276,9 @@ def main() -> int:
         for label, loop in loops.items():
             if loop is not None:
                 runs[label] = simulate(loop, q0, steps, label)
+        placo = placo_loop(robot, trajectory, q0, steps, Path(tmp))
+        if placo is not None:
+            runs["PlaCo KinematicsSolver (frame + joints task, limits; own process)"] = placo
     rows = []
     for label, (Q, times) in runs.items():
         pos, settled, rot, margin = metrics(robot, trajectory, Q)

@@ -68,13 +68,17 @@ BENCHES = [
           "contenders interleaved (60 rounds of 100-call blocks, shuffled). Ratio = redres "
           "median ÷ peer median (< 1: redres is faster), with the faster of redres' two loop "
           "steps: `Controller.step` (compiled paths) and `Scheme.step` composed by hand. "
-          "Each library's call: `benchmarks/differential.py`.",
+          "Each library's call: `benchmarks/differential.py`. PlaCo pins its own Pinocchio "
+          "(pin 3.8): its rows come from its own interpreter (`PLACO_PYTHON`), timed the "
+          "same way but not interleaved, and its frame task takes the whole error per step "
+          "(no gain).",
           quick=["--rounds", "2", "--calls", "50"], json=True),
     Bench("step", "step.py", "One CLIK step with a joint-limit null space (Panda)",
           "`benchmarks/step.py`: one closed-loop inverse-kinematics step (pose error, damped "
           "inverse, Liégeois' joint-limit gradient in its null space, integration) through "
-          "the public API next to pink, mink and KDL (ratio here = peer ÷ redres, > 1: "
-          "redres is faster)."),
+          "the public API next to pink, mink, KDL and PlaCo (ratio here = peer ÷ redres, "
+          "> 1: redres is faster). PlaCo's row comes from its own interpreter "
+          "(`PLACO_PYTHON`: it pins pin 3.8), timed in the same blocks, not interleaved."),
     Bench("shaping", "shaping.py", "Command shaping to the Panda's limits",
           "`benchmarks/shaping.py`: redres' `CommandShaper` next to Ruckig on one stream of "
           "random wanted velocities (time per cycle, commands a robot would refuse), then "
@@ -109,7 +113,8 @@ BENCHES = [
     Bench("quality", "quality.py", "Quality on a joint-limit problem: the Panda joint-limit circle",
           "Each library's best equivalent configuration tracks the circle that drives plain "
           "pseudo-inverse control past joint 2's limit; errors and margins computed here "
-          "from each run's configurations with Pinocchio forward kinematics.", json=True),
+          "from each run's configurations with Pinocchio forward kinematics. PlaCo runs in "
+          "its own interpreter (`PLACO_PYTHON`) and times its steps there.", json=True),
     Bench("ik", "ik.py", "redres IK alone: pose and position-only targets",
           "`benchmarks/ik.py`: redres' `ik` with its default options (its own restarts).",
           quick=["--targets", "50"], markdown=False),
@@ -287,7 +292,9 @@ WHY = {
     "qp": "*Why:* redres' `QPScheme` builds position, velocity *and acceleration* bounds each "
     "step, solves the task as an equality-constrained QP and, when that is infeasible, a "
     "second least-violation QP, with Python between the pieces; pink and mink solve one QP "
-    "without acceleration limits.",
+    "without acceleration limits. PlaCo (C++ over Pinocchio, qpmad) builds and solves its "
+    "QP in one call and has no acceleration limits: the compiled hard-limit step of issue "
+    "40 is what would close that gap.",
     "ik": "*Why:* robotics-toolbox's `ik_LM` and KDL's `NR_JL` run their whole iteration "
     "loop in C++, one call per attempt; redres' `ik` runs its iterations in one compiled "
     "call per attempt too, but validates its arguments and reads the clock in Python "

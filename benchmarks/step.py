@@ -12,7 +12,17 @@ equivalent step on the same Panda:
 * pink ``solve_ik`` and mink ``solve_ik``: a frame task plus a posture task, solved as a
   QP with joint-limit constraints (their only mode), then integration;
 * KDL: forward kinematics, pose error, ``ChainIkSolverVel_wdls`` (weighted damped least
-  squares), integration.
+  squares), integration;
+* PlaCo ``KinematicsSolver.solve`` (Rhoban; C++ over Pinocchio, QP by qpmad): set the
+  joints, ``update_kinematics``, a soft frame task plus a soft joints task toward the
+  neutral pose (weight 1e-6: pink's and mink's posture cost 1e-3, squared, as PlaCo weighs
+  squared residuals) under its joint-position and velocity limits (``solver.dt`` = 1 ms,
+  the same limits as redres'), read the new ``q``. PlaCo pins its own Pinocchio, so it
+  runs in its own interpreter (``PLACO_PYTHON``, ``peers.PlacoSteps``), which times its
+  blocks of 200 calls there, on request after each round of the others' (so that load
+  hits it alike): its rows are marked "own process". Its frame task asks for the whole
+  pose error in one step (no gain), as pink's and mink's with gain 1; the QP has the same
+  size and constraints as the hard-limit rows' (less redres' acceleration limits).
 
 The hard-limit rows do the same frame task under hard position, velocity and
 acceleration limits: ``QPScheme`` (a QP through DAQP) and ``SNSScheme`` (saturation in the
@@ -32,6 +42,8 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from tempfile import TemporaryDirectory
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -39,7 +51,15 @@ import pinocchio as pin
 sys.path.insert(0, str(Path(__file__).parent))
 
 from _common import interleaved, machine, median, table
-from peers import import_kdl, import_mink, import_pink, kdl_panda, mujoco_panda
+from peers import (
+    import_kdl,
+    import_mink,
+    import_pink,
+    kdl_panda,
+    mujoco_panda,
+    placo_job,
+    placo_steps,
+)
 
 import redres as rr
 from redres.control import Controller
@@ -199,13 +219,43 @@ def kdl_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[[],
     return step
 
 
+PLACO = "PlaCo KinematicsSolver (frame + posture QP, limits; own process)"
+
+
+def placo_server(robot: rr.Robot, q: np.ndarray, target: np.ndarray, tmp: Path) -> Any:
+    """PlaCo's step on the same Panda, state, target and limits, in its own process (None
+    without PlaCo)."""
+    setup = {"posture_weight": 1e-6, "joint_limits": True, "velocity_limits": True}
+    job = placo_job("panda", "step", tmp, q=q, target=target.ravel(), dt=DT,
+                    posture=robot.neutral(), setups={"qp": setup})  # fmt: skip
+    server = placo_steps("panda", job)
+    if server is not None:
+        print(f"PlaCo: q after one step {np.round(server.q_after['qp'], 4)}")
+    return server
+
+
+def timed(contenders: dict[str, Callable[[], object]], server: Any) -> dict[str, np.ndarray]:
+    """``_common.interleaved`` (5 rounds of 5 blocks of 200 calls), with PlaCo's blocks,
+    timed in its process, after each round's."""
+    times: dict[str, list[float]] = {name: [] for name in contenders}
+    if server is not None:
+        times[PLACO] = []
+    for _ in range(5):
+        for name, t in interleaved(contenders, rounds=1, batch=200, batches=5).items():
+            times[name].extend(t.tolist())
+        if server is not None:
+            for _ in range(5):
+                times[PLACO].extend(server.block("qp", 200, per_call=False))
+    return {name: np.asarray(t) for name, t in times.items()}
+
+
 def report(hard: dict[str, Callable[[], object]], times: dict[str, np.ndarray]) -> None:
-    """The path of each hard-limit step and its speed-up over pink and mink."""
-    peers = ("pink solve_ik (frame + posture QP)", "mink solve_ik (frame + posture QP)")
+    """The path of each hard-limit step and each QP peer's time over its own."""
+    peers = ("pink solve_ik (frame + posture QP)", "mink solve_ik (frame + posture QP)", PLACO)
     for name, fn in hard.items():
         last = fn.last()  # type: ignore[attr-defined]
         ratios = [
-            f"{median(times[peer]) / median(times[name]):.1f}x faster than {peer.split()[0]}"
+            f"{peer.split()[0]} takes {median(times[peer]) / median(times[name]):.2f}x its time"
             for peer in peers
             if peer in times
         ]
@@ -238,7 +288,9 @@ def main() -> int:
     }
     contenders.update({k: v for k, v in peers.items() if v is not None})
     print(f"Panda control step, {machine()}")
-    times = interleaved(contenders, rounds=5, batch=200, batches=5)
+    with TemporaryDirectory() as tmp:
+        server = placo_server(robot, q, target, Path(tmp))
+        times = timed(contenders, server)
     base = median(times[next(iter(contenders))])
     rows = []
     for name, t in times.items():
@@ -259,7 +311,12 @@ def main() -> int:
         fn = make(robot, q, target)
         if fn is not None:
             contenders[name] = fn
-    times = interleaved(contenders, rounds=5, batch=200, batches=5)
+    with TemporaryDirectory() as tmp:
+        server2 = placo_server(robot, q, target, Path(tmp))
+        times = timed(contenders, server2)
+    for each in (server, server2):
+        if each is not None:
+            each.close()
     rows = [[name, f"{median(t):.1f}", f"{float(np.percentile(t, 99)):.1f}"]
             for name, t in times.items()]  # fmt: skip
     print("\nTracking problem (target 0.4 mm away)")

@@ -62,11 +62,13 @@ def _forward(links, axes, kinds, q, qd, work, T):
     """Joint frames, angular velocities and accelerations at ``q̈ = 0`` into ``work``
     (k, 24), the frame's pose into ``T``. Returns whether ``q`` and ``qd`` are finite, and
     ``[a; α]`` of the frame origin (``J̇ q̇``) as a tuple."""
-    bad = 0.0
+    finite = True  # math.isfinite, not x * 0: the plain-Python twin warns on inf * 0
     for x in q:
-        bad += x * 0.0
+        finite = finite and math.isfinite(x)
     for x in qd:
-        bad += x * 0.0
+        finite = finite and math.isfinite(x)
+    if not finite:  # nothing to compute (the plain twin's math.cos would raise on inf)
+        return False, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     k = kinds.shape[0]
     R = np.eye(3)
     p = np.zeros(3)
@@ -141,7 +143,7 @@ def _forward(links, axes, kinds, q, qd, work, T):
         T[i, 3] = p[i]
         T[3, i] = 0.0
     T[3, 3] = 1.0
-    return bad == 0.0, (a[0], a[1], a[2], al[0], al[1], al[2])
+    return True, (a[0], a[1], a[2], al[0], al[1], al[2])
 
 
 @kernel
@@ -182,6 +184,8 @@ def chain_dynamics(links, axes, kinds, body, armature, gravity, q, qd, T, J, jdq
     n = kinds.shape[0]
     work = np.empty((n, _WORK))
     finite, acc = _forward(links, axes, kinds, q, qd, work, T)
+    if not finite:
+        return False
     for i in range(6):
         jdqd[i] = acc[i]
     for j in range(n):  # the Jacobian
@@ -269,26 +273,26 @@ def chain_dynamics(links, axes, kinds, body, armature, gravity, q, qd, T, J, jdq
             M[j, i] = value
             M[i, j] = value
         M[j, j] += armature[j]
-    return finite
+    return True
 
 
 @kernel
-def osc_step(links, axes, kinds, body, armature, gravity, damp, q, qd, target, feed, gains,
-             rows, quad, settings, J, out):  # fmt: skip
-    """One operational-space torque (module docstring) into ``out`` (``4 n + OUT_EXTRA``:
-    :data:`OUT_ERROR` … after ``4 n``): the total ``τ``, the task part
-    ``Jᵀ Λ (ẍ* − J̇ q̇)``, the null part ``(I − Jᵀ J̄ᵀ) τ₀`` and ``τ₀``, the compensation
-    being ``b + d ∘ q̇`` (``damp`` = d); then the frame's error against ``target`` (18: the
-    rotation row-major, the position and the twist, :class:`redres.tasks.FrameTask`'s
-    block), its pose, the target pose, and rank, σ_min, σ_max, damping of ``J M^{-1/2}``.
-    ``J`` (6 x n) <- the world-aligned Jacobian. ``feed`` (12): the reference twist and
-    acceleration; ``gains`` (2 x m): ``K_p``, ``K_d`` of the ``rows`` (m, int64); ``quad``
-    (2 x n): ``(a, r)`` of ``Σ wᵢ ∇Dᵢ = a ∘ (q − r)``; ``settings``: ``null_kp, null_kd,
-    has_objectives, damping mode, λ, λ_max, ε, rcond``. Returns a status
+def osc_step(links, axes, kinds, body, armature, gravity, damp, q, qd, feed, target, gains,
+             rows, quad, settings, out):  # fmt: skip
+    """One operational-space torque (module docstring) into ``out`` (the layout of
+    :mod:`redres.dynamics._codes`): the total ``τ``, the task part ``Jᵀ Λ (ẍ* − J̇ q̇)``,
+    the null part ``(I − Jᵀ J̄ᵀ) τ₀`` and ``τ₀``, the compensation being ``b + d ∘ q̇``
+    (``damp`` = d); then the frame's error against ``target`` (18: the rotation row-major,
+    the position and the twist, :class:`redres.tasks.FrameTask`'s block), its pose, the
+    target pose, and rank, σ_min, σ_max, damping of ``J M^{-1/2}``. ``feed`` (12): the
+    reference twist and acceleration; ``gains`` (2 x m): ``K_p``, ``K_d`` of the ``rows``
+    (m, int64); ``quad`` (2 x n): ``(a, r)`` of ``Σ wᵢ ∇Dᵢ = a ∘ (q − r)``; ``settings``:
+    ``null_kp, null_kd, has_objectives, damping mode, λ, λ_max, ε, rcond``. Returns a status
     (:class:`redres.linalg._codes.Status`)."""
     n = kinds.shape[0]
     m = rows.shape[0]
     base = 4 * n
+    J = np.empty((6, n))
     e = out[base + OUT_ERROR : base + OUT_POSE]
     T = out[base + OUT_POSE : base + OUT_TARGET].reshape(4, 4)
     goal = out[base + OUT_TARGET : base + OUT_STATS].reshape(4, 4)

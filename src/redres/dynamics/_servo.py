@@ -5,13 +5,13 @@ from __future__ import annotations
 
 from abc import abstractmethod
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple, TypedDict
 
 import numpy as np
 
 from .._validate import FloatArray, as_scalar, as_vector
 from ..errors import InvalidParameterError
-from ..linalg import AdaptiveDamping
+from ..linalg import RCOND, AdaptiveDamping
 from ..linalg._backend import parse_damping
 from ..resolution.gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 from ..tasks import FrameTask
@@ -136,29 +136,48 @@ class NullSpaceLaw:
         return qdd0
 
 
+class ServoSettings(TypedDict, total=False):
+    """The keywords every :class:`ServoLaw` takes (its constructor holds their defaults):
+    a subclass adds its own and passes these on as ``**settings``."""
+
+    kp: Any
+    kd: Any
+    objectives: Sequence[WeightedObjective]
+    null_kp: float
+    null_kd: float
+    damping: float | AdaptiveDamping
+    rcond: float
+    name: str | None
+
+
 class ServoLaw(TorqueLaw):
     """A torque law built on a :class:`TaskServo` and a :class:`NullSpaceLaw`: the settings,
     validation and task plumbing that the operational-space and acceleration-level
-    controllers share (arguments as for :class:`~redres.dynamics.OperationalSpaceController`).
+    controllers share (arguments as for :class:`~redres.dynamics.OperationalSpaceController`;
+    ``name``: the identifier in run logs, else the subclass's default).
     Subclasses give the torque of one evaluated servo state in :meth:`_step`.
     """
 
     def __init__(
         self,
-        task: FrameTask | None,
-        kp: Any,
-        kd: Any,
-        objectives: Sequence[WeightedObjective],
-        null_kp: float,
-        null_kd: float,
-        damping: float | AdaptiveDamping,
-        rcond: float,
+        task: FrameTask | None = None,
+        *,
+        kp: Any = 400.0,
+        kd: Any = None,
+        objectives: Sequence[WeightedObjective] = (),
+        null_kp: float = 25.0,
+        null_kd: float = 10.0,
+        damping: float | AdaptiveDamping = 0.0,
+        rcond: float = RCOND,
+        name: str | None = None,
     ) -> None:
         self.servo = TaskServo(FrameTask() if task is None else task, kp, kd)
         self.null_law = NullSpaceLaw(objectives, null_kp, null_kd)
         parse_damping(damping)  # validates it early (without loading the kernels)
         self.damping = damping
         self.rcond = rcond
+        if name:
+            self.name = name
 
     @property
     def task(self) -> FrameTask:

@@ -18,21 +18,21 @@ kinetic-energy-weighted projection of ``q̈₀``, ``J⁺`` the Euclidean one.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, Literal, get_args
+from typing import TYPE_CHECKING, Literal, get_args
 
 from numpy.typing import ArrayLike
 
 from .._validate import FloatArray, as_matrix, as_vector
 from ..errors import InvalidParameterError
 from ..linalg import RCOND, AdaptiveDamping, InverseInfo, generalized_inverse
-from ..resolution.gradient_projection import WeightedObjective
 from ..tasks import FrameTask
-from ._servo import ServoLaw, ServoState
+from ._servo import ServoLaw, ServoSettings, ServoState
 from .base import ControlStep
 from .osc import check_choice, dynamic_inverse
 
 if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
     from ..robot import Robot
 
 InverseKind = Literal["dynamic", "kinematic"]
@@ -115,20 +115,13 @@ class AccelerationController(ServoLaw):
         self,
         task: FrameTask | None = None,
         *,
-        kp: Any = 400.0,
-        kd: Any = None,
-        objectives: Sequence[WeightedObjective] = (),
-        null_kp: float = 25.0,
-        null_kd: float = 10.0,
         inverse: InverseKind = "dynamic",
-        damping: float | AdaptiveDamping = 0.0,
-        rcond: float = RCOND,
-        name: str | None = None,
+        **settings: Unpack[ServoSettings],
     ) -> None:
         """The arguments are described in ``help(AccelerationController)``."""
         self.inverse = check_choice(inverse, "inverse", _INVERSES)
-        super().__init__(task, kp, kd, objectives, null_kp, null_kd, damping, rcond)
-        self.name = name or f"acceleration_{inverse}"
+        self.name = f"acceleration_{inverse}"
+        super().__init__(task, **settings)
 
     def _step(
         self, robot: Robot, q: FloatArray, qd: FloatArray, s: ServoState, M: FloatArray

@@ -11,18 +11,21 @@ in one serial chain from the base to the frame (:class:`redres.robot.SerialChain
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 import numpy as np
 
 from .. import _compile
 from .._validate import FloatArray, as_vector
 from ..robot.chain import NotSerialChainError
+from ._codes import OUT_ERROR, OUT_POSE, OUT_STATS, OUT_TARGET
+from .base import ControlStep
 
 if TYPE_CHECKING:
+    from ..linalg import InverseInfo
     from ..robot import Robot
 
-__all__ = ["ChainDynamics", "ChainTerms"]
+__all__ = ["ChainDynamics", "ChainTerms", "KernelControlStep", "StepOutput"]
 
 #: The compiled torque step. Cold: a first operational-space step 19.4 s in all with the
 #: linalg and chain kernels it calls (empty cache, load 0.7); warm 0.7 s.
@@ -107,3 +110,76 @@ def chain_dynamics(robot: Robot, frame: str | None = None) -> ChainDynamics | No
         return ChainDynamics(robot, frame)
     except NotSerialChainError:
         return None
+
+
+class StepOutput(Protocol):
+    """What a :class:`KernelControlStep` reads its output with: the joints, and the
+    inverse's diagnostics in one output array (the compiled step that wrote it)."""
+
+    n: int
+
+    def info(self, out: FloatArray) -> InverseInfo:
+        """The inverse's diagnostics in ``out``."""
+        ...
+
+
+class KernelControlStep(ControlStep):
+    """The :class:`~redres.dynamics.ControlStep` of the compiled operational-space step,
+    read from the kernel's output (one array, the layout of :mod:`redres.dynamics._codes`)
+    when a field is read: nothing is built before. Immutable, as every ``ControlStep``.
+
+    Args:
+        out: the output of one step (the step's own copy), ``(4 n + …,)``.
+        source: the compiled step that wrote it (its joints ``n``, its ``info(out)``).
+    """
+
+    def __init__(self, out: FloatArray, source: StepOutput) -> None:
+        """The arguments are described in ``help(KernelControlStep)``."""
+        fields = self.__dict__  # frozen: set once, without the dataclass' checks
+        fields["_out"], fields["_source"] = out, source
+
+    @property
+    def tau(self) -> FloatArray:  # type: ignore[override]
+        """Commanded joint torques, ``(n,)``, N·m."""
+        fields = self.__dict__
+        return fields["_out"][: fields["_source"].n]  # type: ignore[no-any-return]
+
+    @property
+    def info(self) -> InverseInfo:  # type: ignore[override]
+        """Diagnostics of ``J̄`` (singular values of ``J M^{-1/2}``), built on first read."""
+        fields = self.__dict__
+        found = fields.get("_info")
+        if found is None:
+            found = fields["_info"] = fields["_source"].info(fields["_out"])
+        return found  # type: ignore[no-any-return]
+
+    def _part(self, start: int, stop: int) -> FloatArray:
+        out, n = self.__dict__["_out"], self.__dict__["_source"].n
+        return out[4 * n + start : 4 * n + stop]  # type: ignore[no-any-return]
+
+    @property
+    def error(self) -> FloatArray:  # type: ignore[override]
+        """Six-row task error ``[p_d − p; log(R_d Rᵀ)]``, ``(6,)``, m and rad."""
+        return self._part(OUT_ERROR, OUT_POSE)
+
+    @property
+    def pose(self) -> FloatArray:  # type: ignore[override]
+        """Pose of the task frame, 4x4."""
+        return self._part(OUT_POSE, OUT_TARGET).reshape(4, 4)
+
+    @property
+    def target(self) -> FloatArray:  # type: ignore[override]
+        """Target pose, 4x4."""
+        return self._part(OUT_TARGET, OUT_STATS).reshape(4, 4)
+
+    @property
+    def tau_null(self) -> FloatArray:  # type: ignore[override]
+        """Null-space part ``(I − Jᵀ J̄ᵀ) τ₀`` of ``tau``, ``(n,)``, N·m."""
+        n = self.__dict__["_source"].n
+        return self.__dict__["_out"][2 * n : 3 * n]  # type: ignore[no-any-return]
+
+    @property
+    def extra(self) -> dict[str, Any]:  # type: ignore[override]
+        """``{"tau0": τ₀}``, the null-space torque before projection, ``(n,)``, N·m."""
+        n = self.__dict__["_source"].n
+        return {"tau0": self.__dict__["_out"][3 * n : 4 * n]}

@@ -43,7 +43,7 @@ References:
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Literal, NamedTuple, TypeVar, get_args
 
 import numpy as np
@@ -57,15 +57,16 @@ from ..linalg._engine import method_label
 from ..linalg._status import raise_status
 from ..linalg.dynamics import mass_matrix_factor
 from ..objectives import PostureObjective, quadratic_coefficients
-from ..resolution.gradient_projection import WeightedObjective
 from ..tasks import FrameTask
-from ._codes import OUT_EXTRA, OUT_POSE, OUT_STATS, OUT_TARGET
-from ._servo import ServoLaw, ServoState
+from ._codes import OUT_EXTRA, OUT_STATS
+from ._servo import ServoLaw, ServoSettings, ServoState
 from .base import ControlStep
 from .chain import KERNELS as CHAIN_KERNELS
-from .chain import ChainDynamics, chain_dynamics
+from .chain import ChainDynamics, KernelControlStep, chain_dynamics
 
 if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
     from .._toml import ScenarioParams
     from ..control import Sample
     from ..robot import Robot
@@ -75,6 +76,7 @@ Compensation = Literal["joint", "task"]
 _PROJECTORS: tuple[str, ...] = get_args(Projector)
 _COMPENSATIONS: tuple[str, ...] = get_args(Compensation)
 _S = TypeVar("_S", bound=str)
+_F64 = np.dtype(np.float64)
 
 
 def check_choice(value: _S, name: str, choices: tuple[str, ...]) -> _S:
@@ -239,17 +241,10 @@ class OperationalSpaceController(ServoLaw):
         self,
         task: FrameTask | None = None,
         *,
-        kp: Any = 400.0,
-        kd: Any = None,
-        objectives: Sequence[WeightedObjective] = (),
-        null_kp: float = 25.0,
-        null_kd: float = 10.0,
         null_torque: Callable[[Robot, FloatArray, FloatArray], Any] | None = None,
         projector: Projector = "dynamic",
         compensation: Compensation = "joint",
-        damping: float | AdaptiveDamping = 0.0,
-        rcond: float = RCOND,
-        name: str | None = None,
+        **settings: Unpack[ServoSettings],
     ) -> None:
         """The arguments are described in ``help(OperationalSpaceController)``."""
         if null_torque is not None and not callable(null_torque):
@@ -257,9 +252,10 @@ class OperationalSpaceController(ServoLaw):
         self.null_torque = null_torque
         self.projector = check_choice(projector, "projector", _PROJECTORS)
         self.compensation = check_choice(compensation, "compensation", _COMPENSATIONS)
-        super().__init__(task, kp, kd, objectives, null_kp, null_kd, damping, rcond)
-        self.name = name or f"osc_{projector}"
+        self.name = f"osc_{projector}"
+        super().__init__(task, **settings)
         self._compiled: tuple[Robot, _CompiledStep | None] | None = None
+        self._fast: tuple[Robot, _CompiledStep] | None = None  # once it runs compiled
 
     @classmethod
     def from_scenario(cls, params: ScenarioParams) -> OperationalSpaceController:
@@ -293,7 +289,7 @@ class OperationalSpaceController(ServoLaw):
         """Forget the reference, and the compiled step's copy of the settings (gains,
         damping, objectives: it reads them again at the next step)."""
         super().reset()
-        self._compiled = None
+        self._compiled = self._fast = None
 
     def step(
         self, robot: Robot, q: FloatArray, qd: FloatArray, sample: Sample | None = None
@@ -307,11 +303,17 @@ class OperationalSpaceController(ServoLaw):
         Pinocchio's algorithms and NumPy compute the same torque. The compiled step copies
         the law's settings when it is built (first step on a robot, and after
         :meth:`reset`): change them between runs, not within one."""
+        fast = self._fast
+        if fast is not None and fast[0] is robot:  # the compiled step, ready
+            if sample is not None:
+                self.servo.update(sample)
+            return fast[1].step(self, q, qd)
         if self._compiled is None or self._compiled[0] is not robot:
             self._compiled = (robot, _CompiledStep.build(self, robot))
         compiled = self._compiled[1]
         if compiled is None or not compiled.ready():
             return super().step(robot, q, qd, sample)
+        self._fast = (robot, compiled)
         self.servo.update(sample)
         return compiled.step(self, q, qd)
 
@@ -337,11 +339,14 @@ class OperationalSpaceController(ServoLaw):
 
 class _CompiledStep:
     """The arrays of :func:`redres.dynamics._kernels.osc_step` for one controller and robot
-    (built when the law allows it, :meth:`OperationalSpaceController.step`)."""
+    (built when the law allows it, :meth:`OperationalSpaceController.step`), checked and
+    filled here once: a step copies ``q``, ``q̇`` (and a new reference) in, calls the kernel
+    and hands its output to a :class:`~redres.dynamics.chain.KernelControlStep`."""
 
     def __init__(self, law: OperationalSpaceController, dynamics: ChainDynamics) -> None:
         n, rows = dynamics.n, law.servo.rows
         self.dynamics = dynamics
+        self.n = n
         self.rows = np.array(rows, dtype=np.int64)
         self.gains = np.array([law.servo.gains.kp, law.servo.gains.kd])
         mode, lam, lam_max, eps = parse_damping(law.damping)
@@ -349,10 +354,10 @@ class _CompiledStep:
                                   law.rcond])  # fmt: skip
         self.quad = np.zeros((2, n))
         self.method = method_label(mode, True, "")
-        self.feed = np.zeros(12)
-        self.J = np.empty((6, n))
+        self.feed = np.zeros(12)  # the reference twist and acceleration
         self.out = np.empty(4 * n + OUT_EXTRA)
-        self.q, self.qd = np.zeros(n), np.zeros(n)
+        self._shape, self._strides = (n,), (8,)
+        self._feed: tuple[Any, Any] = (None, None)  # the servo's arrays copied into feed
         self._target = law.task.target_block
         self.args = self._arguments()
         self._entry: Any = None
@@ -374,41 +379,46 @@ class _CompiledStep:
             step.settings[2] = 1.0
         return step
 
-    def _arguments(self) -> tuple[Any, ...]:
+    def _arguments(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        """The kernel's arguments before ``q, q̇`` and after them."""
         d = self.dynamics
-        return (*d.arrays, d.damping, self.q, self.qd, self._target, self.feed, self.gains,
-                self.rows, self.quad, self.settings, self.J, self.out)  # fmt: skip
+        return (*d.arrays, d.damping), (self.feed, self._target, self.gains, self.rows, self.quad,
+                                        self.settings, self.out)  # fmt: skip
 
     def ready(self) -> bool:
         """Whether the kernel runs compiled (it compiles behind until then)."""
         if self._entry is None and CHAIN_KERNELS.ready():
-            self._entry = CHAIN_KERNELS.entry("osc_step", self.args)
+            q = np.zeros(self.n)
+            self._entry = CHAIN_KERNELS.entry("osc_step", (*self.args[0], q, q, *self.args[1]))
         return self._entry is not None
 
     def step(self, law: OperationalSpaceController, q: Any, qd: Any) -> ControlStep:
         """The torque at ``(q, q̇)`` with the servo's reference."""
-        n = self.dynamics.n
-        shape = self.q.shape
-        if not (type(q) is type(qd) is np.ndarray and q.dtype == qd.dtype == np.float64
-                and q.shape == qd.shape == shape):  # fmt: skip
-            q, qd = as_vector(q, "q", n), as_vector(qd, "qd", n)
-        self.q[:], self.qd[:] = q, qd  # their finiteness: the kernel's check
-        servo, task = law.servo, law.task
+        n = self.n
+        # The kernel takes q and q̇ as they are when they are contiguous float64 vectors
+        # of length n (its entry point's types; their finiteness is the kernel's check).
+        if not (type(q) is np.ndarray and type(qd) is np.ndarray and q.dtype is _F64
+                and qd.dtype is _F64 and q.shape == self._shape == qd.shape
+                and q.strides == self._strides == qd.strides):  # fmt: skip
+            q, qd = as_vector(q, "q", n).copy(), as_vector(qd, "qd", n).copy()
+        servo = law.servo
         if not servo.has_target:
             servo.hold(self.dynamics.pose(as_vector(q, "q", n)))
-        if task.target_block is not self._target:  # the task was given another block
-            self._target = task.target_block
+        feed = (servo.twist, servo.acceleration)
+        if feed[0] is not self._feed[0] or feed[1] is not self._feed[1]:  # a new reference
+            self.feed[:6], self.feed[6:] = self._feed = feed
+        if servo.task.target_block is not self._target:  # the task was given another block
+            self._target = servo.task.target_block
             self.args = self._arguments()
-        self.feed[:6], self.feed[6:] = servo.twist, servo.acceleration
-        status = self._entry(*self.args)
+        head, tail = self.args
+        status = self._entry(*head, q, qd, *tail)
         if status:
             as_vector(q, "q", n), as_vector(qd, "qd", n)  # names the non-finite one
             raise_status(status, {"J": "the task Jacobian", "W": "M"})
-        out = self.out.copy()
-        b = 4 * n
-        rank, smin, smax, used = out[b + OUT_STATS : b + OUT_EXTRA].tolist()
-        info = InverseInfo(int(rank), rank == min(len(self.rows), n), smin, smax, used, self.method)
-        return ControlStep(out[:n], info, out[b : b + OUT_POSE],
-                           out[b + OUT_POSE : b + OUT_TARGET].reshape(4, 4),
-                           out[b + OUT_TARGET : b + OUT_STATS].reshape(4, 4), out[2 * n : 3 * n],
-                           {"tau0": out[3 * n : b]})  # fmt: skip
+        return KernelControlStep(self.out.copy(), self)
+
+    def info(self, out: FloatArray) -> InverseInfo:
+        """The inverse's diagnostics in the output ``out`` of one step."""
+        n, m = self.n, len(self.rows)
+        rank, smin, smax, used = out[4 * n + OUT_STATS : 4 * n + OUT_EXTRA].tolist()
+        return InverseInfo(int(rank), rank == min(m, n), smin, smax, used, self.method)
