@@ -87,11 +87,9 @@ def _controller() -> None:
     from .resolution import GradientProjectionScheme, PseudoInverseScheme
     from .tasks import FrameTask
 
-    # The fused step on a serial chain (the common first use) first, compiled from its
-    # entry point as a first step compiles it (precompiling its deepest callee first made
-    # the step ready 2 s later in one process, 21-23 s against 19-20 s); a loop
-    # waiting for it switches as soon as it is cached; then the other entry points (the
-    # helper compiles some of them meanwhile when a core is idle).
+    # The fused step on a serial chain (the common first use) first, from its entry point
+    # (its deepest callee first: ready 2 s later); a loop waiting for it switches as soon
+    # as it is cached; then the other entry points (some by the helper on an idle core).
     robot = panda()
     scheme = GradientProjectionScheme([JointLimitObjective()], k_null=5.0, damping=0.01)
     Controller(robot, FrameTask(), scheme, dt=1e-3).step(robot.neutral())
@@ -381,11 +379,9 @@ def _progress(label: str, quiet: bool) -> Iterator[list[bool]]:
         announced.append(True)
         while not stop.wait(TICK):
             seconds = time.perf_counter() - start
-            line = f"redres:   ... {seconds:.0f} s"
-            if about and seconds <= estimate:
-                line += f" of {about}"
-            elif about:  # a busy or slower machine: say so rather than "12 s of about 5 s"
-                line += f", longer than the {estimate:.0f} s it takes on an idle core"
+            more = f" of {about}" if seconds <= estimate else (  # not "12 s of about 5 s"
+                f", longer than the {estimate:.0f} s it takes on an idle core")  # fmt: skip
+            line = f"redres:   ... {seconds:.0f} s" + (more if about else "")
             print(f"\r{line}" if terminal else line, end="" if terminal else "\n",
                   file=sys.stderr, flush=True)  # fmt: skip
 
