@@ -298,6 +298,19 @@ def test_no_private_import_across_packages() -> None:
     _assert_none("private")
 
 
+#: Modules stay small enough to read whole: one concept each (docs/architecture.md).
+MAX_MODULE_LINES = 500
+
+
+def test_no_module_over_500_lines_and_a_small_top_level() -> None:
+    lines = {str(f.relative_to(SOURCE)): len(f.read_text(encoding="utf-8").splitlines())
+             for f in SOURCE.rglob("*.py")}  # fmt: skip
+    long = {name: n for name, n in lines.items() if n > MAX_MODULE_LINES}
+    assert not long, f"modules over {MAX_MODULE_LINES} lines: {long}; split them by concept"
+    top = sorted(f.name for f in SOURCE.glob("*.py"))
+    assert len(top) <= 10, f"the top level holds {len(top)} files: {top}"
+
+
 _SAMPLE_DOC = """## Layers
 
 | layer | units |
