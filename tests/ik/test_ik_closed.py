@@ -46,7 +46,7 @@ def test_the_answer_is_at_the_first_q7_tried_with_one_within_limits() -> None:
     """Where q0[6] has none within the limits, the kernel's answer is the nearest at the
     first of the other values (nearest q0[6] first) that has one, as at_q7 says."""
     robot = rr.models.panda()
-    _, others = closed_module._arm(robot, None)
+    _, others, _ = closed_module._arm(robot, None)
     rng = np.random.default_rng(8)
     checked = 0
     for _ in range(60):
