@@ -83,8 +83,10 @@ def _arm(robot: Robot, frame: str | None) -> _Arm | None:
                 lo, hi = -math.pi, math.pi
             span = (hi - lo) / Q7_TRIES
             srs = _srs(robot, frame, quiet=True)
-            if srs is not None:  # load the compiled arm-angle form now
-                analytic.solve_srs(srs.constants, np.eye(4), 0.0, _empty(_BUFFER))
+            if srs is not None:  # load by_arm_angle's compiled calls now (5 ms at first)
+                buffer = np.zeros(_BUFFER)
+                analytic.solve_srs(srs.constants, np.eye(4), 0.0, buffer)
+                analytic._errors(arm.links, arm.axes, arm.kinds, buffer, 0)
             per_robot[frame] = (arm, lo + span * (np.arange(Q7_TRIES) + 0.5), srs)
     return per_robot[frame]
 
@@ -262,7 +264,8 @@ def _nearest_at(constants: np.ndarray, target: np.ndarray, q0: np.ndarray, value
     found &= out[:, :, codes.WITHIN] == 1.0
     if not found.any():
         return None
-    d = np.where(found, ((out[:, :, :7] - q0) ** 2).sum(axis=2), np.inf)
+    d = np.full(found.shape, np.inf)  # (rows past each count are not written)
+    d[found] = ((out[found][:, :7] - q0) ** 2).sum(axis=1)
     i, row = divmod(int(np.argmin(d)), _BUFFER[0])
     return float(values[i]), row
 
