@@ -150,3 +150,24 @@ def test_no_arm_angle_on_an_arm_that_is_not_srs() -> None:
     robot = rr.models.panda()
     T = robot.fk(robot.random_configuration(np.random.default_rng(3)))
     assert closed_module.by_arm_angle(robot, None, T, robot.neutral()) is None
+
+
+def test_the_exact_arcs_answer_where_the_arm_angle_grid_misses(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """With no arm angle on the grid (as where every arc within the limits is narrower than
+    its step), the middles of the exact arcs of the self-motion answer: exact (Pinocchio
+    FK), within the limits, at an arm angle inside an arc of rr.self_motion."""
+    robot = rr.models.iiwa14()
+    rng = np.random.default_rng(7)
+    targets = [robot.fk(robot.random_configuration(rng), "flange") for _ in range(51)]
+    T, q0 = targets[50], robot.neutral()  # a target no q7 tried answers (test above)
+    monkeypatch.setattr(closed_module, "_GRID", [])
+    found = closed_module.by_arm_angle(robot, "flange", T, q0)
+    assert found is not None
+    q, position, rotation, phi = found
+    assert robot.within_limits(q) and max(position, rotation) < 1e-10
+    np.testing.assert_allclose(robot.fk(q, "flange"), T, atol=1e-10)
+    arcs = rr.self_motion(robot, T, parameter="arm_angle", frame="flange").intervals
+    inside = [lo <= phi + 2 * math.pi * k <= hi for b in arcs for lo, hi in b for k in (-1, 0, 1)]
+    assert any(inside)
