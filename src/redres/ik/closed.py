@@ -194,17 +194,23 @@ _NONE = codes.NONE_WITHIN_LIMITS
 _empty = np.empty
 
 
-_FIELDS = tuple(field.name for field in dataclasses.fields(IKResult))
+#: The fields of a converged closed-form :class:`IKResult`, in order, before the five
+#: :func:`_result` sets (the strict zip fails at import if the fields change).
+_CONVERGED = dict(zip((field.name for field in dataclasses.fields(IKResult)),
+                      (None, True, 0, 0, math.inf, math.inf, 0.0, "", None, None),
+                      strict=True))  # fmt: skip
 
 
 def _result(q: np.ndarray, position: float, rotation: float, seconds: float, how: str
             ) -> IKResult:  # fmt: skip
     """The converged :class:`IKResult` (without the frozen dataclass's ``__init__``, a
-    tenth of this path's time); ``how``: the parameter value used, and by which form."""
+    fifth of this path's time, nor a zip of its fields, a tenth); ``how``: the parameter
+    value used, and by which form."""
     result = object.__new__(IKResult)
-    message = f"converged: closed form at {how}"
-    values = (q, True, 0, 0, position, rotation, seconds, message, None, None)
-    result.__dict__.update(zip(_FIELDS, values, strict=True))
+    values = result.__dict__
+    values.update(_CONVERGED)
+    values["q"], values["position_error"], values["orientation_error"] = q, position, rotation
+    values["time_s"], values["message"] = seconds, "converged: closed form at " + how
     return result
 
 
