@@ -171,9 +171,9 @@ def ik(
             the preference has settled.
         analytic: on an arm with a closed form (:mod:`redres.ik.analytic`: Panda, FR3,
             iiwa14, srs7), for a full-pose target without a preference, take the closed
-            form's within-limits solution nearest ``q0`` (at ``q0``'s last joint, or at a
-            few other values of it) before iterating (:mod:`redres.ik.closed`); False:
-            iterate only.
+            form's within-limits solution nearest ``q0`` (at ``q0``'s last joint, or at
+            other values of it, or on S-R-S arms at other arm angles) before iterating
+            (:mod:`redres.ik.closed`); False: iterate only.
 
     Returns:
         The :class:`IKResult`.
