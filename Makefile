@@ -8,13 +8,13 @@ EXTRAS ?= test,dev,qp,report
 
 .PHONY: demo test robot-test lint format bench docs clean
 
-# pip --quiet prints nothing for a minute or more: a line every 5 s says it is at work.
+# venv and pip --quiet print nothing for seconds to minutes: a line every 5 s says it is at work.
 TICK = ( n=0; while sleep 5; do n=$$((n + 5)); echo "make: still installing into $(VENV) ($$n s) ..."; \
 	done ) & ticker=$$!; trap 'kill $$ticker 2>/dev/null' EXIT;
 
 $(STAMP): pyproject.toml
 	@echo "make: creating $(VENV) and installing redres with its dependencies (first use only)"
-	$(PYTHON) -m venv $(VENV)
+	@$(TICK) $(PYTHON) -m venv $(VENV)
 	@$(TICK) $(BIN)/python -m pip install --quiet --upgrade pip
 	@$(TICK) $(BIN)/python -m pip install --quiet -e ".[$(EXTRAS)]"
 	touch $(STAMP)
