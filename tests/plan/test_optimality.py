@@ -9,55 +9,12 @@ import math
 
 import numpy as np
 import pytest
+from _plan_enumeration import admissible_paths, margins, sequential_sums
 
 import redres as rr
 from redres.control.trajectories import Circle
 from redres.objectives import SphereObstacle, proximities
 from redres.plan import PathGrid, PathPlan, plan_path, solve_grid
-
-# ---------------------------------------------------------------------- enumeration
-
-
-def admissible_paths(grid: PathGrid, delta: np.ndarray, start: tuple[int, int] | None = None
-                     ) -> tuple[list[np.ndarray], np.ndarray]:  # fmt: skip
-    """Every admissible path of ``grid``: per sample the configurations of its feasible
-    nodes ``(N_k, n)``, and the paths ``(count, K)`` as indices into them. The
-    transition test is written here from its definition (every joint's step within
-    ``delta``), independently of the kernels."""
-    K = len(grid.q)
-    nodes = []
-    for k in range(K):
-        mask = grid.feasible[k].copy()
-        if k == 0 and start is not None:
-            keep = mask[start]
-            mask[:] = False
-            mask[start] = keep
-        nodes.append(grid.q[k][mask])  # (N_k, n), rows in (p, b) order
-    paths = np.arange(len(nodes[0]))[:, None]
-    for k in range(1, K):
-        step = np.abs(nodes[k][None, :, :] - nodes[k - 1][:, None, :])
-        allowed = np.all(step <= delta, axis=2)  # (N_{k-1}, N_k)
-        rows, cols = np.nonzero(allowed[paths[:, -1]])
-        paths = np.concatenate((paths[rows], cols[:, None]), axis=1)
-    return nodes, paths
-
-
-def margins(robot: rr.Robot, q: np.ndarray) -> np.ndarray:
-    return np.minimum(q - robot.q_min, robot.q_max - q).min(axis=-1)
-
-
-def sequential_sums(nodes: list[np.ndarray], paths: np.ndarray, node_cost: list[np.ndarray],
-                    edge_weight: float) -> np.ndarray:  # fmt: skip
-    """Each path's ``Σ`` in path order, ``V ← (V + e) + c``, the DP's order of additions;
-    the step norm summed joint by joint in order."""
-    total = node_cost[0][paths[:, 0]].copy()
-    for k in range(1, paths.shape[1]):
-        d = nodes[k][paths[:, k]] - nodes[k - 1][paths[:, k - 1]]
-        ss = np.zeros(len(paths))
-        for c in range(d.shape[1]):
-            ss = ss + d[:, c] * d[:, c]
-        total = (total + edge_weight * np.sqrt(ss)) + node_cost[k][paths[:, k]]
-    return total
 
 
 def check_all_objectives(robot: rr.Robot, grid: PathGrid, dt: float, qd_max: float,
@@ -65,7 +22,7 @@ def check_all_objectives(robot: rr.Robot, grid: PathGrid, dt: float, qd_max: flo
     """Plan with each objective and compare with the enumeration; returns the number of
     admissible paths."""
     delta = np.broadcast_to(qd_max * dt, (robot.n,))
-    nodes, paths = admissible_paths(grid, delta, start)
+    nodes, paths = admissible_paths(grid, delta, start=start)
     assert len(paths) > 1, "the grid must leave a choice"
     zero = [np.zeros(len(x)) for x in nodes]
 

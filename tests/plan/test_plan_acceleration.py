@@ -9,56 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _plan_enumeration import admissible_paths, margins, sequential_sums
 
 import redres as rr
 from redres.control.trajectories import Circle
 from redres.errors import InvalidParameterError
 from redres.plan import PathGrid, PathPlan, plan_path, solve_grid
-
-
-def enumerate_paths(grid: PathGrid, delta: np.ndarray, accel: np.ndarray | None,
-                    start: tuple[int, int] | None = None
-                    ) -> tuple[list[np.ndarray], np.ndarray]:  # fmt: skip
-    """Every admissible path: per sample the feasible nodes' configurations ``(N_k, n)``
-    and the paths ``(count, K)`` as indices into them; both tests written here from their
-    definitions, independently of the kernels."""
-    K = len(grid.q)
-    nodes = []
-    for k in range(K):
-        mask = grid.feasible[k].copy()
-        if k == 0 and start is not None:
-            keep = mask[start]
-            mask[:] = False
-            mask[start] = keep
-        nodes.append(grid.q[k][mask])
-    paths = np.arange(len(nodes[0]))[:, None]
-    for k in range(1, K):
-        rows, cols = np.nonzero(np.ones((len(paths), len(nodes[k])), dtype=bool))
-        q1 = nodes[k - 1][paths[rows, -1]]
-        q2 = nodes[k][cols]
-        ok = np.all(np.abs(q2 - q1) <= delta, axis=1)
-        if accel is not None and k >= 2:
-            q0 = nodes[k - 2][paths[rows, -2]]
-            ok &= np.all(np.abs(q2 - 2.0 * q1 + q0) <= accel, axis=1)
-        paths = np.concatenate((paths[rows[ok]], cols[ok, None]), axis=1)
-    return nodes, paths
-
-
-def margins(robot: rr.Robot, q: np.ndarray) -> np.ndarray:
-    return np.minimum(q - robot.q_min, robot.q_max - q).min(axis=-1)
-
-
-def path_sums(nodes: list[np.ndarray], paths: np.ndarray, node_cost: list[np.ndarray],
-              edge_weight: float) -> np.ndarray:  # fmt: skip
-    """Each path's sum in path order, ``V ← (V + e) + c``; the step norm joint by joint."""
-    total = node_cost[0][paths[:, 0]].copy()
-    for k in range(1, paths.shape[1]):
-        d = nodes[k][paths[:, k]] - nodes[k - 1][paths[:, k - 1]]
-        ss = np.zeros(len(paths))
-        for c in range(d.shape[1]):
-            ss = ss + d[:, c] * d[:, c]
-        total = (total + edge_weight * np.sqrt(ss)) + node_cost[k][paths[:, k]]
-    return total
 
 
 def held(plan: PathPlan, qd: float, qdd: float) -> None:
@@ -76,8 +32,8 @@ def compare(robot: rr.Robot, grid: PathGrid, dt: float, qd: float, qdd: float,
     the velocity limits allow and how many both allow."""
     n = robot.n
     delta, accel = np.full(n, qd * dt), np.full(n, qdd * dt * dt)
-    _, loose = enumerate_paths(grid, delta, None, start)
-    nodes, paths = enumerate_paths(grid, delta, accel, start)
+    _, loose = admissible_paths(grid, delta, start=start)
+    nodes, paths = admissible_paths(grid, delta, accel, start)
     assert len(paths) > 1, "the grid must leave a choice"
     K = len(nodes)
     zero = [np.zeros(len(x)) for x in nodes]
@@ -85,7 +41,7 @@ def compare(robot: rr.Robot, grid: PathGrid, dt: float, qd: float, qdd: float,
     plan = solve_grid(robot, grid, dt=dt, qd_max=qd, qdd_max=qdd, start=start)
     worst = np.min([margins(robot, nodes[k][paths[:, k]]) for k in range(K)], axis=0)
     assert plan.objective == worst.max() == plan.min_margin
-    lengths = path_sums(nodes, paths, zero, 1.0)
+    lengths = sequential_sums(nodes, paths, zero, 1.0)
     assert plan.path_length == pytest.approx(lengths[worst == worst.max()].min(), rel=1e-14)
     held(plan, qd, qdd)
     assert plan.stats.edge_pairs_checked >= plan.stats.edge_pairs > 0
@@ -101,7 +57,7 @@ def compare(robot: rr.Robot, grid: PathGrid, dt: float, qd: float, qdd: float,
         return np.sum((q - target) ** 2, axis=1)
 
     plan = solve_grid(robot, grid, dt=dt, objective=cost, qd_max=qd, qdd_max=qdd, start=start)
-    assert plan.objective == path_sums(nodes, paths, [cost(x) for x in nodes], 0.0).min()
+    assert plan.objective == sequential_sums(nodes, paths, [cost(x) for x in nodes], 0.0).min()
     held(plan, qd, qdd)
     return len(loose), len(paths)
 
@@ -155,7 +111,7 @@ def test_random_grids_equal_enumeration(seed: int) -> None:
 
 def test_given_start_equals_enumeration() -> None:
     robot, grid = random_grid(7)
-    _, paths = enumerate_paths(grid, np.full(3, 0.5), np.full(3, 0.5))
+    _, paths = admissible_paths(grid, np.full(3, 0.5), np.full(3, 0.5))
     p, b = np.argwhere(grid.feasible[0])[paths[-1, 0]]
     compare(robot, grid, 0.1, 5.0, 50.0, (int(p), int(b)))
 
