@@ -247,3 +247,13 @@ def test_warm_started_rows_give_the_cold_solution() -> None:
             compared[bool(result.feasible)] += 1
         q = q + DT * result.qd
     assert compared[False] > 20  # the ball stops the task
+
+
+def test_the_damper_bound_is_zero_at_d_s_and_minus_the_gain_at_d_i() -> None:
+    """``−ξ (d − d_s)/(d_i − d_s)``: no approach allowed at the safety distance, approach
+    at ``ξ`` at the influence distance, linear between (the record and the rows share it)."""
+    c = rr.Collisions([], influence=0.10, safety=0.02, gain=0.4)
+    assert c.bound(0.02) == 0.0
+    assert c.bound(0.10) == pytest.approx(-0.4, abs=1e-15)
+    assert c.bound(np.array([0.06])) == pytest.approx([-0.2], abs=1e-15)
+    assert c.rate == pytest.approx(-0.4 / 0.08, abs=1e-12)

@@ -124,6 +124,16 @@ class Collisions:
         return (f"Collisions({len(self.obstacles)} obstacles, influence={self.influence}, "
                 f"safety={self.safety}, gain={self.gain}, self={self.self_collision})")  # fmt: skip
 
+    @property
+    def rate(self) -> float:
+        """The damper's slope ``−ξ/(d_i − d_s)``, 1/s."""
+        return -self.gain / (self.influence - self.safety)
+
+    def bound(self, distance: Any) -> Any:
+        """The damper's bound on ``ḋ`` at ``distance`` (m): ``−ξ (d − d_s)/(d_i − d_s)``,
+        m/s (a row holds when ``ḋ`` is at least this)."""
+        return self.rate * (distance - self.safety)
+
     def check_period(self, dt: float) -> None:
         """Refuse a period over which the damper could step past ``d_s``
         (``ξ dt > d_i − d_s``, module docstring).
@@ -175,7 +185,7 @@ class DamperRows:
     ) -> None:
         self.model, self.G, self.lower = model, G, lower
         self.influence, self.safety = collisions.influence, collisions.safety
-        self.rate = -collisions.gain / (collisions.influence - collisions.safety)
+        self.rate = collisions.rate
         self.active, self.bound = 0, False
 
     def update(self, q: FloatArray) -> int:

@@ -205,8 +205,7 @@ def collision_clearance(
         if not len(near):
             continue
         dn = found.distance[near]
-        bound = (-gain / (d_i - d_s)) * (dn - d_s)  # the damper's right-hand side
-        binding = found.gradient[near] @ log.qd[k] - bound <= BINDING_TOLERANCE
+        binding = found.gradient[near] @ log.qd[k] - collisions.bound(dn) <= BINDING_TOLERANCE
         for key, value in (("step", np.full(len(near), k)), ("pair", near), ("d", dn),
                            ("a", found.point_a[near]), ("b", found.point_b[near]),
                            ("bind", binding & constrained)):  # fmt: skip
