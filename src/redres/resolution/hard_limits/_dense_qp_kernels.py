@@ -25,7 +25,8 @@ Entry points (all arrays float64 C-contiguous but ``active``, int8; ``work`` of 
   J_Fᵀ w)`` on ``F`` (``zᵀn_p = 1 − e_pᵀJᵀw``), the working bounds' multipliers move by
   ``−t r_a``, ``r_a = −s_a s (J e_a)ᵀw``; the step ``t`` is the smaller of the full step
   (``p`` becomes active) and the first multiplier to reach zero (that bound leaves).
-  Calls :func:`_independent_rows`, :func:`_factor`, :func:`_optimum`, :func:`_certified`.
+  Calls :func:`_independent_rows`, :func:`_start`, :func:`_factor`, :func:`_optimum`,
+  :func:`_certified`.
 
 Both finish with a clean solve on the final active set and one step of iterative
 refinement, so that the answer equals any exact solver's (DAQP's) to rounding when the
@@ -41,7 +42,7 @@ before it with an inconsistent ``b`` (``y`` the dependency), and the Goldfarb–
 
 **Flags.** 1 optimal; 0 certified infeasible (``eq_box_qp``); −1 breakdown: iteration
 limit (``4(n + m) + 10``), a working set whose ``J_F`` is nearly rank deficient (relative
-pivot below 1e-8), a failed final check (bounds or multipliers off by more than 1e-9 of
+pivot below 1e-6), a failed final check (bounds or multipliers off by more than 1e-9 of
 their scale), an empty box or a bad ``work``: the caller then asks DAQP.
 
 References:
@@ -56,11 +57,14 @@ from __future__ import annotations
 import math
 
 from ..._compile import kernel
-from ...linalg._dense_kernels import _cholesky, _cholesky_solve
+from ...linalg._dense_kernels import _cholesky, _cholesky_solve, _solve_lower_transposed
 
 OPTIMAL, INFEASIBLE, BREAKDOWN = 1, 0, -1
-_NEAR = 1e-16  # squared relative pivot of J_F J_Fᵀ below which a working set is refused
-_DEPENDENT = 1e-24  # squared relative pivot at or below which a row of J is dependent
+# Pivots of the Gram matrix J_F J_Fᵀ are squared: rounding alone leaves ~1e-16 of a diagonal
+# entry in an exactly dependent one, hence thresholds well above it.
+_NEAR = 1e-12  # squared relative pivot below which a working set is refused (J_F: 1e-6)
+_DEPENDENT = 1e-20  # squared relative distance at or below which a row of J is dependent
+_SPD = 1e-15  # relative pivot of P_FF below which the box QP's P is not numerically definite
 _ZERO_STEP = 1e-12  # ‖z‖² at or below which the added bound depends on the working set
 _MAYBE_ZERO = 1e-9  # ‖z‖² below which a Farkas certificate is tried first (rounding in ‖z‖²)
 _CHECK = 1e-9  # final check: bounds, multipliers and dropped rows, relative
@@ -161,7 +165,7 @@ def _newton(P, c, x, active, work, v, refine):
         if not _cholesky(G, L, f, 0.0):
             return False
         for i in range(f):
-            if L[i, i] * L[i, i] < _NEAR * G[i, i]:
+            if L[i, i] * L[i, i] < _SPD * G[i, i]:
                 return False
     _cholesky_solve(L, r, f)
     f = 0
@@ -197,29 +201,15 @@ def eq_box_qp(J, b, x0, lo, hi, x, work, active):
     mk, flag = _independent_rows(J, b, lo, hi, active, work, bk, work[base + 4], y)
     if flag != OPTIMAL:
         return flag, 0
-    # the start: the previous active set, pruned until its multipliers are >= 0
-    for k in range(n):
-        if lo[k] < hi[k] and active[k] != 0:
-            active[k] = -1 if active[k] < 0 else 1
-    if not _factor(Jk, mk, active, work):
+    cap = 4 * (n + m) + 10
+    it = _start(Jk, mk, bk, x0, lo, hi, active, work, x, y, u, cap)
+    if it < 0:  # the previous active set is no start here: from no bound at all
         for k in range(n):
             if lo[k] < hi[k]:
                 active[k] = 0
-        if not _factor(Jk, mk, active, work):
+        it = _start(Jk, mk, bk, x0, lo, hi, active, work, x, y, u, cap)
+        if it < 0:
             return BREAKDOWN, 0
-    cap, it = 4 * (n + m) + 10, 0
-    while True:
-        _optimum(Jk, mk, bk, x0, lo, hi, active, work, x, y, u, False)
-        drop, worst = -1, 0.0
-        for k in range(n):
-            if active[k] != 0 and lo[k] < hi[k] and u[k] < worst:
-                drop, worst = k, u[k]
-        if drop < 0:
-            break
-        it += 1
-        active[drop] = 0
-        if it > cap or not _factor(Jk, mk, active, work):
-            return BREAKDOWN, it
     while True:  # add the most violated bound p
         p, most = -1, 0.0
         for k in range(n):
@@ -299,11 +289,35 @@ def eq_box_qp(J, b, x0, lo, hi, x, work, active):
 
 
 @kernel
+def _start(Jk, mk, bk, x0, lo, hi, active, work, x, nu, u, cap):
+    """A dual feasible start: the optimum on the working set ``active`` (the previous
+    step's), its bound with the most negative multiplier released until none is.
+    Returns the number of releases, or −1 when a working set is nearly rank deficient."""
+    n = x.shape[0]
+    for k in range(n):
+        if lo[k] < hi[k] and active[k] != 0:
+            active[k] = -1 if active[k] < 0 else 1
+    it = 0
+    while it <= cap and _factor(Jk, mk, active, work):
+        _optimum(Jk, mk, bk, x0, lo, hi, active, work, x, nu, u, False)
+        drop, worst = -1, 0.0
+        for k in range(n):
+            if active[k] != 0 and lo[k] < hi[k] and u[k] < worst:
+                drop, worst = k, u[k]
+        if drop < 0:
+            return it
+        it += 1
+        active[drop] = 0
+    return -1
+
+
+@kernel
 def _independent_rows(J, b, lo, hi, active, work, bk, orig, y):
     """The rows of ``J`` that are independent on the joints that are not fixed (``lo <
     hi``), into ``Jk = work[2m:3m]`` with ``bk = b − J_fixed lo_fixed`` and their original
     index in ``orig``; the lower Cholesky factor of their Gram matrix in ``work[m:2m]``.
-    A row dependent on the rows kept before it (relative pivot ≤ 1e-12) is dropped when
+    A row dependent on the rows kept before it (relative distance ≤ 1e-10, computed
+    directly: :func:`_distance2`) is dropped when
     ``b`` agrees; else the dependency proves the QP infeasible (:func:`_certified`).
     Returns ``(#kept, flag)``: OPTIMAL, INFEASIBLE, or BREAKDOWN for a nearly dependent
     row."""
@@ -336,12 +350,11 @@ def _independent_rows(J, b, lo, hi, active, work, bk, orig, y):
             bk[mk], orig[mk] = bi, i
             mk += 1
             continue
-        if d > _DEPENDENT * gii:
-            return mk, BREAKDOWN
-        for j in range(mk - 1, -1, -1):  # the dependency J_i = Σ α_j J_kept_j: Lᵀα = ℓ
-            for q in range(j + 1, mk):
-                ell[j] -= L[q, j] * ell[q]
-            ell[j] /= L[j, j]
+        _solve_lower_transposed(L, ell, mk)  # the dependency J_i ≈ Σ α_j J_kept_j: Lᵀα = ℓ
+        if _distance2(J, i, lo, hi, Jk, L, mk, ell, work[3 * m + 1], work[3 * m + 2]) > (
+            _DEPENDENT * gii
+        ):
+            return mk, BREAKDOWN  # nearly dependent: neither kept nor dropped safely
         e, size = bi, abs(bi)
         for j in range(mk):
             e -= ell[j] * bk[j]
@@ -357,10 +370,38 @@ def _independent_rows(J, b, lo, hi, active, work, bk, orig, y):
 
 
 @kernel
+def _distance2(J, i, lo, hi, Jk, L, mk, alpha, r, t):
+    """``‖r‖²``, ``r = J_i − Σ_j α_j Jk_j`` on the joints that are not fixed, computed
+    directly and refined once (``α += G⁻¹ Jk r``, ``G = LLᵀ``; the Gram pivot alone carries
+    the rounding of ``‖J_i‖²``, twice as many digits lost as here); ``α`` updated."""
+    n = J.shape[1]
+    total = 0.0
+    for sweep in range(2):
+        for k in range(n):
+            acc = J[i, k] if lo[k] < hi[k] else 0.0
+            for j in range(mk):
+                acc -= alpha[j] * Jk[j, k]
+            r[k] = acc
+        if sweep == 1:
+            break
+        for j in range(mk):
+            acc = 0.0
+            for k in range(n):
+                acc += Jk[j, k] * r[k]
+            t[j] = acc
+        _cholesky_solve(L, t, mk)
+        for j in range(mk):
+            alpha[j] += t[j]
+    for k in range(n):
+        total += r[k] * r[k]
+    return total
+
+
+@kernel
 def _factor(Jk, mk, active, work):
     """Cholesky factor of ``G = J_F J_Fᵀ`` (kept rows, ``F`` the joints with ``active = 0``)
     into ``work[m:2m]`` (``G`` itself in ``work[:m]``); False when ``J_F`` is nearly rank
-    deficient (a relative pivot below 1e-8)."""
+    deficient (a relative pivot below 1e-6)."""
     m = Jk.shape[0]
     G, L = work[:m], work[m : 2 * m]
     n = active.shape[0]
