@@ -138,7 +138,8 @@ def random_eq(rng: np.random.Generator, n: int, m: int) -> tuple[np.ndarray, ...
     fixed = rng.random(n) < 0.03
     lo[fixed] = hi[fixed]
     x0 = rng.normal(size=n) * 10.0 ** rng.uniform(-2, 0.5)
-    b = J @ (lo + (hi - lo) * rng.uniform(0, 1, n)) * (1.0 if rng.random() < 0.5 else rng.uniform(0.5, 3))
+    stretch = 1.0 if rng.random() < 0.5 else rng.uniform(0.5, 3)  # > 1: often infeasible
+    b = stretch * (J @ (lo + (hi - lo) * rng.uniform(0, 1, n)))
     return J, b, x0, lo, hi
 
 
@@ -207,7 +208,7 @@ def test_exact_qp_agrees_with_daqp_and_kkt(n: int, m: int) -> None:
         result = solve_eq(J, b, x0, lo, hi)
         check_eq(J, b, x0, lo, hi, result, counts)
         # warm: from its own answer (no iteration), then from a wrong active set
-        flag, it, x, active = solve_eq(J, b, x0, lo, hi, result[2], result[3])
+        flag, it, x, _ = solve_eq(J, b, x0, lo, hi, result[2], result[3])
         assert flag == result[0]
         if flag == 1:
             assert it == 0 and np.abs(x - result[2]).max() <= 1e-14 * (1 + np.abs(x).max())
@@ -226,7 +227,8 @@ def test_box_qp_agrees_with_daqp_and_kkt(n: int, m: int) -> None:
         result = solve_box(P, c, lo, hi, rng.normal(size=n))
         check_box(P, c, lo, hi, result, counts)
         flag, it, x, _ = solve_box(P, c, lo, hi, result[2], result[3])  # warm: done at once
-        assert flag == 1 and it == 1 and np.abs(x - result[2]).max() <= 1e-14 * (1 + np.abs(x).max())
+        assert flag == 1 and it == 1
+        assert np.abs(x - result[2]).max() <= 1e-14 * (1 + np.abs(x).max())
         wrong = rng.integers(-1, 2, n).astype(np.int8)
         check_box(P, c, lo, hi, solve_box(P, c, lo, hi, rng.normal(size=n), wrong), counts)
     assert counts["breakdown"] == 0, counts
@@ -331,8 +333,8 @@ def test_degenerate_problems() -> None:
     P, c, blo, bhi = random_box(rng, 7, 6)
     blo[4] = bhi[4] = 0.0
     flag, _, x, _ = solve_box(P, c, blo, bhi, blo.copy(), np.full(7, -1, np.int8))
-    assert flag == 1 and x[4] == 0.0 and np.abs(x - daqp_qp(P, c, np.zeros((0, 7)),
-                                                            np.zeros(0), blo, bhi)[0]).max() <= 1e-10  # fmt: skip
+    xd = daqp_qp(P, c, np.zeros((0, 7)), np.zeros(0), blo, bhi)[0]
+    assert flag == 1 and x[4] == 0.0 and np.abs(x - xd).max() <= 1e-10
 
 
 def test_bad_inputs_break_down_instead_of_answering() -> None:
@@ -341,7 +343,8 @@ def test_bad_inputs_break_down_instead_of_answering() -> None:
     assert solve_eq(J, b, x0, np.array([1.0, -1, -1]), np.array([0.0, 1, 1]))[0] == -1
     work = np.zeros((2, 2))  # too small
     assert K.eq_box_qp(J, b, x0, lo, hi, np.zeros(3), work, np.zeros(3, np.int8))[0] == -1
-    assert K.box_qp(np.eye(3), b[:1].repeat(3), lo, hi, np.zeros(3), work, np.zeros(3, np.int8))[0] == -1
+    c = np.ones(3)
+    assert K.box_qp(np.eye(3), c, lo, hi, np.zeros(3), work, np.zeros(3, np.int8))[0] == -1
     nearly = np.array([[1.0, 0, 0], [1.0, 3e-7, 0]])  # nearly dependent rows, refused
     assert solve_eq(nearly, np.array([0.5, 0.5 + 1e-9]), x0, lo, hi)[0] == -1
     exactly = np.array([[1.0, 0, 0], [1.0, 1e-12, 0]])  # dependent to rounding, consistent
