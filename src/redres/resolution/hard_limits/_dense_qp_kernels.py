@@ -229,9 +229,13 @@ def eq_box_qp(J, b, x0, lo, hi, x, work, active):
             for i in range(mk):
                 w[i] = Jk[i, p]
             _cholesky_solve(L, w, mk)
-            znp = 1.0
+            znp, free = 1.0, 0
             for i in range(mk):
                 znp -= Jk[i, p] * w[i]
+            for k in range(n):
+                free += active[k] == 0
+            if free <= mk:  # J_F square: e_p is in its row space, z = 0 exactly
+                znp = 0.0
             t1, block = math.inf, -1
             for a in range(n):
                 if active[a] != 0 and lo[a] < hi[a]:
