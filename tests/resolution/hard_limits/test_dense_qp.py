@@ -234,6 +234,27 @@ def test_box_qp_agrees_with_daqp_and_kkt(n: int, m: int) -> None:
     assert counts["breakdown"] == 0, counts
 
 
+def test_units_do_not_matter(rng: np.random.Generator) -> None:
+    """Problems scaled by 1e-3 … 1e3 (``J``) and 1e-4 … 1e2 (velocities), some boxes 1e4
+    times wider: DAQP's verdict, the KKT conditions relative to the data, no breakdown."""
+    for k in range(2000 if COMPILED else 300):
+        n, m = SIZES[k % len(SIZES)]
+        J, b, x0, lo, hi = random_eq(rng, n, m)
+        sJ, sv = 10.0 ** rng.uniform(-3, 3), 10.0 ** rng.uniform(-4, 2)
+        wide = 1e4 if rng.random() < 0.1 else 1.0
+        J, b, x0, lo, hi = sJ * J, sJ * sv * b, sv * x0, sv * wide * lo, sv * wide * hi
+        flag, _, x, active = solve_eq(J, b, x0, lo, hi)
+        assert flag == (1 if daqp_qp(np.eye(n), -x0, J, b, lo, hi)[0] is not None else 0)
+        size = 1 + np.abs(x).max() + np.abs(b).max() + np.abs(x0).max()
+        assert flag == 0 or eq_kkt(J, b, x0, lo, hi, x, active) <= 1e-9 * size
+        P = J.T @ J + 1e-6 * sJ**2 * np.eye(n)
+        c = -J.T @ b - 1e-6 * sJ**2 * x0
+        flag, _, x, _ = solve_box(P, c, lo, hi, sv * rng.normal(size=n))
+        assert flag == 1
+        size = 1 + np.abs(c).max() + np.abs(P).max() * np.abs(x).max()
+        assert box_kkt(P, c, lo, hi, x) <= 1e-11 * size
+
+
 def test_warm_starts_along_a_drifting_problem(rng: np.random.Generator) -> None:
     """A control loop's sequence: each QP a small change of the last, warm-started from
     its answer, equals the cold solve and takes fewer iterations in total."""

@@ -88,7 +88,6 @@ def box_qp(P, c, lo, hi, x, work, active):
     n = x.shape[0]
     if work.shape[0] < 2 * n + 8 or work.shape[1] < n:
         return BREAKDOWN, 0
-    scale = 0.0
     for k in range(n):
         if not lo[k] <= hi[k]:  # empty box or NaN bound
             return BREAKDOWN, 0
@@ -98,11 +97,7 @@ def box_qp(P, c, lo, hi, x, work, active):
             active[k], x[k] = 1, hi[k]
         else:
             x[k] = min(max(x[k], lo[k]), hi[k]) if x[k] == x[k] else lo[k]
-        scale = max(scale, abs(c[k]))
-        for j in range(n):
-            scale = max(scale, abs(P[k, j]) * max(abs(lo[j]), abs(hi[j]), 1.0))
     v = work[2 * n]
-    tol = 1e-12 * scale  # a multiplier above -tol keeps its bound (ties: either is optimal)
     cap = 4 * n + 10
     for it in range(1, cap + 1):
         if not _newton(P, c, x, active, work, v, False):
@@ -122,14 +117,15 @@ def box_qp(P, c, lo, hi, x, work, active):
             active[block] = -1 if v[block] < x[block] else 1
             x[block] = lo[block] if active[block] < 0 else hi[block]
             continue
-        release, worst = -1, -tol
+        release, worst = -1, 0.0
         for k in range(n):
             if active[k] != 0 and lo[k] < hi[k]:
-                g = c[k]
+                g, size = c[k], abs(c[k])
                 for j in range(n):
                     g += P[k, j] * x[j]
+                    size += abs(P[k, j] * x[j])
                 mu = g if active[k] < 0 else -g
-                if mu < worst:
+                if mu < -1e-12 * size and mu < worst:  # beyond the rounding of g: release
                     release, worst = k, mu
         if release < 0:  # optimal: one step of iterative refinement on the same factor
             _newton(P, c, x, active, work, v, True)
