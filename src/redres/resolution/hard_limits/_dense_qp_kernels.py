@@ -13,7 +13,7 @@ Entry points (all arrays float64 C-contiguous but ``active``, int8; ``work`` of 
   first bound it hits, which joins the set; at the Newton point the bound with the most
   negative multiplier ``μ_k = ±(P x + c)_k`` leaves it. Warm start: ``x`` and ``active``
   on entry (the previous step's answer), clipped into the box.
-  Calls :func:`_newton`, :func:`._solve_free`.
+  Calls :func:`_newton`.
 * :func:`eq_box_qp` ``(J, b, x0, lo, hi, x, work, active) → (flag, iterations)``: the
   exact QP ``min ½‖x − x0‖²  s.t.  J x = b,  lo ≤ x ≤ hi``, by the dual active-set method
   of Goldfarb & Idnani (1983) with ``H = I``. The equalities are taken first
@@ -25,8 +25,8 @@ Entry points (all arrays float64 C-contiguous but ``active``, int8; ``work`` of 
   J_Fᵀ w)`` on ``F`` (``zᵀn_p = 1 − e_pᵀJᵀw``), the working bounds' multipliers move by
   ``−t r_a``, ``r_a = −s_a s (J e_a)ᵀw``; the step ``t`` is the smaller of the full step
   (``p`` becomes active) and the first multiplier to reach zero (that bound leaves).
-  Calls :func:`_independent_rows`, :func:`_start`, :func:`_factor`, :func:`_optimum`,
-  :func:`_certified`.
+  Calls :func:`_independent_rows` (:func:`_distance2`), :func:`_start`, :func:`_factor`,
+  :func:`_optimum`, :func:`_certified`.
 
 Both finish with a clean solve on the final active set and one step of iterative
 refinement, so that the answer equals any exact solver's (DAQP's) to rounding when the
