@@ -84,7 +84,7 @@ def _controller() -> None:
     from .control import Controller, _fused
     from .models import panda
     from .objectives import JointLimitObjective
-    from .resolution import GradientProjectionScheme, PseudoInverseScheme
+    from .resolution import GradientProjectionScheme, PseudoInverseScheme, SNSScheme
     from .tasks import FrameTask
 
     # The fused step on a serial chain (the common first use) first, from its entry point
@@ -98,6 +98,9 @@ def _controller() -> None:
         _fused.native(entry)
         _compile.groups()["controller"].mark(part=entry)
     Controller(robot, FrameTask(), PseudoInverseScheme(), dt=1e-3).step(robot.neutral())
+    # SNSScheme's one-call form (redres.control._box_kernels), which compiles the
+    # hard-limit kernels it calls into it
+    Controller(robot, FrameTask(), SNSScheme(dt=1e-3), dt=1e-3).step(robot.neutral())
 
 
 def _shaping() -> None:
