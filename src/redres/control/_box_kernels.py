@@ -21,20 +21,65 @@ from ..linalg._codes import CFG_DT, CFG_HAS_GRAD, CFG_K_NULL, CFG_VECTORS, OK, Q
 from ..resolution.hard_limits._kernels import sns_step
 from ._kernels import _rows_at, chain_command
 
-#: The header of ``state``: the SNS tolerance (rad/s), then spare slots.
-TOLERANCE, HEADER = 0, 4
+#: The header of ``state``: the SNS tolerance (rad/s), the QP's damping squared, whether
+#: its exact QP was infeasible at the last step (1.0), the rows and columns of its
+#: solvers' workspace (0 for SNS); then spare slots.
+TOLERANCE, DAMPING2, INFEASIBLE, WORK_ROWS, WORK_COLS, HEADER = 0, 1, 2, 3, 4, 8
 
 
 @kernel
-def state_size(n, m):
-    """Length of ``state`` for ``n`` joints and ``m`` task rows."""
-    return HEADER + 4 * n + n + 3 * m * m + 3 * m + 6 * n + m * n + m
+def _rows_end(n, m):
+    """Where the part of ``state`` that both steps use ends: the header, ``lim`` (4, n),
+    ``q̇_0`` (n), ``M`` (3, m, m), ``wm`` (3, m), ``wn`` (6, n), ``Jm`` (m, n), ``ẋ`` (m)."""
+    return HEADER + 5 * n + 3 * m * m + 3 * m + 6 * n + m * n + m
+
+
+@kernel
+def state_size(n, m, rows, cols):
+    """Length of ``state`` for ``n`` joints and ``m`` task rows; ``rows``, ``cols``: the QP
+    solvers' workspace (0, 0 for SNS)."""
+    if rows == 0:
+        return _rows_end(n, m)
+    return _rows_end(n, m) + 2 * (n + m) + n + m + n * n + 3 * n + rows * cols
 
 
 @kernel
 def out_size(n, m):
     """Length of a step's ``out`` for ``n`` joints and ``m`` task rows."""
     return 4 * n + m * n + 22 + 6 * n
+
+
+@kernel
+def _views(state, n, m):
+    """``(lim, q̇_0, M, wm, wn, Jm, ẋ)``: views of ``state`` (:func:`_rows_end`)."""
+    k = HEADER
+    lim = state[k : k + 4 * n].reshape((4, n))
+    qd0 = state[k + 4 * n : k + 5 * n]
+    k += 5 * n
+    M = state[k : k + 3 * m * m].reshape((3, m, m))
+    k += 3 * m * m
+    wm = state[k : k + 3 * m].reshape((3, m))
+    wn = state[k + 3 * m : k + 3 * m + 6 * n].reshape((6, n))
+    k += 3 * m + 6 * n
+    Jm = state[k : k + m * n].reshape((m, n))
+    return lim, qd0, M, wm, wn, Jm, state[k + m * n : k + m * n + m]
+
+
+@kernel
+def _shapes_fit(q, prev, q_next, state, out, codes, flags, m):
+    """Whether the arrays have the lengths and shapes the module docstring gives."""
+    n = q.shape[0]
+    if state.shape[0] < HEADER:
+        return False
+    size = state_size(n, m, int(state[WORK_ROWS]), int(state[WORK_COLS]))
+    return (
+        q_next.shape[0] == n
+        and prev.shape[0] == n
+        and state.shape[0] == size
+        and out.shape[0] == out_size(n, m)
+        and codes.shape[1] == n
+        and flags.shape[1] == n
+    )
 
 
 @kernel
@@ -61,27 +106,9 @@ def chain_sns_step(config, q, prev, q_next, state, out, codes, wb):
     and integrates again."""
     n = q.shape[0]
     rows, m = _rows_at(config, n)
-    if (
-        rows < 0
-        or q_next.shape[0] != n
-        or prev.shape[0] != n
-        or state.shape[0] != state_size(n, m)
-        or out.shape[0] != out_size(n, m)
-        or codes.shape[1] != n
-        or wb.shape[1] != n
-    ):
+    if rows < 0 or not _shapes_fit(q, prev, q_next, state, out, codes, wb, m):
         return Q_SHAPE, 0, 0.0, 0, 0, False, False, False
-    k = HEADER
-    lim = state[k : k + 4 * n].reshape((4, n))
-    qd0 = state[k + 4 * n : k + 5 * n]
-    k += 5 * n
-    M = state[k : k + 3 * m * m].reshape((3, m, m))
-    k += 3 * m * m
-    wm = state[k : k + 3 * m].reshape((3, m))
-    wn = state[k + 3 * m : k + 3 * m + 6 * n].reshape((6, n))
-    k += 3 * m + 6 * n
-    Jm = state[k : k + m * n].reshape((m, n))
-    xd = state[k + m * n : k + m * n + m]
+    lim, qd0, M, wm, wn, Jm, xd = _views(state, n, m)
     box = out[: 4 * n].reshape((4, n))
     Jc = out[4 * n : 4 * n + m * n].reshape((m, n))
     status = chain_command(config, q, out[4 * n + m * n :], Jm, xd)

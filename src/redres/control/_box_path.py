@@ -1,12 +1,13 @@
 """The controller's one-call step for the hard-limit schemes (internal).
 
-On a plain frame task whose frame ends a serial chain, a :class:`~redres.resolution.SNSScheme`
-whose objectives are diagonal quadratics (joint-limit mid-range, posture) runs front end,
-box, saturation in the null space and integration in one compiled call
-(:func:`redres.control._box_kernels.chain_sns_step`) instead of the front end's call, then
-the scheme's ``_step`` in Python: the same kernels on the same numbers, so the two give the
-same bits. The scheme stays the owner of its state (``qd_prev``) and of the step's result
-(``SNSScheme._finished``). :func:`box_step` says whether a controller can take it.
+On a plain frame task whose frame ends a serial chain, a plain
+:class:`~redres.resolution.SNSScheme` whose objectives are diagonal quadratics (joint-limit
+mid-range, posture) or none runs front end, box, saturation in the null space and
+integration in one compiled call (:func:`redres.control._box_kernels.chain_sns_step`)
+instead of the front end's call, then the scheme's ``_step`` in Python: the same kernels
+on the same numbers, so the two give the same bits. The scheme stays the owner of its
+state (``qd_prev``) and of the step's result (``SNSScheme._finished``).
+:func:`box_step` says whether a controller can take it.
 """
 
 from __future__ import annotations
@@ -38,7 +39,6 @@ class BoxStep:
         config: the controller's kernel config (with the frame's chain); its cost slots
             are set here from the scheme's objectives.
         quadratic: the objectives' ``(a, r)`` (:func:`redres.objectives.quadratic_coefficients`).
-        entry: the kernel's entry point.
     """
 
     def __init__(
@@ -47,42 +47,50 @@ class BoxStep:
         scheme: SNSScheme,
         config: FloatArray,
         quadratic: tuple[FloatArray, FloatArray] | None,
-        entry: Any,
     ) -> None:
         n, m = robot.n, int(config[codes.CFG_ROWS])
         kernels = KERNELS.module(_MODULE)
         assert kernels is not None  # box_step found them
-        self._robot, self._scheme, self._config, self._entry = robot, scheme, config, entry
+        self._robot, self._scheme, self._config = robot, scheme, config
         self._n, self._m, self._dt = n, m, scheme.dt
         if quadratic is not None:
             v = codes.CFG_VECTORS
             config[codes.CFG_K_NULL] = scheme.k_null
             config[codes.CFG_HAS_GRAD] = 1.0
             config[v : v + n], config[v + n : v + 2 * n] = quadratic
-        self._state = np.zeros(kernels.state_size(n, m))
+        self._state = state = np.zeros(kernels.state_size(n, m, 0, 0))
         self._out_size = kernels.out_size(n, m)
         limits = scheme.limits(robot)
         head = kernels.HEADER
-        self._state[kernels.TOLERANCE] = scheme.tolerance
-        self._state[head : head + 4 * n] = np.concatenate(
+        state[kernels.TOLERANCE] = scheme.tolerance
+        state[head : head + 4 * n] = np.concatenate(
             [limits.q_min, limits.q_max, limits.qd_max, limits.qdd_max]
         )
-        rows = self._state[head + 5 * n + 3 * m * m + 3 * m + 6 * n :]
+        rows = state[kernels._rows_end(n, m) - m * n - m : kernels._rows_end(n, m)]
         self._Jm, self._xd = rows[: m * n].reshape(m, n), rows[m * n :]
-        self._wb = np.zeros((3, n), np.bool_)
+        self._flags = np.zeros((3, n), np.bool_)
         self._zero = np.zeros(n)
         self._shape = (3, n)
+        self._entry = KERNELS.entry("chain_sns_step", self._arguments(self._zero, np.empty(n)),
+                                    _MODULE)  # fmt: skip
+
+    def _arguments(
+        self, q: FloatArray, q_next: FloatArray, prev: FloatArray | None = None
+    ) -> tuple[Any, ...]:
+        """The kernel's arguments for a step at ``q`` (and a new ``out``, ``codes``)."""
+        return (self._config, q, self._zero if prev is None else prev, q_next, self._state,
+                _empty(self._out_size), _empty(self._shape, _int8), self._flags)  # fmt: skip
 
     def __call__(self, q: FloatArray) -> tuple[FloatArray, StepResult, FloatArray, FloatArray]:
         """The step at ``q`` (float64, C order): ``(q⁺, the scheme's result, the frame's
         error (6,), its pose (4, 4))``; ``q̇`` becomes the scheme's ``qd_prev``."""
         scheme, n, m = self._scheme, self._n, self._m
-        prev = scheme.qd_prev
-        q_next, out, codes_ = _empty(n), _empty(self._out_size), _empty(self._shape, _int8)
-        status, *outcome = self._entry(self._config, q, self._zero if prev is None else prev,
-                                       q_next, self._state, out, codes_, self._wb)  # fmt: skip
+        q_next = _empty(n)
+        args = self._arguments(q, q_next, scheme.qd_prev)
+        status, *outcome = self._entry(*args)
         if status:
             raise_for_status(status, n)
+        out, codes_ = args[5], args[6]
         box = out[: 4 * n].reshape(4, n)
         Jc = out[4 * n : 4 * n + m * n].reshape(m, n)
         tail = 4 * n + m * n
@@ -109,12 +117,4 @@ def box_step(robot: Robot, scheme: Any, config: FloatArray) -> BoxStep | bool:
             return False
     if not KERNELS.ready(_MODULE):
         return True
-    n, m = robot.n, int(config[codes.CFG_ROWS])
-    zero = np.zeros(n)
-    kernels = KERNELS.module(_MODULE)
-    assert kernels is not None
-    state = np.zeros(kernels.state_size(n, m))
-    args = (config, zero, zero, np.empty(n), state, np.zeros(kernels.out_size(n, m)),
-            np.zeros((3, n), np.int8), np.zeros((3, n), np.bool_))  # fmt: skip
-    entry = KERNELS.entry("chain_sns_step", args, _MODULE)
-    return BoxStep(robot, scheme, config, quadratic, entry)
+    return BoxStep(robot, scheme, config, quadratic)
