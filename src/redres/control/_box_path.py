@@ -71,8 +71,9 @@ class BoxStep:
         self._flags = np.zeros((3, n), np.bool_)
         self._zero = np.zeros(n)
         self._shape = (3, n)
-        self._entry = KERNELS.entry("chain_sns_step", self._arguments(self._zero, np.empty(n)),
-                                    _MODULE)  # fmt: skip
+        entry = KERNELS.entry("chain_sns_step", self._arguments(self._zero, np.empty(n)), _MODULE)
+        assert entry is not None  # numba imports: box_step found the kernels
+        self._entry: Any = entry
 
     def _arguments(
         self, q: FloatArray, q_next: FloatArray, prev: FloatArray | None = None
