@@ -1,5 +1,6 @@
 """The hard-limit schemes' kernel group (internal): the step (:mod:`._kernels`), the linear
-program (:mod:`._lp_kernels`) and the QP's own kernels (:mod:`._qp_kernels`)."""
+program (:mod:`._lp_kernels`), the QP's own kernels (:mod:`._qp_kernels`) and its dense QP
+solvers (:mod:`._dense_qp_kernels`)."""
 
 from __future__ import annotations
 
@@ -7,18 +8,22 @@ from types import ModuleType
 
 from ... import _compile
 
-#: Cold: a first SNS step 16-18 s (with the linear program); the QP's own kernels 4 s more.
+#: Cold: a first SNS step 16-18 s (with the linear program); the QP's own kernels 4 s more;
+#: the dense QP solvers 6 s more.
 KERNELS = _compile.KernelGroup(
     "hard limits",
     ("redres.resolution.hard_limits._kernels", "redres.resolution.hard_limits._lp_kernels",
-     "redres.resolution.hard_limits._qp_kernels"),
+     "redres.resolution.hard_limits._qp_kernels",
+     "redres.resolution.hard_limits._dense_qp_kernels"),
     cold_seconds=17.0,
-    others={"redres.resolution.hard_limits._qp_kernels": 4.0},
+    others={"redres.resolution.hard_limits._qp_kernels": 4.0,
+            "redres.resolution.hard_limits._dense_qp_kernels": 6.0},
 )  # fmt: skip
 
 
 def kernels(name: str = "_kernels", *, plain: bool = False) -> ModuleType:
-    """Kernel module ``name`` of the group (``_kernels``, ``_lp_kernels``, ``_qp_kernels``):
+    """Kernel module ``name`` of the group (``_kernels``, ``_lp_kernels``, ``_qp_kernels``,
+    ``_dense_qp_kernels``):
     compiled, or its plain-Python twin while it compiles behind; ``plain``: the twin in
     any case (a scheme whose other module is still compiling).
 
