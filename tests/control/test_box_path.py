@@ -5,8 +5,11 @@ chain kernel's front end, then the scheme's ``_step`` in Python, the path it rep
 step by step in closed loop along circles that drive the joints into their position,
 velocity and acceleration limits, on the Panda, the iiwa14, a planar arm (two task rows)
 and DH robots with prismatic joints; with and without the diagonal quadratic costs; after
-a reset; through the ill-conditioned branch (the LP again on orthonormal rows). And the
-limits themselves, checked on the applied motion.
+a reset; through the ill-conditioned branch (the LP again on orthonormal rows). For the
+QP, whose compiled solvers replace DAQP, the reference steps from the one-call
+controller's own states (its ``q``, previous velocity and verdict) and the two must agree
+to DAQP's tolerance with the same active bounds. And the limits themselves, checked on
+the applied motion.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ from redres.control._box_path import BoxStep
 from redres.errors import NonFiniteError, ShapeError
 from redres.linalg import _backend
 from redres.objectives import JointLimitObjective, ManipulabilityObjective, PostureObjective
-from redres.resolution import SNSScheme
+from redres.resolution import QPScheme, SNSScheme
 from redres.tasks import FrameTask
 
 DT = 1e-3
@@ -35,11 +38,13 @@ def _compiled() -> None:
         pytest.skip("compiled kernels unavailable")
 
 
-def pair(robot: rr.Robot, rows: list[str] | None, objectives: Any, **kw: Any) -> list[Controller]:
+def pair(
+    robot: rr.Robot, rows: list[str] | None, objectives: Any, kind: type = SNSScheme, **kw: Any
+) -> list[Controller]:
     """Two controllers of the same job: the one-call step, and the path it replaces."""
     made = []
     for box in (True, False):
-        scheme = SNSScheme(dt=DT, objectives=objectives, k_null=2.0, **kw)
+        scheme = kind(dt=DT, objectives=objectives, k_null=2.0, **kw)
         c = Controller(robot, FrameTask(rows=rows), scheme, gain=60.0, dt=DT)
         assert c.path == "frame" and c.kinematics == "chain"
         if not box:
@@ -199,3 +204,68 @@ def test_bad_input_is_named() -> None:
     assert c.result is None  # nothing reported from a step that raised
     c.step(q)
     assert c.result is not None and c.result.feasible
+
+
+@pytest.mark.parametrize(("name", "rows", "objectives"), CASES)
+def test_qp_one_call_step_equals_the_schemes_step_on_its_states(
+    monkeypatch: pytest.MonkeyPatch, name: str, rows: list[str] | None, objectives: Any
+) -> None:
+    """Every step of a closed loop: the same feasibility, box, bounds held and verdict;
+    ``q̇`` to 1e-10 (DAQP's answer is within its ``primal_tol`` 1e-10 of the optimum, the
+    compiled solvers' within rounding); the steps handed back to the scheme's own path
+    (a solver breakdown, the refinement on orthonormal rows) are counted and few."""
+    robot = _robot(name)
+    a, b = pair(robot, rows, objectives, QPScheme, **LIMITS.get(name, {}))
+    handed = []
+    own_step = QPScheme._step
+
+    def spy(self: QPScheme, *args: Any) -> Any:
+        if self is a.scheme:
+            handed.append(1)
+        return own_step(self, *args)
+
+    monkeypatch.setattr(QPScheme, "_step", spy)
+    rng = np.random.default_rng(5)
+    q = robot.random_configuration(rng, margin=0.1)
+    circle = Circle(robot.fk(q), radius=0.25, period=0.8)
+    limits = a.scheme.limits(robot)  # type: ignore[attr-defined]
+    verdicts, prev = set(), np.zeros(robot.n)
+    for k in range(400):
+        sample = circle.sample(k * DT)
+        for c in (a, b):
+            c.task.set_target(sample.pose, sample.twist)
+        sa, sb = a.scheme, b.scheme
+        sb.qd_prev = None if sa.qd_prev is None else sa.qd_prev.copy()  # type: ignore[attr-defined]
+        sb._infeasible_before = sa._infeasible_before  # type: ignore[attr-defined]
+        qa_next, qb_next = a.step(q), b.step(q)
+        ra, rb = a.result, b.result
+        assert ra is not None and rb is not None
+        assert ra.feasible == rb.feasible, k
+        assert sa._infeasible_before == sb._infeasible_before, k  # type: ignore[attr-defined]
+        da, db = ra.details, rb.details
+        for x, y in zip(da.bounds, db.bounds, strict=True):
+            np.testing.assert_array_equal(x, y)
+        assert [(p.joint, p.side) for p in ra.binding] == [(p.joint, p.side) for p in rb.binding]
+        np.testing.assert_allclose(ra.qd, rb.qd, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(qa_next, q + ra.qd * DT, rtol=0, atol=0)
+        assert da.residual == pytest.approx(db.residual, abs=1e-9 * max(1.0, db.residual))
+        assert np.all(qa_next >= limits.q_min - 1e-12) and np.all(qa_next <= limits.q_max + 1e-12)
+        assert np.all(np.abs(ra.qd) <= limits.qd_max + 1e-12)
+        assert np.all(np.abs(ra.qd - prev) <= limits.qdd_max * DT + 1e-9)
+        verdicts.add(ra.feasible)
+        prev, q = ra.qd, qa_next
+    assert verdicts == {True, False}, f"the circle never saturated, or never tracked: {verdicts}"
+    assert len(handed) <= 4, f"{len(handed)} of 400 steps went back to the scheme's own path"
+
+
+def test_qp_where_it_does_not_apply() -> None:
+    """Levels, collision rows and other backends keep the frame path."""
+    panda = rr.models.panda()
+    schemes = [
+        QPScheme(dt=DT, levels=[FrameTask(rows=["x"])]),
+        QPScheme(dt=DT, collisions=rr.Collisions(influence=0.1, safety=0.01, self_collision=True)),
+        QPScheme(dt=DT, solver="proxqp"),
+    ]
+    for scheme in schemes:
+        assert Controller(panda, FrameTask(), scheme, dt=DT)._box is False
+    assert isinstance(Controller(panda, FrameTask(), QPScheme(dt=DT), dt=DT)._box, BoxStep)

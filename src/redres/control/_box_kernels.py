@@ -18,13 +18,26 @@ from __future__ import annotations
 
 from .._compile import kernel
 from ..linalg._codes import CFG_DT, CFG_HAS_GRAD, CFG_K_NULL, CFG_VECTORS, OK, Q_SHAPE
-from ..resolution.hard_limits._kernels import sns_step
+from ..resolution.hard_limits._codes import MET_TOLERANCE
+from ..resolution.hard_limits._dense_qp_kernels import box_qp, eq_box_qp
+from ..resolution.hard_limits._kernels import epilogue, sns_step
+from ..resolution.hard_limits._qp_kernels import qp_begin, qp_end
 from ._kernels import _rows_at, chain_command
 
 #: The header of ``state``: the SNS tolerance (rad/s), the QP's damping squared, whether
 #: its exact QP was infeasible at the last step (1.0), the rows and columns of its
 #: solvers' workspace (0 for SNS); then spare slots.
 TOLERANCE, DAMPING2, INFEASIBLE, WORK_ROWS, WORK_COLS, HEADER = 0, 1, 2, 3, 4, 8
+_MET2 = MET_TOLERANCE * MET_TOLERANCE
+
+
+@kernel
+def _squared(x):
+    """``‖x‖²``."""
+    acc = 0.0
+    for i in range(x.shape[0]):
+        acc += x[i] * x[i]
+    return acc
 
 
 @kernel
@@ -122,3 +135,94 @@ def chain_sns_step(config, q, prev, q_next, state, out, codes, wb):
         for j in range(n):
             q_next[j] = q[j] + box[0, j] * dt
     return result
+
+
+@kernel
+def _qp_views(state, n, m):
+    """The QP's part of ``state`` after the task rows: DAQP-style bounds ``bu``, ``bl``
+    (n + m), ``f`` (n), the task weights ``w`` (m), the least-violating QP's ``P`` (n, n)
+    and ``c`` (n), the exact and least-violating answers (warm starts) and the solvers'
+    ``work`` (rows and columns in the header)."""
+    k = _rows_end(n, m)
+    bu = state[k : k + n + m]
+    bl = state[k + n + m : k + 2 * (n + m)]
+    k += 2 * (n + m)
+    f, w = state[k : k + n], state[k + n : k + n + m]
+    k += n + m
+    P = state[k : k + n * n].reshape((n, n))
+    k += n * n
+    c, x, lv = state[k : k + n], state[k + n : k + 2 * n], state[k + 2 * n : k + 3 * n]
+    k += 3 * n
+    rows, cols = int(state[WORK_ROWS]), int(state[WORK_COLS])
+    return bu, bl, f, w, P, c, x, lv, state[k : k + rows * cols].reshape((rows, cols))
+
+
+@kernel(nogil=False)  # called from Python, a few microseconds
+def chain_qp_step(config, q, prev, q_next, state, out, codes, act):
+    """One QP step of a frame task (:mod:`redres.resolution.hard_limits.qp`, one level,
+    no collision rows): the chain's front end, the box, the exact QP (Goldfarb–Idnani,
+    :func:`~redres.resolution.hard_limits._dense_qp_kernels.eq_box_qp`) or, when it is
+    infeasible, the least-violating one (a primal active set,
+    :func:`~redres.resolution.hard_limits._dense_qp_kernels.box_qp`), in
+    :class:`~redres.resolution.QPScheme`'s order: after an infeasible step the
+    least-violating QP first, the exact one skipped when Farkas' lemma proves it
+    infeasible; then ``q⁺ = q + q̇ dt``. ``act`` (2, n) int8: the two QPs' active sets,
+    kept as warm starts. Returns ``(status, #relaxed, #active, met, residual, infeasible,
+    defer)``: ``infeasible``, the exact QP was infeasible this step (the scheme's
+    ``_infeasible_before`` next); ``defer``, a solver broke down or the answer needs the
+    scheme's refinement on orthonormal rows (its residual exceeds ``MET_TOLERANCE``): the
+    caller runs the scheme's own step on the task rows instead (nothing here changed
+    the scheme's state)."""
+    n = q.shape[0]
+    rows, m = _rows_at(config, n)
+    if rows < 0 or state.shape[0] < HEADER or state[WORK_ROWS] == 0.0:
+        return Q_SHAPE, 0, 0, False, 0.0, False, False
+    if not _shapes_fit(q, prev, q_next, state, out, codes, act, m):
+        return Q_SHAPE, 0, 0, False, 0.0, False, False
+    lim, qd0, M, wm, _, Jm, xd = _views(state, n, m)
+    bu, bl, f, w, P, c, x, lv, work = _qp_views(state, n, m)
+    box = out[: 4 * n].reshape((4, n))
+    Jc = out[4 * n : 4 * n + m * n].reshape((m, n))
+    status = chain_command(config, q, out[4 * n + m * n :], Jm, xd)
+    if status != OK:
+        return status, 0, 0, False, 0.0, False, False
+    _secondary(config, q, qd0)
+    dt = config[CFG_DT]
+    status, relaxed, full, inside = qp_begin(q, prev, dt, lim, Jm, xd, qd0, box, codes, Jc, M,
+                                             wm, bu, bl, f, w, state[DAMPING2], P, c)  # fmt: skip
+    if status != OK:
+        return status, 0, 0, False, 0.0, False, False
+    before = state[INFEASIBLE] != 0.0
+    infeasible, met, proved = before, True, False  # inside: the flag stays as it was
+    active, residual = 0, 0.0
+    if not inside:
+        lo, hi = box[2], box[3]
+        if before:  # the least-violating QP first; Farkas may prove the exact one empty
+            if box_qp(P, c, lo, hi, lv, work, act[1])[0] != 1:
+                return OK, relaxed, 0, False, 0.0, True, True
+            proved, active, residual = qp_end(Jm, xd, lv, box, M, wm, full)
+        if proved:
+            infeasible, met = True, False
+        else:
+            flag = eq_box_qp(Jm, xd, qd0, lo, hi, x, work, act[0])[0]
+            if flag < 0:
+                return OK, relaxed, 0, False, 0.0, True, True
+            infeasible = flag == 0
+            if infeasible:
+                met = False
+                if not before:
+                    if box_qp(P, c, lo, hi, lv, work, act[1])[0] != 1:
+                        return OK, relaxed, 0, False, 0.0, True, True
+                    proved, active, residual = qp_end(Jm, xd, lv, box, M, wm, full)
+                if not proved:  # the scheme refines this one on orthonormal rows
+                    return OK, relaxed, 0, False, 0.0, True, True
+            else:
+                for j in range(n):
+                    box[0, j] = x[j]
+    if not proved:
+        active, residual = epilogue(Jm, xd, box, M, wm, full, False)
+        if not inside and residual * residual > _MET2 * _squared(xd):
+            return OK, relaxed, 0, False, 0.0, True, True  # the scheme's refinement
+    for j in range(n):
+        q_next[j] = q[j] + box[0, j] * dt
+    return OK, relaxed, active, met, residual, infeasible, False
