@@ -30,28 +30,32 @@ if TYPE_CHECKING:
 _REFERENCE = {"world": pin.LOCAL_WORLD_ALIGNED, "local": pin.LOCAL}
 
 
-class _CopiedArray:
-    """A read-only array attribute of :class:`Robot` whose value is a copy of the private
+class _CopiedArray(property):
+    """A read-only array property of :class:`Robot` whose value is a copy of the private
     array ``_<name>``: changing what a caller gets leaves the robot as it was."""
 
     def __init__(self, doc: str) -> None:
-        self.__doc__ = doc
+        super().__init__(self._copy)
+        self.__doc__ = doc  # (a property subclass does not keep ``doc=`` before Python 3.12)
 
     def __set_name__(self, owner: type, name: str) -> None:
         self._name, self._private = name, f"_{name}"
 
-    @overload
-    def __get__(self, robot: None, owner: type) -> _CopiedArray: ...
-    @overload
-    def __get__(self, robot: object, owner: type) -> FloatArray: ...
-    def __get__(self, robot: object, owner: type) -> FloatArray | _CopiedArray:
-        return self if robot is None else getattr(robot, self._private).copy()
+    def _copy(self, robot: object) -> FloatArray:
+        return np.array(getattr(robot, self._private), dtype=float)
 
     def __set__(self, robot: object, value: object) -> None:
         raise AttributeError(
             f"Robot.{self._name} is read-only; Robot.with_limits gives a robot with other "
             "velocity, acceleration, jerk or torque limits"
         )
+
+    @overload
+    def __get__(self, robot: None, owner: type | None = None) -> _CopiedArray: ...
+    @overload
+    def __get__(self, robot: object, owner: type | None = None) -> FloatArray: ...
+    def __get__(self, robot: object, owner: type | None = None) -> Any:
+        return super().__get__(robot, owner)
 
 
 class Robot(RobotFiles):
