@@ -36,7 +36,7 @@ class _CopiedArray(property):
 
     def __init__(self, doc: str) -> None:
         super().__init__(self._copy)
-        self.__doc__ = doc  # (a property subclass does not keep ``doc=`` before Python 3.12)
+        self.__doc__ = doc  # (Python 3.11 drops property(doc=...) in a subclass)
 
     def __set_name__(self, owner: type, name: str) -> None:
         self._name, self._private = name, f"_{name}"
