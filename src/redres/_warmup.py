@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -84,7 +85,7 @@ def _controller() -> None:
     from .control import Controller, _fused
     from .models import panda
     from .objectives import JointLimitObjective
-    from .resolution import GradientProjectionScheme, PseudoInverseScheme
+    from .resolution import GradientProjectionScheme, PseudoInverseScheme, QPScheme, SNSScheme
     from .tasks import FrameTask
 
     # The fused step on a serial chain (the common first use) first, from its entry point
@@ -98,6 +99,9 @@ def _controller() -> None:
         _fused.native(entry)
         _compile.groups()["controller"].mark(part=entry)
     Controller(robot, FrameTask(), PseudoInverseScheme(), dt=1e-3).step(robot.neutral())
+    # the hard-limit schemes' one-call forms (control._box_kernels; QPScheme: the qp extra)
+    for hard in (SNSScheme, QPScheme) if importlib.util.find_spec("qpsolvers") else (SNSScheme,):
+        Controller(robot, FrameTask(), hard(dt=1e-3), dt=1e-3).step(robot.neutral())
 
 
 def _shaping() -> None:
@@ -120,14 +124,11 @@ def _f(ndim: int, dtype: type = float) -> np.ndarray:
 
 
 def _hard_limits() -> tuple[str, ...] | None:
-    import importlib.util
-
     from .models import panda
     from .resolution import QPScheme, SNSScheme
 
     robot = panda()
-    q = robot.neutral()
-    J = robot.jacobian(q)
+    q, J = robot.neutral(), robot.jacobian(robot.neutral())
     SNSScheme(dt=1e-3).step(robot, q, J, np.zeros(6))
     # An SNS loop needs no more: it switches now. QPScheme's epilogue (in the same module)
     # compiles next; a QP loop waits for its own module, marked after it (QPScheme._prepare).

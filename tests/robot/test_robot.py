@@ -159,6 +159,17 @@ def test_limits_are_copies() -> None:
     robot = rr.models.panda()
     robot.q_min[0] = 100.0
     assert robot.q_min[0] == pytest.approx(-2.8973)
+    model = robot.model  # the oracle: Pinocchio's own limit vectors
+    assert np.array_equal(robot.q_min, model.lowerPositionLimit)
+    assert np.array_equal(robot.q_max, model.upperPositionLimit)
+    assert np.array_equal(robot.qd_max, np.abs(model.upperVelocityLimit))
+    assert np.array_equal(robot.tau_max, np.abs(model.upperEffortLimit))
+    for name in ("q_min", "q_max", "qd_max", "qdd_max", "qddd_max", "tau_max"):
+        before = getattr(robot, name)
+        getattr(robot, name)[:] = 7.0  # a copy: the robot keeps its limits
+        assert np.array_equal(getattr(robot, name), before), name
+        with pytest.raises(AttributeError, match=f"Robot.{name} is read-only"):
+            setattr(robot, name, before)
 
 
 def test_add_frame_places_a_frame_rigidly(rng: np.random.Generator) -> None:

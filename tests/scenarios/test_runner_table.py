@@ -3,7 +3,13 @@ scheme labels wrapped, headers stacked over their numbers."""
 
 from __future__ import annotations
 
-from redres.scenarios.runner import COLUMNS, LABEL_WIDTH, aligned_table, format_table
+from redres.scenarios.runner import (
+    COLUMNS,
+    LABEL_WIDTH,
+    aligned_table,
+    column_table,
+    format_table,
+)
 
 
 def _summary(label: str) -> dict[str, object]:
@@ -50,3 +56,16 @@ def test_a_collision_scenarios_table_fits_100_columns() -> None:
 def test_aligned_table_stacks_lines_of_headers_and_cells() -> None:
     table = aligned_table(["a\nb", "c"], [["1\n2", "3"], ["4", "5"]])
     assert table.splitlines() == ["a", "b  c", "-  -", "1  3", "2", "4  5"]
+
+
+def test_column_table_writes_each_record_by_its_columns() -> None:
+    records = [{"x": 1.5, "name": "a"}, {"x": -20.0, "name": "bc\nd"}]
+    columns = [("name", lambda r: str(r["name"])), ("x\nunit", lambda r: f"{r['x']:.2f}")]
+    by_hand = [["a", "1.50"], ["bc\nd", "-20.00"]]
+    assert column_table(columns, records) == aligned_table(["name", "x\nunit"], by_hand)
+    assert column_table(columns, iter(records)).splitlines()[3:] == [
+        "a     1.50",
+        "bc    -20.00",
+        "d",
+    ]
+    assert column_table(columns, []) == aligned_table(["name", "x\nunit"], [])

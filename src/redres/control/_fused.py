@@ -36,7 +36,11 @@ Path = Literal["fused", "frame", "composed"]
 _F64 = np.float64
 #: The fused kernels (their callees in linalg and the serial-chain kernels are compiled
 #: into them). Cold: a first controller 15-17 s in all, mostly its callees.
-KERNELS = _compile.KernelGroup("controller", ("redres.control._kernels",), cold_seconds=7.0)
+#: Their hard-limit form (redres.control._box_kernels) compiles the SNS kernels into it.
+_BOX = "redres.control._box_kernels"
+KERNELS = _compile.KernelGroup(
+    "controller", ("redres.control._kernels", _BOX), cold_seconds=7.0, others={_BOX: 6.0}
+)
 #: The slots of the kernels' config vector holding the target: the rotation row-major,
 #: the position, the twist (CFG_ROTATION, CFG_POSITION, CFG_TWIST = 0, 9, 12), the layout in
 #: which a FrameTask keeps its target (FrameTask._share_target).

@@ -55,6 +55,7 @@ from ..linalg import _backend as be
 from ..linalg._codes import CFG_MODE, CFG_RCOND, FIXED, LAZY
 from ..resolution import Scheme, StepResult
 from ..tasks import FrameTask, Task
+from ._box_path import BoxStep, box_step
 from ._fused import (
     ENTRIES,
     TARGET,
@@ -166,6 +167,7 @@ class Controller:
         self._front: Any = None
         self._integrate: Any = None
         self._chain: SerialChain | None = None  # the frame's, when the robot is one up to it
+        self._box: BoxStep | bool = False  # the hard-limit one-call step (True: compiling)
         self._config = self._block = _empty(0)
         if path != "composed":
             assert frame is not None
@@ -262,8 +264,9 @@ class Controller:
         elif self._path == "frame":
             self._front = kernel_for(self._robot, self._fid, front)
             self._integrate = native("integrate")
+            self._box = box_step(self._robot, self._scheme, self._config)
         self._entry = step if self._path == "fused" else front
-        self._pending = self._path != "composed" and not ready(self._entry)
+        self._pending = self._path != "composed" and (not ready(self._entry) or self._box is True)
 
     def _stepped(self) -> bool:
         """Whether the fused path has made a step: the damping slot of its block, NaN
@@ -326,7 +329,11 @@ class Controller:
         if front is not None:
             if self._task._target is not self._block:  # type: ignore[attr-defined]
                 adopt_target(self._task, self._block, q, self._robot, self._fid, self._chain)
-            m = self._rows.shape[0]
+            box, m = self._box, self._rows.shape[0]
+            if box:  # front end, scheme and integration in one compiled call
+                q_next, self._result, self._error, self._pose = box(q)  # type: ignore[operator]
+                self._qd, self._speed, self._scaled = self._result.qd, None, False
+                return q_next
             Jm, xd = _empty((m, n)), _empty(m)
             if self._chain is None:
                 placement, J = robot.placement_jacobian(q, self._fid)

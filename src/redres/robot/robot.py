@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
 import pinocchio as pin
@@ -28,6 +28,34 @@ if TYPE_CHECKING:
 
 
 _REFERENCE = {"world": pin.LOCAL_WORLD_ALIGNED, "local": pin.LOCAL}
+
+
+class _CopiedArray(property):
+    """A read-only array property of :class:`Robot` whose value is a copy of the private
+    array ``_<name>``: changing what a caller gets leaves the robot as it was."""
+
+    def __init__(self, doc: str) -> None:
+        super().__init__(self._copy)
+        self.__doc__ = doc  # (Python 3.11 drops property(doc=...) in a subclass)
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self._name, self._private = name, f"_{name}"
+
+    def _copy(self, robot: object) -> FloatArray:
+        return np.array(getattr(robot, self._private), dtype=float)
+
+    def __set__(self, robot: object, value: object) -> None:
+        raise AttributeError(
+            f"Robot.{self._name} is read-only; Robot.with_limits gives a robot with other "
+            "velocity, acceleration, jerk or torque limits"
+        )
+
+    @overload
+    def __get__(self, robot: None, owner: type | None = None) -> _CopiedArray: ...
+    @overload
+    def __get__(self, robot: object, owner: type | None = None) -> FloatArray: ...
+    def __get__(self, robot: object, owner: type | None = None) -> Any:
+        return super().__get__(robot, owner)
 
 
 class Robot(RobotFiles):
@@ -180,30 +208,15 @@ class Robot(RobotFiles):
         """Number of joints (degrees of freedom)."""
         return int(self.model.nv)
 
-    @property
-    def q_min(self) -> FloatArray:
-        """Lower position limits, shape ``(n,)``, rad or m."""
-        return self._q_min.copy()
-
-    @property
-    def q_max(self) -> FloatArray:
-        """Upper position limits, shape ``(n,)``, rad or m."""
-        return self._q_max.copy()
-
-    @property
-    def qd_max(self) -> FloatArray:
-        """Velocity limits (symmetric), shape ``(n,)``, rad/s or m/s; ``inf`` if unknown."""
-        return self._qd_max.copy()
-
-    @property
-    def qdd_max(self) -> FloatArray:
-        """Acceleration limits (symmetric), shape ``(n,)``, rad/s²; ``inf`` if unknown."""
-        return self._qdd_max.copy()
-
-    @property
-    def qddd_max(self) -> FloatArray:
-        """Jerk limits (symmetric), shape ``(n,)``, rad/s³; ``inf`` if unknown."""
-        return self._qddd_max.copy()
+    q_min = _CopiedArray("Lower position limits, shape ``(n,)``, rad or m.")
+    q_max = _CopiedArray("Upper position limits, shape ``(n,)``, rad or m.")
+    qd_max = _CopiedArray(
+        "Velocity limits (symmetric), shape ``(n,)``, rad/s or m/s; ``inf`` if unknown."
+    )
+    qdd_max = _CopiedArray(
+        "Acceleration limits (symmetric), shape ``(n,)``, rad/s²; ``inf`` if unknown."
+    )
+    qddd_max = _CopiedArray("Jerk limits (symmetric), shape ``(n,)``, rad/s³; ``inf`` if unknown.")
 
     @property
     def joint_damping(self) -> FloatArray:
@@ -211,10 +224,9 @@ class Robot(RobotFiles):
         unless the model's file gives it (an MJCF's ``damping``)."""
         return np.array(self.model.damping, dtype=float)
 
-    @property
-    def tau_max(self) -> FloatArray:
-        """Torque (force) limits (symmetric), shape ``(n,)``, N·m or N; ``inf`` if unknown."""
-        return self._tau_max.copy()
+    tau_max = _CopiedArray(
+        "Torque (force) limits (symmetric), shape ``(n,)``, N·m or N; ``inf`` if unknown."
+    )
 
     @property
     def tip(self) -> str:

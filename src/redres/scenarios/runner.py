@@ -9,9 +9,9 @@ line each.
 from __future__ import annotations
 
 import textwrap
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -26,7 +26,16 @@ if TYPE_CHECKING:
     from ..robot import Robot
 
 
-__all__ = ["aligned_table", "format_table", "run_scenario", "summarise", "warning_lines"]
+__all__ = [
+    "aligned_table",
+    "column_table",
+    "format_table",
+    "run_scenario",
+    "summarise",
+    "warning_lines",
+]
+
+_Record = TypeVar("_Record")
 
 
 def summarise(robot: Robot, log: RunLog) -> dict[str, Any]:
@@ -176,7 +185,7 @@ def aligned_table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     split_headers = [h.split("\n") for h in headers]
     split_rows = [[c.split("\n") for c in r] for r in rows]
     widths = [
-        max(max(map(len, h)), *(max(map(len, r[i])) for r in split_rows))
+        max(map(len, [*h, *(line for r in split_rows for line in r[i])]))
         for i, h in enumerate(split_headers)
     ]
 
@@ -192,6 +201,16 @@ def aligned_table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     for r in split_rows:
         lines += block(r, bottom=False)
     return "\n".join(lines)
+
+
+def column_table(
+    columns: Sequence[tuple[str, Callable[[_Record], str]]], records: Iterable[_Record]
+) -> str:
+    """:func:`aligned_table` of ``records``, one row each, given by column: ``columns``
+    pairs a header with the function that writes that column's cell of a record."""
+    return aligned_table(
+        [h for h, _ in columns], [[cell(r) for _, cell in columns] for r in records]
+    )
 
 
 def _wrapped(label: str) -> str:

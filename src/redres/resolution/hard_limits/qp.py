@@ -53,12 +53,12 @@ References:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ... import _compile
 from ..._validate import FloatArray, as_scalar, as_vector, checked_keywords
@@ -279,9 +279,22 @@ class QPScheme(BoxScheme):
                 self._rows_infeasible = False
             contact = damper.details(out[0])
             self._rows_bound = damper.bound
-        levels = residuals if self.levels else [residual]
+        return self._finished(out, codes, Jc, all(exact), active, residual, relaxed,
+                              residuals if self.levels else None, contact)  # fmt: skip
+
+    def _finished(
+        self, out: FloatArray, codes: NDArray[np.int8], Jc: FloatArray, met: bool, active: int,
+        residual: float, relaxed: int, levels: list[float] | None = None,
+        contact: Callable[[], CollisionDetails] | None = None,
+    ) -> StepResult:  # fmt: skip
+        """The step's result from the kernels' rows (``out``, ``codes``, ``Jc``): the task
+        ``met``, ``active`` bounds, the loop task's ``residual``, ``relaxed`` joints, the
+        levels' residuals (default: the loop task's alone), the collision pairs' details;
+        ``q̇`` becomes :attr:`qd_prev`. Shared with the controller's compiled step
+        (:mod:`redres.control._box_kernels`)."""
+        levels = [residual] if levels is None else levels
         return self._result(
-            out, codes, Jc, all(exact), active,
+            out, codes, Jc, met, active,
             lambda: QPDetails(residual, levels, *box_details(out, codes, relaxed), self.solver,
                               None if contact is None else contact()),
         )  # fmt: skip

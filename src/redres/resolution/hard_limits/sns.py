@@ -46,7 +46,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ... import _compile
 from ..._validate import FloatArray, as_scalar, checked_keywords
@@ -157,12 +157,25 @@ class SNSScheme(BoxScheme):
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         ws, qd0, prev = self._inputs(robot, q, J, xd)
         out, codes, Jc = ws.outputs()
-        status, method, s, relaxed, active, met, ill, full = self._kernel(
+        status, *outcome = self._kernel(
             q, prev, self.dt, ws.lim, J, xd, qd0, bool(self.objectives), self.tolerance,
             out, codes, Jc, ws.M, ws.wm, ws.wn, ws.wb,
         )  # fmt: skip
         if status:  # an input is not finite (redres.linalg's status codes)
             raise_status(status, STEP_NAMES)
+        return self._finished(J, xd, out, codes, Jc, *outcome)
+
+    def _finished(
+        self, J: FloatArray, xd: FloatArray, out: FloatArray, codes: NDArray[np.int8],
+        Jc: FloatArray, method: int, s: float, relaxed: int, active: int, met: bool,
+        ill: bool, full: bool,
+    ) -> StepResult:  # fmt: skip
+        """The step's result from the SNS kernel's outcome (``sns_step``'s tuple past its
+        status, for ``out``, ``codes``, ``Jc``), after the LP on orthonormal rows where
+        ``J`` may be ill-conditioned (then ``out[0]`` changes); ``q̇`` becomes
+        :attr:`qd_prev`. Shared with the controller's compiled step
+        (:mod:`redres.control._box_kernels`)."""
+        ws = self._ws
         s = 0.0 if method == NEAREST else s
         if ill and (method != LP_SCALED or s == 1.0):  # the LP may have missed the task
             s = 0.0 if s == 1.0 else s  # a scale the answer does not achieve

@@ -42,7 +42,7 @@ import numpy as np
 
 from ... import batch
 from ..kind import Field, Kind, Plan, ShardJob
-from .grid import grid_bounds, occupancy, read_grid_source, voxel_poses
+from .grid import GridSource, grid_bounds, occupancy, read_grid_source, voxel_poses
 from .orientations import directions, frames, nearest
 
 if TYPE_CHECKING:
@@ -65,17 +65,12 @@ PLAN_STREAM = 2**40
 
 
 @dataclass(frozen=True)
-class CapabilityParams:
+class CapabilityParams(GridSource):
     """The ``[capability]`` table (docs/sweeps.md).
 
     Attributes:
-        resolution: voxel edge, m.
-        bounds: ``((x_min, x_max), (y_min, y_max), (z_min, z_max))`` of the voxel centres,
-            m; None: a cube of half-width the reach bound around the first joint.
-        directions: approach directions per voxel (Fibonacci lattice).
-        rolls: roll angles about each direction.
-        fk_samples: forward-kinematics samples that find the occupied voxels.
-        dilation: voxels kept around each sampled one (-1: every voxel within reach).
+        resolution, bounds, directions, rolls, fk_samples, dilation: the voxels and
+            orientations of the map, :class:`~redres.sweeps.kinds.grid.GridSource`.
         seeds_per_voxel: samples kept per voxel to start its queries from.
         solutions: solutions sought per query (the best manipulability and margin of
             those found are kept).
@@ -85,12 +80,6 @@ class CapabilityParams:
         keep_configurations: also store the solution ``q`` of each query.
     """
 
-    resolution: float = 0.05
-    bounds: tuple[tuple[float, float], ...] | None = None
-    directions: int = 50
-    rolls: int = 1
-    fk_samples: int = 200_000
-    dilation: int = 1
     seeds_per_voxel: int = 4
     solutions: int = 1
     refine: int = 2

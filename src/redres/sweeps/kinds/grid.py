@@ -40,6 +40,7 @@ if TYPE_CHECKING:
     from ..._toml import Reader
 
 __all__ = [
+    "GridSource",
     "Occupancy",
     "grid_bounds",
     "occupancy",
@@ -162,6 +163,30 @@ def _dilate(mask: np.ndarray, radius: int) -> np.ndarray:
     return np.asarray(maximum_filter(mask, size=2 * radius + 1, mode="constant", cval=0))
 
 
+@dataclass(frozen=True)
+class GridSource:
+    """The keys of a sweep spec that choose the voxels and orientations of a map (module
+    docstring): the parameters of a capability map and of a redundancy map's grid source
+    share them as a base class, each with its own defaults (:func:`read_grid_source`).
+
+    Attributes:
+        resolution: voxel edge, m.
+        bounds: ``((x_min, x_max), (y_min, y_max), (z_min, z_max))`` of the voxel centres,
+            m; None: a cube of half-width the reach bound around the first joint.
+        directions: approach directions per voxel (Fibonacci lattice).
+        rolls: roll angles about each direction.
+        fk_samples: forward-kinematics samples that find the occupied voxels.
+        dilation: voxels kept around each sampled one (-1: every voxel within reach).
+    """
+
+    resolution: float = 0.05
+    bounds: tuple[tuple[float, float], ...] | None = None
+    directions: int = 50
+    rolls: int = 1
+    fk_samples: int = 200_000
+    dilation: int = 1
+
+
 def grid_bounds(bounds: Any, robot: Robot, frame: str | None) -> np.ndarray:
     """The voxel centres' bounds ``(3, 2)``, m: ``bounds`` as given, else (None) a cube of
     half-width the reach bound around the first joint (module docstring)."""
@@ -180,10 +205,9 @@ def voxel_poses(centres: np.ndarray, rotations: np.ndarray) -> np.ndarray:
     return T
 
 
-def read_grid_source(r: Reader, params: Any) -> dict[str, Any]:
-    """The grid source's keys of a sweep spec (``resolution``, ``bounds``, ``directions``,
-    ``rolls``, ``fk_samples``, ``dilation``), checked, with the defaults of the parameter
-    dataclass ``params`` of the sweep kind (its fields of the same names)."""
+def read_grid_source(r: Reader, params: type[GridSource]) -> dict[str, Any]:
+    """The keys of :class:`GridSource` in a sweep spec, checked, with the defaults of the
+    sweep kind's parameter class ``params`` (a subclass of :class:`GridSource`)."""
     bounds = r.bounds("bounds")
     return {
         "resolution": r.positive("resolution", params.resolution),

@@ -37,6 +37,8 @@ from ..._toml import tomllib
 from ..kind import Field, Kind, Plan, ShardJob
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from ..._toml import Reader
     from ...robot import Robot
     from ...scenarios.spec import ScenarioSpec
@@ -216,28 +218,30 @@ def _run(job: ShardJob, robot: Robot) -> dict[str, np.ndarray]:
     return out
 
 
+def _limit_text(value: float) -> str:
+    """An acceleration limit in a table cell: ``none`` for 0 (no limit)."""
+    return "none" if value == 0 else f"{value:g}"
+
+
 def table(out: str | Path) -> str:
     """One line per unit of the sweep in ``out``: its settings, the optimum, whether a
     path exists, the grid's size and the plan's time."""
-    from ...scenarios.runner import aligned_table
+    from ...scenarios.runner import column_table
     from ..results import load
 
     data = load(out)
-    names, objectives = data.meta["scenarios"], data.meta["objectives"]
-    rows = []
-    for u in range(len(data["objective"])):
-        qdd = float(data.tables["qdd_max"][u])
-        rows.append([
-            str(names[int(data.tables["scenario"][u])]),
-            str(objectives[int(data.tables["objective_index"][u])]),
-            "none" if qdd == 0 else f"{qdd:g}", f"{float(data.tables['dt'][u]):g}",
-            str(int(data.tables["resolution"][u])),
-            f"{data['objective'][u]:.5f}" if data["feasible"][u] else "no path",
-            f"{int(data['nodes'][u]):,}", f"{data['seconds'][u]:.2f}",
-        ])  # fmt: skip
-    headers = ["scenario", "objective", "qdd_max rad/s²", "dt s", "values", "optimum",
-               "grid nodes", "plan s"]  # fmt: skip
-    return aligned_table(headers, rows)
+    names, objectives, tables = data.meta["scenarios"], data.meta["objectives"], data.tables
+    columns: list[tuple[str, Callable[[int], str]]] = [
+        ("scenario", lambda u: str(names[int(tables["scenario"][u])])),
+        ("objective", lambda u: str(objectives[int(tables["objective_index"][u])])),
+        ("qdd_max rad/s²", lambda u: _limit_text(float(tables["qdd_max"][u]))),
+        ("dt s", lambda u: f"{float(tables['dt'][u]):g}"),
+        ("values", lambda u: str(int(tables["resolution"][u]))),
+        ("optimum", lambda u: f"{data['objective'][u]:.5f}" if data["feasible"][u] else "no path"),
+        ("grid nodes", lambda u: f"{int(data['nodes'][u]):,}"),
+        ("plan s", lambda u: f"{data['seconds'][u]:.2f}"),
+    ]
+    return column_table(columns, range(len(data["objective"])))
 
 
 #: The sweep kind ``path_plans``: global plans over resolutions, objectives, limits, paths.

@@ -54,7 +54,7 @@ from ...ik.analytic import NotAnalyticError, analytic_arm
 from ...ik.arcs import Arc, merge, pack, pieces, width
 from ...ik.srs import BRANCHES, NotSRSError, SRSArm
 from ..kind import Field, Kind, Plan, ShardJob
-from .grid import grid_bounds, occupancy, read_grid_source, voxel_poses
+from .grid import GridSource, grid_bounds, occupancy, read_grid_source, voxel_poses
 from .ikdata import distinct
 from .orientations import directions, frames
 from .q7arcs import q7_arcs
@@ -72,15 +72,16 @@ _SAME_ARC = 1e-6  # rad: traced arcs this close are one manifold's
 
 
 @dataclass(frozen=True)
-class RedundancyParams:
+class RedundancyParams(GridSource):
     """The ``[redundancy_map]`` table (module docstring; docs/sweeps.md).
 
     Attributes:
         source: ``"random"`` or ``"grid"``.
         poses: poses of the random source.
         margin: draw ``q_true`` this far inside the limits, rad.
-        resolution, bounds, directions, rolls, fk_samples, dilation: the grid source, as
-            :class:`~redres.sweeps.kinds.capability.CapabilityParams`.
+        resolution, bounds, directions, rolls, fk_samples, dilation: the grid source,
+            :class:`~redres.sweeps.kinds.grid.GridSource` (a coarser default grid: 0.1 m,
+            20 directions, 100,000 samples).
         method: ``"auto"``, ``"closed_form"`` (S-R-S, else the closed form at ``q7``)
             or ``"trace"``.
         intervals: pieces stored per slot and for the union (``K``).
@@ -90,15 +91,13 @@ class RedundancyParams:
         reference: its reference vector (world).
     """
 
+    # the grid source's defaults for this kind (the fields stay in GridSource's order)
+    resolution: float = 0.1
+    directions: int = 20
+    fk_samples: int = 100_000
     source: str = "random"
     poses: int = 10_000
     margin: float = 0.0
-    resolution: float = 0.1
-    bounds: tuple[tuple[float, float], ...] | None = None
-    directions: int = 20
-    rolls: int = 1
-    fk_samples: int = 100_000
-    dilation: int = 1
     method: str = "auto"
     intervals: int = 8
     manifolds: int = 4

@@ -34,6 +34,8 @@ from ..._toml import tomllib
 from ..kind import Field, Kind, Plan, ShardJob
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from ..._toml import Reader
     from ...robot import Robot
     from ...scenarios.spec import ScenarioSpec
@@ -209,16 +211,18 @@ def summary(out: str | Path) -> list[dict[str, Any]]:
 def table(out: str | Path) -> str:
     """:func:`summary` as aligned text: success rate, runs with a limit violation,
     median and worst RMS tracking error, runs with singular steps, median step time."""
-    from ...scenarios.runner import aligned_table
+    from ...scenarios.runner import column_table
 
-    rows = [[
-        r["scheme"], f"{r['success_pct']:.1f}", f"{r['violating_pct']:.1f}",
-        f"{1e3 * r['rms_error_median_m']:.3f}", f"{1e3 * r['rms_error_max_m']:.3f}",
-        f"{r['singular_pct']:.1f}", f"{r['step_us_median']:.1f}",
-    ] for r in summary(out)]  # fmt: skip
-    headers = ["scheme", "success %", "violating %", "rms err mm (median)", "rms err mm (max)",
-               "singular %", "step us"]  # fmt: skip
-    return aligned_table(headers, rows)
+    columns: list[tuple[str, Callable[[dict[str, Any]], str]]] = [
+        ("scheme", lambda r: str(r["scheme"])),
+        ("success %", lambda r: f"{r['success_pct']:.1f}"),
+        ("violating %", lambda r: f"{r['violating_pct']:.1f}"),
+        ("rms err mm (median)", lambda r: f"{1e3 * r['rms_error_median_m']:.3f}"),
+        ("rms err mm (max)", lambda r: f"{1e3 * r['rms_error_max_m']:.3f}"),
+        ("singular %", lambda r: f"{r['singular_pct']:.1f}"),
+        ("step us", lambda r: f"{r['step_us_median']:.1f}"),
+    ]
+    return column_table(columns, summary(out))
 
 
 #: The sweep kind ``scheme_statistics``: each scheme of a scenario over random starts.
