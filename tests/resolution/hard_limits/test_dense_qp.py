@@ -366,6 +366,16 @@ def test_bad_inputs_break_down_instead_of_answering() -> None:
     assert K.eq_box_qp(J, b, x0, lo, hi, np.zeros(3), work, np.zeros(3, np.int8))[0] == -1
     c = np.ones(3)
     assert K.box_qp(np.eye(3), c, lo, hi, np.zeros(3), work, np.zeros(3, np.int8))[0] == -1
+    with np.errstate(all="ignore"):  # (the plain-Python twin computes with the NaN)
+        for bad in (np.nan, np.inf):  # never an "optimal" answer with a NaN in it
+            for k in range(3):
+                args = [J.copy(), b.copy(), x0.copy()]
+                args[k].flat[1] = bad
+                assert solve_eq(*args, lo, hi)[0] != 1, (bad, k)
+            for k in range(2):
+                args = [np.eye(3), c.copy()]
+                args[k].flat[1] = bad
+                assert solve_box(*args, lo, hi)[0] == -1, (bad, k)
     nearly = np.array([[1.0, 0, 0], [1.0, 3e-7, 0]])  # nearly dependent rows, refused
     assert solve_eq(nearly, np.array([0.5, 0.5 + 1e-9]), x0, lo, hi)[0] == -1
     exactly = np.array([[1.0, 0, 0], [1.0, 1e-12, 0]])  # dependent to rounding, consistent

@@ -129,6 +129,9 @@ def box_qp(P, c, lo, hi, x, work, active):
                     release, worst = k, mu
         if release < 0:  # optimal: one step of iterative refinement on the same factor
             _newton(P, c, x, active, work, v, True)
+            for k in range(n):
+                if not abs(x[k]) < math.inf:  # a NaN or infinite input got through
+                    return BREAKDOWN, it
             return OPTIMAL, it
         active[release] = 0
     return BREAKDOWN, cap
@@ -274,6 +277,8 @@ def eq_box_qp(J, b, x0, lo, hi, x, work, active):
     _optimum(Jk, mk, bk, x0, lo, hi, active, work, x, y, u, True)
     for k in range(n):
         size = _CHECK * (1.0 + abs(x[k]) + abs(x0[k]))
+        if not size < math.inf:  # a NaN or infinite input got through
+            return BREAKDOWN, it
         if active[k] == 0 and (x[k] < lo[k] - size or x[k] > hi[k] + size):
             return BREAKDOWN, it
         if active[k] != 0 and lo[k] < hi[k] and u[k] < -size:
