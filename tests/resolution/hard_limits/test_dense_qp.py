@@ -179,7 +179,12 @@ def compare(H, f, J, b, lo, hi, x, active, xd, dactive, counts: dict[str, int]) 
     if same:
         ref = reference(H, f, J, b, lo, hi, active)
         assert np.abs(x - ref).max() <= tolerance(ref, True, block), np.abs(x - ref).max()
+        off = np.abs(x - ref).max() / (1 + np.abs(ref).max())
+        counts["over_1e-12_lapack"] += int(off > 1e-12)
     assert np.abs(x - xd).max() <= tolerance(xd, False, block), (same, np.abs(x - xd).max())
+    off = np.abs(x - xd).max() / (1 + np.abs(xd).max())
+    counts["over_1e-12_daqp"] += int(off > 1e-12)
+    counts["over_1e-10_daqp"] += int(off > 1e-10)
     counts["same" if same else "other"] += 1
 
 
@@ -196,7 +201,8 @@ def check_box(P, c, lo, hi, result, counts: dict[str, int]) -> None:
 
 
 def tally() -> dict[str, int]:
-    return dict.fromkeys(("same", "other", "infeasible", "breakdown", "daqp_missed"), 0)
+    names = ("same", "other", "infeasible", "breakdown", "daqp_missed")
+    return dict.fromkeys((*names, "over_1e-12_lapack", "over_1e-12_daqp", "over_1e-10_daqp"), 0)
 
 
 @pytest.mark.parametrize(("n", "m"), SIZES)
