@@ -288,7 +288,7 @@ def eq_box_qp(J, b, x0, lo, hi, x, work, active):
         for k in range(n):
             acc -= J[i, k] * x[k]
             size += abs(J[i, k] * x[k])
-        if abs(acc) > _CHECK * (size + 1e-300):
+        if not abs(acc) <= _CHECK * (size + 1e-300):  # (NaN included)
             return BREAKDOWN, it
     return OPTIMAL, it
 
