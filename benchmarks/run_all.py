@@ -121,6 +121,11 @@ BENCHES = [
     Bench("linalg", "linalg.py", "Inner kernels: one damped rate step on a 6 x 7 Jacobian",
           "`benchmarks/linalg.py` (redres against NumPy).", quick=["--rounds", "3"],
           markdown=False),
+    Bench("dense_qp", "dense_qp.py", "The hard-limit step's QPs: compiled solvers, DAQP, ProxQP",
+          "`benchmarks/dense_qp.py`: the exact and least-violating QPs `QPScheme` solves on "
+          "step.py's saturating Panda loop, and random ones (n = 7, m = 6), by redres' "
+          "compiled solvers (from a compiled loop and from Python), DAQP and ProxQP from "
+          "Python; µs per solve, medians."),
     Bench("first_use", "first_use.py", "First use: cold and warm start",
           "`benchmarks/first_use.py`: seconds from the first import to the first answer in a "
           "fresh process, with an empty compiled-code cache (cold) and with the cache the cold "
