@@ -25,10 +25,12 @@ equivalent step on the same Panda:
   size and constraints as the hard-limit rows' (less redres' acceleration limits).
 
 The hard-limit rows do the same frame task under hard position, velocity and
-acceleration limits: ``QPScheme`` (a QP through DAQP) and ``SNSScheme`` (saturation in the
-null space, no QP) in a ``Controller`` (its frame path: the kernel's front end, then the
-scheme), and composed from ``FrameTask``
-and ``scheme.step``, each from the state it reaches after the warm-up calls. On this
+acceleration limits: ``QPScheme`` (two small QPs) and ``SNSScheme`` (saturation in the
+null space, no QP) in a ``Controller``: in one compiled call (front end, box, resolution,
+integration; the QP's problems by compiled dense solvers), on the path that call replaced
+(the kernel's front end, then the scheme's ``_step``; the QP through DAQP), and composed
+from ``FrameTask`` and ``scheme.step``, each from the state it reaches after the warm-up
+calls. On this
 problem the command (gain 50 × a 2 cm, 2° error) exceeds the velocity limits, so every
 solver saturates; a second table times the QP-type steps on a tracking problem (target
 0.4 mm away: the command is feasible and met exactly). The path taken is printed.
@@ -112,12 +114,22 @@ def redres_step(robot: rr.Robot, q: np.ndarray, target: np.ndarray) -> Callable[
 
 
 def hard_limit_step(
-    scheme: QPScheme | SNSScheme, robot: rr.Robot, q: np.ndarray, target: np.ndarray
+    scheme: QPScheme | SNSScheme,
+    robot: rr.Robot,
+    q: np.ndarray,
+    target: np.ndarray,
+    one_call: bool = True,
 ) -> Callable[[], object]:
-    """The controller: the compiled frame-task front end, then the scheme inside the
-    hard-limit box, then integration."""
+    """The controller: front end, the scheme inside the hard-limit box and integration in
+    one compiled call (the QP's problems by the compiled dense solvers); with
+    ``one_call=False`` the path it replaced: the compiled front end, then the scheme's
+    ``_step`` (the QP's problems by DAQP)."""
     task = FrameTask()
     controller = Controller(robot, task, scheme, gain=GAIN, dt=DT)
+    if not one_call:
+        controller._box = False  # the frame path before the one-call step
+    elif controller._box is False:
+        raise AssertionError("expected the one-call hard-limit step")
     task.set_target(target)
     run = controller.step
 
@@ -263,17 +275,33 @@ def report(hard: dict[str, Callable[[], object]], times: dict[str, np.ndarray]) 
         print(f"{name}: path {path}; {', '.join(ratios) or 'no QP peers installed'}")
 
 
+def hard_limit_rows(
+    robot: rr.Robot, q: np.ndarray, target: np.ndarray
+) -> dict[str, Callable[[], object]]:
+    """The hard-limit rows: each scheme in one compiled call, and on the path before it."""
+    return {
+        "redres QPScheme (hard limits, one compiled call)": hard_limit_step(
+            QPScheme(dt=DT), robot, q, target
+        ),
+        "redres SNSScheme (hard limits, one compiled call)": hard_limit_step(
+            SNSScheme(dt=DT), robot, q, target
+        ),
+        "redres QPScheme (front end + scheme step, DAQP)": hard_limit_step(
+            QPScheme(dt=DT), robot, q, target, one_call=False
+        ),
+        "redres SNSScheme (front end + scheme step)": hard_limit_step(
+            SNSScheme(dt=DT), robot, q, target, one_call=False
+        ),
+    }
+
+
 def main() -> int:
     robot, q, target = problem()
     contenders = {
         "redres Controller.step (fused CLIK step)": controller_step(robot, q, target),
         "redres composed (FrameTask + gradient + rate_step)": redres_step(robot, q, target),
     }
-    hard = {
-        "redres QPScheme (hard limits, DAQP)": hard_limit_step(QPScheme(dt=DT), robot, q, target),
-        "redres SNSScheme (hard limits, no QP)": hard_limit_step(SNSScheme(dt=DT), robot, q,
-                                                                 target),
-    }  # fmt: skip
+    hard = hard_limit_rows(robot, q, target)
     contenders.update(hard)
     contenders["redres QPScheme composed (FrameTask + step)"] = composed_hard_limit_step(
         QPScheme(dt=DT), robot, q, target
@@ -300,11 +328,7 @@ def main() -> int:
     print(table(["step", "median µs", "p99 µs", "time / redres"], rows))
     report(hard, times)
     robot, q, target = problem(0.02)
-    tracking = {
-        "redres QPScheme (hard limits, DAQP)": hard_limit_step(QPScheme(dt=DT), robot, q, target),
-        "redres SNSScheme (hard limits, no QP)": hard_limit_step(SNSScheme(dt=DT), robot, q,
-                                                                 target),
-    }  # fmt: skip
+    tracking = hard_limit_rows(robot, q, target)
     contenders = dict(tracking)
     for name, make in (("pink solve_ik (frame + posture QP)", pink_step),
                        ("mink solve_ik (frame + posture QP)", mink_step)):  # fmt: skip
