@@ -30,13 +30,12 @@ from typing import Any
 
 import numpy as np
 
-os.environ.setdefault("REDRES_COMPILE", "foreground")  # the Controller's compiled path, recorded
+os.environ.setdefault("REDRES_COMPILE", "foreground")  # the scheme's compiled kernels, recorded
 sys.path.insert(0, str(Path(__file__).parent))
 
 from _common import machine, table
 from step import DT, GAIN, problem
 
-from redres.control import Controller
 from redres.resolution import QPScheme
 from redres.resolution.hard_limits import _solvers
 from redres.resolution.hard_limits._compiled import kernels
@@ -47,7 +46,8 @@ ROUNDS = 15
 
 
 def record_panda(steps: int = 400) -> tuple[list[tuple[Any, ...]], list[tuple[Any, ...]]]:
-    """The QPs of ``steps`` closed-loop steps of ``QPScheme`` on step.py's problem."""
+    """The QPs of ``steps`` closed-loop steps of ``QPScheme`` on step.py's problem (its
+    ``step``: DAQP's path, which the compiled one-call step replaces)."""
     exact: list[tuple[Any, ...]] = []
     boxes: list[tuple[Any, ...]] = []
     solve = _solvers.WarmQP.solve
@@ -69,11 +69,11 @@ def record_panda(steps: int = 400) -> tuple[list[tuple[Any, ...]], list[tuple[An
     _solvers.WarmQP.solve = recording  # type: ignore[method-assign]
     try:
         robot, q, target = problem()
-        task = FrameTask()
-        controller = Controller(robot, task, QPScheme(dt=DT), gain=GAIN, dt=DT)
+        task, scheme = FrameTask(), QPScheme(dt=DT)
         task.set_target(target)
-        for _ in range(steps):
-            q = controller.step(q)
+        for _ in range(steps):  # the scheme's own step (a Controller's one-call step has no DAQP)
+            state = task.compute(robot, q)
+            q = q + scheme.step(robot, q, state.jacobian, state.command(GAIN)).qd * DT
     finally:
         _solvers.WarmQP.solve = solve  # type: ignore[method-assign]
     return exact, boxes
