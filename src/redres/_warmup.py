@@ -265,7 +265,7 @@ HELPERS: dict[str, list[tuple[str, str, Callable[[], tuple[object, ...]]]]] = {
         ("redres.resolution.hard_limits._lp_kernels", "largest_scale",
          lambda: (_f(2), _f(1), _f(1), _f(1), _f(1), False, 0.0)),
         ("redres.resolution.hard_limits._kernels", "epilogue",
-         lambda: (_f(2), _f(1), _f(2), _f(3), _f(2), False, False)),
+         lambda: (_f(2), _f(1), _f(2), _f(2))),
     ],
 }  # fmt: skip
 

@@ -188,7 +188,7 @@ def chain_qp_step(config, q, prev, q_next, state, out, codes, act):
         return status, 0, 0, False, 0.0, False, False
     _secondary(config, q, qd0)
     dt = config[CFG_DT]
-    status, relaxed, full, inside = qp_begin(q, prev, dt, lim, Jm, xd, qd0, box, codes, Jc, M,
+    status, relaxed, _, inside = qp_begin(q, prev, dt, lim, Jm, xd, qd0, box, codes, Jc, M,
                                              wm, bu, bl, f, w, state[DAMPING2], P, c)  # fmt: skip
     if status != OK:
         return status, 0, 0, False, 0.0, False, False
@@ -200,7 +200,7 @@ def chain_qp_step(config, q, prev, q_next, state, out, codes, act):
         if before:  # the least-violating QP first; Farkas may prove the exact one empty
             if box_qp(P, c, lo, hi, lv, work, act[1])[0] != 1:
                 return OK, relaxed, 0, False, 0.0, True, True
-            proved, active, residual = qp_end(Jm, xd, lv, box, M, wm, full)
+            proved, active, residual = qp_end(Jm, xd, lv, box, wm)
         if proved:
             infeasible, met = True, False
         else:
@@ -213,14 +213,14 @@ def chain_qp_step(config, q, prev, q_next, state, out, codes, act):
                 if not before:
                     if box_qp(P, c, lo, hi, lv, work, act[1])[0] != 1:
                         return OK, relaxed, 0, False, 0.0, True, True
-                    proved, active, residual = qp_end(Jm, xd, lv, box, M, wm, full)
+                    proved, active, residual = qp_end(Jm, xd, lv, box, wm)
                 if not proved:  # the scheme refines this one on orthonormal rows
                     return OK, relaxed, 0, False, 0.0, True, True
             else:
                 for j in range(n):
                     box[0, j] = x[j]
     if not proved:
-        active, residual = epilogue(Jm, xd, box, M, wm, full, False)
+        active, residual = epilogue(Jm, xd, box, wm)
         if not inside and residual * residual > _MET2 * _squared(xd):
             return OK, relaxed, 0, False, 0.0, True, True  # the scheme's refinement
     for j in range(n):

@@ -35,7 +35,7 @@ class StepResult:
             ``damping``, ``method``), from :mod:`redres.linalg`; the hard-limit schemes
             compute it on first read.
         null_term: the secondary (null-space) part of ``qd``, shape ``(n,)`` (zeros when
-            the scheme has none).
+            the scheme has none); the hard-limit schemes compute it on first read.
         feasible: whether the task is met exactly within the scheme's constraints (always
             true for schemes without hard limits).
         algorithmic_singularity: whether an added task row (augmented Jacobian, priority
@@ -46,14 +46,14 @@ class StepResult:
             the hard-limit schemes build it on first read.
     """
 
-    __slots__ = ("_details", "_info", "algorithmic_singularity", "binding", "feasible",
-                 "null_term", "qd")  # fmt: skip
+    __slots__ = ("_details", "_info", "_null", "algorithmic_singularity", "binding",
+                 "feasible", "qd")  # fmt: skip
 
     def __init__(
         self,
         qd: FloatArray,
         info: InverseInfo | Callable[[], InverseInfo],
-        null_term: FloatArray,
+        null_term: FloatArray | Callable[[], FloatArray],
         *,
         feasible: bool = True,
         algorithmic_singularity: bool = False,
@@ -61,8 +61,8 @@ class StepResult:
         details: Any = None,
     ) -> None:
         """Built by the schemes; the arguments are the attributes listed on the class."""
-        # details may be a zero-argument callable (built on first read), like info.
-        self.qd, self._info, self.null_term = qd, info, null_term
+        # details and null_term may be zero-argument callables (built on first read), like info.
+        self.qd, self._info, self._null = qd, info, null_term
         self.feasible, self.algorithmic_singularity = feasible, algorithmic_singularity
         self.binding, self._details = binding, details
 
@@ -73,6 +73,14 @@ class StepResult:
         if not isinstance(info, InverseInfo):
             info = self._info = info()
         return info
+
+    @property
+    def null_term(self) -> FloatArray:
+        """The secondary (null-space) part of ``qd`` (computed on first read where costly)."""
+        null = self._null
+        if callable(null):
+            null = self._null = null()
+        return null
 
     @property
     def details(self) -> Any:
@@ -87,7 +95,7 @@ class StepResult:
         cls,
         qd: FloatArray,
         info: Callable[[], InverseInfo],
-        null_term: FloatArray,
+        null_term: FloatArray | Callable[[], FloatArray],
         feasible: bool,
         binding: Sequence[Any],
         details: Callable[[], Any],
@@ -95,7 +103,7 @@ class StepResult:
         """A result whose ``info`` and ``details`` are built on first read (the hard-limit
         schemes' hot path: no keyword parsing, nothing built a loop never reads)."""
         result = _new(cls)
-        result.qd, result._info, result.null_term, result.feasible = qd, info, null_term, feasible
+        result.qd, result._info, result._null, result.feasible = qd, info, null_term, feasible
         result.algorithmic_singularity, result.binding, result._details = False, binding, details
         return result
 

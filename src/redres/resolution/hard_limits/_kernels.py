@@ -340,9 +340,10 @@ def prologue(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M):
 
 
 @kernel
-def epilogue(J, xd, out, M, wm, full, factored):
-    """Clip ``q̇ = out[0]`` into the box, its null-space component (``out[1]``). Returns
-    ``(#joints on a bound within 1e-9, ‖J q̇ − ẋ‖)``."""
+def epilogue(J, xd, out, wm):
+    """Clip ``q̇ = out[0]`` into the box; ``wm[2] = J q̇``. Returns ``(#joints on a bound
+    within 1e-9, ‖J q̇ − ẋ‖)``. (The null-space component is :func:`null_term`'s, computed
+    when a caller reads it.)"""
     m, n = J.shape
     active = 0
     for k in range(n):
@@ -356,16 +357,29 @@ def epilogue(J, xd, out, M, wm, full, factored):
             acc += J[i, k] * out[0, k]
         wm[2, i] = acc
         residual += (acc - xd[i]) ** 2
-    for k in range(n):
-        out[1, k] = 0.0
-    if full:  # null = (I − J⁺J) q̇
-        every = np.ones(n, np.bool_)
-        if not factored:
-            factor(J, every, M[0], M[1])
-        min_norm(J, every, M[1], wm[2], wm[0], wm[1], out[1])
-        for k in range(n):
-            out[1, k] = out[0, k] - out[1, k]
     return active, math.sqrt(residual)
+
+
+@kernel
+def null_term(J, qd, null):
+    """``null = (I − J⁺J) q̇``, the component of ``q̇`` in the null space of ``J``, when
+    ``J`` has full row rank by :func:`factor`'s test (``J⁺ = Jᵀ(J Jᵀ)⁻¹``, one step of
+    refinement: :func:`min_norm`); zeros otherwise."""
+    m, n = J.shape
+    G, L, w = np.empty((m, m)), np.empty((m, m)), np.empty((3, m))
+    every = np.ones(n, np.bool_)
+    for k in range(n):
+        null[k] = 0.0
+    if not factor(J, every, G, L):
+        return
+    for i in range(m):
+        acc = 0.0
+        for k in range(n):
+            acc += J[i, k] * qd[k]
+        w[2, i] = acc
+    min_norm(J, every, L, w[2], w[0], w[1], null)
+    for k in range(n):
+        null[k] = qd[k] - null[k]
 
 
 @kernel
@@ -380,9 +394,9 @@ def sns_step(q, prev, dt, lim, J, xd, qd0, use_qd0, tol, out, codes, Jc, M, wm, 
     status, relaxed, full = prologue(q, prev, dt, lim, J, xd, qd0, out, codes, Jc, M)
     if status != OK:
         return status, FAILED, 0.0, 0, 0, False, False, False
-    method, s, factored = _sns_step(J, xd, out[2], out[3], qd0, use_qd0, tol, out[0], M[0],
+    method, s, _ = _sns_step(J, xd, out[2], out[3], qd0, use_qd0, tol, out[0], M[0],
                                     M[1], wm, wn, wb, full)  # fmt: skip
-    active, residual = epilogue(J, xd, out, M, wm, full, factored)
+    active, residual = epilogue(J, xd, out, wm)
     met, ill = method == FEASIBLE, False  # Algorithm 1 met the task (refined solves)
     if method != FEASIBLE and method != SCALED:  # the LP's answer: is the task met?
         met = _task_met(J, xd, out[0], residual)

@@ -75,7 +75,7 @@ def _qp_farkas(J, xd, lo, hi, x):
 
 
 @kernel
-def qp_end(J, xd, x, out, M, wm, full):
+def qp_end(J, xd, x, out, wm):
     """If ``x`` (the least-violating QP's answer) proves the task infeasible
     (:func:`_qp_farkas`), take it as ``q̇`` and finish the step (:func:`_epilogue`).
     Returns ``(proved, #active, ‖J q̇ − ẋ‖)``."""
@@ -83,7 +83,7 @@ def qp_end(J, xd, x, out, M, wm, full):
         return False, 0, 0.0
     for k in range(x.shape[0]):
         out[0, k] = x[k]
-    active, residual = epilogue(J, xd, out, M, wm, full, False)
+    active, residual = epilogue(J, xd, out, wm)
     return True, active, residual
 
 

@@ -22,7 +22,7 @@ from ...linalg._engine import invert
 from ..base import Scheme, StepResult
 from ..gradient_projection import WeightedObjective, total_gradient, weighted_objectives
 from ._codes import MET_ROUNDING, MET_TOLERANCE
-from ._compiled import KERNELS
+from ._compiled import KERNELS, kernels
 from .box import Binding, JointLimits, binding_bounds
 
 if TYPE_CHECKING:
@@ -182,9 +182,16 @@ class BoxScheme(Scheme):
         qd = out[0]
         self.qd_prev = qd.copy()  # the scheme's own copy
         return StepResult.lazy(
-            qd, lambda: step_info(Jc, self.name), out[1], feasible,
+            qd, lambda: step_info(Jc, self.name), lambda: null_term(Jc, qd, out[1]), feasible,
             BindingList(out, codes) if active else (), details,
         )  # fmt: skip
+
+
+def null_term(J: FloatArray, qd: FloatArray, null: FloatArray) -> FloatArray:
+    """A step's ``null_term``, ``(I − J⁺J) q̇`` (zeros where ``J`` is rank-deficient),
+    written into ``null`` when first read (:func:`._kernels.null_term`)."""
+    kernels().null_term(J, qd, null)
+    return null
 
 
 def task_met(J: FloatArray, xd: FloatArray, qd: FloatArray) -> bool:

@@ -222,8 +222,8 @@ class QPScheme(BoxScheme):
                                                      self._bl, self._f, w, 1e-6, self._P,
                                                      self._c))  # fmt: skip
         # warm-up calls with full=False: they must not solve with a factor of this J
-        self._end = _compile.entry_point(kq.qp_end, (J, xd, ws.zero, out[0], ws.M, ws.wm, False))
-        self._finish = _compile.entry_point(k.epilogue, (J, xd, out[0], ws.M, ws.wm, False, False))
+        self._end = _compile.entry_point(kq.qp_end, (J, xd, ws.zero, out[0], ws.wm))
+        self._finish = _compile.entry_point(k.epilogue, (J, xd, out[0], ws.wm))
         self._normal = _compile.entry_point(kq._qp_normal, (J, xd, w, 1e-6, ws.zero, self._P,
                                                             self._c))  # fmt: skip
         if self._qp.daqp:
@@ -263,7 +263,7 @@ class QPScheme(BoxScheme):
             single = finished is None  # not proved infeasible (Farkas' lemma)
             exact = [met]
         if finished is None:
-            finished = self._finish(J, xd, out, ws.M, ws.wm, full, False)
+            finished = self._finish(J, xd, out, ws.wm)
         active, residual = finished
         if single and residual * residual > _MET2 * (xd @ xd):
             exact[0], active, residual = self._refine(J, xd, qd0, out, full, active, residual)
@@ -271,7 +271,7 @@ class QPScheme(BoxScheme):
         if damper is not None:
             if not collided and near and damper.violated(out[0]):
                 exact[0] = self._collide(q, J, xd, qd0, out, exact[0], not inside)
-                active, residual = self._finish(J, xd, out, ws.M, ws.wm, full, False)
+                active, residual = self._finish(J, xd, out, ws.wm)
                 collided = True
             if collided:
                 exact[0] = exact[0] and task_met(J, xd, out[0])
@@ -427,7 +427,7 @@ class QPScheme(BoxScheme):
         if lv is None:
             return None
         ws = self._ws
-        proved, active, residual = self._end(J, xd, lv, out, ws.M, ws.wm, full)
+        proved, active, residual = self._end(J, xd, lv, out, ws.wm)
         return (active, residual) if proved else None
 
     def _refine(
@@ -449,12 +449,12 @@ class QPScheme(BoxScheme):
         if x is not None:
             out[0] = x
             ws = self._ws
-            again = self._finish(J, xd, out, ws.M, ws.wm, full, False)
+            again = self._finish(J, xd, out, ws.wm)
             if again[1] < residual:
                 active, residual = again
             else:
                 out[0] = kept
-                active, residual = self._finish(J, xd, out, ws.M, ws.wm, full, False)
+                active, residual = self._finish(J, xd, out, ws.wm)
         met = bool(residual * residual <= _MET2 * (xd @ xd))
         self._infeasible_before = self._infeasible_before and not met
         return met, active, residual

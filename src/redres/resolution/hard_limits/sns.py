@@ -130,8 +130,7 @@ class SNSScheme(BoxScheme):
         args = (q, ws.zero, self.dt, ws.lim, J, xd, ws.zero, False, self.tolerance,
                 *ws.outputs(), ws.M, ws.wm, ws.wn, ws.wb)  # fmt: skip
         self._kernel = _compile.entry_point(kernels().sns_step, args)
-        self._finish = _compile.entry_point(kernels().epilogue, (J, xd, ws.outputs()[0], ws.M,
-                                                             ws.wm, False, False))  # fmt: skip
+        self._finish = _compile.entry_point(kernels().epilogue, (J, xd, ws.outputs()[0], ws.wm))
         self._ws, self._robot, self._pending = ws, robot, pending("_kernels")
 
     @staticmethod
@@ -180,7 +179,7 @@ class SNSScheme(BoxScheme):
         if ill and (method != LP_SCALED or s == 1.0):  # the LP may have missed the task
             s = 0.0 if s == 1.0 else s  # a scale the answer does not achieve
             method, s = self._orthonormal_lp(J, xd, out, method, s)
-            active, _ = self._finish(J, xd, out, ws.M, ws.wm, full, False)  # the new q̇'s
+            active, _ = self._finish(J, xd, out, ws.wm)  # the new q̇'s
             met = task_met(J, xd, out[0])
         if method != FEASIBLE and method != SCALED:  # the flag and scale mean "task met"
             s = 1.0 if met else min(s, 1.0 - 1e-16)
