@@ -112,7 +112,8 @@ def _secondary(config, q, qd0):
 def chain_sns_step(config, q, prev, q_next, state, out, codes, wb):
     """One SNS step of a frame task (module docstring): the chain's front end, the box,
     Algorithm 1 of Flacco, De Luca and Khatib (2015) with the linear program's check, and
-    ``q⁺ = q + q̇ dt`` into ``q_next``, after the previous velocity ``prev`` (n). Returns
+    ``q⁺ = q + q̇ dt`` into ``q_next``, after the previous velocity ``prev`` (n), which
+    becomes ``q̇`` (unless ``ill``). Returns
     the tuple of ``redres.resolution.hard_limits._kernels.sns_step``: ``(status, method,
     scale, #relaxed, #active, met, ill, full)``; when ``ill`` (the task is not met and
     ``J`` may be ill-conditioned) the caller finishes the step on the scheme's own path
@@ -134,6 +135,8 @@ def chain_sns_step(config, q, prev, q_next, state, out, codes, wb):
     if result[0] == OK:
         for j in range(n):
             q_next[j] = q[j] + box[0, j] * dt
+            if not result[6]:
+                prev[j] = box[0, j]
     return result
 
 
@@ -166,7 +169,8 @@ def chain_qp_step(config, q, prev, q_next, state, out, codes, act):
     :func:`~redres.resolution.hard_limits._dense_qp_kernels.box_qp`), in
     :class:`~redres.resolution.QPScheme`'s order: after an infeasible step the
     least-violating QP first, the exact one skipped when Farkas' lemma proves it
-    infeasible; then ``q⁺ = q + q̇ dt``. ``act`` (2, n) int8: the two QPs' active sets,
+    infeasible; then ``q⁺ = q + q̇ dt``, and ``prev`` (the previous velocity, n) becomes
+    ``q̇`` (unless ``defer``). ``act`` (2, n) int8: the two QPs' active sets,
     kept as warm starts. Returns ``(status, #relaxed, #active, met, residual, infeasible,
     defer)``: ``infeasible``, the exact QP was infeasible this step (the scheme's
     ``_infeasible_before`` next); ``defer``, a solver broke down or the answer needs the
@@ -225,4 +229,5 @@ def chain_qp_step(config, q, prev, q_next, state, out, codes, act):
             return OK, relaxed, 0, False, 0.0, True, True  # the scheme's refinement
     for j in range(n):
         q_next[j] = q[j] + box[0, j] * dt
+        prev[j] = box[0, j]
     return OK, relaxed, active, met, residual, infeasible, False

@@ -16,6 +16,7 @@ its state (``qd_prev``, the QP's last verdict) and of the step's result (``_fini
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -31,6 +32,8 @@ if TYPE_CHECKING:
     from ..robot import Robot
 
 _MODULE = "_box_kernels"
+#: A step's result, or a function that builds it when it is first read.
+Result = StepResult | Callable[[], StepResult]
 _int8 = np.int8
 _empty = np.empty
 
@@ -84,61 +87,75 @@ class BoxStep:
         else:
             state[kernels.TOLERANCE] = scheme.tolerance
         self._flags = np.zeros((2, n), np.int8) if qp else np.zeros((3, n), np.bool_)
-        self._zero = np.zeros(n)
-        self._shape = (3, n)
+        self._prev = np.zeros(n)  # the scheme's qd_prev from the first step on
+        self._shape, self._tail = (3, n), 4 * n + m * n
         name = "chain_qp_step" if qp else "chain_sns_step"
-        entry = KERNELS.entry(name, self._arguments(self._zero, np.empty(n)), _MODULE)
+        entry = KERNELS.entry(name, self._arguments(np.zeros(n), np.empty(n)), _MODULE)
+        self._prev[:] = 0.0  # (the warm-up call wrote its q̇)
         assert entry is not None  # numba imports: box_step found the kernels
         self._entry: Any = entry
         self._infeasible = kernels.INFEASIBLE  # the scheme's verdict, set at each step
 
-    def _arguments(
-        self, q: FloatArray, q_next: FloatArray, prev: FloatArray | None = None
-    ) -> tuple[Any, ...]:
+    def _arguments(self, q: FloatArray, q_next: FloatArray) -> tuple[Any, ...]:
         """The kernel's arguments for a step at ``q`` (and a new ``out``, ``codes``)."""
-        return (self._config, q, self._zero if prev is None else prev, q_next, self._state,
-                _empty(self._out_size), _empty(self._shape, _int8), self._flags)  # fmt: skip
+        return (self._config, q, self._prev, q_next, self._state, _empty(self._out_size),
+                _empty(self._shape, _int8), self._flags)  # fmt: skip
 
-    def __call__(self, q: FloatArray) -> tuple[FloatArray, StepResult, FloatArray, FloatArray]:
-        """The step at ``q`` (float64, C order): ``(q⁺, the scheme's result, the frame's
-        error (6,), its pose (4, 4))``; ``q̇`` becomes the scheme's ``qd_prev``."""
-        scheme, n, m = self._scheme, self._n, self._m
-        q_next = _empty(n)
+    def __call__(self, q: FloatArray) -> tuple[FloatArray, Result, FloatArray, FloatArray, Any]:
+        """The step at ``q`` (float64, C order): ``(q⁺, the scheme's result or a function
+        that builds it, q̇, the frame's error (6,), its pose (4, 4))``.
+
+        The scheme's ``qd_prev`` is this step's array, which the kernel overwrites with
+        ``q̇``; one the scheme set otherwise (a reset, its own step in between) is copied
+        in first."""
+        scheme, n = self._scheme, self._n
+        prev = self._prev
+        if scheme.qd_prev is not prev:
+            held = scheme.qd_prev
+            prev[:] = 0.0 if held is None else held
+            scheme.qd_prev = prev
         if self._qp:  # the scheme's last verdict (its own state: a reset clears it)
             self._state[self._infeasible] = scheme._infeasible_before  # type: ignore[union-attr]
-        args = self._arguments(q, q_next, scheme.qd_prev)
+        q_next = _empty(n)
+        args = self._arguments(q, q_next)
         status, *outcome = self._entry(*args)
         if status:
             raise_for_status(status, n)
-        out, codes_ = args[5], args[6]
+        out, codes_, tail = args[5], args[6], self._tail
+        error, pose = out[tail : tail + 6], out[tail + 6 : tail + 22].reshape(4, 4)
+        if self._qp and not outcome[-1]:
+            scheme._infeasible_before = outcome[4]  # type: ignore[union-attr]
+        elif self._qp or outcome[5]:  # the scheme's own step, or its LP on orthonormal rows
+            result = self._finish(q, q_next, out, codes_, outcome)
+            return q_next, result, result.qd, error, pose
+        return q_next, lambda: self._finish(q, q_next, out, codes_, outcome), out[:n], error, pose
+
+    def _finish(
+        self, q: FloatArray, q_next: FloatArray, out: FloatArray, codes_: Any, outcome: list[Any]
+    ) -> StepResult:
+        """The scheme's result of a step from the kernel's ``outcome`` (when first read);
+        at once where the scheme finishes the step itself: SNS's LP on orthonormal rows
+        (``ill``; then ``q̇`` may change and ``q⁺`` is integrated again), a QP step the
+        kernel handed back (``defer``: the scheme's own step on the kernel's task rows)."""
+        scheme, n, m = self._scheme, self._n, self._m
         box = out[: 4 * n].reshape(4, n)
         Jc = out[4 * n : 4 * n + m * n].reshape(m, n)
-        tail = 4 * n + m * n
-        error, pose = out[tail : tail + 6], out[tail + 6 : tail + 22].reshape(4, 4)
-        if self._qp:
-            return (*self._qp_result(q, q_next, box, codes_, Jc, *outcome), error, pose)
-        ill = outcome[5]
-        if ill:  # the scheme's path may change q̇ (the LP on orthonormal rows)
-            scheme._inputs(self._robot, q, Jc, self._xd)  # its workspace, for the LP
-        result = scheme._finished(Jc, self._xd, box, codes_, Jc, *outcome)  # type: ignore[union-attr]
-        if ill:
-            np.add(q, box[0] * self._dt, out=q_next)
-        return q_next, result, error, pose
-
-    def _qp_result(
-        self, q: FloatArray, q_next: FloatArray, box: FloatArray, codes_: Any, Jc: FloatArray,
-        relaxed: int, active: int, met: bool, residual: float, infeasible: bool, defer: bool,
-    ) -> tuple[FloatArray, StepResult]:  # fmt: skip
-        """``(q⁺, result)`` of a QP step from the kernel's outcome; where it defers, the
-        scheme's own step on the kernel's task rows (DAQP, the refinement)."""
-        scheme = self._scheme
-        assert isinstance(scheme, QPScheme)
-        if defer:
+        if isinstance(scheme, QPScheme):
+            relaxed, active, met, residual, _, defer = outcome
+            if not defer:
+                return scheme._finished(box, codes_, Jc, met, active, residual, relaxed,
+                                        keep=False)  # fmt: skip
             result = scheme._step(self._robot, q, self._Jm, self._xd)
-            np.add(q, result.qd * self._dt, out=q_next)
-            return q_next, result
-        scheme._infeasible_before = infeasible
-        return q_next, scheme._finished(box, codes_, Jc, met, active, residual, relaxed)
+        else:
+            method, s, relaxed, active, met, ill, full = outcome
+            if ill:
+                scheme._inputs(self._robot, q, Jc, self._xd)  # its workspace, for the LP
+            result = scheme._finished(Jc, self._xd, box, codes_, Jc, method, s, relaxed, active,
+                                      met, ill, full, keep=ill)  # fmt: skip
+            if not ill:
+                return result
+        np.add(q, result.qd * self._dt, out=q_next)
+        return result
 
 
 def box_step(robot: Robot, scheme: Any, config: FloatArray) -> BoxStep | bool:

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from .. import _compile
 from .._validate import FloatArray
 from ..errors import NonFiniteError, ShapeError
+from ..linalg import InverseInfo
 from ..linalg import _backend as be
 from ..linalg import _codes as codes
 from ..linalg._status import raise_status
@@ -203,6 +204,28 @@ def kernel_for(robot: Robot, frame_id: int, name: str) -> Any:
         return entry
     kernels = KERNELS.module()  # pragma: no cover - a Pinocchio build with other layouts
     return None if kernels is None else getattr(kernels, name)  # pragma: no cover
+
+
+_LABELS = ("pinv", "damped", "adaptive", "selective", "damped")  # by mode (LAZY last)
+_new_info = tuple.__new__
+
+
+def fused_info(out: FloatArray, n: int, rows: NDArray[np.int64], config: FloatArray) -> InverseInfo:
+    """The :class:`~redres.linalg.InverseInfo` of a fused step from its output block
+    ``out`` (:func:`block_size`): rank, σ_min, σ_max and damping as the kernel wrote them,
+    or, where fixed damping skipped them (rank -1), the singular values of the task
+    ``rows`` of its Jacobian."""
+    m = rows.shape[0]
+    rank, smin, smax, used = out[n : n + 4].tolist()
+    rank = int(rank)
+    if rank < 0:
+        J = out[n + 27 :].reshape(6, n)[rows]
+        sigma = np.linalg.svd(J, compute_uv=False)
+        smax = float(sigma[0])
+        smin = float(sigma[-1]) if m <= n else 0.0
+        rank = int(np.count_nonzero(sigma > config[codes.CFG_RCOND] * smax))
+    label = _LABELS[int(config[codes.CFG_MODE])]
+    return _new_info(InverseInfo, (rank, rank == min(m, n), smin, smax, used, label))  # type: ignore[no-any-return]
 
 
 def raise_for_status(status: int, n: int) -> None:

@@ -44,6 +44,7 @@ not take).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
@@ -52,7 +53,7 @@ from .._validate import FloatArray, as_gains, as_scalar, checked_keywords, real_
 from ..errors import InvalidParameterError, NonFiniteError, ShapeError, SimulationError
 from ..linalg import InverseInfo
 from ..linalg import _backend as be
-from ..linalg._codes import CFG_MODE, CFG_RCOND, FIXED, LAZY
+from ..linalg._codes import CFG_MODE, FIXED, LAZY
 from ..resolution import Scheme, StepResult
 from ..tasks import FrameTask, Task
 from ._box_path import BoxStep, box_step
@@ -64,6 +65,7 @@ from ._fused import (
     block_size,
     choose_path,
     fused_config,
+    fused_info,
     kernel_for,
     native,
     raise_for_status,
@@ -84,8 +86,6 @@ _ndarray = np.ndarray
 _empty = np.empty
 _contiguous = np.ascontiguousarray
 _abs, _max = np.abs, np.max
-_LABELS = ("pinv", "damped", "adaptive", "selective", "damped")  # by mode (LAZY last)
-_new_info = tuple.__new__
 
 
 class Controller:
@@ -187,7 +187,7 @@ class Controller:
         self._qd: FloatArray = self._out[:0]
         self._error: FloatArray = self._out[:0]
         self._pose: Any = None
-        self._result: StepResult | None = None
+        self._result: StepResult | Callable[[], StepResult] | None = None
         self._speed: float | None = 0.0
         self._scaled = False
         self._shaper = as_shaper(shaping, robot, self._dt)
@@ -331,8 +331,8 @@ class Controller:
                 adopt_target(self._task, self._block, q, self._robot, self._fid, self._chain)
             box, m = self._box, self._rows.shape[0]
             if box:  # front end, scheme and integration in one compiled call
-                q_next, self._result, self._error, self._pose = box(q)  # type: ignore[operator]
-                self._qd, self._speed, self._scaled = self._result.qd, None, False
+                q_next, self._result, self._qd, self._error, self._pose = box(q)  # type: ignore[operator]
+                self._speed, self._scaled = None, False
                 return q_next
             Jm, xd = _empty((m, n)), _empty(m)
             if self._chain is None:
@@ -466,24 +466,14 @@ class Controller:
     @property
     def info(self) -> InverseInfo:
         """Diagnostics of the inverse at the last step (rank, σ_min, σ_max, damping)."""
+        result = self.result
         if self._kernel is None:
-            if self._result is None:
+            if result is None:
                 raise InvalidParameterError("the controller has not made a step yet")
-            return self._result.info
+            return result.info
         if not self._stepped():
             raise InvalidParameterError("the controller has not made a step yet")
-        n, m = self._n, self._rows.shape[0]
-        rank, smin, smax, used = self._out[n : n + 4].tolist()
-        rank = int(rank)
-        if rank < 0:  # fixed damping skipped them: the singular values of the task rows
-            J = self._out[n + 27 :].reshape(6, n)[self._rows]
-            sigma = np.linalg.svd(J, compute_uv=False)
-            smax = float(sigma[0])
-            smin = float(sigma[-1]) if m <= n else 0.0
-            rank = int(np.count_nonzero(sigma > self._config[CFG_RCOND] * smax))
-        full = rank == min(m, n)
-        label = _LABELS[int(self._config[CFG_MODE])]
-        return _new_info(InverseInfo, (rank, full, smin, smax, used, label))  # type: ignore[no-any-return]
+        return fused_info(self._out, self._n, self._rows, self._config)
 
     @property
     def result(self) -> StepResult | None:
@@ -491,7 +481,10 @@ class Controller:
         ``qd`` before scaling); None before a step and on the ``"fused"`` path, whose
         schemes report nothing more than the attributes above (no bounds, no algorithmic
         singularity)."""
-        return self._result
+        result = self._result
+        if callable(result):  # the one-call hard-limit step builds it when read
+            result = self._result = result()
+        return result
 
     def __repr__(self) -> str:
         return (

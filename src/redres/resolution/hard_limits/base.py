@@ -176,11 +176,14 @@ class BoxScheme(Scheme):
         feasible: bool,
         active: int,
         details: Callable[[], Any],
+        keep: bool = True,
     ) -> StepResult:
-        """The step's result from the kernel's rows (``q̇`` also becomes :attr:`qd_prev`);
-        ``info`` and ``details`` are built on first read."""
+        """The step's result from the kernel's rows (``q̇`` also becomes :attr:`qd_prev`
+        when ``keep``; the controller's one-call step keeps it itself); ``info``,
+        ``null_term`` and ``details`` are built on first read."""
         qd = out[0]
-        self.qd_prev = qd.copy()  # the scheme's own copy
+        if keep:
+            self.qd_prev = qd.copy()  # the scheme's own copy
         return StepResult.lazy(
             qd, lambda: step_info(Jc, self.name), lambda: null_term(Jc, qd, out[1]), feasible,
             BindingList(out, codes) if active else (), details,

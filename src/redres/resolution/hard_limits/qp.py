@@ -285,18 +285,18 @@ class QPScheme(BoxScheme):
     def _finished(
         self, out: FloatArray, codes: NDArray[np.int8], Jc: FloatArray, met: bool, active: int,
         residual: float, relaxed: int, levels: list[float] | None = None,
-        contact: Callable[[], CollisionDetails] | None = None,
+        contact: Callable[[], CollisionDetails] | None = None, keep: bool = True,
     ) -> StepResult:  # fmt: skip
         """The step's result from the kernels' rows (``out``, ``codes``, ``Jc``): the task
         ``met``, ``active`` bounds, the loop task's ``residual``, ``relaxed`` joints, the
         levels' residuals (default: the loop task's alone), the collision pairs' details;
-        ``q̇`` becomes :attr:`qd_prev`. Shared with the controller's compiled step
+        ``q̇`` becomes :attr:`qd_prev` when ``keep``. Shared with the controller's compiled step
         (:mod:`redres.control._box_kernels`)."""
         levels = [residual] if levels is None else levels
         return self._result(
             out, codes, Jc, met, active,
             lambda: QPDetails(residual, levels, *box_details(out, codes, relaxed), self.solver,
-                              None if contact is None else contact()),
+                              None if contact is None else contact()), keep,
         )  # fmt: skip
 
     def _prepare_rows(self, robot: Robot, J: FloatArray, P: int) -> None:

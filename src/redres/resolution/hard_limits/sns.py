@@ -167,12 +167,12 @@ class SNSScheme(BoxScheme):
     def _finished(
         self, J: FloatArray, xd: FloatArray, out: FloatArray, codes: NDArray[np.int8],
         Jc: FloatArray, method: int, s: float, relaxed: int, active: int, met: bool,
-        ill: bool, full: bool,
+        ill: bool, full: bool, keep: bool = True,
     ) -> StepResult:  # fmt: skip
         """The step's result from the SNS kernel's outcome (``sns_step``'s tuple past its
         status, for ``out``, ``codes``, ``Jc``), after the LP on orthonormal rows where
         ``J`` may be ill-conditioned (then ``out[0]`` changes); ``q̇`` becomes
-        :attr:`qd_prev`. Shared with the controller's compiled step
+        :attr:`qd_prev` when ``keep``. Shared with the controller's compiled step
         (:mod:`redres.control._box_kernels`)."""
         ws = self._ws
         s = 0.0 if method == NEAREST else s
@@ -185,5 +185,5 @@ class SNSScheme(BoxScheme):
             s = 1.0 if met else min(s, 1.0 - 1e-16)
         return self._result(
             out, codes, Jc, met, active,
-            lambda: SNSDetails(s, METHODS[method], *box_details(out, codes, relaxed)),
+            lambda: SNSDetails(s, METHODS[method], *box_details(out, codes, relaxed)), keep,
         )  # fmt: skip
