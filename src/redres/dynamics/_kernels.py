@@ -29,8 +29,16 @@ Newton–Euler; Featherstone, *Rigid Body Dynamics Algorithms*, 2008, ch. 5–6)
   diagonal.
 
 The operational-space torque then follows the module docstring of
-:mod:`redres.dynamics.osc` with ``projector="dynamic"`` and ``compensation="joint"``:
-``J̄`` from the weighted inverse kernel of :mod:`redres.linalg._kernels` (``W = M``).
+:mod:`redres.dynamics.osc` with ``projector="dynamic"`` and ``compensation="joint"``: the
+weighted inverse kernel of :mod:`redres.linalg._kernels` (``W = M``) gives the rank, the
+singular values and the damping; the task and null-space torques come from Householder QR
+of ``[J_sᵀ; λ I]`` (:func:`_consistent_torques`, the formulas of
+:mod:`redres.dynamics.consistent`), or from that kernel's ``J̄`` where the inverse is
+truncated or selectively damped.
+
+Entry points: :func:`chain_dynamics` (:func:`_forward`, :func:`_world_inertia`) and
+:func:`osc_step` (``chain_dynamics``, ``inverse``, :func:`_consistent_torques` with
+:func:`_householder_qr` and :func:`_reflect`).
 """
 
 from __future__ import annotations
@@ -40,7 +48,8 @@ import math
 import numpy as np
 
 from .._compile import kernel
-from ..linalg._codes import FULL, OK, Q_NONFINITE
+from ..linalg._codes import FULL, OK, Q_NONFINITE, SELECTIVE
+from ..linalg._dense_kernels import _cholesky
 from ..linalg._kernels import inverse
 from ..robot._chain_codes import PRISMATIC
 from ..robot._chain_kernels import rotation_error
@@ -318,45 +327,144 @@ def osc_step(links, axes, kinds, body, armature, gravity, damp, q, qd, feed, tar
             Jm[r, c] = J[i, c]
             acc += J[i, c] * qd[c]
         cmd[r] = feed[6 + i] + gains[1, r] * (feed[i] - acc) + gains[0, r] * e[i] - jdqd[i]
-    Jbar = np.empty((n, m))
     empty = np.empty((0, 0))
+    mode = int(settings[3])
     status, rank, smin, smax, used = inverse(
-        Jm, np.empty(0), M, Jbar, empty, empty, FULL, int(settings[3]), settings[4], settings[5],
+        Jm, np.empty(0), M, empty, empty, empty, FULL, mode, settings[4], settings[5],
         settings[6], settings[7],
     )  # fmt: skip
     if status != OK:
         return status
     stats = base + OUT_STATS
     out[stats], out[stats + 1], out[stats + 2], out[stats + 3] = rank, smin, smax, used
-    # q̈₀ = −k_d q̇ − k_p a ∘ (q − r), τ₀ = M q̈₀ (out[3n:4n]); τ_task = M J̄ cmd (out[n:2n])
+    # q̈₀ = −k_d q̇ − k_p a ∘ (q − r), τ₀ = M q̈₀ (out[3n:4n])
     qdd0 = np.empty(n)
-    x = np.empty(n)
     for c in range(n):
         qdd0[c] = -settings[1] * qd[c]
         if settings[2] != 0.0 and settings[0] > 0.0:
             qdd0[c] -= settings[0] * quad[0, c] * (q[c] - quad[1, c])
-        acc = 0.0
-        for r in range(m):
-            acc += Jbar[c, r] * cmd[r]
-        x[c] = acc
     for a in range(n):
-        task = 0.0
         tau0 = 0.0
         for c in range(n):
-            task += M[a, c] * x[c]
             tau0 += M[a, c] * qdd0[c]
-        out[n + a] = task
         out[3 * n + a] = tau0
-    y = np.empty(m)  # J̄ᵀ τ₀
-    for r in range(m):
-        acc = 0.0
+    if mode != SELECTIVE and (rank == m or used > 0.0):  # one inverse in every direction
+        _consistent_torques(M, Jm, used, cmd, qdd0, out)
+    else:  # truncated or selective: through J̄, τ_task = M J̄ cmd, τ_null = τ₀ − Jᵀ J̄ᵀ τ₀
+        Jbar = np.empty((n, m))
+        inverse(Jm, np.empty(0), M, Jbar, empty, empty, FULL, mode, settings[4], settings[5],
+                settings[6], settings[7])  # fmt: skip
+        x = np.empty(n)
         for c in range(n):
-            acc += Jbar[c, r] * out[3 * n + c]
-        y[r] = acc
-    for a in range(n):
-        acc = 0.0
+            acc = 0.0
+            for r in range(m):
+                acc += Jbar[c, r] * cmd[r]
+            x[c] = acc
+        for a in range(n):
+            task = 0.0
+            for c in range(n):
+                task += M[a, c] * x[c]
+            out[n + a] = task
+        y = np.empty(m)  # J̄ᵀ τ₀
         for r in range(m):
-            acc += Jm[r, a] * y[r]
-        out[2 * n + a] = out[3 * n + a] - acc
+            acc = 0.0
+            for c in range(n):
+                acc += Jbar[c, r] * out[3 * n + c]
+            y[r] = acc
+        for a in range(n):
+            acc = 0.0
+            for r in range(m):
+                acc += Jm[r, a] * y[r]
+            out[2 * n + a] = out[3 * n + a] - acc
+    for a in range(n):
         out[a] = out[n + a] + b[a] + damp[a] * qd[a] + out[2 * n + a]
     return OK
+
+
+@kernel
+def _householder_qr(S, beta, rdiag):
+    """Householder QR of ``S`` (rows x m, rows ≥ m) in place (Golub & Van Loan 2013,
+    alg. 5.2.1): ``R`` above the diagonal of ``S`` and in ``rdiag``, reflector ``k``'s
+    vector ``v`` in ``S[k:, k]``, ``H_k = I − beta[k] v vᵀ``; ``Q = H_0 ⋯ H_{m−1}``."""
+    rows, m = S.shape
+    for k in range(m):
+        norm = 0.0
+        for i in range(k, rows):
+            norm += S[i, k] * S[i, k]
+        norm = math.sqrt(norm)
+        x0 = S[k, k]
+        if norm == 0.0:  # a zero column: H_k = I (R singular; the caller never gets here)
+            beta[k], rdiag[k] = 0.0, 0.0
+            continue
+        alpha = -norm if x0 >= 0.0 else norm  # v = x − α e₁ without cancellation
+        S[k, k] = x0 - alpha
+        beta[k] = 1.0 / (norm * (norm + abs(x0)))  # 2 / vᵀv
+        rdiag[k] = alpha
+        for c in range(k + 1, m):
+            dot = 0.0
+            for i in range(k, rows):
+                dot += S[i, k] * S[i, c]
+            f = beta[k] * dot
+            for i in range(k, rows):
+                S[i, c] -= f * S[i, k]
+
+
+@kernel
+def _reflect(S, beta, x, transpose):
+    """``x <- Qᵀ x`` (``transpose``) or ``Q x`` in place, ``Q`` from :func:`_householder_qr`."""
+    rows, m = S.shape
+    for step in range(m):
+        k = step if transpose else m - 1 - step
+        dot = 0.0
+        for i in range(k, rows):
+            dot += S[i, k] * x[i]
+        f = beta[k] * dot
+        for i in range(k, rows):
+            x[i] -= f * S[i, k]
+
+
+@kernel
+def _consistent_torques(M, Jm, lam, cmd, qdd0, out):
+    """``out[n:2n] <- Jᵀ Λ cmd = L Q₁ R⁻ᵀ cmd`` and ``out[2n:3n] <- τ₀ − L Q₁ Q₁ᵀ Lᵀ q̈₀``
+    (``τ₀ = M q̈₀`` in ``out[3n:4n]``), with ``M = L Lᵀ`` and ``[J L⁻ᵀ | λ I]ᵀ = Q R`` (the
+    module docstring of :mod:`redres.dynamics.consistent`). ``M`` is positive definite and
+    ``R`` regular: the caller's inverse kernel checked both."""
+    m, n = Jm.shape
+    L = np.zeros((n, n))
+    _cholesky(M, L, n, 0.0)
+    S = np.zeros((n + m, m))
+    for r in range(m):  # column r of J_sᵀ = L⁻¹ (row r of J), forward substitution
+        for i in range(n):
+            acc = Jm[r, i]
+            for k in range(i):
+                acc -= L[i, k] * S[k, r]
+            S[i, r] = acc / L[i, i]
+        S[n + r, r] = lam
+    beta = np.empty(m)
+    rdiag = np.empty(m)
+    _householder_qr(S, beta, rdiag)
+    z = np.zeros(n + m)  # R⁻ᵀ cmd (Rᵀ lower triangular), then Q₁ of it
+    for i in range(m):
+        acc = cmd[i]
+        for k in range(i):
+            acc -= S[k, i] * z[k]
+        z[i] = acc / rdiag[i]
+    _reflect(S, beta, z, False)
+    u = np.zeros(n + m)  # Lᵀ q̈₀ = L⁻¹ τ₀, then Q₁ Q₁ᵀ of it
+    for i in range(n):
+        acc = 0.0
+        for k in range(i, n):
+            acc += L[k, i] * qdd0[k]
+        u[i] = acc
+    _reflect(S, beta, u, True)
+    for i in range(m, n + m):
+        u[i] = 0.0
+    _reflect(S, beta, u, False)
+    for a in range(n):  # L times each
+        task = 0.0
+        proj = 0.0
+        for k in range(a + 1):
+            task += L[a, k] * z[k]
+            proj += L[a, k] * u[k]
+        out[n + a] = task
+        out[2 * n + a] = out[3 * n + a] - proj
