@@ -205,8 +205,13 @@ def test_the_compiled_step_is_read_from_the_kernel_output(panda: rr.Robot) -> No
 @pytest.mark.parametrize("name", ["panda", "iiwa14"])
 def test_compiled_osc_torque_equals_the_pinocchio_path_on_10000_states(name: str) -> None:
     """Random states over the whole joint range (10,000 when compiled; the plain-Python
-    twin runs 300): the two paths factor the same M to 1e-16, and ill-conditioned
-    ``J M^{-1/2}`` near singularities amplifies that to a few 1e-12 (measured 5.6e-12)."""
+    twin runs 300). Both paths take the task and null-space torques from QR of
+    ``[J M^{-1/2}; λ I]ᵀ`` (:mod:`redres.dynamics.consistent`), whose rounding grows with
+    ``κ = κ(J M^{-1/2})``, not ``κ²`` as through ``J M⁻¹ Jᵀ`` (5.6e-12 before). Measured,
+    relative to max(1, max|τ|): panda 2.2e-13 on all states; iiwa14 below 1e-12 on all
+    but 3 states, those within ``σ_min(J) ≤ 1e-4`` of a singularity (``κ`` 1e5–5e5, worst
+    3.4e-12 = 0.03 κ ε), where the exact torque itself moves by as much under 1-ulp
+    changes of ``M`` and ``J``: there the bound is 0.1 κ ε."""
     from redres import _compile
 
     arm = rr.models.load(name)
@@ -216,10 +221,12 @@ def test_compiled_osc_torque_equals_the_pinocchio_path_on_10000_states(name: str
     traj = rr.control.Circle(arm.fk(arm.neutral()), radius=0.05, period=2.0)
     worst = 0.0
     count = 10_000 if _compile.enabled() else 300
+    eps = float(np.finfo(float).eps)
     for k, (q, qd) in enumerate(_states(arm, np.random.default_rng(17), count)):
         sample = traj.sample(0.01 * k) if k % 2 else None
         a, b = fast.step(arm, q, qd, sample), slow.step(arm, q, qd, sample)
         scale = max(1.0, float(np.abs(b.tau).max()))
-        worst = max(worst, float(np.abs(a.tau - b.tau).max()) / scale)
+        bound = max(1e-12, 0.1 * b.info.sigma_max / b.info.sigma_min * eps)
+        worst = max(worst, float(np.abs(a.tau - b.tau).max()) / scale / bound)
     assert fast._compiled is not None and fast._compiled[1] is not None
-    assert worst < 2e-11, worst
+    assert worst < 1.0, worst

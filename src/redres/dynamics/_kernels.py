@@ -32,13 +32,15 @@ The operational-space torque then follows the module docstring of
 :mod:`redres.dynamics.osc` with ``projector="dynamic"`` and ``compensation="joint"``: the
 weighted inverse kernel of :mod:`redres.linalg._kernels` (``W = M``) gives the rank, the
 singular values and the damping; the task and null-space torques come from Householder QR
-of ``[J_sᵀ; λ I]`` (:func:`_consistent_torques`, the formulas of
+of ``[J_sᵀ; λ I]`` (:mod:`redres.dynamics._consistent_kernels`, the formulas of
 :mod:`redres.dynamics.consistent`), or from that kernel's ``J̄`` where the inverse is
 truncated or selectively damped.
 
 Entry points: :func:`chain_dynamics` (:func:`_forward`, :func:`_world_inertia`) and
-:func:`osc_step` (``chain_dynamics``, ``inverse``, :func:`_consistent_torques` with
-:func:`_householder_qr` and :func:`_reflect`).
+:func:`osc_step` (``chain_dynamics``, ``inverse``, :func:`_consistent_torques`);
+:func:`consistent_torques` (the operational-space torque's Pinocchio path). Both factor with
+``_consistent_factor`` and apply ``_consistent_parts`` of
+:mod:`redres.dynamics._consistent_kernels`.
 """
 
 from __future__ import annotations
@@ -49,11 +51,11 @@ import numpy as np
 
 from .._compile import kernel
 from ..linalg._codes import FULL, OK, Q_NONFINITE, SELECTIVE
-from ..linalg._dense_kernels import _cholesky
 from ..linalg._kernels import inverse
 from ..robot._chain_codes import PRISMATIC
 from ..robot._chain_kernels import rotation_error
 from ._codes import OUT_ERROR, OUT_POSE, OUT_STATS, OUT_TARGET
+from ._consistent_kernels import _consistent_factor, _consistent_parts
 
 # Columns of the per-joint work array: world origin, axis, angular velocity, angular and
 # linear acceleration at q̈ = 0, the rotation (row-major).
@@ -382,89 +384,42 @@ def osc_step(links, axes, kinds, body, armature, gravity, damp, q, qd, feed, tar
 
 
 @kernel
-def _householder_qr(S, beta, rdiag):
-    """Householder QR of ``S`` (rows x m, rows ≥ m) in place (Golub & Van Loan 2013,
-    alg. 5.2.1): ``R`` above the diagonal of ``S`` and in ``rdiag``, reflector ``k``'s
-    vector ``v`` in ``S[k:, k]``, ``H_k = I − beta[k] v vᵀ``; ``Q = H_0 ⋯ H_{m−1}``."""
-    rows, m = S.shape
-    for k in range(m):
-        norm = 0.0
-        for i in range(k, rows):
-            norm += S[i, k] * S[i, k]
-        norm = math.sqrt(norm)
-        x0 = S[k, k]
-        if norm == 0.0:  # a zero column: H_k = I (R singular; the caller never gets here)
-            beta[k], rdiag[k] = 0.0, 0.0
-            continue
-        alpha = -norm if x0 >= 0.0 else norm  # v = x − α e₁ without cancellation
-        S[k, k] = x0 - alpha
-        beta[k] = 1.0 / (norm * (norm + abs(x0)))  # 2 / vᵀv
-        rdiag[k] = alpha
-        for c in range(k + 1, m):
-            dot = 0.0
-            for i in range(k, rows):
-                dot += S[i, k] * S[i, c]
-            f = beta[k] * dot
-            for i in range(k, rows):
-                S[i, c] -= f * S[i, k]
-
-
-@kernel
-def _reflect(S, beta, x, transpose):
-    """``x <- Qᵀ x`` (``transpose``) or ``Q x`` in place, ``Q`` from :func:`_householder_qr`."""
-    rows, m = S.shape
-    for step in range(m):
-        k = step if transpose else m - 1 - step
-        dot = 0.0
-        for i in range(k, rows):
-            dot += S[i, k] * x[i]
-        f = beta[k] * dot
-        for i in range(k, rows):
-            x[i] -= f * S[i, k]
-
-
-@kernel
 def _consistent_torques(M, Jm, lam, cmd, qdd0, out):
-    """``out[n:2n] <- Jᵀ Λ cmd = L Q₁ R⁻ᵀ cmd`` and ``out[2n:3n] <- τ₀ − L Q₁ Q₁ᵀ Lᵀ q̈₀``
-    (``τ₀ = M q̈₀`` in ``out[3n:4n]``), with ``M = L Lᵀ`` and ``[J L⁻ᵀ | λ I]ᵀ = Q R`` (the
-    module docstring of :mod:`redres.dynamics.consistent`). ``M`` is positive definite and
-    ``R`` regular: the caller's inverse kernel checked both."""
+    """``out[n:2n] <- Jᵀ Λ cmd`` and ``out[2n:3n] <- τ₀ − Jᵀ J̄ᵀ τ₀`` with ``τ₀ = M q̈₀`` in
+    ``out[3n:4n]`` (``L⁻¹ τ₀ = Lᵀ q̈₀``)."""
     m, n = Jm.shape
     L = np.zeros((n, n))
-    _cholesky(M, L, n, 0.0)
-    S = np.zeros((n + m, m))
-    for r in range(m):  # column r of J_sᵀ = L⁻¹ (row r of J), forward substitution
-        for i in range(n):
-            acc = Jm[r, i]
-            for k in range(i):
-                acc -= L[i, k] * S[k, r]
-            S[i, r] = acc / L[i, i]
-        S[n + r, r] = lam
+    S = np.empty((n + m, m))
     beta = np.empty(m)
     rdiag = np.empty(m)
-    _householder_qr(S, beta, rdiag)
-    z = np.zeros(n + m)  # R⁻ᵀ cmd (Rᵀ lower triangular), then Q₁ of it
-    for i in range(m):
-        acc = cmd[i]
-        for k in range(i):
-            acc -= S[k, i] * z[k]
-        z[i] = acc / rdiag[i]
-    _reflect(S, beta, z, False)
-    u = np.zeros(n + m)  # Lᵀ q̈₀ = L⁻¹ τ₀, then Q₁ Q₁ᵀ of it
+    _consistent_factor(M, Jm, lam, L, S, beta, rdiag)
+    u = np.empty(n + m)
     for i in range(n):
         acc = 0.0
         for k in range(i, n):
             acc += L[k, i] * qdd0[k]
         u[i] = acc
-    _reflect(S, beta, u, True)
-    for i in range(m, n + m):
-        u[i] = 0.0
-    _reflect(S, beta, u, False)
-    for a in range(n):  # L times each
-        task = 0.0
-        proj = 0.0
-        for k in range(a + 1):
-            task += L[a, k] * z[k]
-            proj += L[a, k] * u[k]
-        out[n + a] = task
-        out[2 * n + a] = out[3 * n + a] - proj
+    proj = np.empty(n)
+    _consistent_parts(L, S, beta, rdiag, cmd, u, out[n : 2 * n], proj)
+    for a in range(n):
+        out[2 * n + a] = out[3 * n + a] - proj[a]
+
+
+@kernel
+def consistent_torques(M, J, lam, a, tau, task, proj):
+    """``task <- Jᵀ Λ a`` and ``proj <- Jᵀ J̄ᵀ τ`` (``(n,)`` each) with ``Λ = (J M⁻¹ Jᵀ +
+    λ² I)⁻¹``, by QR (:mod:`redres.dynamics.consistent`); ``M`` (n x n) positive definite,
+    ``J`` (m x n) of full row rank unless ``λ > 0`` (the caller's inverse checked both)."""
+    m, n = J.shape
+    L = np.zeros((n, n))
+    S = np.empty((n + m, m))
+    beta = np.empty(m)
+    rdiag = np.empty(m)
+    _consistent_factor(M, J, lam, L, S, beta, rdiag)
+    u = np.empty(n + m)
+    for i in range(n):  # L⁻¹ τ
+        acc = tau[i]
+        for k in range(i):
+            acc -= L[i, k] * u[k]
+        u[i] = acc / L[i, i]
+    _consistent_parts(L, S, beta, rdiag, a, u, task, proj)

@@ -63,7 +63,7 @@ from ._servo import ServoLaw, ServoSettings, ServoState
 from .base import ControlStep
 from .chain import KERNELS as CHAIN_KERNELS
 from .chain import ChainDynamics, KernelControlStep, chain_dynamics
-from .consistent import ConsistentFactor
+from .consistent import consistent_torques
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
@@ -184,17 +184,22 @@ def _torque(
     # rather than its square (redres.dynamics.consistent); a truncated or selectively
     # damped J̄ is used as it is.
     selective = isinstance(damping, AdaptiveDamping) and damping.selective
-    qr = None
-    if not selective and (info.rank == J.shape[0] or info.damping > 0.0):
-        qr = ConsistentFactor(J, M, info.damping)
-    tau_task = M @ (J_bar @ a) if qr is None else qr.task(a)
+    n = M.shape[0]
+    t0 = np.zeros(n) if tau0 is None else tau0
     tau_comp = b
-    if compensation != "joint":
-        tau_comp = J.T @ (J_bar.T @ b) if qr is None else qr.project(b)
+    if selective or (info.rank < J.shape[0] and info.damping == 0.0):
+        tau_task = M @ (J_bar @ a)
+        proj = J.T @ (J_bar.T @ t0)
+        if compensation != "joint":
+            tau_comp = J.T @ (J_bar.T @ b)
+    else:
+        tau_task, proj = consistent_torques(J, M, info.damping, a, t0)
+        if compensation != "joint":
+            tau_comp = consistent_torques(J, M, info.damping, a, b)[1]
     if tau0 is None:
-        tau_null = np.zeros(M.shape[0])
+        tau_null = np.zeros(n)
     elif projector == "dynamic":
-        tau_null = tau0 - (J.T @ (J_bar.T @ tau0) if qr is None else qr.project(tau0))
+        tau_null = tau0 - proj
     else:
         J_hash = generalized_inverse(J, damping=damping, rcond=rcond)
         tau_null = tau0 - J.T @ (J_hash.T @ tau0)
