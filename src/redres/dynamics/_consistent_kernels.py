@@ -61,7 +61,8 @@ def _reflect(S, beta, x, transpose):
 @kernel
 def _consistent_factor(M, Jm, lam, L, S, beta, rdiag):
     """``M = L Lᵀ`` into ``L`` (n x n), Householder QR of ``[J L⁻ᵀ | λ I]ᵀ`` into ``S``
-    ((n + m) x m), ``beta``, ``rdiag`` (:func:`_householder_qr`). ``M`` is positive definite
+    ((n + m) x m, or n x m when ``λ = 0``: :func:`_rows`), ``beta``, ``rdiag``
+    (:func:`_householder_qr`). ``M`` is positive definite
     and ``R`` regular: the callers' inverse kernel checked both."""
     m, n = Jm.shape
     _cholesky(M, L, n, 0.0)
@@ -71,7 +72,7 @@ def _consistent_factor(M, Jm, lam, L, S, beta, rdiag):
             for k in range(i):
                 acc -= L[i, k] * S[k, r]
             S[i, r] = acc / L[i, i]
-        for i in range(m):
+        for i in range(S.shape[0] - n):  # the λ I block (no rows when λ = 0)
             S[n + i, r] = lam if i == r else 0.0
     _householder_qr(S, beta, rdiag)
 
@@ -79,21 +80,22 @@ def _consistent_factor(M, Jm, lam, L, S, beta, rdiag):
 @kernel
 def _consistent_parts(L, S, beta, rdiag, cmd, u, task, proj):
     """``task <- Jᵀ Λ cmd = L Q₁ R⁻ᵀ cmd`` and ``proj <- L Q₁ Q₁ᵀ u``, which is
-    ``Jᵀ J̄ᵀ τ`` for ``u = L⁻¹ τ`` (``u`` (n + m) holds it in its first n entries and is
-    overwritten), from :func:`_consistent_factor`."""
+    ``Jᵀ J̄ᵀ τ`` for ``u = L⁻¹ τ`` (``u``, as long as S has rows, holds it in its first n
+    entries and is overwritten), from :func:`_consistent_factor`."""
     n = L.shape[0]
     m = beta.shape[0]
-    z = np.zeros(n + m)  # R⁻ᵀ cmd (Rᵀ lower triangular), then Q₁ of it
+    rows = S.shape[0]
+    z = np.zeros(rows)  # R⁻ᵀ cmd (Rᵀ lower triangular), then Q₁ of it
     for i in range(m):
         acc = cmd[i]
         for k in range(i):
             acc -= S[k, i] * z[k]
         z[i] = acc / rdiag[i]
     _reflect(S, beta, z, False)
-    for i in range(n, n + m):
+    for i in range(n, rows):
         u[i] = 0.0
     _reflect(S, beta, u, True)
-    for i in range(m, n + m):
+    for i in range(m, rows):
         u[i] = 0.0
     _reflect(S, beta, u, False)
     for a in range(n):  # L times each
@@ -104,3 +106,10 @@ def _consistent_parts(L, S, beta, rdiag, cmd, u, task, proj):
             p += L[a, k] * u[k]
         task[a] = t
         proj[a] = p
+
+
+@kernel
+def _rows(n, m, lam):
+    """Rows of the stacked matrix: ``n + m``, or ``n`` when ``λ = 0`` (its zero block adds
+    nothing to ``R`` or ``Q₁``, and halves the work)."""
+    return n + m if lam > 0.0 else n

@@ -55,7 +55,7 @@ from ..linalg._kernels import inverse
 from ..robot._chain_codes import PRISMATIC
 from ..robot._chain_kernels import rotation_error
 from ._codes import OUT_ERROR, OUT_POSE, OUT_STATS, OUT_TARGET
-from ._consistent_kernels import _consistent_factor, _consistent_parts
+from ._consistent_kernels import _consistent_factor, _consistent_parts, _rows
 
 # Columns of the per-joint work array: world origin, axis, angular velocity, angular and
 # linear acceleration at q̈ = 0, the rotation (row-major).
@@ -389,11 +389,11 @@ def _consistent_torques(M, Jm, lam, cmd, qdd0, out):
     ``out[3n:4n]`` (``L⁻¹ τ₀ = Lᵀ q̈₀``)."""
     m, n = Jm.shape
     L = np.zeros((n, n))
-    S = np.empty((n + m, m))
+    S = np.empty((_rows(n, m, lam), m))
     beta = np.empty(m)
     rdiag = np.empty(m)
     _consistent_factor(M, Jm, lam, L, S, beta, rdiag)
-    u = np.empty(n + m)
+    u = np.empty(S.shape[0])
     for i in range(n):
         acc = 0.0
         for k in range(i, n):
@@ -412,11 +412,11 @@ def consistent_torques(M, J, lam, a, tau, task, proj):
     ``J`` (m x n) of full row rank unless ``λ > 0`` (the caller's inverse checked both)."""
     m, n = J.shape
     L = np.zeros((n, n))
-    S = np.empty((n + m, m))
+    S = np.empty((_rows(n, m, lam), m))
     beta = np.empty(m)
     rdiag = np.empty(m)
     _consistent_factor(M, J, lam, L, S, beta, rdiag)
-    u = np.empty(n + m)
+    u = np.empty(S.shape[0])
     for i in range(n):  # L⁻¹ τ
         acc = tau[i]
         for k in range(i):
