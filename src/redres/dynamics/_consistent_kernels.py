@@ -59,12 +59,16 @@ def _reflect(S, beta, x, transpose):
 
 
 @kernel
-def _consistent_factor(M, Jm, lam, L, S, beta, rdiag):
-    """``M = L Lᵀ`` into ``L`` (n x n), Householder QR of ``[J L⁻ᵀ | λ I]ᵀ`` into ``S``
-    ((n + m) x m, or n x m when ``λ = 0``: :func:`_rows`), ``beta``, ``rdiag``
-    (:func:`_householder_qr`). ``M`` is positive definite
-    and ``R`` regular: the callers' inverse kernel checked both."""
+def _consistent_factor(M, Jm, lam):
+    """``(L, S, beta, rdiag, u)``: ``M = L Lᵀ`` (n x n), Householder QR of
+    ``[J L⁻ᵀ | λ I]ᵀ`` in ``S`` ((n + m) x m, or n x m when ``λ = 0``: the zero block adds
+    nothing to ``R`` or ``Q₁`` and halves the work), ``beta``, ``rdiag``
+    (:func:`_householder_qr`), and ``u``, scratch of S's length for
+    :func:`_consistent_parts`. ``M`` is positive definite and ``R`` regular: the callers'
+    inverse kernel checked both."""
     m, n = Jm.shape
+    L = np.zeros((n, n))
+    S = np.empty((n + m if lam > 0.0 else n, m))
     _cholesky(M, L, n, 0.0)
     for r in range(m):  # column r of J_sᵀ = L⁻¹ (row r of J), forward substitution
         for i in range(n):
@@ -72,9 +76,12 @@ def _consistent_factor(M, Jm, lam, L, S, beta, rdiag):
             for k in range(i):
                 acc -= L[i, k] * S[k, r]
             S[i, r] = acc / L[i, i]
-        for i in range(S.shape[0] - n):  # the λ I block (no rows when λ = 0)
+        for i in range(S.shape[0] - n):  # the λ I block
             S[n + i, r] = lam if i == r else 0.0
+    beta = np.empty(m)
+    rdiag = np.empty(m)
     _householder_qr(S, beta, rdiag)
+    return L, S, beta, rdiag, np.empty(S.shape[0])
 
 
 @kernel
@@ -106,10 +113,3 @@ def _consistent_parts(L, S, beta, rdiag, cmd, u, task, proj):
             p += L[a, k] * u[k]
         task[a] = t
         proj[a] = p
-
-
-@kernel
-def _rows(n, m, lam):
-    """Rows of the stacked matrix: ``n + m``, or ``n`` when ``λ = 0`` (its zero block adds
-    nothing to ``R`` or ``Q₁``, and halves the work)."""
-    return n + m if lam > 0.0 else n

@@ -55,7 +55,7 @@ from ..linalg._kernels import inverse
 from ..robot._chain_codes import PRISMATIC
 from ..robot._chain_kernels import rotation_error
 from ._codes import OUT_ERROR, OUT_POSE, OUT_STATS, OUT_TARGET
-from ._consistent_kernels import _consistent_factor, _consistent_parts, _rows
+from ._consistent_kernels import _consistent_factor, _consistent_parts
 
 # Columns of the per-joint work array: world origin, axis, angular velocity, angular and
 # linear acceleration at q̈ = 0, the rotation (row-major).
@@ -387,13 +387,8 @@ def osc_step(links, axes, kinds, body, armature, gravity, damp, q, qd, feed, tar
 def _consistent_torques(M, Jm, lam, cmd, qdd0, out):
     """``out[n:2n] <- Jᵀ Λ cmd`` and ``out[2n:3n] <- τ₀ − Jᵀ J̄ᵀ τ₀`` with ``τ₀ = M q̈₀`` in
     ``out[3n:4n]`` (``L⁻¹ τ₀ = Lᵀ q̈₀``)."""
-    m, n = Jm.shape
-    L = np.zeros((n, n))
-    S = np.empty((_rows(n, m, lam), m))
-    beta = np.empty(m)
-    rdiag = np.empty(m)
-    _consistent_factor(M, Jm, lam, L, S, beta, rdiag)
-    u = np.empty(S.shape[0])
+    n = Jm.shape[1]
+    L, S, beta, rdiag, u = _consistent_factor(M, Jm, lam)
     for i in range(n):
         acc = 0.0
         for k in range(i, n):
@@ -410,13 +405,8 @@ def consistent_torques(M, J, lam, a, tau, task, proj):
     """``task <- Jᵀ Λ a`` and ``proj <- Jᵀ J̄ᵀ τ`` (``(n,)`` each) with ``Λ = (J M⁻¹ Jᵀ +
     λ² I)⁻¹``, by QR (:mod:`redres.dynamics.consistent`); ``M`` (n x n) positive definite,
     ``J`` (m x n) of full row rank unless ``λ > 0`` (the caller's inverse checked both)."""
-    m, n = J.shape
-    L = np.zeros((n, n))
-    S = np.empty((_rows(n, m, lam), m))
-    beta = np.empty(m)
-    rdiag = np.empty(m)
-    _consistent_factor(M, J, lam, L, S, beta, rdiag)
-    u = np.empty(S.shape[0])
+    n = J.shape[1]
+    L, S, beta, rdiag, u = _consistent_factor(M, J, lam)
     for i in range(n):  # L⁻¹ τ
         acc = tau[i]
         for k in range(i):
