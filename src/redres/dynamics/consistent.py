@@ -61,7 +61,7 @@ class ConsistentFactor:
     def __init__(self, J: FloatArray, M: FloatArray, damping: float) -> None:
         """The arguments are described in ``help(ConsistentFactor)``."""
         m, n = J.shape
-        self.L = np.linalg.cholesky(M)
+        self.L = np.linalg.cholesky(M).astype(float)
         S = np.zeros((n + m, m))
         S[:n] = _forward(self.L, J.T)  # J_sᵀ = L⁻¹ Jᵀ
         S[n:] = damping * np.eye(m)
