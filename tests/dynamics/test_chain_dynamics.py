@@ -208,10 +208,11 @@ def test_compiled_osc_torque_equals_the_pinocchio_path_on_10000_states(name: str
     twin runs 300). Both paths take the task and null-space torques from QR of
     ``[J M^{-1/2}; λ I]ᵀ`` (:mod:`redres.dynamics.consistent`), whose rounding grows with
     ``κ = κ(J M^{-1/2})``, not ``κ²`` as through ``J M⁻¹ Jᵀ`` (5.6e-12 before). Measured,
-    relative to max(1, max|τ|): panda 2.2e-13 on all states; iiwa14 below 1e-12 on all
-    but 3 states, those within ``σ_min(J) ≤ 1e-4`` of a singularity (``κ`` 1e5–5e5, worst
-    3.4e-12 = 0.03 κ ε), where the exact torque itself moves by as much under 1-ulp
-    changes of ``M`` and ``J``: there the bound is 0.1 κ ε."""
+    relative to max(1, max|τ|): panda 2.9e-13 on all states; iiwa14 below 1e-12 on all
+    but one state, 1.1e-5 m from a singularity (``σ_min(J)``; ``κ`` = 5e5): 1.7e-12 =
+    0.015 κ ε, where 1-ulp changes of ``M`` or ``J`` move the torque by 2.5e-12 and the
+    exact torques at the two paths' ``M``, ``J`` differ by 5e-13 (rational arithmetic).
+    The bound is therefore max(1e-12, 0.1 κ ε)."""
     from redres import _compile
 
     arm = rr.models.load(name)
