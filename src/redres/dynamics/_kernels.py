@@ -29,8 +29,18 @@ Newton–Euler; Featherstone, *Rigid Body Dynamics Algorithms*, 2008, ch. 5–6)
   diagonal.
 
 The operational-space torque then follows the module docstring of
-:mod:`redres.dynamics.osc` with ``projector="dynamic"`` and ``compensation="joint"``:
-``J̄`` from the weighted inverse kernel of :mod:`redres.linalg._kernels` (``W = M``).
+:mod:`redres.dynamics.osc` with ``projector="dynamic"`` and ``compensation="joint"``: the
+weighted inverse kernel of :mod:`redres.linalg._kernels` (``W = M``) gives the rank, the
+singular values and the damping; the task and null-space torques come from Householder QR
+of ``[J_sᵀ; λ I]`` (:mod:`redres.dynamics._consistent_kernels`, the formulas of
+:mod:`redres.dynamics.consistent`), or from that kernel's ``J̄`` where the inverse is
+truncated or selectively damped.
+
+Entry points: :func:`chain_dynamics` (:func:`_forward`, :func:`_world_inertia`) and
+:func:`osc_step` (``chain_dynamics``, ``inverse``, :func:`_consistent_torques`);
+:func:`consistent_torques` (the operational-space torque's Pinocchio path). Both factor with
+``_consistent_factor`` and apply ``_consistent_parts`` of
+:mod:`redres.dynamics._consistent_kernels`.
 """
 
 from __future__ import annotations
@@ -40,11 +50,12 @@ import math
 import numpy as np
 
 from .._compile import kernel
-from ..linalg._codes import FULL, OK, Q_NONFINITE
+from ..linalg._codes import FULL, OK, Q_NONFINITE, SELECTIVE
 from ..linalg._kernels import inverse
 from ..robot._chain_codes import PRISMATIC
 from ..robot._chain_kernels import rotation_error
 from ._codes import OUT_ERROR, OUT_POSE, OUT_STATS, OUT_TARGET
+from ._consistent_kernels import _consistent_factor, _consistent_parts
 
 # Columns of the per-joint work array: world origin, axis, angular velocity, angular and
 # linear acceleration at q̈ = 0, the rotation (row-major).
@@ -318,45 +329,87 @@ def osc_step(links, axes, kinds, body, armature, gravity, damp, q, qd, feed, tar
             Jm[r, c] = J[i, c]
             acc += J[i, c] * qd[c]
         cmd[r] = feed[6 + i] + gains[1, r] * (feed[i] - acc) + gains[0, r] * e[i] - jdqd[i]
-    Jbar = np.empty((n, m))
     empty = np.empty((0, 0))
+    mode = int(settings[3])
     status, rank, smin, smax, used = inverse(
-        Jm, np.empty(0), M, Jbar, empty, empty, FULL, int(settings[3]), settings[4], settings[5],
+        Jm, np.empty(0), M, empty, empty, empty, FULL, mode, settings[4], settings[5],
         settings[6], settings[7],
     )  # fmt: skip
     if status != OK:
         return status
     stats = base + OUT_STATS
     out[stats], out[stats + 1], out[stats + 2], out[stats + 3] = rank, smin, smax, used
-    # q̈₀ = −k_d q̇ − k_p a ∘ (q − r), τ₀ = M q̈₀ (out[3n:4n]); τ_task = M J̄ cmd (out[n:2n])
+    # q̈₀ = −k_d q̇ − k_p a ∘ (q − r), τ₀ = M q̈₀ (out[3n:4n])
     qdd0 = np.empty(n)
-    x = np.empty(n)
     for c in range(n):
         qdd0[c] = -settings[1] * qd[c]
         if settings[2] != 0.0 and settings[0] > 0.0:
             qdd0[c] -= settings[0] * quad[0, c] * (q[c] - quad[1, c])
-        acc = 0.0
-        for r in range(m):
-            acc += Jbar[c, r] * cmd[r]
-        x[c] = acc
     for a in range(n):
-        task = 0.0
         tau0 = 0.0
         for c in range(n):
-            task += M[a, c] * x[c]
             tau0 += M[a, c] * qdd0[c]
-        out[n + a] = task
         out[3 * n + a] = tau0
-    y = np.empty(m)  # J̄ᵀ τ₀
-    for r in range(m):
-        acc = 0.0
+    if mode != SELECTIVE and (rank == m or used > 0.0):  # one inverse in every direction
+        _consistent_torques(M, Jm, used, cmd, qdd0, out)
+    else:  # truncated or selective: through J̄, τ_task = M J̄ cmd, τ_null = τ₀ − Jᵀ J̄ᵀ τ₀
+        Jbar = np.empty((n, m))
+        inverse(Jm, np.empty(0), M, Jbar, empty, empty, FULL, mode, settings[4], settings[5],
+                settings[6], settings[7])  # fmt: skip
+        x = np.empty(n)
         for c in range(n):
-            acc += Jbar[c, r] * out[3 * n + c]
-        y[r] = acc
-    for a in range(n):
-        acc = 0.0
+            acc = 0.0
+            for r in range(m):
+                acc += Jbar[c, r] * cmd[r]
+            x[c] = acc
+        for a in range(n):
+            task = 0.0
+            for c in range(n):
+                task += M[a, c] * x[c]
+            out[n + a] = task
+        y = np.empty(m)  # J̄ᵀ τ₀
         for r in range(m):
-            acc += Jm[r, a] * y[r]
-        out[2 * n + a] = out[3 * n + a] - acc
+            acc = 0.0
+            for c in range(n):
+                acc += Jbar[c, r] * out[3 * n + c]
+            y[r] = acc
+        for a in range(n):
+            acc = 0.0
+            for r in range(m):
+                acc += Jm[r, a] * y[r]
+            out[2 * n + a] = out[3 * n + a] - acc
+    for a in range(n):
         out[a] = out[n + a] + b[a] + damp[a] * qd[a] + out[2 * n + a]
     return OK
+
+
+@kernel
+def _consistent_torques(M, Jm, lam, cmd, qdd0, out):
+    """``out[n:2n] <- Jᵀ Λ cmd`` and ``out[2n:3n] <- τ₀ − Jᵀ J̄ᵀ τ₀`` with ``τ₀ = M q̈₀`` in
+    ``out[3n:4n]`` (``L⁻¹ τ₀ = Lᵀ q̈₀``)."""
+    n = Jm.shape[1]
+    L, S, beta, rdiag, u = _consistent_factor(M, Jm, lam)
+    for i in range(n):
+        acc = 0.0
+        for k in range(i, n):
+            acc += L[k, i] * qdd0[k]
+        u[i] = acc
+    proj = np.empty(n)
+    _consistent_parts(L, S, beta, rdiag, cmd, u, out[n : 2 * n], proj)
+    for a in range(n):
+        out[2 * n + a] = out[3 * n + a] - proj[a]
+
+
+@kernel
+def consistent_torques(M, J, lam, a, tau, task, proj):
+    """``task <- Jᵀ Λ a`` and ``proj <- Jᵀ J̄ᵀ τ`` (``(n,)`` each) with ``Λ = (J M⁻¹ Jᵀ +
+    λ² I)⁻¹``, by QR (:mod:`redres.dynamics.consistent`); ``M`` (n x n) positive definite,
+    ``J`` (m x n) of full row rank unless ``λ > 0`` (the caller's inverse checked both)."""
+    n = J.shape[1]
+    L, S, beta, rdiag, u = _consistent_factor(M, J, lam)
+    for i in range(n):  # L⁻¹ τ
+        acc = tau[i]
+        for k in range(i):
+            acc -= L[i, k] * u[k]
+        u[i] = acc / L[i, i]
+    _consistent_parts(L, S, beta, rdiag, a, u, task, proj)

@@ -63,6 +63,7 @@ from ._servo import ServoLaw, ServoSettings, ServoState
 from .base import ControlStep
 from .chain import KERNELS as CHAIN_KERNELS
 from .chain import ChainDynamics, KernelControlStep, chain_dynamics
+from .consistent import consistent_torques
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
@@ -179,15 +180,28 @@ def _torque(
 ) -> OperationalSpaceTorque:
     """:func:`operational_space_torque` on validated arrays (the controller's hot path)."""
     J_bar, info = dynamic_inverse(J, M, damping, rcond)
-    tau_task = M @ (J_bar @ a)
-    tau_comp = b if compensation == "joint" else J.T @ (J_bar.T @ b)
-    if tau0 is None:
-        tau_null = np.zeros(M.shape[0])
+    # The same inverse in every direction: both torques by QR, accurate to κ(J M^{-1/2}) ε
+    # rather than its square (redres.dynamics.consistent); a truncated or selectively
+    # damped J̄ is used as it is.
+    selective = isinstance(damping, AdaptiveDamping) and damping.selective
+    n = M.shape[0]
+    t0 = np.zeros(n) if tau0 is None else tau0
+    tau_comp = b
+    if selective or (info.rank < J.shape[0] and info.damping == 0.0):
+        tau_task = M @ (J_bar @ a)
+        proj = J.T @ (J_bar.T @ t0)
+        if compensation != "joint":
+            tau_comp = J.T @ (J_bar.T @ b)
     else:
-        if projector == "dynamic":
-            J_hash = J_bar
-        else:
-            J_hash = generalized_inverse(J, damping=damping, rcond=rcond)
+        tau_task, proj = consistent_torques(J, M, info.damping, a, t0)
+        if compensation != "joint":
+            tau_comp = consistent_torques(J, M, info.damping, a, b)[1]
+    if tau0 is None:
+        tau_null = np.zeros(n)
+    elif projector == "dynamic":
+        tau_null = tau0 - proj
+    else:
+        J_hash = generalized_inverse(J, damping=damping, rcond=rcond)
         tau_null = tau0 - J.T @ (J_hash.T @ tau0)
     return OperationalSpaceTorque(
         tau_task + tau_comp + tau_null, tau_task, tau_comp, tau_null, info
