@@ -66,29 +66,28 @@ class StepResult:
         self.feasible, self.algorithmic_singularity = feasible, algorithmic_singularity
         self.binding, self._details = binding, details
 
+    def _built(self, slot: str) -> Any:
+        """The value in ``slot``, built now if it holds a zero-argument function."""
+        value = getattr(self, slot)
+        if callable(value):
+            value = value()
+            setattr(self, slot, value)
+        return value
+
     @property
     def info(self) -> InverseInfo:
         """Diagnostics of the inverse (computed on first read where that is costly)."""
-        info = self._info
-        if not isinstance(info, InverseInfo):
-            info = self._info = info()
-        return info
+        return self._built("_info")  # type: ignore[no-any-return]
 
     @property
     def null_term(self) -> FloatArray:
         """The secondary (null-space) part of ``qd`` (computed on first read where costly)."""
-        null = self._null
-        if callable(null):
-            null = self._null = null()
-        return null
+        return self._built("_null")  # type: ignore[no-any-return]
 
     @property
     def details(self) -> Any:
         """The scheme's own typed diagnostics, or None (built on first read where costly)."""
-        details = self._details
-        if callable(details):
-            details = self._details = details()
-        return details
+        return self._built("_details")
 
     @classmethod
     def lazy(
