@@ -4,14 +4,14 @@ On a plain frame task whose frame ends a serial chain, a plain
 :class:`~redres.resolution.SNSScheme` or :class:`~redres.resolution.QPScheme` (one level,
 no collision rows, DAQP as its backend) whose objectives are diagonal quadratics
 (joint-limit mid-range, posture) or none runs front end, box, resolution and integration
-in one compiled call (:mod:`redres.control._box_kernels`) instead of the front end's call,
-then the scheme's ``_step`` in Python. SNS runs the same kernels on the same numbers, so
-the two give the same bits; the QP's two problems are solved by the compiled solvers of
-:mod:`redres.resolution.hard_limits._dense_qp_kernels` instead of DAQP (the same optimum to
-rounding), and where one of them breaks down or the answer needs the scheme's refinement,
-the scheme's own step takes over on the kernel's task rows. The scheme stays the owner of
-its state (``qd_prev``, the QP's last verdict) and of the step's result (``_finished``).
-:func:`box_step` says whether a controller can take it.
+in one compiled call (:mod:`redres.control._box_kernels`), where the frame path calls the
+front end's kernel and then the scheme's ``_step`` in Python. SNS runs the same kernels on
+the same numbers, so the two give the same bits; the QP's two problems are solved by the
+compiled solvers of :mod:`redres.resolution.hard_limits._dense_qp_kernels` instead of DAQP
+(the same optimum to rounding), and where one of them breaks down or the answer needs the
+scheme's refinement, the scheme's own step takes over on the kernel's task rows. The
+scheme stays the owner of its state (``qd_prev``, the QP's last verdict) and of the step's
+result (``_finished``). :func:`box_step` says whether a controller can take it.
 """
 
 from __future__ import annotations
