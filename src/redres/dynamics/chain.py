@@ -29,7 +29,12 @@ __all__ = ["ChainDynamics", "ChainTerms", "KernelControlStep", "StepOutput"]
 
 #: The compiled torque step. Cold: a first operational-space step 19.4 s in all with the
 #: linalg and chain kernels it calls (empty cache, load 0.7); warm 0.7 s.
-KERNELS = _compile.KernelGroup("dynamics", ("redres.dynamics._kernels",), cold_seconds=10.0)
+#: ``_consistent_kernels``: the QR of the operational-space torques, compiled into the step.
+KERNELS = _compile.KernelGroup(
+    "dynamics",
+    ("redres.dynamics._kernels", "redres.dynamics._consistent_kernels"),
+    cold_seconds=10.0,
+)
 
 
 class ChainTerms(NamedTuple):

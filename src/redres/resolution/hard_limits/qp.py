@@ -221,7 +221,6 @@ class QPScheme(BoxScheme):
                                                      ws.zero, *out, ws.M, ws.wm, self._bu,
                                                      self._bl, self._f, w, 1e-6, self._P,
                                                      self._c))  # fmt: skip
-        # warm-up calls with full=False: they must not solve with a factor of this J
         self._end = _compile.entry_point(kq.qp_end, (J, xd, ws.zero, out[0], ws.wm))
         self._finish = _compile.entry_point(k.epilogue, (J, xd, out[0], ws.wm))
         self._normal = _compile.entry_point(kq._qp_normal, (J, xd, w, 1e-6, ws.zero, self._P,
@@ -240,7 +239,7 @@ class QPScheme(BoxScheme):
     def _step(self, robot: Robot, q: FloatArray, J: FloatArray, xd: FloatArray) -> StepResult:
         ws, qd0, prev = self._inputs(robot, q, J, xd)
         out, codes, Jc = ws.outputs()
-        status, relaxed, full, inside = self._begin(
+        status, relaxed, _, inside = self._begin(
             q, prev, self.dt, ws.lim, J, xd, qd0, out, codes, Jc, ws.M, ws.wm, self._bu,
             self._bl, self._f, self._w, self.damping * self.damping, self._P, self._c,
         )  # fmt: skip
@@ -259,14 +258,14 @@ class QPScheme(BoxScheme):
         elif inside:
             exact = [True]
         else:
-            met, finished = self._single(J, xd, qd0, out, full)
+            met, finished = self._single(J, xd, qd0, out)
             single = finished is None  # not proved infeasible (Farkas' lemma)
             exact = [met]
         if finished is None:
             finished = self._finish(J, xd, out, ws.wm)
         active, residual = finished
         if single and residual * residual > _MET2 * (xd @ xd):
-            exact[0], active, residual = self._refine(J, xd, qd0, out, full, active, residual)
+            exact[0], active, residual = self._refine(J, xd, qd0, out, active, residual)
         contact = None
         if damper is not None:
             if not collided and near and damper.violated(out[0]):
@@ -394,7 +393,7 @@ class QPScheme(BoxScheme):
         return math.sqrt(size2) > 1.001 * self.damping * far + 1e-12
 
     def _single(
-        self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray, full: bool
+        self, J: FloatArray, xd: FloatArray, qd0: FloatArray, out: FloatArray
     ) -> tuple[bool, tuple[int, float] | None]:
         """One level, bounds active, DAQP: the exact QP, else the least-violating one (writes
         ``out[0]``; after an infeasible step, the latter first: module docstring). Returns
@@ -403,7 +402,7 @@ class QPScheme(BoxScheme):
         tried = self._infeasible_before
         if tried:
             lv = self._least_violating(out)
-            finished = self._proved(J, xd, lv, out, full)
+            finished = self._proved(J, xd, lv, out)
             if finished is not None:
                 return False, finished
         x, flag = self._exact_qp.solve(None, self._f, J, self._bu, self._bl)
@@ -413,14 +412,14 @@ class QPScheme(BoxScheme):
             return True, None
         if not tried:
             lv = self._least_violating(out)
-            finished = self._proved(J, xd, lv, out, full)
+            finished = self._proved(J, xd, lv, out)
             if finished is not None:  # no retry on orthonormal rows needed
                 return False, finished
         out[0] = lv if lv is not None else np.clip(qd0, out[2], out[3])
         return False, None
 
     def _proved(
-        self, J: FloatArray, xd: FloatArray, lv: FloatArray | None, out: FloatArray, full: bool
+        self, J: FloatArray, xd: FloatArray, lv: FloatArray | None, out: FloatArray
     ) -> tuple[int, float] | None:
         """When the least-violating answer ``lv`` proves the task infeasible (Farkas'
         lemma, ``qp_end``), the finished step's ``(#active, residual)``; else None."""
@@ -436,7 +435,6 @@ class QPScheme(BoxScheme):
         xd: FloatArray,
         qd0: FloatArray,
         out: FloatArray,
-        full: bool,
         active: int,
         residual: float,
     ) -> tuple[bool, int, float]:
